@@ -1,0 +1,103 @@
+"""The arm of Fig 3: joint 1 revolute, joint 2 prismatic, with stick-slip friction."""
+import math
+
+import numpy as np
+
+from hybridsim.block import Block
+from hybridsim.registry import register
+
+from ._util import vector
+from .kinematics import L_OFFSET, inverse_kinematics
+
+
+@register("manipulator")
+class Manipulator(Block):
+    """Arm dynamics, eqs 5, 6 and 11 (MODEL.md's corrected form).
+
+    Eq 5:  I1(q2) q1'' = tau1 + B1 + q2 f2 + l f1 - b1 q1'
+    Eq 6:  (M2 + M3) q2'' = tau2 + B2 + f1 - b2 q2'
+
+    where f = Kw w (+ bw w') is the wrist spring force on the arm in {H}
+    (input ``f_wrist``), so that ``q2 f2 + l f1, f1`` is J^T R f.
+
+    Friction (eq 11), Karnopp model with a capture band ``stick_band``:
+
+    * sliding, |q_i'| >= stick_band: B_i = -sgn(q_i') tau_c,i
+    * sticking, |q_i'| < stick_band: friction cancels the net non-friction force
+      F_i and brings the velocity to rest with time constant ``stick_time``,
+      up to the static limit: B_i = clip(-F_i - m_i q_i'/stick_time, +-tau_s,i).
+
+    A joint inside the band drifts at most ``stick_band * stick_time``
+    (1e-7 m or rad with the defaults), and no switch chatters.
+
+    Parameters
+    ----------
+    I1 : [a0, a1, a2]   I1(q2) = a0 + a1 q2 + a2 q2^2, kg m^2
+    M2, M3 : kg          link 2 and hand masses
+    tau_c, tau_s : [N m, N]   Coulomb and static friction levels
+    friction : bool      False removes B entirely
+    damping : [N m s/rad, N s/m]   viscous joint damping b1, b2 (0 as printed)
+    q0 : [rad, m]        initial joint position, or
+    endpoint0 : [m, m]   initial endpoint Lambda(q) in {C} (inverse kinematics)
+    l : m                link offset
+    """
+
+    def __init__(self, name="arm", I1=(3.98, -5.25, 6.47), M2=6.68, M3=0.58,
+                 tau_c=(5.0, 3.5), tau_s=(5.75, 4.6), friction=True,
+                 damping=(0.0, 0.0), q0=None, endpoint0=None, qd0=(0.0, 0.0),
+                 l=L_OFFSET, stick_band=1e-4, stick_time=1e-3):
+        super().__init__(name)
+        self.I1 = vector(I1, "I1", 3)
+        self.m2 = float(M2) + float(M3)
+        self.tau_c = vector(tau_c, "tau_c", 2) if friction else np.zeros(2)
+        self.tau_s = vector(tau_s, "tau_s", 2) if friction else np.zeros(2)
+        self.friction = bool(friction)
+        self.b = vector(damping, "damping", 2)
+        self.l = float(l)
+        self.eps, self.t_stick = float(stick_band), float(stick_time)
+        if q0 is not None and endpoint0 is not None:
+            raise ValueError("give q0 or endpoint0, not both")
+        if endpoint0 is not None:
+            e = vector(endpoint0, "endpoint0", 2)
+            q0 = inverse_kinematics(e[0], e[1], self.l)
+        self.x0 = np.concatenate([vector(q0 if q0 is not None else (0, 0.5), "q0", 2),
+                                  vector(qd0, "qd0", 2)])
+        self.declare_input("tau", 2)
+        self.declare_input("f_wrist", 2)
+        self.declare_output("q", 2, depends_on=())
+        self.declare_output("qd", 2, depends_on=())
+        self.declare_continuous_state(4, atol=(1e-11, 1e-11, 1e-9, 1e-9))
+
+    def initial_state(self, u=None):
+        return self.x0.copy()
+
+    def output(self, t, x, u):
+        return x[0:2], x[2:4]
+
+    def inertia(self, q2):
+        a = self.I1
+        return a[0] + a[1] * q2 + a[2] * q2 * q2
+
+    def _friction(self, v, F, m, i):
+        """B_i of eq 11 (Karnopp, see class docstring)."""
+        if not self.friction:
+            return 0.0
+        if abs(v) >= self.eps:
+            return -math.copysign(self.tau_c[i], v)
+        ts = self.tau_s[i]
+        return min(ts, max(-ts, -F - m * v / self.t_stick))
+
+    def derivatives(self, t, x, u):
+        q2, v1, v2 = x[1], x[2], x[3]
+        tau, f = u[0], u[1]
+        I1 = self.inertia(q2)
+        F1 = tau[0] + q2 * f[1] + self.l * f[0] - self.b[0] * v1  # eq 5 without B1
+        F2 = tau[1] + f[0] - self.b[1] * v2                        # eq 6 without B2
+        a1 = (F1 + self._friction(v1, F1, I1, 0)) / I1
+        a2 = (F2 + self._friction(v2, F2, self.m2, 1)) / self.m2
+        return np.array([v1, v2, a1, a2])
+
+    def zero_crossings(self, t, x, u):
+        if not self.friction:
+            return np.zeros(0)
+        return np.abs(x[2:4]) - self.eps  # slide <-> stick

@@ -1,0 +1,117 @@
+"""The Python API: load a diagram file, override parameters, simulate.
+
+>>> import hybridsim as hs
+>>> res = hs.simulate("diagrams/fig9_force_and_position.yaml", rate=120, t_end=1.0)
+>>> res.t, res["ft.CF[0]"]
+
+:func:`run_experiment` runs every variant of a file and adds metrics;
+:func:`write_outputs` writes CSV, plots and ``metrics.json`` atomically.
+"""
+import json
+from pathlib import Path
+
+from . import metrics as _metrics
+from .files import atomic_dir
+from .loader import DiagramFile
+from .simulator import Simulator
+from .solvers import RK4, ScipySolver
+
+
+def make_solver(sim):
+    """Solver object from a diagram's ``simulation`` settings."""
+    name = str(sim.get("solver", "rk4")).lower()
+    if name == "rk4":
+        return RK4(float(sim.get("step", 1e-4)))
+    method = {"radau": "Radau", "bdf": "BDF", "lsoda": "LSODA", "rk45": "RK45",
+              "rk23": "RK23", "dop853": "DOP853"}[name]
+    return ScipySolver(method, rtol=float(sim.get("rtol", 1e-8)),
+                       atol=sim.get("atol", 1e-10), max_step=float(sim.get("max_step", float("inf"))))
+
+
+def _atol_vector(system, sim):
+    """Per-state absolute tolerances: a block's own where it declares them."""
+    import numpy as np
+
+    default = float(sim.get("atol", 1e-10))
+    a = system.atol.copy()
+    a[np.isnan(a)] = default
+    return a
+
+
+def load(path, **overrides):
+    """Parse a diagram file, applying ``overrides`` ({'rate': 80, 'arm.damping': [...]})."""
+    return DiagramFile(path, _split(overrides)[0])
+
+
+def _split(overrides):
+    """Keyword overrides: t_end/solver/step... go to simulation, others as given."""
+    sim_keys = {"t_end", "solver", "step", "rtol", "atol", "max_step", "log_period"}
+    ov = {}
+    for k, v in overrides.items():
+        ov[f"simulation.{k}" if k in sim_keys else k.replace("__", ".")] = v
+    return ov, None
+
+
+def build(path_or_file, variant=None, **overrides):
+    """(system, simulator, settings) for one variant of a diagram file."""
+    f = path_or_file if isinstance(path_or_file, DiagramFile) else load(path_or_file, **overrides)
+    diagram, settings = f.build(variant)
+    system = diagram.build()
+    sim = settings["simulation"]
+    solver = make_solver(sim)
+    if isinstance(solver, ScipySolver):
+        solver.atol = _atol_vector(system, sim)
+    log = list(settings["log"]) + list(settings["signals"].values())
+    simulator = Simulator(system, solver, log=log,
+                          log_period=sim.get("log_period", 0.0005),
+                          max_state=sim.get("max_state", 1e6))
+    return system, simulator, settings
+
+
+def simulate(path_or_file, variant=None, progress=False, **overrides):
+    """Run one variant of a diagram file; returns a :class:`~hybridsim.result.Result`."""
+    system, simulator, settings = build(path_or_file, variant, **overrides)
+    simulator.progress = progress
+    return simulator.run(settings["simulation"]["t_end"])
+
+
+def run_experiment(path_or_file, progress=False, **overrides):
+    """Run every variant of a file. Returns a list of dicts with keys
+    ``label``, ``overrides``, ``result``, ``metrics``; and the settings."""
+    f = path_or_file if isinstance(path_or_file, DiagramFile) else load(path_or_file, **overrides)
+    runs, settings = [], None
+    for label, variant in f.variants():
+        system, simulator, settings = build(f, variant)
+        simulator.progress = progress
+        result = simulator.run(settings["simulation"]["t_end"])
+        m = _metrics.compute(result, settings["signals"], settings["metrics"])
+        m["wall_time_s"] = result.meta["wall_time_s"]
+        runs.append({"label": label, "overrides": variant, "result": result, "metrics": m})
+    return f, runs, settings
+
+
+def write_outputs(f, runs, settings, outdir):
+    """Write CSV per variant, the figure (PNG, SVG) and metrics.json, atomically."""
+    from .plots import experiment_figure
+
+    outdir = Path(outdir)
+    with atomic_dir(outdir) as tmp:
+        for r in runs:
+            stem = f.name + (("_" + _slug(r["label"])) if r["label"] else "")
+            r["result"].to_csv(tmp / f"{stem}.csv")
+        fig = experiment_figure(f, runs, settings)
+        fig.savefig(tmp / f"{f.name}.png", dpi=130)
+        fig.savefig(tmp / f"{f.name}.svg")
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+        doc = {"diagram": f.name, "file": str(f.path), "description": f.description,
+               "runs": [{"label": r["label"], "overrides": r["overrides"],
+                         "solver": r["result"].meta["solver"], "metrics": r["metrics"]}
+                        for r in runs]}
+        (tmp / "metrics.json").write_text(json.dumps(doc, indent=2, default=float) + "\n")
+    return outdir
+
+
+def _slug(label):
+    return "".join(c if c.isalnum() or c in "-." else "-" for c in label.replace("=", "")).strip("-")

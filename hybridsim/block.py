@@ -1,0 +1,183 @@
+"""The block API: what a block declares and the functions it implements.
+
+A block is a pure description plus functions of ``(t, x, u)``; it never holds
+the numbers of a run (those live in a :class:`~hybridsim.context.Context`) and
+never reaches into another block. In its ``__init__`` a block declares
+
+* input ports and output ports with fixed widths (``declare_input``,
+  ``declare_output``), and for each output which inputs it depends on directly
+  (direct feedthrough; the default is "all of them");
+* either continuous state (``declare_continuous_state``) with per-state
+  absolute tolerances, or a sample period (``declare_rate``) and optionally
+  discrete state (``declare_discrete_state``);
+* ``time_varying = True`` if its outputs depend on ``t`` itself (sources).
+
+and implements some of
+
+* ``output(t, x, u)`` -> sequence of arrays, one per output port;
+* ``derivatives(t, x, u)`` -> array (continuous state);
+* ``update(t, x, u)`` -> array (discrete state, called at each sample hit
+  after all outputs of that hit are computed);
+* ``initial_state(u)`` -> array; ``u`` holds the inputs at t=0 when the block
+  sets ``init_needs_inputs = True`` (e.g. a pre-loaded spring whose direction
+  depends on another block's state);
+* ``zero_crossings(t, x, u)`` -> array whose sign changes mark
+  discontinuities (friction stick/slip, contact make/break).
+
+``u`` is a list of numpy arrays in input declaration order, ``x`` a numpy
+array (a view of the diagram's state vector for continuous blocks).
+"""
+from fractions import Fraction
+
+import numpy as np
+
+from .errors import RateError
+
+
+class Port:
+    """A named, fixed-width input or output of a block."""
+
+    __slots__ = ("block", "name", "width", "index", "depends_on")
+
+    def __init__(self, block, name, width, index, depends_on=None):
+        self.block, self.name, self.width, self.index = block, name, width, index
+        self.depends_on = depends_on
+
+    def __repr__(self):
+        return f"{self.block.name}.{self.name}"
+
+
+def to_period(value, what="period"):
+    """Return a sample period as an exact Fraction of a second.
+
+    Periods given as floats (``0.016666...``) are snapped to the nearest
+    fraction with a denominator below 10**7 when that is within 1e-12 s, so
+    that ``1/60`` is exactly one sixtieth. Rates in Hz should go through
+    :func:`rate_to_period`, which is exact for integer and decimal rates.
+    """
+    try:
+        if isinstance(value, Fraction):
+            period = value
+        elif isinstance(value, str):
+            period = Fraction(value)
+        else:
+            v = float(value)
+            if not np.isfinite(v):
+                raise ValueError
+            period = Fraction(v).limit_denominator(10**7)
+            if abs(float(period) - v) > 1e-12:
+                raise RateError(
+                    f"{what} {value!r} s is not a ratio of small integers; "
+                    "give the rate in Hz (rate: 60) or the period as a fraction ('1/60')"
+                )
+    except (ValueError, TypeError, ZeroDivisionError):
+        raise RateError(f"{what} {value!r} is not a number") from None
+    if period <= 0:
+        raise RateError(f"{what} must be positive, got {value!r}")
+    return period
+
+
+def rate_to_period(rate_hz):
+    """Exact period (Fraction, s) of a sample rate in Hz (int, float or str)."""
+    try:
+        r = Fraction(str(rate_hz)) if not isinstance(rate_hz, Fraction) else rate_hz
+    except (ValueError, ZeroDivisionError):
+        raise RateError(f"rate {rate_hz!r} is not a number") from None
+    if r <= 0:
+        raise RateError(f"rate must be positive, got {rate_hz!r} Hz")
+    return 1 / r
+
+
+class Block:
+    """Base class of every block. See the module docstring for the contract."""
+
+    #: outputs depend on t itself (sources); otherwise only on x and u
+    time_varying = False
+    #: initial_state wants the inputs at t = 0
+    init_needs_inputs = False
+    #: the simulator records every input of this block (a scope / recorder)
+    log_inputs = False
+
+    def __init__(self, name="block"):
+        self.name = name
+        self.inputs = []
+        self.outputs = []
+        self.n_continuous = 0
+        self.n_discrete = 0
+        self.atol = None
+        self.period = None
+        self.time_offset = Fraction(0)
+
+    # -- declarations ---------------------------------------------------
+    def declare_input(self, name, width):
+        """Add an input port of ``width`` elements; returns its index."""
+        self.inputs.append(Port(self, name, int(width), len(self.inputs)))
+        return len(self.inputs) - 1
+
+    def declare_output(self, name, width, depends_on=None):
+        """Add an output port.
+
+        ``depends_on``: names of the inputs this output depends on directly;
+        ``None`` means all inputs, ``()`` means none (a state-only output).
+        """
+        dep = None if depends_on is None else tuple(depends_on)
+        self.outputs.append(Port(self, name, int(width), len(self.outputs), dep))
+        return len(self.outputs) - 1
+
+    def declare_continuous_state(self, n, atol=None):
+        """Declare ``n`` continuous states; ``atol`` per state (or scalar)."""
+        self.n_continuous = int(n)
+        if atol is not None:
+            self.atol = np.broadcast_to(np.asarray(atol, float), (n,)).copy()
+
+    def declare_rate(self, period=None, rate=None, offset=0):
+        """Make the block discrete: sampled every ``period`` s (or ``rate`` Hz)."""
+        self.period = rate_to_period(rate) if rate is not None else to_period(period)
+        self.time_offset = Fraction(0) if not offset else to_period(offset, "offset")
+        if self.time_offset >= self.period:
+            raise RateError(
+                f"block {self.name!r}: offset {float(self.time_offset)} s must be "
+                f"smaller than its period {float(self.period)} s"
+            )
+
+    def declare_discrete_state(self, n):
+        """Declare ``n`` discrete states (needs a rate)."""
+        self.n_discrete = int(n)
+
+    # -- queries ------------------------------------------------------------
+    @property
+    def is_discrete(self):
+        return self.period is not None
+
+    def feedthrough(self, out_index):
+        """Indices of the inputs that output ``out_index`` depends on directly."""
+        dep = self.outputs[out_index].depends_on
+        if dep is None:
+            return list(range(len(self.inputs)))
+        names = {p.name: p.index for p in self.inputs}
+        return [names[d] for d in dep]
+
+    def input_port(self, name):
+        return next((p for p in self.inputs if p.name == name), None)
+
+    def output_port(self, name):
+        return next((p for p in self.outputs if p.name == name), None)
+
+    # -- computations (override) --------------------------------------------
+    def output(self, t, x, u):
+        return ()
+
+    def derivatives(self, t, x, u):
+        return np.zeros(self.n_continuous)
+
+    def update(self, t, x, u):
+        return x
+
+    def initial_state(self, u=None):
+        return np.zeros(self.n_continuous or self.n_discrete)
+
+    def zero_crossings(self, t, x, u):
+        return None
+
+    def __repr__(self):
+        return f"<{type(self).__name__} {self.name!r}>"

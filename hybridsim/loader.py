@@ -1,0 +1,391 @@
+"""YAML diagrams: plain data in, a checked Diagram out, errors with file:line.
+
+The format (see README, "Diagram format")::
+
+    name: fig9
+    params:            # named values; '$name' anywhere below refers to one
+      rate: 60
+    blocks:
+      pid: {type: position_pid, rate: $rate, Kp: [460, 1650]}
+      ...
+    wires:
+      - fk.X -> dx.u2            # or [fk.X, dx.u2]
+    simulation: {t_end: 4.0, solver: rk4, step: 1.0e-4, log_period: 0.0005}
+    log: [ft.CF, fk.X]
+    signals: {force: ft.CF[0], force_desired: fd.y[0]}   # roles for plots/metrics
+    metrics: {step_time: 1.0}
+    variants: {rate: [60, 80, 120]}                       # a grid of runs
+
+Nothing in a file is evaluated; '$name' substitution is the only indirection.
+"""
+import copy
+import re
+import itertools
+from pathlib import Path
+
+import yaml
+
+from .diagram import Diagram
+from .errors import DiagramError, LoaderError, RateError
+from .registry import closest, lookup, parameters, types
+
+TOP_KEYS = ["extends", "name", "description", "params", "blocks", "wires", "simulation", "log",
+            "signals", "metrics", "variants", "plot"]
+SIM_KEYS = ["t_end", "solver", "step", "rtol", "atol", "max_step", "log_period", "max_state"]
+SOLVERS = ["rk4", "radau", "bdf", "lsoda", "rk45", "rk23", "dop853"]
+SIGNAL_ROLES = ["force", "force_desired", "position", "position_desired", "contact",
+                "surface", "hand", "oscillation"]
+
+
+class _Dict(dict):
+    """A mapping that remembers its file and the line of each key (1-based)."""
+
+    line = None
+    lines = None
+    file = None
+
+
+class _List(list):
+    line = None
+    lines = None
+
+
+class _Loader(yaml.SafeLoader):
+    source_path = None
+
+
+# YAML 1.1 reads 9.0e5 and 1e-4 as strings; engineers write them as numbers.
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"""^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?(?:[eE][-+]?[0-9]+)$"""),
+    list("-+0123456789"),
+)
+
+
+def _construct_mapping(loader, node):
+    loader.flatten_mapping(node)
+    d = _Dict()
+    d.line, d.lines, d.file = node.start_mark.line + 1, {}, loader.source_path
+    d.locs = {}
+    for knode, vnode in node.value:
+        key = loader.construct_object(knode, deep=True)
+        try:
+            hash(key)
+        except TypeError:
+            raise LoaderError("a mapping key must be a plain value", line=knode.start_mark.line + 1) from None
+        d[key] = loader.construct_object(vnode, deep=True)
+        d.lines[key] = vnode.start_mark.line + 1
+        d.locs[key] = f"{loader.source_path}:{d.lines[key]}"
+    return d
+
+
+def _construct_sequence(loader, node):
+    lst = _List(loader.construct_object(n, deep=True) for n in node.value)
+    lst.line = node.start_mark.line + 1
+    lst.lines = [n.start_mark.line + 1 for n in node.value]
+    lst.locs = [f"{loader.source_path}:{ln}" for ln in lst.lines]
+    return lst
+
+
+_Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+_Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_SEQUENCE_TAG, _construct_sequence)
+
+
+def _parse(path):
+    """The YAML mapping in ``path`` with file/line tracking, or LoaderError."""
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise LoaderError("no such file", path) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise LoaderError(f"cannot read: {exc}", path) from None
+    loader = _Loader(text)
+    loader.source_path = str(path)
+    try:
+        data = loader.get_single_data()
+    except LoaderError as exc:
+        raise LoaderError(str(exc).split(": ", 1)[-1], path, exc.line) from None
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        problem = getattr(exc, "problem", None) or str(exc)
+        raise LoaderError(f"YAML syntax error: {problem}", path,
+                          mark.line + 1 if mark else None) from None
+    finally:
+        loader.dispose()
+    if not isinstance(data, dict):
+        raise LoaderError("a diagram file must be a mapping with a 'blocks' section", path, 1)
+    return data
+
+
+def _read(path, chain=()):
+    """Parse ``path`` and merge it over the file it ``extends`` (if any).
+
+    Merging: ``params``, ``simulation``, ``signals``, ``metrics``, ``plot`` and
+    ``variants`` are updated key by key; a block given again with a ``type``
+    replaces the base block, without one it updates the base block's
+    parameters; ``wires`` and ``log`` are appended; other keys replace.
+    """
+    data = _parse(path)
+    base_name = data.get("extends")
+    if base_name is None:
+        return data
+    base_path = (path.parent / str(base_name)).resolve()
+    if base_path in chain or base_path == path.resolve():
+        raise LoaderError(f"'extends' forms a cycle through {base_name!r}", path, data.lines["extends"])
+    if not base_path.exists():
+        raise LoaderError(f"'extends': no such file {str(base_name)!r}", path, data.lines["extends"])
+    base = _read(base_path, chain + (path.resolve(),))
+    merged = base
+    for key, val in data.items():
+        if key == "extends":
+            continue
+        cur = merged.get(key)
+        if key == "blocks" and isinstance(cur, dict) and isinstance(val, dict):
+            for bname, spec in val.items():
+                if isinstance(spec, dict) and "type" not in spec and isinstance(cur.get(bname), dict):
+                    cur[bname].update(spec)
+                    cur[bname].lines.update(spec.lines)
+                    cur[bname].locs.update(spec.locs)
+                else:
+                    cur[bname] = spec
+                    cur.lines[bname] = val.lines[bname]
+                    cur.locs[bname] = val.locs[bname]
+        elif key in ("params", "simulation", "signals", "metrics", "plot", "variants") \
+                and isinstance(cur, dict) and isinstance(val, dict):
+            cur.update(val)
+            cur.lines.update(val.lines)
+            cur.locs.update(val.locs)
+        elif key in ("wires", "log") and isinstance(cur, list) and isinstance(val, list):
+            cur.extend(val)
+            cur.lines.extend(val.lines)
+            cur.locs.extend(val.locs)
+        else:
+            merged[key] = val
+        merged.lines[key] = data.lines[key]
+    return merged
+
+
+def _plain(v):
+    """Strip the line-tracking types (for deep copies and user-facing values)."""
+    if isinstance(v, dict):
+        return {k: _plain(x) for k, x in v.items()}
+    if isinstance(v, list):
+        return [_plain(x) for x in v]
+    return v
+
+
+class DiagramFile:
+    """A parsed diagram file. ``build(overrides)`` makes Diagram + settings.
+
+    Parameters
+    ----------
+    path : str or Path
+    overrides : dict, optional
+        ``{"rate": 80, "arm.damping": [10, 100], "simulation.t_end": 1}``:
+        a bare name sets ``params``; ``block.param`` a block parameter;
+        ``simulation.key`` a setting.
+    """
+
+    def __init__(self, path, overrides=None):
+        self.path = Path(path)
+        data = _read(self.path)
+        self.data = data
+        for key in data:
+            if key not in TOP_KEYS:
+                self._fail(f"unknown section {key!r}{closest(key, TOP_KEYS)}; "
+                           f"sections: {', '.join(TOP_KEYS)}", data.lines[key])
+        if "blocks" not in data:
+            self._fail("missing required section 'blocks'", 1)
+        for key, kind in (("params", dict), ("blocks", dict), ("simulation", dict),
+                          ("signals", dict), ("metrics", dict), ("variants", dict),
+                          ("wires", list), ("log", list), ("plot", dict)):
+            if key in data and not isinstance(data[key], kind):
+                self._fail(f"section {key!r} must be a {'mapping' if kind is dict else 'list'}",
+                           data.lines[key])
+        self.name = str(data.get("name", self.path.stem))
+        self.description = str(data.get("description", ""))
+        self.params = _Dict(data.get("params") or {})
+        self.params.lines = getattr(data.get("params"), "lines", {}) or {}
+        self.apply(overrides or {})
+
+    def _fail(self, message, line=None):
+        raise LoaderError(message, self.path, line)
+
+    # -- overrides ---------------------------------------------------------
+    def apply(self, overrides):
+        """Apply ``{path: value}`` overrides in place (see class docstring)."""
+        for key, value in overrides.items():
+            parts = str(key).split(".")
+            if len(parts) == 1 or parts[0] == "params":
+                name = parts[-1]
+                if name not in self.params:
+                    self._fail(f"--set {key}: no parameter {name!r} in 'params'"
+                               f"{closest(name, self.params)}")
+                self.params[name] = value
+            elif parts[0] == "simulation" and len(parts) == 2:
+                if parts[1] not in SIM_KEYS:
+                    self._fail(f"--set {key}: unknown simulation setting{closest(parts[1], SIM_KEYS)}")
+                if "simulation" not in self.data:
+                    self.data["simulation"] = _Dict()
+                    self.data["simulation"].lines = {}
+                self.data["simulation"][parts[1]] = value
+            else:
+                bname = parts[1] if parts[0] == "blocks" else parts[0]
+                pname = parts[-1]
+                blocks = self.data["blocks"]
+                if bname not in blocks or len(parts) > (3 if parts[0] == "blocks" else 2):
+                    self._fail(f"--set {key}: no block {bname!r}{closest(bname, blocks)}")
+                blocks[bname][pname] = value
+                blocks[bname].lines[pname] = None
+                blocks[bname].locs[pname] = f"--set {key}"
+
+    def variants(self):
+        """List of (label, overrides) for the grid in ``variants`` ([('', {})] if none)."""
+        spec = self.data.get("variants") or {}
+        if not spec:
+            return [("", {})]
+        names = list(spec)
+        for n in names:
+            if n not in self.params:
+                self._fail(f"variant {n!r} is not a parameter in 'params'{closest(n, self.params)}",
+                           spec.lines[n])
+            if not isinstance(spec[n], list) or not spec[n]:
+                self._fail(f"variant {n!r} must be a non-empty list of values", spec.lines[n])
+        out = []
+        for combo in itertools.product(*(spec[n] for n in names)):
+            label = ", ".join(f"{n}={v}" for n, v in zip(names, combo))
+            out.append((label, dict(zip(names, combo))))
+        return out
+
+    # -- substitution ---------------------------------------------------------
+    def _resolve(self, value, loc, params):
+        """Substitute '$name' references; ``loc`` is 'file:line' for errors."""
+        if isinstance(value, str) and value.startswith("$"):
+            name = value[1:]
+            if name not in params:
+                raise LoaderError(f"undefined parameter reference {value!r}{closest(name, params)}", loc)
+            return copy.deepcopy(_plain(params[name]))
+        if isinstance(value, dict):
+            locs = getattr(value, "locs", None) or {}
+            return {k: self._resolve(v, locs.get(k, loc), params) for k, v in value.items()}
+        if isinstance(value, list):
+            locs = getattr(value, "locs", None) or [loc] * len(value)
+            return [self._resolve(v, ln, params) for v, ln in zip(value, locs)]
+        return value
+
+    # -- building ---------------------------------------------------------------
+    def build(self, overrides=None):
+        """Return ``(diagram, settings)`` for this file with ``overrides`` applied.
+
+        ``settings`` is a dict with keys simulation, log, signals, metrics, plot.
+        Raises :class:`DiagramError` listing every problem found.
+        """
+        params = dict(self.params)
+        for k, v in (overrides or {}).items():
+            if k not in params:
+                self._fail(f"no parameter {k!r} in 'params'{closest(k, params)}")
+            params[k] = v
+        diagram = Diagram(self.name, source=str(self.path))
+        problems = diagram.problems
+        blocks = self.data["blocks"]
+        for bname, spec in blocks.items():
+            line = blocks.lines[bname]
+            here = blocks.locs[bname]
+            if not isinstance(spec, dict):
+                problems.append(f"{here}: block {bname!r} must be a mapping with a 'type'")
+                continue
+            if "type" not in spec:
+                problems.append(f"{here}: block {bname!r} has no 'type' (required)")
+                continue
+            tname = spec["type"]
+            cls = lookup(str(tname))
+            if cls is None:
+                problems.append(f"{spec.locs['type']}: block {bname!r}: unknown block type "
+                                f"{tname!r}{closest(tname, types())}")
+                continue
+            required, optional = parameters(cls)
+            kwargs = {}
+            bad = False
+            for pname, pval in spec.items():
+                if pname == "type":
+                    continue
+                if pname not in required + optional:
+                    valid = required + optional
+                    problems.append(
+                        f"{spec.locs[pname]}: block {bname!r} ({tname}) has no parameter {pname!r}"
+                        f"{closest(pname, valid)}; its parameters: {', '.join(valid) or 'none'}")
+                    bad = True
+                    continue
+                try:
+                    kwargs[pname] = self._resolve(pval, spec.locs[pname], params)
+                except LoaderError as exc:
+                    problems.append(str(exc))
+                    bad = True
+            for r in required:
+                if r not in kwargs and not bad:
+                    problems.append(f"{here}: block {bname!r} ({tname}) needs parameter {r!r}")
+                    bad = True
+            if bad:
+                continue
+            try:
+                diagram.add(cls(name=bname, **kwargs))
+            except RateError as exc:
+                problems.append(f"{here}: block {bname!r} ({tname}): bad rate: {exc}")
+            except (ValueError, TypeError) as exc:
+                problems.append(f"{here}: block {bname!r} ({tname}): {exc}")
+        wires = self.data.get("wires") or []
+        for k, w in enumerate(wires):
+            line = wires.locs[k]
+            if isinstance(w, str) and "->" in w:
+                src, dst = (s.strip() for s in w.split("->", 1))
+            elif isinstance(w, list) and len(w) == 2 and all(isinstance(s, str) for s in w):
+                src, dst = w
+            else:
+                problems.append(f"{line}: a wire is 'a.out -> b.in' or [a.out, b.in], got {w!r}")
+                continue
+            if src.split(".")[0] in blocks and dst.split(".")[0] in blocks:
+                if src.split(".")[0] not in diagram.blocks or dst.split(".")[0] not in diagram.blocks:
+                    continue  # the block itself already has a problem
+            diagram.connect(src, dst, line)
+        problems += [p for p in diagram.check() if p not in problems]
+        if problems:
+            raise DiagramError(problems, str(self.path))
+        diagram.problems = []
+        settings = self._settings(params)
+        return diagram, settings
+
+    def _settings(self, params):
+        data = self.data
+        sim = data.get("simulation") or _Dict()
+        lines = sim.lines or {}
+        for key in sim:
+            if key not in SIM_KEYS:
+                self._fail(f"unknown simulation setting {key!r}{closest(key, SIM_KEYS)}", lines.get(key))
+        locs = getattr(sim, "locs", None) or {}
+        simr = {k: self._resolve(v, locs.get(k, str(self.path)), params) for k, v in sim.items()}
+        simr.setdefault("t_end", 1.0)
+        simr.setdefault("solver", "rk4")
+        for key in ("t_end", "step", "rtol", "max_step", "log_period", "max_state"):
+            if key in simr:
+                v = simr[key]
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
+                    self._fail(f"simulation setting {key!r} must be a positive number, got {v!r}",
+                               lines.get(key))
+        if str(simr["solver"]).lower() not in SOLVERS:
+            self._fail(f"unknown solver {simr['solver']!r}{closest(str(simr['solver']).lower(), SOLVERS)}; "
+                       f"solvers: {', '.join(SOLVERS)}", lines.get("solver"))
+        signals = data.get("signals") or _Dict()
+        for role in signals:
+            if role not in SIGNAL_ROLES:
+                self._fail(f"unknown signal role {role!r}{closest(role, SIGNAL_ROLES)}; "
+                           f"roles: {', '.join(SIGNAL_ROLES)}", signals.lines[role])
+        log = [str(x) for x in (data.get("log") or [])]
+        return {
+            "simulation": simr,
+            "log": log,
+            "signals": {k: str(v) for k, v in signals.items()},
+            "signal_lines": dict(signals.lines or {}),
+            "metrics": self._resolve(data.get("metrics") or {}, str(self.path), params),
+            "plot": _plain(data.get("plot") or {}),
+            "params": _plain(params),
+        }

@@ -1,0 +1,57 @@
+"""The table of block types that diagrams refer to by name.
+
+The engine knows no particular block: the library in the top-level ``blocks``
+package registers its classes with :func:`register`, and any user module can do
+the same. :func:`lookup` imports the library on first use.
+"""
+import difflib
+import importlib
+import inspect
+
+_TYPES = {}
+_LIBRARIES = ["blocks"]
+
+
+def register(type_name):
+    """Class decorator: make a Block subclass available as ``type: type_name``."""
+
+    def deco(cls):
+        _TYPES[type_name] = cls
+        cls.type_name = type_name
+        return cls
+
+    return deco
+
+
+def _load_libraries():
+    for mod in _LIBRARIES:
+        importlib.import_module(mod)
+
+
+def types():
+    """Sorted names of every registered block type."""
+    _load_libraries()
+    return sorted(_TYPES)
+
+
+def lookup(type_name):
+    """The class registered as ``type_name``, or None."""
+    _load_libraries()
+    return _TYPES.get(type_name)
+
+
+def closest(name, candidates):
+    """' (did you mean X?)' for the closest candidate, or ''."""
+    match = difflib.get_close_matches(str(name), list(candidates), n=1, cutoff=0.5)
+    return f" (did you mean {match[0]!r}?)" if match else ""
+
+
+def parameters(cls):
+    """(required, optional) parameter names of a block class's constructor."""
+    sig = inspect.signature(cls.__init__)
+    required, optional = [], []
+    for p in list(sig.parameters.values())[1:]:
+        if p.name == "name" or p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
+            continue
+        (required if p.default is p.empty else optional).append(p.name)
+    return required, optional

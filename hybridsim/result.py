@@ -1,0 +1,52 @@
+"""Simulation results: time vector, logged signals, run metadata."""
+import csv
+
+import numpy as np
+
+from .files import atomic_file
+
+
+class Result:
+    """Logged signals of one run.
+
+    ``result.t`` is the time vector (s); ``result["block.port"]`` an array of
+    shape (len(t), width); ``result["block.port[i]"]`` one element as a 1-D
+    array. ``meta`` holds the diagram name, solver, wall time and the number
+    of sample hits of each discrete block; ``context`` the final state.
+    """
+
+    def __init__(self, t, signals, meta=None, context=None):
+        self.t = np.asarray(t, float)
+        self.signals = dict(signals)
+        self.meta = dict(meta or {})
+        self.context = context
+
+    def __getitem__(self, ref):
+        if ref.endswith("]") and "[" in ref:
+            base, idx = ref[:-1].split("[", 1)
+            return self.signals[base][:, int(idx)]
+        return self.signals[ref]
+
+    def __contains__(self, ref):
+        base = ref.split("[", 1)[0]
+        return base in self.signals
+
+    def columns(self):
+        """Column names: 'time' then 'block.port[i]' for every element."""
+        cols = ["time"]
+        for ref, arr in self.signals.items():
+            cols += [f"{ref}[{k}]" for k in range(arr.shape[1])]
+        return cols
+
+    def table(self):
+        """All logged data as one 2-D array, columns as in :meth:`columns`."""
+        parts = [self.t[:, None]] + [a for a in self.signals.values()]
+        return np.hstack(parts) if len(self.t) else np.zeros((0, len(self.columns())))
+
+    def to_csv(self, path):
+        """Write every logged signal to ``path`` atomically."""
+        with atomic_file(path, "w") as fh:
+            w = csv.writer(fh)
+            w.writerow(self.columns())
+            for row in self.table():
+                w.writerow([f"{v:.10g}" for v in row])

@@ -1,0 +1,72 @@
+"""Multi-rate sample hits on an integer tick grid.
+
+Every sample period is an exact :class:`fractions.Fraction`. The base tick is
+their greatest common divisor; a block with period ``p`` and offset ``o``
+(both whole multiples of the base tick) is due at tick ``n`` when
+``n >= o`` and ``(n - o) % p == 0``. Time is ``n * base`` computed from
+integers, never accumulated, so coincident hits of different rates coincide
+exactly however long the run.
+"""
+from fractions import Fraction
+from math import gcd
+
+from .errors import RateError
+
+#: most base ticks one period may span before rates count as incommensurate
+MAX_TICKS_PER_PERIOD = 10**5
+
+
+def fraction_gcd(a, b):
+    """Greatest common divisor of two positive Fractions."""
+    return Fraction(gcd(a.numerator * b.denominator, b.numerator * a.denominator),
+                    a.denominator * b.denominator)
+
+
+class Schedule:
+    """Sample hits of a set of (period, offset) pairs on one tick grid."""
+
+    def __init__(self, timings, names=None):
+        self.timings = list(timings)
+        names = names or [str(i) for i in range(len(self.timings))]
+        base = None
+        for period, offset in self.timings:
+            for v in (period, offset):
+                if v:
+                    base = v if base is None else fraction_gcd(base, v)
+        self.base = base if base is not None else Fraction(1)
+        self.ticks = []
+        for (period, offset), name in zip(self.timings, names):
+            p, o = period / self.base, offset / self.base
+            if p > MAX_TICKS_PER_PERIOD:
+                raise RateError(
+                    f"sample rates are not commensurate: {name!r} has period "
+                    f"{float(period):.9g} s, but the common base tick of all rates "
+                    f"is {float(self.base):.3g} s ({int(p)} ticks per period); "
+                    "choose rates with a small common multiple (e.g. 60, 80, 120 Hz)"
+                )
+            self.ticks.append((int(p), int(o)))
+
+    def time(self, n):
+        """Exact time of tick ``n`` as a float (one rounding)."""
+        return n * self.base.numerator / self.base.denominator
+
+    def due(self, n):
+        """Indices of the timings due at tick ``n``."""
+        return [i for i, (p, o) in enumerate(self.ticks) if n >= o and (n - o) % p == 0]
+
+    def next_hit(self, n, which=None):
+        """Smallest tick >= ``n`` at which any (or each in ``which``) is due."""
+        best = None
+        for i in (range(len(self.ticks)) if which is None else which):
+            p, o = self.ticks[i]
+            m = o if n <= o else o + -(-(n - o) // p) * p
+            best = m if best is None else min(best, m)
+        return best
+
+    def last_tick_before(self, t_end):
+        """Largest n with ``time(n) < t_end`` (exact for Fraction t_end)."""
+        t = Fraction(t_end)
+        n = int(t / self.base)
+        if n * self.base >= t:
+            n -= 1
+        return n

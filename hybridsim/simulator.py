@@ -1,0 +1,231 @@
+"""Advance a system in time: sample hits, zero-order hold, integration, logging.
+
+At each sample hit (tick ``n``, time ``n * base``):
+
+1. outputs are computed in dependency order for every block that is not
+   discrete and for the discrete blocks due at this tick (the others hold
+   their last outputs: zero-order hold);
+2. logged signals due at this tick are recorded;
+3. due discrete blocks update their states (``update``), in order;
+4. the continuous states are integrated to the next hit, with the held
+   discrete outputs constant over the interval (the right-hand side evaluates
+   only ``system.rhs_path``).
+
+Ticks run at ``0 <= n * base < t_end``; the run ends with the state at
+``t_end``.
+"""
+import time as _time
+
+import numpy as np
+
+from .errors import SimulationError
+from .result import Result
+from .schedule import Schedule
+from .solvers import RK4
+
+
+def parse_signal(ref):
+    """'block.port' or 'block.port[i]' -> ('block.port', i or None)."""
+    if ref.endswith("]") and "[" in ref:
+        base, idx = ref[:-1].split("[", 1)
+        return base, int(idx)
+    return ref, None
+
+
+class Simulator:
+    """Runs a :class:`~hybridsim.system.System`.
+
+    Parameters
+    ----------
+    system : System
+    solver : RK4 or ScipySolver, optional
+        Integrator for the continuous states (default ``RK4(1e-4)``).
+    log : list of str
+        Output references ``block.port`` to record. The inputs of blocks
+        with ``log_inputs`` (recorders) are added automatically.
+    log_period : float or Fraction, optional
+        Recording interval in s (default 0.5 ms). Sample hits do not add
+        extra rows; every row is on this grid.
+    max_state : float
+        A continuous state larger than this in magnitude (or not finite)
+        stops the run with :class:`SimulationError`.
+    progress : bool
+        Show a progress bar (tqdm) on runs that last more than a second.
+    """
+
+    def __init__(self, system, solver=None, log=(), log_period=0.0005,
+                 max_state=1e6, progress=False):
+        from .block import to_period
+
+        self.system = system
+        self.solver = solver or RK4()
+        self.log_period = to_period(log_period, "log period")
+        self.max_state = float(max_state)
+        self.progress = progress
+        refs = []
+        for ref in log:
+            base, _ = parse_signal(ref)
+            if base not in refs:
+                refs.append(base)
+        for i, b in enumerate(system.blocks):
+            if b.log_inputs:
+                for k, (a, o) in enumerate(system.sources[i]):
+                    r = f"{system.blocks[a].name}.{system.blocks[a].outputs[o].name}"
+                    if r not in refs:
+                        refs.append(r)
+        for r in refs:
+            try:
+                system.port_ref(r)
+            except (KeyError, AttributeError, ValueError):
+                raise SimulationError(f"cannot log {r!r}: no such output") from None
+        self.log_refs = refs
+        self._log_ports = [system.port_ref(r) for r in refs]
+        self.log_path = system.evaluation_path({i for i, _ in self._log_ports})
+        self._compile()
+
+    # -- the fused right-hand side --------------------------------------------
+    def _compile(self):
+        sysm = self.system
+        self._steps = []
+        empty = np.zeros(0)
+        for i in sysm.rhs_path:
+            self._steps.append((sysm.blocks[i].output, sysm.xslices[i], i, empty))
+        self._ders = [(sysm.blocks[i].derivatives, sysm.xslices[i], i) for i in sysm.stateful]
+        self._event_blocks = [(sysm.blocks[i].zero_crossings, sysm.xslices[i], i) for i in sysm.events]
+
+    def _bind(self, ctx):
+        """Build rhs(t, x) and events(t, x) closures over one context."""
+        y, u, xd, n_x = ctx.y, ctx.u, ctx.xd, self.system.n_x
+        steps = [(out, s, u[i], y[i], xd[i]) for out, s, i, _ in self._steps]
+        ders = [(der, s, u[i]) for der, s, i in self._ders]
+
+        def rhs(t, x):
+            for out, s, ui, yi, xdi in steps:
+                vals = out(t, x[s] if s is not None else xdi, ui)
+                for buf, v in zip(yi, vals):
+                    buf[:] = v
+            dx = np.empty(n_x)
+            for der, s, ui in ders:
+                dx[s] = der(t, x[s], ui)
+            return dx
+
+        evs = [(zc, s, u[i], xd[i]) for zc, s, i in self._event_blocks]
+
+        def events(t, x):
+            rhs(t, x)
+            return np.concatenate([
+                np.atleast_1d(zc(t, x[s] if s is not None else xdi, ui)) for zc, s, ui, xdi in evs
+            ])
+
+        return rhs, (events if evs else None)
+
+    # -- the run ------------------------------------------------------------------
+    def run(self, t_end, context=None):
+        """Simulate from t = 0 to ``t_end`` s; return a :class:`Result`."""
+        sysm = self.system
+        t_end = float(t_end)
+        if not t_end > 0:
+            raise SimulationError(f"end time must be positive, got {t_end!r}")
+        ctx = context or sysm.create_context()
+        rhs, events = self._bind(ctx)
+        blocks, kind = sysm.blocks, sysm.kind
+        discrete = sysm.discrete
+        sched = Schedule(
+            [(blocks[i].period, blocks[i].time_offset) for i in discrete] + [(self.log_period, 0)],
+            [blocks[i].name for i in discrete] + ["log"],
+        )
+        LOG = len(discrete)
+        which = list(range(LOG))
+        n_last = sched.last_tick_before(t_end)
+        log_every = sched.ticks[LOG][0]
+        hits = {blocks[i].name: 0 for i in discrete}
+        rows_t, rows = [], []
+
+        def record(t):
+            rows_t.append(t)
+            rows.append(np.concatenate([ctx.y[i][o] for i, o in self._log_ports])
+                        if self._log_ports else np.zeros(0))
+
+        bar = _progress(t_end) if self.progress else None
+        wall0 = _time.perf_counter()
+        n = 0
+        xc = ctx.xc
+        with np.errstate(over="ignore", invalid="ignore"):
+            while True:
+                t = sched.time(n)
+                due = {discrete[j] for j in sched.due(n) if j < LOG}
+                ctx.evaluate([i for i in range(len(blocks)) if kind[i] != "discrete" or i in due],
+                             t, xc)
+                if n % log_every == 0:
+                    record(t)
+                for i in sorted(due):
+                    blk = blocks[i]
+                    ctx.xd[i] = np.asarray(blk.update(t, ctx.xd[i], ctx.u[i]), float)
+                    hits[blk.name] += 1
+                    if not np.all(np.isfinite(ctx.xd[i])):
+                        raise SimulationError(
+                            f"simulation diverged at t={t:.6g} s: discrete state of block "
+                            f"{blk.name!r} is not finite"
+                        )
+                n_next = sched.next_hit(n + 1, which) if which else None
+                last = n_next is None or n_next > n_last
+                t_next = t_end if last else sched.time(n_next)
+                m_hi = n_next if not last else n_last + 1
+                t_out = [sched.time(m) for m in range(n + log_every - n % log_every, m_hi, log_every)
+                         if sched.time(m) < t_next]
+                if sysm.n_x:
+                    xc, xs = self.solver.advance(rhs, t, t_next, xc, t_out, events)
+                    self._check(xc, t_next)
+                else:
+                    xs = [xc] * len(t_out)
+                for tb, xb in zip(t_out, xs):
+                    ctx.evaluate(self.log_path, tb, xb)
+                    record(tb)
+                ctx.xc = xc
+                if bar is not None:
+                    bar.update(t_next - bar.n)
+                if last:
+                    break
+                n = n_next
+            if _on_grid(t_end, float(self.log_period)) and rows_t[-1] < t_end:
+                ctx.evaluate(self.log_path, t_end, xc)
+                record(t_end)
+        ctx.t = t_end
+        if bar is not None:
+            bar.close()
+        wall = _time.perf_counter() - wall0
+        data = np.array(rows) if rows else np.zeros((0, 0))
+        signals, col = {}, 0
+        for ref, (i, o) in zip(self.log_refs, self._log_ports):
+            w = blocks[i].outputs[o].width
+            signals[ref] = data[:, col:col + w] if data.size else np.zeros((0, w))
+            col += w
+        meta = {"diagram": sysm.name, "solver": repr(self.solver), "t_end": t_end,
+                "wall_time_s": wall, "hits": hits}
+        return Result(np.array(rows_t), signals, meta, context=ctx)
+
+    def _check(self, x, t):
+        bad = ~np.isfinite(x) | (np.abs(x) > self.max_state)
+        if bad.any():
+            k = int(np.argmax(bad))
+            name, j = self.system.state_owner(k)
+            raise SimulationError(
+                f"simulation diverged at t={t:.6g} s: state {j} of block {name!r} "
+                f"is {x[k]:.3g} (limit {self.max_state:g}). The closed loop may be "
+                "unstable at these gains and rates, or the solver step too large."
+            )
+
+
+def _on_grid(t, period):
+    """True when ``t`` is a whole number of ``period`` (to 1e-9 of a period)."""
+    k = round(t / period)
+    return abs(k * period - t) <= 1e-9 * period
+
+
+def _progress(total):
+    try:
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover
+        return None
+    return tqdm(total=total, unit="s sim", delay=1.0, leave=False,
+                bar_format="{l_bar}{bar}| {n:.2f}/{total:.2f} s [{elapsed}<{remaining}]")

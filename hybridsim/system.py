@@ -1,0 +1,136 @@
+"""A built diagram: sorted, classified, with its state layout and paths.
+
+Each block falls in one of four classes:
+
+``discrete``   has a sample period; outputs computed at its hits and held
+               (zero-order hold) in between;
+``continuous`` has continuous state, integrated by the solver;
+``constant``   stateless, not time-varying, fed only by discrete or constant
+               blocks: its outputs change only at sample hits;
+``direct``     any other stateless block (sources, kinematics of plant
+               signals): evaluated whenever its outputs are needed.
+
+From this the system precomputes, once, the short list of blocks to evaluate
+inside the right-hand side (``rhs_path``) and for logging, so the integrator's
+inner loop never walks the graph.
+"""
+import numpy as np
+
+from .block import Block
+from .context import Context
+from .errors import DiagramError
+from .graph import needed_blocks, sort_blocks
+from .schedule import Schedule
+
+
+class System:
+    """The checked, runnable form of a :class:`~hybridsim.diagram.Diagram`."""
+
+    def __init__(self, diagram):
+        self.name = diagram.name
+        self.source = diagram.source
+        blocks = list(diagram.blocks.values())
+        index = {b.name: i for i, b in enumerate(blocks)}
+        sources = [[None] * len(b.inputs) for b in blocks]
+        for w in diagram.wires:
+            sb, sp = w.src.split(".")
+            db, dp = w.dst.split(".")
+            a, b = index[sb], index[db]
+            sources[b][blocks[b].input_port(dp).index] = (a, blocks[a].output_port(sp).index)
+
+        order, loops = sort_blocks(blocks, sources)
+        if loops:
+            raise DiagramError(
+                [
+                    "algebraic loop: " + " -> ".join(h.split(" -> ")[0] for h in hops)
+                    + f" -> {hops[0].split(' -> ')[0]}\n      wires: " + "; ".join(hops)
+                    + "\n      every output on this cycle depends directly on its input;"
+                    " insert a delay or a rate transition (a discrete block) in the loop"
+                    for hops in loops
+                ],
+                diagram.source,
+            )
+        # renumber everything in evaluation order
+        old_to_new = {old: new for new, old in enumerate(order)}
+        self.blocks = [blocks[i] for i in order]
+        self.sources = [
+            [(old_to_new[a], o) for (a, o) in sources[i]] for i in order
+        ]
+        self.index = {b.name: i for i, b in enumerate(self.blocks)}
+        self._classify()
+        self._layout()
+        self.schedule = Schedule(
+            [(self.blocks[i].period, self.blocks[i].time_offset) for i in self.discrete],
+            [self.blocks[i].name for i in self.discrete],
+        )
+        held = lambda j: self.kind[j] in ("discrete", "constant")  # noqa: E731
+        stateful = [i for i, k in enumerate(self.kind) if k == "continuous"]
+        inputs_of = {self.sources[i][k][0] for i in stateful for k in range(len(self.blocks[i].inputs))}
+        self.events = [
+            i for i, b in enumerate(self.blocks)
+            if self.kind[i] != "discrete" and type(b).zero_crossings is not Block.zero_crossings
+        ]
+        inputs_of |= {self.sources[i][k][0] for i in self.events for k in range(len(self.blocks[i].inputs))}
+        self.rhs_path = sorted(needed_blocks(inputs_of, self.blocks, self.sources, held))
+        self.stateful = stateful
+
+    def _classify(self):
+        kind = []
+        for b in self.blocks:
+            if b.is_discrete:
+                kind.append("discrete")
+            elif b.n_continuous:
+                kind.append("continuous")
+            elif b.time_varying:
+                kind.append("direct")
+            else:
+                kind.append("constant")
+        changed = True
+        while changed:  # demote 'constant' blocks fed by anything that varies
+            changed = False
+            for i, b in enumerate(self.blocks):
+                if kind[i] == "constant" and any(
+                    kind[a] in ("continuous", "direct") for a, _ in self.sources[i]
+                ):
+                    kind[i] = "direct"
+                    changed = True
+        self.kind = kind
+        self.discrete = [i for i, k in enumerate(kind) if k == "discrete"]
+
+    def _layout(self):
+        self.xslices = [None] * len(self.blocks)
+        atol, n = [], 0
+        for i, b in enumerate(self.blocks):
+            if self.kind[i] == "continuous":
+                self.xslices[i] = slice(n, n + b.n_continuous)
+                n += b.n_continuous
+                atol.append(b.atol if b.atol is not None else np.full(b.n_continuous, np.nan))
+        self.n_x = n
+        self.atol = np.concatenate(atol) if atol else np.zeros(0)
+
+    # -- queries -------------------------------------------------------------
+    def block(self, name):
+        return self.blocks[self.index[name]]
+
+    def port_ref(self, ref):
+        """(block index, output index) of an output reference 'block.port'."""
+        b, p = ref.split(".")
+        i = self.index[b]
+        return i, self.blocks[i].output_port(p).index
+
+    def state_owner(self, k):
+        """Name of the block owning continuous state ``k`` and the local index."""
+        for i, s in enumerate(self.xslices):
+            if s is not None and s.start <= k < s.stop:
+                return self.blocks[i].name, k - s.start
+        return "?", k
+
+    def evaluation_path(self, wanted):
+        """Sorted blocks to evaluate so the given block indices' outputs are current."""
+        held = lambda j: self.kind[j] in ("discrete", "constant")  # noqa: E731
+        return sorted(needed_blocks(wanted, self.blocks, self.sources, held))
+
+    def create_context(self):
+        """A fresh :class:`Context` with every block's initial state."""
+        return Context(self)
+
