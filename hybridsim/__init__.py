@@ -1,0 +1,19 @@
+"""hybridsim: block diagrams and FMUs for robot force control.
+
+The engine (block API, diagram, system, scheduler, solvers, simulator) knows
+no particular block; the block library lives in the top-level ``blocks``
+package. Start with :func:`simulate` or the ``hybridsim`` command.
+"""
+from .api import build, load, run_experiment, simulate, write_outputs
+from .block import Block
+from .diagram import Diagram
+from .errors import (DiagramError, FMUError, HybridsimError, LoaderError, RateError,
+                     SimulationError)
+from .registry import register
+from .simulator import Simulator
+from .solvers import RK4, ScipySolver
+
+__all__ = ["Block", "Diagram", "Simulator", "RK4", "ScipySolver", "register", "simulate", "load",
+           "build", "run_experiment", "write_outputs", "HybridsimError", "DiagramError",
+           "LoaderError", "RateError", "SimulationError", "FMUError"]
+__version__ = "0.1.0"

@@ -1,0 +1,186 @@
+"""The ``hybridsim`` command: a thin layer over :mod:`hybridsim.api`.
+
+Exit status: 0 success; 2 bad diagram / bad input; 3 simulation diverged;
+4 FMU problem; 70 internal error (please report it, with ``--debug``).
+"""
+import argparse
+
+import sys
+from pathlib import Path
+
+import yaml
+
+from .errors import HybridsimError
+
+EPILOG = """\
+examples:
+  hybridsim run diagrams/fig9_force_and_position.yaml            # 60/80/120 Hz, plots + CSV
+  hybridsim run diagrams/fig7_force_steps.yaml --set force=10 --set rate=120
+  hybridsim run diagrams/fig9_force_and_position.yaml --set arm.damping=[5,50]
+  hybridsim check diagrams/fig8_receding_surface.yaml
+  hybridsim draw diagrams/hybrid_controller.yaml -o fig6.png
+  hybridsim blocks                                               # the block library
+
+--set PATH=VALUE: PATH is a name in the diagram's 'params', a block
+parameter 'block.param', or 'simulation.key' (t_end, solver, step, rtol,
+atol, log_period). VALUE is read as YAML: 10, 1e-4, [5, 50], true.
+A --set of a parameter that 'variants' sweeps fixes it to one run.
+"""
+
+
+def _overrides(items):
+    out = {}
+    for item in items or []:
+        if "=" not in item:
+            raise HybridsimError(f"--set expects PATH=VALUE, got {item!r}")
+        key, val = item.split("=", 1)
+        try:
+            out[key.strip()] = yaml.safe_load(val)
+        except yaml.YAMLError as exc:
+            raise HybridsimError(f"--set {key}: cannot read value {val!r}: {exc}") from None
+    return out
+
+
+def _load(path, sets):
+    from .loader import DiagramFile
+
+    ov = _overrides(sets)
+    f = DiagramFile(path, ov)
+    fixed = {k for k in ov if "." not in k}
+    if fixed and f.data.get("variants"):
+        for k in fixed:
+            f.data["variants"].pop(k, None)
+    return f
+
+
+def cmd_run(args):
+    from . import api
+
+    f = _load(args.diagram, args.set)
+    outdir = Path(args.output) if args.output else Path("out") / f.name
+    n = len(f.variants())
+    print(f"running {f.name} ({n} run{'s' if n > 1 else ''}) ...", file=sys.stderr)
+    f, runs, settings = api.run_experiment(f, progress=not args.quiet)
+    api.write_outputs(f, runs, settings, outdir)
+    for r in runs:
+        m = r["metrics"]
+        head = r["label"] or f.name
+        parts = []
+        for key, fmt in (("rise_time_s", "rise {:.3f} s"), ("overshoot_pct", "overshoot {:.0f} %"),
+                         ("ss_force_error_filtered_N", "steady error {:.2f} N"),
+                         ("force_error_max_filtered_N", "max force error {:.2f} N"),
+                         ("max_position_error_m", "max position error {:.2f} mm"),
+                         ("oscillation_hz", "oscillation {:.1f} Hz")):
+            v = m.get(key)
+            if v is not None:
+                parts.append(fmt.format(v * 1000 if key.endswith("_m") else v))
+        if "contact_lost" in m:
+            parts.append(f"contact LOST at {m['first_loss_s']:.3f} s" if m["contact_lost"]
+                         else "contact kept")
+        parts.append(f"{m['wall_time_s']:.2f} s wall")
+        print(f"  {head}: " + ", ".join(parts))
+    print(f"wrote {outdir}/ (CSV, {f.name}.png/.svg, metrics.json)")
+    return 0
+
+
+def cmd_check(args):
+    f = _load(args.diagram, args.set)
+    for label, variant in f.variants():
+        diagram, _ = f.build(variant)
+        system = diagram.build()
+    rates = sorted({float(1 / b.period) for b in system.blocks if b.period})
+    print(f"{f.path}: OK - {len(system.blocks)} blocks, {system.n_x} continuous states, "
+          f"rates {', '.join(f'{r:g} Hz' for r in rates) or 'none'}, "
+          f"{len(f.variants())} run(s)")
+    return 0
+
+
+def cmd_draw(args):
+    from .plots import draw_diagram
+    from .files import atomic_file
+
+    f = _load(args.diagram, args.set)
+    diagram, _ = f.build(f.variants()[0][1])
+    system = diagram.build()
+    out = Path(args.output or f"{f.name}.png")
+    fig = draw_diagram(system, f.description or f.name)
+    with atomic_file(out, "wb") as fh:
+        fig.savefig(fh, format=out.suffix.lstrip(".") or "png", dpi=120)
+    print(f"wrote {out}")
+    return 0
+
+
+def cmd_blocks(args):
+    from .registry import lookup, parameters, types
+
+    for name in types():
+        cls = lookup(name)
+        req, opt = parameters(cls)
+        doc = (cls.__doc__ or "").strip().splitlines()[0]
+        print(f"{name:20s} {doc}")
+        if args.verbose:
+            print(f"{'':20s} parameters: {', '.join(req + opt)}")
+    return 0
+
+
+def build_parser():
+    p = argparse.ArgumentParser(
+        prog="hybridsim",
+        description="Simulate block diagrams of robot force control (Raibert & Craig's hybrid "
+                    "position/force controller) from YAML files.",
+        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--debug", action="store_true", help="show a traceback on internal errors")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+
+    def with_diagram(sp):
+        sp.add_argument("diagram", help="YAML diagram file (see diagrams/)")
+        sp.add_argument("--set", action="append", metavar="PATH=VALUE",
+                        help="override a parameter (repeatable)")
+
+    r = sub.add_parser("run", help="simulate every variant; write CSV, plots and metrics.json",
+                       description="Simulate a diagram (all its variants) and write, atomically, "
+                                   "a CSV per run, a figure in the paper's layout (PNG and SVG) "
+                                   "and metrics.json into OUTDIR.")
+    with_diagram(r)
+    r.add_argument("-o", "--output", metavar="OUTDIR", help="output folder (default out/<name>)")
+    r.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    r.set_defaults(func=cmd_run)
+    c = sub.add_parser("check", help="validate a diagram without running it")
+    with_diagram(c)
+    c.set_defaults(func=cmd_check)
+    d = sub.add_parser("draw", help="render the diagram as a picture (one colour per rate)")
+    with_diagram(d)
+    d.add_argument("-o", "--output", metavar="FILE", help="image file (.png, .svg, .pdf)")
+    d.set_defaults(func=cmd_draw)
+    b = sub.add_parser("blocks", help="list the block types")
+    b.add_argument("-v", "--verbose", action="store_true", help="with their parameters")
+    b.set_defaults(func=cmd_blocks)
+    return p
+
+
+def main(argv=None):
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    try:
+        return args.func(args)
+    except HybridsimError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        print("interrupted; earlier results left as they were", file=sys.stderr)
+        return 130
+    except Exception as exc:  # noqa: BLE001 - last line of defence, see --debug
+        if args.debug:
+            raise
+        print(f"internal error: {type(exc).__name__}: {exc}\n"
+              "(this is a bug in hybridsim; run again with --debug for the traceback)", file=sys.stderr)
+        return 70
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
+
+

@@ -1,0 +1,139 @@
+"""Figures laid out like the paper's: position above force, desired dashed.
+
+Force is drawn after the paper's 12 Hz display filter (solid), with the raw
+signal faint behind it; every variant of a diagram gets its own colour.
+"""
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+from .metrics import display_filter  # noqa: E402
+
+
+def _col(result, ref):
+    v = result[ref]
+    return v[:, 0] if v.ndim == 2 else v
+
+
+def experiment_figure(f, runs, settings):
+    """One figure for all runs of a diagram file; returns the Figure."""
+    sig = settings["signals"]
+    panels = []
+    if "position" in sig:
+        panels.append("position")
+    if "force" in sig:
+        panels.append("force")
+    if "surface" in sig or "hand" in sig:
+        panels.append("surface")
+    if "oscillation" in sig:
+        panels.append("oscillation")
+    if "contact" in sig and "oscillation" not in sig:
+        panels.append("contact")
+    heights = [3 if p in ("position", "force", "surface", "oscillation") else 1 for p in panels]
+    fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(8, 1.2 + 1.3 * sum(heights) / 1.5),
+                             gridspec_kw={"height_ratios": heights}, squeeze=False)
+    axes = axes[:, 0]
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for k, run in enumerate(runs):
+        r, c = run["result"], colors[k % len(colors)]
+        label = run["label"] or f.name
+        for ax, p in zip(axes, panels):
+            if p == "position":
+                ax.plot(r.t, _col(r, sig["position"]) * 100, color=c, lw=1.2, label=label)
+                if "position_desired" in sig and k == 0:
+                    ax.plot(r.t, _col(r, sig["position_desired"]) * 100, "k--", lw=1, label="desired")
+                ax.set_ylabel("C-Y position (cm)")
+            elif p == "force":
+                raw = _col(r, sig["force"])
+                ax.plot(r.t, raw, color=c, lw=0.4, alpha=0.25)
+                ax.plot(r.t, display_filter(r.t, raw), color=c, lw=1.4, label=label)
+                if "force_desired" in sig:
+                    ax.plot(r.t, _col(r, sig["force_desired"]), "--", color="k" if len(runs) == 1 else c, lw=1)
+                ax.set_ylabel("C-X force (N)\n12 Hz filtered")
+            elif p == "surface":
+                if "surface" in sig:
+                    ax.plot(r.t, _col(r, sig["surface"]) * 100, "k--", lw=1, label="surface" if k == 0 else None)
+                if "hand" in sig:
+                    ax.plot(r.t, _col(r, sig["hand"]) * 100, color=c, lw=1.2, label="hand")
+                ax.set_ylabel("C-X position (cm)")
+            elif p == "oscillation":
+                ax.plot(r.t * 1000, _col(r, sig["oscillation"]), color=c, lw=1, label=label)
+                ax.set_ylabel("force (N)")
+            elif p == "contact":
+                ax.step(r.t, _col(r, sig["contact"]) + 0.05 * k, where="post", color=c, lw=1)
+                ax.set_ylim(-0.2, 1.3)
+                ax.set_yticks([0, 1], ["off", "on"])
+                ax.set_ylabel("contact")
+    for ax, p in zip(axes, panels):
+        ax.grid(True, alpha=0.3)
+        if p in ("position", "force", "surface", "oscillation") and (len(runs) > 1 or p == "surface"):
+            ax.legend(fontsize=7, loc="best", ncol=2 if len(runs) > 4 else 1)
+    axes[-1].set_xlabel("time (ms)" if panels[-1] == "oscillation" else "time (s)")
+    fig.suptitle(f.description or f.name, fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def draw_diagram(system, title=None):
+    """Picture of a built system: blocks in dependency layers, one colour per rate."""
+    from matplotlib.patches import FancyBboxPatch
+
+    blocks = system.blocks
+    n = len(blocks)
+    # layer = longest feedthrough-respecting path from a source (ignoring state edges)
+    layer = [0] * n
+    for i in range(n):
+        for (a, _) in system.sources[i]:
+            if a < i:
+                layer[i] = max(layer[i], layer[a] + 1)
+    cols = {}
+    for i in range(n):
+        cols.setdefault(layer[i], []).append(i)
+    pos = {}
+    for lx, members in cols.items():
+        for j, i in enumerate(members):
+            pos[i] = (lx * 3.0, -j * 1.4)
+    rates = sorted({b.period for b in blocks if b.period is not None})
+    palette = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    kind_color = {"continuous": "#cfe8cf", "direct": "#eeeeee", "constant": "#f5f5dc"}
+    width = max(8, 2.2 * len(cols))
+    height = max(4, 1.0 * max(len(m) for m in cols.values()))
+    fig, ax = plt.subplots(figsize=(width, height))
+    for i, b in enumerate(blocks):
+        x, y = pos[i]
+        if b.period is not None:
+            fc = palette[rates.index(b.period) % len(palette)]
+        else:
+            fc = kind_color[system.kind[i]]
+        ax.add_patch(FancyBboxPatch((x - 1.0, y - 0.45), 2.0, 0.9, boxstyle="round,pad=0.05",
+                                    fc=fc, ec="k", lw=0.8, alpha=0.85))
+        ax.text(x, y + 0.12, b.name, ha="center", va="center", fontsize=8, weight="bold")
+        ax.text(x, y - 0.2, getattr(type(b), "type_name", type(b).__name__), ha="center",
+                va="center", fontsize=6.5)
+    for i in range(n):
+        for (a, _) in system.sources[i]:
+            (x0, y0), (x1, y1) = pos[a], pos[i]
+            back = x1 <= x0
+            ax.annotate("", xy=(x1 - 1.0, y1), xytext=(x0 + 1.0, y0),
+                        arrowprops=dict(arrowstyle="->", lw=0.6, color="tab:red" if back else "0.3",
+                                        connectionstyle="arc3,rad=0.25" if back else "arc3,rad=0.0"))
+    handles = [plt.Rectangle((0, 0), 1, 1, fc=palette[k % len(palette)]) for k in range(len(rates))]
+    labels = [f"{float(1 / r):g} Hz" for r in rates]
+    for kind, c in kind_color.items():
+        handles.append(plt.Rectangle((0, 0), 1, 1, fc=c, ec="k"))
+        labels.append({"continuous": "continuous state", "direct": "direct (no rate)",
+                       "constant": "piecewise constant"}[kind])
+    ax.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=len(labels), fontsize=7)
+    xs = [p[0] for p in pos.values()]
+    ys = [p[1] for p in pos.values()]
+    ax.set_xlim(min(xs) - 1.5, max(xs) + 1.5)
+    ax.set_ylim(min(ys) - 1, max(ys) + 1)
+    ax.set_axis_off()
+    ax.set_title(title or system.name)
+    fig.tight_layout()
+    return fig
+
+
+__all__ = ["experiment_figure", "draw_diagram"]
