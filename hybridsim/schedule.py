@@ -12,8 +12,8 @@ from math import gcd
 
 from .errors import RateError
 
-#: most base ticks one period may span before rates count as incommensurate
-MAX_TICKS_PER_PERIOD = 10**5
+#: most base ticks the shortest period may span before rates count as incommensurate
+MAX_TICKS_PER_PERIOD = 10**4
 
 
 def fraction_gcd(a, b):
@@ -34,17 +34,16 @@ class Schedule:
                 if v:
                     base = v if base is None else fraction_gcd(base, v)
         self.base = base if base is not None else Fraction(1)
-        self.ticks = []
-        for (period, offset), name in zip(self.timings, names):
-            p, o = period / self.base, offset / self.base
-            if p > MAX_TICKS_PER_PERIOD:
+        self.ticks = [(int(p / self.base), int(o / self.base)) for p, o in self.timings]
+        if self.ticks:
+            k = min(range(len(self.ticks)), key=lambda i: self.ticks[i][0])
+            if self.ticks[k][0] > MAX_TICKS_PER_PERIOD:
+                listing = ", ".join(f"{n} {float(1 / p):.6g} Hz" for (p, _), n in zip(self.timings, names))
                 raise RateError(
-                    f"sample rates are not commensurate: {name!r} has period "
-                    f"{float(period):.9g} s, but the common base tick of all rates "
-                    f"is {float(self.base):.3g} s ({int(p)} ticks per period); "
-                    "choose rates with a small common multiple (e.g. 60, 80, 120 Hz)"
+                    f"sample rates are not commensurate ({listing}): their common base tick "
+                    f"would be {float(self.base):.3g} s, {self.ticks[k][0]} ticks per period of "
+                    f"{names[k]!r}; choose rates with a small common multiple (e.g. 60, 80, 120 Hz)"
                 )
-            self.ticks.append((int(p), int(o)))
 
     def time(self, n):
         """Exact time of tick ``n`` as a float (one rounding)."""

@@ -1,0 +1,45 @@
+import numpy as np
+import pytest
+
+from blocks.basic import Demux, LowPass, Mux, Selection, Sum, UnitDelay
+
+
+def test_sum_signs():
+    s = Sum(signs="+-+", width=2)
+    y = s.output(0, None, [np.array([1.0, 2]), np.array([0.5, 0.5]), np.array([1.0, 1])])[0]
+    assert y == pytest.approx((1.5, 2.5))
+
+
+def test_selection_eq13():
+    assert Selection(S=[1, 0]).output(0, None, [np.array([3.0, 4.0])])[0] == pytest.approx((3, 0))
+    assert Selection(S=[1, 0], complement=True).output(0, None, [np.array([3.0, 4.0])])[0] == pytest.approx((0, 4))
+    with pytest.raises(ValueError):
+        Selection(S=[0.5, 1])
+
+
+def test_mux_demux_round_trip():
+    y = Mux(widths=[1, 2]).output(0, None, [np.array([1.0]), np.array([2.0, 3.0])])[0]
+    parts = Demux(widths=[2, 1]).output(0, None, [y])
+    assert list(parts[0]) == [1.0, 2.0] and list(parts[1]) == [3.0]
+
+
+def test_delay_outputs_previous_sample():
+    d = UnitDelay(rate=10, initial=7.0)
+    x = d.initial_state()
+    assert d.output(0, x, [np.array([1.0])])[0] == pytest.approx(7.0)
+    x = d.update(0, x, [np.array([1.0])])
+    assert d.output(0.1, x, [np.array([2.0])])[0] == pytest.approx(1.0)
+    assert d.outputs[0].depends_on == ()
+
+
+def test_lowpass_is_butterworth_at_cutoff():
+    f = LowPass(cutoff=12.0)
+    wc = 2 * np.pi * 12
+    # state space of y'' + sqrt2 wc y' + wc^2 y = wc^2 u: |H(j wc)| = 1/sqrt(2)
+    A = np.array([[0, 1], [-wc**2, -np.sqrt(2) * wc]])
+    B = np.array([0, wc**2])
+    # check derivatives agree with A x + B u
+    x, u = np.array([0.3, -2.0]), 1.5
+    assert f.derivatives(0, x, [np.array([u])]) == pytest.approx(A @ x + B * u)
+    H = np.array([1, 0]) @ np.linalg.solve(1j * wc * np.eye(2) - A, B)
+    assert abs(H) == pytest.approx(1 / np.sqrt(2))

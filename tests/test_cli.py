@@ -1,0 +1,90 @@
+"""The command line: every bad input gets its own message and exit code, no traceback."""
+import json
+
+import pytest
+
+from hybridsim.cli import main
+
+from conftest import DIAGRAMS, write
+from test_loader import GOOD
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    assert "Traceback" not in out + err
+    return code, out, err
+
+
+@pytest.mark.parametrize("change, message", [
+    (("type: gain", "type: gian"), "unknown block type 'gian'"),
+    (("  - g.y -> zoh.u\n", ""), "input zoh.u (1 wide) is not connected"),
+    (("src.y -> g.u", "src.y -> g.x"), "has no input 'x'"),
+    (("{type: zoh, rate: 100}", "{type: zoh, rate: 100, width: 2}"), "width mismatch"),
+    (("rate: 100", "rate: 0"), "bad rate"),
+    (("  k: 2.0", "  k: [2.0"), "YAML syntax error"),
+])
+def test_bad_diagrams_exit_2_with_message(tmp_path, capsys, change, message):
+    p = write(tmp_path, GOOD.replace(*change))
+    code, _, err = run(capsys, "check", p)
+    assert code == 2 and message in err and "d.yaml" in err
+
+
+def test_algebraic_loop_exit_2(tmp_path, capsys):
+    text = """\
+blocks:
+  c: {type: constant, value: 1.0}
+  s: {type: sum, signs: "+-"}
+  g: {type: gain, K: 0.5}
+wires: [c.y -> s.u1, s.y -> g.u, g.y -> s.u2]
+"""
+    code, _, err = run(capsys, "check", write(tmp_path, text))
+    assert code == 2 and "algebraic loop" in err and "insert a delay" in err
+
+
+def test_incommensurate_rates_exit_2(tmp_path, capsys):
+    text = GOOD.replace("zoh:  {type: zoh, rate: 100}", "zoh:  {type: zoh, rate: 100}\n  z2: {type: zoh, rate: 100.003}")
+    text = text.replace("  - g.y -> zoh.u\n", "  - g.y -> zoh.u\n  - g.y -> z2.u\n")
+    code, _, err = run(capsys, "check", write(tmp_path, text))
+    assert code == 2 and "not commensurate" in err
+
+
+def test_diverging_simulation_exit_3(tmp_path, capsys):
+    # printed gains without the limiter: Kfi T > 2 at 60 Hz, unstable (MODEL.md)
+    code, _, err = run(capsys, "run", DIAGRAMS / "fig7_force_steps.yaml", "-q", "-o", tmp_path / "o",
+                       "--set", "force=5", "--set", "rate=60", "--set", "fpi.limit=null",
+                       "--set", "arm.friction=false", "--set", "surface.unilateral=false",
+                       "--set", "simulation.t_end=1.5")
+    assert code == 3 and "diverged" in err
+    assert not (tmp_path / "o").exists()  # nothing half-written
+
+
+def test_missing_file_and_bad_set(tmp_path, capsys):
+    code, _, err = run(capsys, "check", tmp_path / "nope.yaml")
+    assert code == 2 and "no such file" in err
+    code, _, err = run(capsys, "check", DIAGRAMS / "fig9_force_and_position.yaml", "--set", "rat=80")
+    assert code == 2 and "did you mean 'rate'" in err
+
+
+def test_run_writes_csv_plots_metrics(tmp_path, capsys):
+    out = tmp_path / "o"
+    code, stdout, _ = run(capsys, "run", DIAGRAMS / "eq18_hand_oscillation.yaml", "-q", "-o", out,
+                          "--set", "Kr=9.0e5", "--set", "simulation.t_end=0.02")
+    assert code == 0, stdout
+    names = sorted(p.name for p in out.iterdir())
+    assert names == ["eq18_hand_oscillation.csv", "eq18_hand_oscillation.png",
+                     "eq18_hand_oscillation.svg", "metrics.json"]
+    m = json.loads((out / "metrics.json").read_text())["runs"][0]["metrics"]
+    assert m["oscillation_hz"] == pytest.approx(272.5, rel=0.01)
+    assert "oscillation 27" in stdout
+
+
+def test_draw_and_blocks_and_help(tmp_path, capsys):
+    code, _, _ = run(capsys, "draw", DIAGRAMS / "hybrid_controller.yaml", "-o", tmp_path / "f.png")
+    assert code == 0 and (tmp_path / "f.png").stat().st_size > 10000
+    code, out, _ = run(capsys, "blocks")
+    assert code == 0 and "manipulator" in out and "force_pi" in out
+    with pytest.raises(SystemExit) as exc:
+        main(["--help"])
+    assert exc.value.code == 0
+    assert "--set PATH=VALUE" in capsys.readouterr().out

@@ -1,0 +1,65 @@
+import pytest
+
+from hybridsim import Diagram
+from hybridsim.errors import DiagramError
+
+from blocks.basic import Gain, Sum, UnitDelay
+from blocks.sources import Constant
+
+
+def problems(d):
+    with pytest.raises(DiagramError) as exc:
+        d.build()
+    return exc.value.problems
+
+
+def test_unknown_block_and_port_suggest_closest():
+    d = Diagram()
+    d.add(Constant("src", value=1.0))
+    d.add(Gain("g"))
+    d.connect("srx.y", "g.u")
+    d.connect("src.yy", "g.u")
+    msgs = problems(d)
+    assert any("no block named 'srx'" in m and "did you mean 'src'" in m for m in msgs)
+    assert any("has no output 'yy'" in m and "did you mean 'y'" in m for m in msgs)
+
+
+def test_width_mismatch_and_unconnected_and_double_wired_all_at_once():
+    d = Diagram()
+    d.add(Constant("a", value=[1.0, 2.0]))
+    d.add(Constant("b", value=1.0))
+    d.add(Gain("g"))
+    d.add(Sum("s", signs="++"))
+    d.connect("a.y", "g.u")
+    d.connect("b.y", "s.u1")
+    d.connect("b.dy", "s.u1")
+    msgs = problems(d)
+    assert any("width mismatch" in m and "a.y has 2" in m for m in msgs)
+    assert any("s.u2" in m and "not connected" in m for m in msgs)
+    assert any("s.u1 is wired twice" in m for m in msgs)
+    assert len(msgs) == 3
+
+
+def test_algebraic_loop_printed_port_by_port():
+    d = Diagram()
+    d.add(Constant("c", value=1.0))
+    d.add(Sum("s", signs="+-"))
+    d.add(Gain("g", K=2.0))
+    d.connect("c.y", "s.u1")
+    d.connect("s.y", "g.u")
+    d.connect("g.y", "s.u2")
+    (msg,) = problems(d)
+    assert "algebraic loop" in msg and "g.y -> s.u2" in msg and "s.y -> g.u" in msg
+    assert "insert a delay" in msg
+
+
+def test_delay_breaks_the_loop():
+    d = Diagram()
+    d.add(Constant("c", value=1.0))
+    d.add(Sum("s", signs="+-"))
+    d.add(UnitDelay("z", rate=10))
+    d.connect("c.y", "s.u1")
+    d.connect("s.y", "z.u")
+    d.connect("z.y", "s.u2")
+    system = d.build()
+    assert system.kind[system.index["z"]] == "discrete"

@@ -1,0 +1,102 @@
+import pytest
+
+from hybridsim.errors import DiagramError, LoaderError
+from hybridsim.loader import DiagramFile
+
+from conftest import write
+
+GOOD = """\
+params:
+  k: 2.0
+blocks:
+  src:  {type: step, initial: 0.0, final: 1.0, time: 0.1}
+  g:    {type: gain, K: $k}
+  zoh:  {type: zoh, rate: 100}
+wires:
+  - src.y -> g.u
+  - g.y -> zoh.u
+simulation: {t_end: 0.2, log_period: 1.0e-2}
+log: [zoh.y]
+"""
+
+
+def test_good_file_builds_and_substitutes(tmp_path):
+    f = DiagramFile(write(tmp_path, GOOD))
+    d, settings = f.build()
+    assert d.blocks["g"].K[0, 0] == 2.0
+    assert settings["simulation"]["log_period"] == 0.01  # 1.0e-2 read as a number
+    d.build()
+
+
+def test_yaml_syntax_error_names_file_and_line(tmp_path):
+    p = write(tmp_path, GOOD.replace("  g:    {type: gain, K: $k}", "  g:    {type: gain, K: [1, 2}"))
+    with pytest.raises(LoaderError, match=r"d\.yaml:5: YAML syntax error"):
+        DiagramFile(p)
+
+
+def test_unknown_block_type_with_line_and_suggestion(tmp_path):
+    p = write(tmp_path, GOOD.replace("type: gain", "type: gian"))
+    with pytest.raises(DiagramError) as exc:
+        DiagramFile(p).build()
+    (msg,) = [m for m in exc.value.problems if "unknown block type" in m]
+    assert "d.yaml:5" in msg and "did you mean 'gain'" in msg
+
+
+def test_unknown_parameter_closest_name(tmp_path):
+    p = write(tmp_path, GOOD.replace("K: $k", "KK: $k"))
+    with pytest.raises(DiagramError) as exc:
+        DiagramFile(p).build()
+    assert any("no parameter 'KK'" in m and "did you mean 'K'" in m and "d.yaml:5" in m
+               for m in exc.value.problems)
+
+
+def test_undefined_reference_and_missing_type(tmp_path):
+    p = write(tmp_path, GOOD.replace("$k", "$kk").replace("{type: zoh, rate: 100}", "{rate: 100}"))
+    with pytest.raises(DiagramError) as exc:
+        DiagramFile(p).build()
+    msgs = "\n".join(exc.value.problems)
+    assert "undefined parameter reference '$kk' (did you mean 'k'?)" in msgs
+    assert "block 'zoh' has no 'type'" in msgs
+
+
+def test_wrong_type_of_value(tmp_path):
+    p = write(tmp_path, GOOD.replace("K: $k", "K: fast"))
+    with pytest.raises(DiagramError, match="block 'g' \\(gain\\)"):
+        DiagramFile(p).build()
+
+
+def test_missing_blocks_and_unknown_section(tmp_path):
+    with pytest.raises(LoaderError, match="missing required section 'blocks'"):
+        DiagramFile(write(tmp_path, "params: {}\n"))
+    with pytest.raises(LoaderError, match=r"d\.yaml:1: unknown section 'paramz' \(did you mean 'params'"):
+        DiagramFile(write(tmp_path, "paramz: {}\nblocks: {}\n"))
+
+
+def test_bad_solver_and_t_end(tmp_path):
+    with pytest.raises(LoaderError, match="unknown solver 'radua'"):
+        DiagramFile(write(tmp_path, GOOD.replace("t_end: 0.2", "t_end: 0.2, solver: radua"))).build()
+    with pytest.raises(LoaderError, match="'t_end' must be a positive number"):
+        DiagramFile(write(tmp_path, GOOD.replace("t_end: 0.2", "t_end: -1"))).build()
+
+
+def test_bad_rate_is_its_own_message(tmp_path):
+    with pytest.raises(DiagramError, match="bad rate: rate must be positive"):
+        DiagramFile(write(tmp_path, GOOD.replace("rate: 100", "rate: -100"))).build()
+
+
+def test_extends_merges_blocks_and_params(tmp_path):
+    write(tmp_path, GOOD, "base.yaml")
+    child = write(tmp_path, "extends: base.yaml\nparams: {k: 5.0}\nblocks:\n  src: {final: 3.0}\n", "child.yaml")
+    d, _ = DiagramFile(child).build()
+    assert d.blocks["g"].K[0, 0] == 5.0 and d.blocks["src"].final[0] == 3.0
+    assert len(d.wires) == 2
+
+
+def test_overrides_and_variants(tmp_path):
+    p = write(tmp_path, GOOD + "variants: {k: [1.0, 3.0]}\n")
+    f = DiagramFile(p, {"g.K": 4.0, "simulation.t_end": 0.5})
+    assert [v for _, v in f.variants()] == [{"k": 1.0}, {"k": 3.0}]
+    d, s = f.build()
+    assert d.blocks["g"].K[0, 0] == 4.0 and s["simulation"]["t_end"] == 0.5
+    with pytest.raises(LoaderError, match="no parameter 'kk'"):
+        DiagramFile(p, {"kk": 1})

@@ -1,0 +1,47 @@
+from fractions import Fraction
+
+import pytest
+
+from hybridsim.block import rate_to_period, to_period
+from hybridsim.errors import RateError
+from hybridsim.schedule import Schedule
+
+
+def test_base_tick_is_gcd_of_periods():
+    s = Schedule([(rate_to_period(60), 0), (rate_to_period(80), 0), (rate_to_period(120), 0)])
+    assert s.base == Fraction(1, 240)
+    assert s.ticks == [(4, 0), (3, 0), (2, 0)]
+
+
+def test_due_and_next_hit():
+    s = Schedule([(rate_to_period(60), 0), (rate_to_period(80), 0)])
+    assert s.due(0) == [0, 1]
+    assert s.next_hit(1) == 3  # 80 Hz at tick 3 of 240 Hz
+    assert s.due(12) == [0, 1]
+
+
+def test_offset():
+    s = Schedule([(Fraction(1, 10), Fraction(1, 20))])
+    assert s.ticks == [(2, 1)]
+    assert s.next_hit(0) == 1 and s.due(0) == []
+
+
+def test_time_is_exact_on_grid():
+    s = Schedule([(rate_to_period(60), 0)])
+    assert s.time(60 * 1000) == 1000.0
+    assert s.last_tick_before(1000.0) == 59999
+
+
+def test_incommensurate_rates_rejected():
+    with pytest.raises(RateError, match="not commensurate"):
+        Schedule([(rate_to_period(60), 0), (rate_to_period("60.001"), 0)])
+
+
+def test_bad_periods():
+    with pytest.raises(RateError, match="positive"):
+        rate_to_period(-5)
+    with pytest.raises(RateError, match="not a number"):
+        rate_to_period("fast")
+    with pytest.raises(RateError, match="ratio of small integers"):
+        to_period(0.0123456789123)
+    assert to_period(1 / 60) == Fraction(1, 60)

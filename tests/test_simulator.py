@@ -1,0 +1,114 @@
+import numpy as np
+import pytest
+
+from hybridsim import RK4, Block, Diagram, ScipySolver, Simulator
+from hybridsim.errors import SimulationError
+
+from blocks.basic import Counter, ZeroOrderHold
+from blocks.sources import Constant, Ramp
+
+
+class Integrator(Block):
+    """x' = u (test helper)."""
+
+    def __init__(self, name="int", x0=0.0):
+        super().__init__(name)
+        self.x0 = x0
+        self.declare_input("u", 1)
+        self.declare_output("y", 1, depends_on=())
+        self.declare_continuous_state(1)
+
+    def initial_state(self, u=None):
+        return np.array([self.x0])
+
+    def output(self, t, x, u):
+        return (x,)
+
+    def derivatives(self, t, x, u):
+        return u[0].copy()
+
+
+class HitLog(Block):
+    """Records the time of each of its sample hits (test helper)."""
+
+    def __init__(self, name, rate):
+        super().__init__(name)
+        self.declare_rate(rate=rate)
+        self.times = []
+
+    def update(self, t, x, u):
+        self.times.append(t)
+        return x
+
+
+def test_60_and_120_hz_for_1000_s_hit_exactly_and_coincide():
+    d = Diagram()
+    slow, fast = d.add(HitLog("slow", 60)), d.add(HitLog("fast", 120))
+    res = Simulator(d.build(), log_period=1000).run(1000.0)
+    assert res.meta["hits"] == {"slow": 60000, "fast": 120000}
+    assert set(slow.times) <= set(fast.times)  # every 60 Hz tick is a 120 Hz tick, exactly
+    assert slow.times[-1] == 999.9833333333333 and fast.times[1] == 1 / 120
+
+
+def test_zero_order_hold_between_ticks():
+    # a ramp sampled at 10 Hz and held, integrated: exact staircase integral
+    d = Diagram()
+    d.add(Ramp("r", slope=1.0))
+    d.add(ZeroOrderHold("zoh", rate=10))
+    d.add(Integrator("i"))
+    d.connect("r.y", "zoh.u")
+    d.connect("zoh.y", "i.u")
+    res = Simulator(d.build(), RK4(0.01), log=["zoh.y", "i.y"], log_period=0.05).run(1.0)
+    # held value at t = 0.15 is the sample at 0.1
+    k = int(np.argmin(abs(res.t - 0.15)))
+    assert res["zoh.y[0]"][k] == pytest.approx(0.1)
+    # integral of the staircase: sum_{k=0}^{9} 0.1 k * 0.1 = 0.45
+    assert res["i.y[0]"][-1] == pytest.approx(0.45, abs=1e-12)
+    assert res.t[-1] == pytest.approx(1.0)
+
+
+def test_counter_offsets():
+    d = Diagram()
+    d.add(Counter("c", rate=10, offset=0.05))
+    res = Simulator(d.build(), log=["c.y"], log_period=0.05).run(0.3)
+    assert res.meta["hits"]["c"] == 3  # 0.05, 0.15, 0.25
+
+
+def test_divergence_is_reported_with_block_and_time():
+    class Unstable(Integrator):
+        def derivatives(self, t, x, u):
+            return 50.0 * x
+
+    d = Diagram()
+    d.add(Constant("c", value=0.0))
+    d.add(Unstable("boom", x0=1.0))
+    d.connect("c.y", "boom.u")
+    with pytest.raises(SimulationError, match=r"diverged at t=.* block 'boom'"):
+        Simulator(d.build()).run(1.0)
+
+
+def test_scipy_solver_matches_analytic_and_stops_at_events():
+    class Oscillator(Block):
+        def __init__(self, name="osc"):
+            super().__init__(name)
+            self.declare_output("y", 1, depends_on=())
+            self.declare_continuous_state(2)
+
+        def initial_state(self, u=None):
+            return np.array([1.0, 0.0])
+
+        def output(self, t, x, u):
+            return (x[:1],)
+
+        def derivatives(self, t, x, u):
+            return np.array([x[1], -(2 * np.pi * 5) ** 2 * x[0]])
+
+        def zero_crossings(self, t, x, u):
+            return x[:1]
+
+    for solver in (RK4(1e-4), ScipySolver("Radau", rtol=1e-10, atol=1e-12),
+                   ScipySolver("DOP853", rtol=1e-10, atol=1e-12)):
+        d = Diagram()
+        d.add(Oscillator())
+        res = Simulator(d.build(), solver, log=["osc.y"], log_period=0.01).run(0.5)
+        assert res["osc.y[0]"] == pytest.approx(np.cos(2 * np.pi * 5 * res.t), abs=1e-6), solver
