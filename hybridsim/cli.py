@@ -44,13 +44,7 @@ def _overrides(items):
 def _load(path, sets):
     from .loader import DiagramFile
 
-    ov = _overrides(sets)
-    f = DiagramFile(path, ov)
-    fixed = {k for k in ov if "." not in k}
-    if fixed and f.data.get("variants"):
-        for k in fixed:
-            f.data["variants"].pop(k, None)
-    return f
+    return DiagramFile(path, _overrides(sets))
 
 
 def cmd_run(args):

@@ -213,7 +213,10 @@ class DiagramFile:
 
     # -- overrides ---------------------------------------------------------
     def apply(self, overrides):
-        """Apply ``{path: value}`` overrides in place (see class docstring)."""
+        """Apply ``{path: value}`` overrides in place (see class docstring).
+
+        Setting a parameter that ``variants`` sweeps fixes it: that sweep ends.
+        """
         for key, value in overrides.items():
             parts = str(key).split(".")
             if len(parts) == 1 or parts[0] == "params":
@@ -222,6 +225,8 @@ class DiagramFile:
                     self._fail(f"--set {key}: no parameter {name!r} in 'params'"
                                f"{closest(name, self.params)}")
                 self.params[name] = value
+                if isinstance(self.data.get("variants"), dict):
+                    self.data["variants"].pop(name, None)  # a fixed value ends that sweep
             elif parts[0] == "simulation" and len(parts) == 2:
                 if parts[1] not in SIM_KEYS:
                     self._fail(f"--set {key}: unknown simulation setting{closest(parts[1], SIM_KEYS)}")

@@ -1,0 +1,147 @@
+"""Benchmark: the Fig 9 run through the engine vs. a plain script of the same equations.
+
+Run on demand (not part of the test suite):
+
+    python benchmarks/bench_fig9.py [--repeat 3] [--t-end 4]
+
+The "plain" side is written here from MODEL.md independently of the engine and
+the block library: one hand-fused right-hand side and controller, integrated
+between ticks by (a) a bare numpy RK4 loop with the same step and (b) scipy's
+solve_ivp (DOP853) with the same tolerances. Each engine path is timed against
+its plain counterpart in the same process run and reported as a ratio; the
+force trajectories of both sides are compared over 0-0.25 s (before the
+undamped model loses contact and the motion turns chaotic) as a cross-check.
+"""
+import argparse
+import math
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+import hybridsim as hs  # noqa: E402
+
+L, KW, KR, M3, M2 = 0.153, 8e5, 9e5, 0.58, 6.68
+TC, TS, EPS, TSTICK = (5.0, 3.5), (5.75, 4.6), 1e-4, 1e-3
+KPP, KPI, KPD = np.array([460, 1650.0]), np.array([1.3, 1200.0]), np.array([30, 250.0])
+KFP, KFI, TMAX = np.array([0.4, 0.3]), np.array([240, 220.0]), np.array([0.004, 0.1])
+XS, F0 = 0.5, 10.0
+
+
+def _fric(v, F, m, i):
+    if abs(v) >= EPS:
+        return -math.copysign(TC[i], v)
+    return min(TS[i], max(-TS[i], -F - m * v / TSTICK))
+
+
+def plain_rhs(t, x, tau):
+    q1, q2, v1, v2, w1, w2, wd1, wd2 = x
+    c, s = math.cos(q1), math.sin(q1)
+    pen = q2 * c + L * s + w1 * c - w2 * s - XS
+    fx = KR * pen if pen > 0 else 0.0
+    f1, f2 = KW * w1, KW * w2
+    i1 = 3.98 - 5.25 * q2 + 6.47 * q2 * q2
+    F1 = tau[0] + q2 * f2 + L * f1
+    F2 = tau[1] + f1
+    m = M2 + M3
+    return np.array([v1, v2, (F1 + _fric(v1, F1, i1, 0)) / i1, (F2 + _fric(v2, F2, m, 1)) / m,
+                     wd1, wd2, (-KW * w1 - fx * c) / M3, (-KW * w2 + fx * s) / M3])
+
+
+def plain_controller(t, x, z, T):
+    q1, q2, v1, v2, w1, w2 = x[:6]
+    c, s = math.cos(q1), math.sin(q1)
+    J = np.array([[-q2 * s + L * c, c], [q2 * c + L * s, s]])
+    X = np.array([q2 * c + L * s, q2 * s - L * c])
+    Xd = J @ x[2:4]
+    wt = 0.75 * math.pi
+    yd, vyd = 0.30 - 0.30 * math.cos(wt * t), 0.30 * wt * math.sin(wt * t)
+    fd = F0 + (F0 if t >= 1.0 else 0.0)
+    qe = np.linalg.solve(J, np.array([0.0, yd - X[1]]))
+    qde = np.linalg.solve(J, np.array([0.0, vyd - Xd[1]]))
+    hf = np.array([-KW * w1, -KW * w2])
+    cfx = c * hf[0] - s * hf[1]
+    tau_e = J.T @ np.array([fd - cfx, 0.0])
+    tau_ff = J.T @ np.array([fd, 0.0])
+    zp = z[:2] + qe * T
+    clip = np.clip(tau_e, -TMAX, TMAX)
+    zf = z[2:] + clip * T
+    tau = KPP * qe + KPI * zp + KPD * qde + tau_ff + KFP * tau_e + KFI * zf
+    return tau, np.concatenate([zp, zf]), cfx
+
+
+def plain_x0():
+    ex = XS + F0 * (1 / KR + 1 / KW)
+    q2 = math.sqrt(ex * ex - L * L)
+    q1 = math.atan2(0.0, ex) + math.atan2(L, q2)
+    return np.array([q1, q2, 0, 0, -F0 * math.cos(q1) / KW, F0 * math.sin(q1) / KW, 0, 0])
+
+
+def plain_run(rate, t_end, method, step=1e-4, rtol=1e-8):
+    T = 1.0 / rate
+    x, z = plain_x0(), np.zeros(4)
+    n = int(round(t_end * rate))
+    forces = []
+    atol = np.array([1e-11, 1e-11, 1e-9, 1e-9, 1e-12, 1e-12, 1e-9, 1e-9])
+    for k in range(n):
+        t = k * T
+        tau, z, cfx = plain_controller(t, x, z, T)
+        forces.append(cfx)
+        if method == "rk4":
+            m = math.ceil(T / step - 1e-9)
+            h = T / m
+            f = lambda tt, xx: plain_rhs(tt, xx, tau)  # noqa: E731
+            for j in range(m):
+                tt = t + j * h
+                k1 = f(tt, x)
+                k2 = f(tt + h / 2, x + h / 2 * k1)
+                k3 = f(tt + h / 2, x + h / 2 * k2)
+                k4 = f(tt + h, x + h * k3)
+                x = x + h / 6 * (k1 + 2 * (k2 + k3) + k4)
+        else:
+            x = solve_ivp(plain_rhs, (t, t + T), x, method="DOP853", rtol=rtol, atol=atol,
+                          args=(tau,)).y[:, -1]
+    return np.array(forces)
+
+
+def engine_run(rate, t_end, method, step=1e-4, rtol=1e-8):
+    extra = dict(step=step) if method == "rk4" else dict(rtol=rtol, atol=1e-10)
+    _, sim, settings = hs.build(ROOT / "diagrams" / "fig9_force_and_position.yaml",
+                                rate=rate, solver=method, t_end=t_end, **extra)
+    return sim.run(t_end)
+
+
+def timed(fn, repeat):
+    times, out = [], None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times), out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--t-end", type=float, default=4.0)
+    args = ap.parse_args()
+    print(f"Fig 9, {args.t_end} s simulated, friction on, median of {args.repeat}\n")
+    print(f"{'rate':>5} {'path':>8} {'plain s':>9} {'engine s':>9} {'ratio':>6}  force diff 0-0.25 s")
+    for rate in (60, 120):
+        for method in ("rk4", "dop853"):
+            tp, fp = timed(lambda: plain_run(rate, args.t_end, method), args.repeat)
+            te, res = timed(lambda: engine_run(rate, args.t_end, method), args.repeat)
+            # engine force at the controller ticks, before contact is lost
+            ticks = np.arange(int(0.25 * rate)) / rate
+            fe = np.interp(ticks, res.t, res["ft.CF[0]"])
+            diff = np.max(np.abs(fe - fp[: ticks.size]))
+            print(f"{rate:>5} {method:>8} {tp:9.3f} {te:9.3f} {te / tp:6.2f}  {diff:.2e} N")
+
+
+if __name__ == "__main__":
+    main()
