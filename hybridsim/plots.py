@@ -7,6 +7,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
 
 
 from .metrics import display_filter  # noqa: E402
@@ -36,6 +37,7 @@ def experiment_figure(f, runs, settings):
                              gridspec_kw={"height_ratios": heights}, squeeze=False)
     axes = axes[:, 0]
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    force_range = []
     for k, run in enumerate(runs):
         r, c = run["result"], colors[k % len(colors)]
         label = run["label"] or f.name
@@ -47,8 +49,10 @@ def experiment_figure(f, runs, settings):
                 ax.set_ylabel("C-Y position (cm)")
             elif p == "force":
                 raw = _col(r, sig["force"])
+                filt = display_filter(r.t, raw)
                 ax.plot(r.t, raw, color=c, lw=0.4, alpha=0.25)
-                ax.plot(r.t, display_filter(r.t, raw), color=c, lw=1.4, label=label)
+                ax.plot(r.t, filt, color=c, lw=1.4, label=label)
+                force_range.extend([np.min(filt), np.max(filt)])
                 if "force_desired" in sig:
                     ax.plot(r.t, _col(r, sig["force_desired"]), "--", color="k" if len(runs) == 1 else c, lw=1)
                 ax.set_ylabel("C-X force (N)\n12 Hz filtered")
@@ -67,6 +71,11 @@ def experiment_figure(f, runs, settings):
                 ax.set_yticks([0, 1], ["off", "on"])
                 ax.set_ylabel("contact")
     for ax, p in zip(axes, panels):
+        if p == "force" and force_range:
+            # scale to the filtered force; the raw ~272 Hz ringing is drawn faint and may be cut
+            lo, hi = min(force_range + [0.0]), max(force_range)
+            pad = 0.1 * (hi - lo or 1.0)
+            ax.set_ylim(lo - pad, hi + pad)
         ax.grid(True, alpha=0.3)
         if p in ("position", "force", "surface", "oscillation") and (len(runs) > 1 or p == "surface"):
             ax.legend(fontsize=7, loc="best", ncol=2 if len(runs) > 4 else 1)
