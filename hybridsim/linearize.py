@@ -216,8 +216,14 @@ class Linearization:
         return C, D
 
     # -- the tick pass --------------------------------------------------------------
-    def _tick_pass(self, s, due, opened=None, v=None):
-        """(h, xd+, yd+, y) after one pass from state s = (xc, xd, yd)."""
+    def _tick_pass(self, s, due, inject=None, v=None, measure=None):
+        """(h, xd+, yd+, y) after one pass from state s = (xc, xd, yd).
+
+        ``inject`` = (block, output, element, mode): after that block computes
+        its output, the element is replaced by (mode 'replace') or increased
+        by (mode 'add') ``v``. ``measure`` = (block, output, element): the value
+        computed there is returned as ``y`` (before any injection).
+        """
         sysm, ctx, t = self.system, self.ctx, self.t
         nx, nd = self.n_x, self.xd0.size
         xc, xd, yd = s[:nx], s[nx:nx + nd], s[nx + nd:]
@@ -230,10 +236,11 @@ class Linearization:
             outs = blk.output(t, ctx.block_state(i, xc), ctx.u[i])
             for buf, val in zip(ctx.y[i], outs):
                 buf[:] = val
-            if opened is not None and i == opened[0]:
-                buf = ctx.y[i][opened[1]]
-                y_meas = np.array([buf[opened[2]]])
-                buf[opened[2]] = v[0]
+            if measure is not None and i == measure[0]:
+                y_meas = np.array([ctx.y[i][measure[1]][measure[2]]])
+            if inject is not None and i == inject[0]:
+                buf = ctx.y[i][inject[1]]
+                buf[inject[2]] = v[0] if inject[3] == "replace" else buf[inject[2]] + v[0]
         h = self._read(self.h_ports)
         xd_new = []
         for i, n in zip(self.disc, self.xd_sizes):
@@ -264,24 +271,25 @@ class Linearization:
     def _state0(self):
         return np.concatenate([self.xc0, self.xd0, self.yd0])
 
-    def _pass_matrices(self, due, opened=None):
-        """Linearized pass: [h; xd+; yd+; y] = P [s; v]."""
+    def _pass_matrices(self, due, inject=None, measure=None):
+        """Linearized pass: [h; xd+; yd+ (; y)] = P [s (; v)]."""
         s0 = self._state0()
         atol = np.where(np.isnan(self.system.atol), 1e-9, self.system.atol)
         floor = np.concatenate([np.maximum(atol * 1e4, 1e-9),
                                 np.full(self.xd0.size + self.yd0.size, 1e-3)])
         v0 = np.zeros(1)
-        if opened is not None:
-            self._tick_pass(s0.copy(), due)  # computed value at the operating point
-            v0 = np.array([self.ctx.y[opened[0]][opened[1]][opened[2]]])
+        if inject is not None and inject[3] == "replace":
+            self._tick_pass(s0.copy(), due)  # the value computed at the operating point
+            v0 = np.array([self.ctx.y[inject[0]][inject[1]][inject[2]]])
+        io = inject is not None
 
         def fun(z):
             s, v = z[:s0.size], z[s0.size:]
-            h, xd, yd, y = self._tick_pass(s.copy(), due, opened, v if opened else None)
-            return np.concatenate([h, xd, yd] + ([y] if opened else []))
+            h, xd, yd, y = self._tick_pass(s.copy(), due, inject, v if io else None, measure)
+            return np.concatenate([h, xd, yd] + ([y] if measure is not None else []))
 
-        z0 = np.concatenate([s0, v0]) if opened is not None else s0
-        steps = self._steps(z0, np.concatenate([floor, [1e-3]]) if opened is not None else floor)
+        z0 = np.concatenate([s0, v0]) if io else s0
+        steps = self._steps(z0, np.concatenate([floor, [1e-3]]) if io else floor)
         P, err = checked_jacobian(fun, z0, steps)
         self.fd_error = max(self.fd_error, err)
         self._restore()
@@ -320,33 +328,49 @@ class Linearization:
         names = [n for n, k in zip(self.state_names(), keep) if k]
         return DiscreteModel(M[np.ix_(keep, keep)], H, names, self.fd_error)
 
-    def loop(self, signal):
-        """Discrete loop transfer L(z) opened at ``signal`` ('block.port[i]')."""
-        sysm = self.system
+    def _port(self, signal, what):
         base, el = parse_signal(signal)
         try:
-            i, o = sysm.port_ref(base)
+            i, o = self.system.port_ref(base)
         except (KeyError, AttributeError, ValueError):
-            raise LinearizationError(f"analysis point {signal!r}: no such output") from None
-        el = 0 if el is None else el
-        if sysm.kind[i] not in ("discrete", "constant") and i in set(sysm.rhs_path):
-            raise LinearizationError(
-                f"analysis point {signal!r} is read continuously by the plant; open a loop at a "
-                "signal that is only sampled (a controller input or output)")
+            raise LinearizationError(f"{what} {signal!r}: no such output") from None
+        return i, o, 0 if el is None else el
+
+    def _single_rate_model(self, inject, measure):
+        """Discrete ss from v (at ``inject``) to y (at ``measure``), one servo period."""
         hits, H = self._hits()
         if len(hits) != 1:
             raise LinearizationError(
-                "loop openings need a single-rate loop; this diagram is multi-rate "
-                "(its closed-loop poles are still exact, lifted to the hyperperiod)")
+                "loop openings and input/output models need a single-rate loop; this diagram "
+                "is multi-rate (its closed-loop poles are still exact, lifted to the hyperperiod)")
         A, B = self.continuous()
         due, tau = hits[0]
-        P = self._pass_matrices(due, opened=(i, o, el))
+        P = self._pass_matrices(due, inject, measure)
         ns = self._state0().size
         M, N = self._step_matrix(P[:-1], A, B, tau, n_in=1)
         Cy, Dy = P[-1:, :ns], P[-1:, ns:]
         keep = _nonzero_columns(np.vstack([M, Cy]))
-        sysd = control.ss(M[np.ix_(keep, keep)], N[keep], Cy[:, keep], Dy, H)
-        return -sysd
+        return control.ss(M[np.ix_(keep, keep)], N[keep], Cy[:, keep], Dy, H)
+
+    def loop(self, signal):
+        """Discrete loop transfer L(z) opened at ``signal`` ('block.port[i]').
+
+        The signal must be one that only the sampled controller reads (not the
+        plant's right-hand side). L = -y/v: closing the loop is 1/(1 + L).
+        """
+        i, o, el = self._port(signal, "analysis point")
+        if self.system.kind[i] not in ("discrete", "constant") and i in set(self.system.rhs_path):
+            raise LinearizationError(
+                f"analysis point {signal!r} is read continuously by the plant; open a loop at a "
+                "signal that is only sampled (a controller input or output)")
+        return -self._single_rate_model((i, o, el, "replace"), (i, o, el))
+
+    def io(self, input_signal, output_signal):
+        """Closed-loop discrete model from an additive input at ``input_signal``
+        (e.g. a command, 'force_cmd.y[0]') to ``output_signal`` sampled at the hits."""
+        i, o, el = self._port(input_signal, "input")
+        j, p, em = self._port(output_signal, "output")
+        return self._single_rate_model((i, o, el, "add"), (j, p, em))
 
 
 class DiscreteModel:
@@ -364,8 +388,23 @@ class DiscreteModel:
         return float(np.max(np.abs(self.poles))) if self.M.size else 0.0
 
     @property
+    def integrator_modes(self):
+        """Number of poles at z = 1 (to 1e-7): integrator directions that no
+        signal drives (e.g. a joint-space integrator fed through a selection
+        matrix). They stay constant: bounded, neither decaying nor growing."""
+        return int(np.sum(np.abs(self.poles - 1.0) < 1e-7))
+
+    @property
+    def growth(self):
+        """Largest |z| apart from the poles at z = 1; < 1 means asymptotically
+        stable except for constant integrator directions."""
+        p = self.poles
+        rest = p[np.abs(p - 1.0) >= 1e-7]
+        return float(np.max(np.abs(rest))) if rest.size else 0.0
+
+    @property
     def stable(self):
-        return self.spectral_radius < 1.0
+        return self.growth < 1.0 - 1e-9
 
     def pole_table(self):
         """Rows (z, |z|, frequency Hz, damping) with s = ln(z)/T; sorted by |z| descending."""

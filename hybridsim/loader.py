@@ -30,7 +30,7 @@ from .errors import DiagramError, LoaderError, RateError
 from .registry import closest, lookup, parameters, types
 
 TOP_KEYS = ["extends", "name", "description", "params", "blocks", "wires", "simulation", "log",
-            "signals", "metrics", "variants", "plot"]
+            "signals", "metrics", "variants", "plot", "analysis"]
 SIM_KEYS = ["t_end", "solver", "step", "rtol", "atol", "max_step", "log_period", "max_state"]
 SOLVERS = ["rk4", "radau", "bdf", "lsoda", "rk45", "rk23", "dop853"]
 SIGNAL_ROLES = ["force", "force_desired", "position", "position_desired", "contact",
@@ -150,7 +150,7 @@ def _read(path, chain=()):
                     cur[bname] = spec
                     cur.lines[bname] = val.lines[bname]
                     cur.locs[bname] = val.locs[bname]
-        elif key in ("params", "simulation", "signals", "metrics", "plot", "variants") \
+        elif key in ("params", "simulation", "signals", "metrics", "plot", "variants", "analysis") \
                 and isinstance(cur, dict) and isinstance(val, dict):
             cur.update(val)
             cur.lines.update(val.lines)
@@ -198,7 +198,7 @@ class DiagramFile:
             self._fail("missing required section 'blocks'", 1)
         for key, kind in (("params", dict), ("blocks", dict), ("simulation", dict),
                           ("signals", dict), ("metrics", dict), ("variants", dict),
-                          ("wires", list), ("log", list), ("plot", dict)):
+                          ("wires", list), ("log", list), ("plot", dict), ("analysis", dict)):
             if key in data and not isinstance(data[key], kind):
                 self._fail(f"section {key!r} must be a {'mapping' if kind is dict else 'list'}",
                            data.lines[key])

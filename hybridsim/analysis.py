@@ -1,0 +1,219 @@
+"""Stability analysis of a diagram file: poles, margins, rate and gain sweeps.
+
+Reads an optional ``analysis`` section of the diagram::
+
+    analysis:
+      set: {friction: false}          # the branch to linearize on (overrides)
+      points: {force: dF.y[0], position: dX.y[1]}   # loop openings
+      rate_param: rate                # the parameter that sets the servo rate
+      rates: [30, 45, 60, 80, 120, 240, 480]
+      gains: {Kfp: fpi.Kp, Kfi: fpi.Ki, Kpp: pid.Kp, Kpi: pid.Ki, Kpd: pid.Kd}
+      scales: [0.125, 0.25, 0.5, 1, 2, 4, 8]
+      cases: {limiter_saturated: {fpi.Ki: [0, 0]}}
+      hand_mode_hz: 272.5             # report the plant mode nearest this
+
+Every entry has a default; all results are plain data (numbers, lists) plus
+python-control objects, so plotting and computing stay separate.
+"""
+import copy
+import inspect
+
+import control
+import numpy as np
+
+from .api import build, load
+from .linearize import Linearization, LinearizationError, hand_modes
+from .registry import lookup
+
+DEFAULTS = {
+    "set": {},
+    "points": {},
+    "rate_param": "rate",
+    "rates": [30, 45, 60, 80, 120, 240, 480],
+    "gains": {},
+    "scales": [0.125, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0],
+    "cases": {},
+    "hand_mode_hz": None,
+}
+
+
+def settings_of(f):
+    """The diagram's analysis settings merged over the defaults."""
+    cfg = copy.deepcopy(DEFAULTS)
+    cfg.update({k: v for k, v in (f.data.get("analysis") or {}).items()})
+    return cfg
+
+
+def linearization(path, at=None, **overrides):
+    """A :class:`Linearization` of a diagram file about its initial state, or
+    about the state reached at ``at`` seconds of simulation."""
+    system, sim, settings = build(path, **overrides)
+    ctx, t = None, 0.0
+    if at:
+        res = sim.run(float(at))
+        ctx, t = res.context, float(at)
+    return Linearization(system, ctx, t)
+
+
+def _param_value(f, ref):
+    """Current value of 'block.param' (from the file or the block's default)."""
+    bname, pname = ref.split(".")
+    spec = f.data["blocks"][bname]
+    if pname in spec:
+        val = spec[pname]
+        if isinstance(val, str) and val.startswith("$"):
+            val = f.params[val[1:]]
+        return np.asarray(val, float)
+    cls = lookup(spec["type"])
+    return np.asarray(inspect.signature(cls.__init__).parameters[pname].default, float)
+
+
+def margins(L):
+    """Gain margin (x and dB), phase margin (deg) and their frequencies (Hz) of L."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        gm, pm, _, wg, wp, _ = control.stability_margins(L)
+    dt = L.dt
+    to_hz = (lambda w: None if w is None or not np.isfinite(w) else float(w / (2 * np.pi)))
+    return {
+        "gain_margin": float(gm) if np.isfinite(gm) else None,
+        "gain_margin_db": float(20 * np.log10(gm)) if np.isfinite(gm) and gm > 0 else None,
+        "phase_margin_deg": float(pm) if np.isfinite(pm) else None,
+        "phase_crossover_hz": to_hz(wg),
+        "gain_crossover_hz": to_hz(wp),
+        "period_s": float(dt) if dt else None,
+    }
+
+
+def _rho(path, overrides):
+    try:
+        system, _, _ = build(path, **overrides)
+        return Linearization(system).closed_loop().growth
+    except LinearizationError:
+        return None
+
+
+def critical_scale(path, base, param, value, lo=1.0, hi=None, tol=0.01):
+    """Scale of ``param`` (relative to ``value``) at the stability boundary.
+
+    Found by doubling/halving from 1, then bisection to ``tol`` (relative).
+    Returns None when no boundary lies within 1e-4..1e4.
+    """
+    def rho(s):
+        return _rho(path, {**base, param: (value * s).tolist()})
+
+    if rho(lo) >= 1.0:
+        # already unstable: search downwards for the stable side
+        hi, lo = lo, lo
+        while rho(lo) >= 1.0 and lo > 1e-4:
+            lo /= 2
+        if lo <= 1e-4:
+            return None
+    else:
+        hi = hi or lo * 2
+        while rho(hi) < 1.0:
+            hi *= 2
+            if hi > 1e4:
+                return None
+    while hi / lo > 1 + tol:
+        mid = np.sqrt(lo * hi)
+        if rho(mid) >= 1.0:
+            hi = mid
+        else:
+            lo = mid
+    return float(np.sqrt(lo * hi))
+
+
+def analyze(path, at=None, sweeps=True, **overrides):
+    """Run the whole analysis; returns a dict of plain results (see module doc)."""
+    f = load(path, **overrides)
+    cfg = settings_of(f)
+    base = {**cfg["set"], **overrides}
+    lin = linearization(path, at=at, **base)
+    cl = lin.closed_loop()
+    A, _ = lin.continuous()
+    out = {
+        "diagram": f.name,
+        "branch": cfg["set"],
+        "period_s": cl.period,
+        "poles": [{"re": float(r["z"].real), "im": float(r["z"].imag), "abs": r["abs"],
+                   "freq_hz": r["freq_hz"], "damping": r["damping"]} for r in cl.pole_table()],
+        "spectral_radius": cl.spectral_radius,
+        "growth": cl.growth,
+        "integrator_modes": cl.integrator_modes,
+        "stable": cl.stable,
+        "plant_modes_hz": hand_modes(A),
+        "fd_error": lin.fd_error,
+        "loops": {},
+    }
+    if cfg["hand_mode_hz"]:
+        out["hand_mode_hz"] = hand_modes(A, float(cfg["hand_mode_hz"]))
+    out["_objects"] = {"closed_loop": cl, "loops": {}}
+    for name, sig in cfg["points"].items():
+        try:
+            L = lin.loop(sig)
+        except LinearizationError as exc:
+            out["loops"][name] = {"signal": sig, "error": str(exc)}
+            continue
+        out["loops"][name] = {"signal": sig, **margins(L)}
+        out["_objects"]["loops"][name] = L
+    out["cases"] = {}
+    for cname, cov in cfg["cases"].items():
+        rho = _rho(path, {**base, **cov})
+        out["cases"][cname] = {"set": cov, "spectral_radius": rho, "stable": rho is not None and rho < 1}
+    if not sweeps:
+        return out
+    rp = cfg["rate_param"]
+    out["rates"] = []
+    if rp in f.params:
+        for r in cfg["rates"]:
+            rho = _rho(path, {**base, rp: r})
+            out["rates"].append({"rate_hz": r, "spectral_radius": rho, "stable": rho is not None and rho < 1})
+    out["gains"] = {}
+    for gname, ref in cfg["gains"].items():
+        value = _param_value(f, ref)
+        rows = []
+        for s in cfg["scales"]:
+            rho = _rho(path, {**base, ref: (value * s).tolist()})
+            rows.append({"scale": s, "spectral_radius": rho, "stable": rho is not None and rho < 1})
+        out["gains"][gname] = {"param": ref, "value": value.tolist(), "sweep": rows,
+                               "critical_scale": critical_scale(path, base, ref, value)}
+    return out
+
+
+def summary_lines(res):
+    """Human-readable lines for the terminal."""
+    lines = [f"{res['diagram']}: closed loop at period {res['period_s'] * 1000:.3f} ms "
+             f"(branch {res['branch'] or 'as built'})",
+             f"  largest |z| {res['growth']:.4f} (besides {res['integrator_modes']} undriven "
+             f"integrator pole(s) at z = 1) -> {'STABLE' if res['stable'] else 'NOT STABLE'}"]
+    lines.append("  dominant poles:   |z|      f (Hz)   damping")
+    seen = 0
+    for p in res["poles"]:
+        if p["freq_hz"] is None or seen >= 6:
+            continue
+        lines.append(f"    {p['re']:+.4f}{p['im']:+.4f}j  {p['abs']:.4f}  {p['freq_hz']:8.2f}  {p['damping']:+.4f}")
+        seen += 1
+    if "hand_mode_hz" in res:
+        lines.append(f"  plant mode nearest eq 18: {res['hand_mode_hz']:.2f} Hz")
+    for name, m in res["loops"].items():
+        if "error" in m:
+            lines.append(f"  loop {name} ({m['signal']}): {m['error']}")
+            continue
+        gm = "inf" if m["gain_margin_db"] is None else f"{m['gain_margin_db']:.2f} dB"
+        pm = "inf" if m["phase_margin_deg"] is None else f"{m['phase_margin_deg']:.1f} deg"
+        lines.append(f"  loop {name} ({m['signal']}): gain margin {gm}, phase margin {pm}")
+    for cname, c in res.get("cases", {}).items():
+        lines.append(f"  case {cname} {c['set']}: largest |z| {c['spectral_radius']:.4f}"
+                     f" ({'stable' if c['stable'] else 'unstable'})")
+    if res.get("rates"):
+        lines.append("  servo rate (Hz): " + "  ".join(
+            f"{r['rate_hz']}:{r['spectral_radius']:.3f}{'' if r['stable'] else '!'}" for r in res["rates"]))
+    for g, d in res.get("gains", {}).items():
+        cs = d["critical_scale"]
+        lines.append(f"  {g} ({d['param']}): unstable from x{cs:.3g}" if cs else
+                     f"  {g} ({d['param']}): no stability boundary found in x1e-4..x1e4")
+    lines.append("  (numbers are the largest |z| over one period besides z = 1; ! = not stable)")
+    return lines
