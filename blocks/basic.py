@@ -189,3 +189,34 @@ class Counter(Block):
 
 
 
+
+
+@register("state_space")
+class StateSpace(Block):
+    """Continuous LTI system x' = A x + B u, y = C x + D u (any plant or filter).
+
+    ``D`` defaults to zero (then y has no direct feedthrough); ``x0`` the initial state.
+    """
+
+    def __init__(self, name="ss", A=((0.0,),), B=((1.0,),), C=((1.0,),), D=None, x0=None):
+        super().__init__(name)
+        self.A, self.B, self.C = (np.atleast_2d(np.asarray(m, float)) for m in (A, B, C))
+        n, m, p = self.A.shape[0], self.B.shape[1], self.C.shape[0]
+        if self.A.shape != (n, n) or self.B.shape[0] != n or self.C.shape[1] != n:
+            raise ValueError(f"inconsistent shapes A {self.A.shape}, B {self.B.shape}, C {self.C.shape}")
+        self.D = np.zeros((p, m)) if D is None else np.atleast_2d(np.asarray(D, float))
+        if self.D.shape != (p, m):
+            raise ValueError(f"D must be {p}x{m}, got {self.D.shape}")
+        self.x0 = np.zeros(n) if x0 is None else vector(x0, "x0", n)
+        self.declare_input("u", m)
+        self.declare_output("y", p, depends_on=None if np.any(self.D) else ())
+        self.declare_continuous_state(n)
+
+    def initial_state(self, u=None):
+        return self.x0.copy()
+
+    def output(self, t, x, u):
+        return (self.C @ x + self.D @ u[0],)
+
+    def derivatives(self, t, x, u):
+        return self.A @ x + self.B @ u[0]

@@ -63,8 +63,15 @@ class Schedule:
         return best
 
     def last_tick_before(self, t_end):
-        """Largest n with ``time(n) < t_end`` (exact for Fraction t_end)."""
+        """Largest n with ``time(n) < t_end``.
+
+        An end time within 1e-9 of a tick counts as that tick (so ``0.01`` s,
+        which is not exactly 1/100 in binary, ends before the tick at 1/100).
+        """
         t = Fraction(t_end)
+        k = round(t / self.base)
+        if abs(k * self.base - t) <= Fraction(1, 10**9) * self.base:
+            return k - 1
         n = int(t / self.base)
         if n * self.base >= t:
             n -= 1

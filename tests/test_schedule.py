@@ -45,3 +45,10 @@ def test_bad_periods():
     with pytest.raises(RateError, match="ratio of small integers"):
         to_period(0.0123456789123)
     assert to_period(1 / 60) == Fraction(1, 60)
+
+
+def test_float_end_time_on_a_tick_ends_before_it():
+    s = Schedule([(rate_to_period(100), 0)])
+    assert s.last_tick_before(0.01) == 0  # 0.01 is a hair above 1/100 in binary
+    assert s.last_tick_before(0.3) == 29
+    assert s.last_tick_before(0.305) == 30

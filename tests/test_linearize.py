@@ -1,0 +1,156 @@
+"""Linearization against independent calculations (python-control, simulation)."""
+import control
+import numpy as np
+import pytest
+
+import hybridsim as hs
+from hybridsim.linearize import Linearization, LinearizationError, zoh
+
+from blocks.basic import StateSpace, Sum, ZeroOrderHold
+from blocks.controllers import PositionPID
+from blocks.sources import Constant
+from conftest import DIAGRAMS, ROOT
+
+M, B, K = 2.0, 3.0, 400.0  # mass-spring-damper: m x'' + b x' + k x = u
+
+
+def msd_loop(kp, ki, rate=50.0):
+    """Unity feedback of the mass-spring-damper position under a sampled PI."""
+    d = hs.Diagram("msd")
+    d.add(Constant("r", value=0.0))
+    d.add(Sum("e", signs="+-"))
+    d.add(PositionPID("pi", Kp=kp, Ki=ki, Kd=0.0, rate=rate, width=1))
+    d.add(StateSpace("plant", A=[[0, 1], [-K / M, -B / M]], B=[[0], [1 / M]], C=[[1, 0]]))
+    d.connect("r.y", "e.u1")
+    d.connect("plant.y", "e.u2")
+    d.connect("e.y", "pi.e")
+    d.connect("r.dy", "pi.ed")
+    d.connect("pi.tau", "plant.u")
+    return d.build()
+
+
+def reference_poles(kp, ki, rate=50.0):
+    """python-control: ZOH plant, PI(z) = Kp + Ki T z/(z-1), negative feedback."""
+    T = 1 / rate
+    P = control.sample_system(control.ss([[0, 1], [-K / M, -B / M]], [[0], [1 / M]], [[1, 0]], 0), T, "zoh")
+    z = control.tf("z")
+    z.dt = T
+    C = kp + ki * T * z / (z - 1)
+    return control.feedback(C * P, 1).poles()
+
+
+def test_zoh_matches_python_control():
+    A, Bm = np.array([[0, 1], [-K / M, -B / M]]), np.array([[0], [1 / M]])
+    Phi, Gam = zoh(A, Bm, 0.02)
+    ref = control.sample_system(control.ss(A, Bm, np.eye(2), 0), 0.02, "zoh")
+    assert Phi == pytest.approx(ref.A, abs=1e-12) and Gam == pytest.approx(ref.B, abs=1e-12)
+
+
+@pytest.mark.parametrize("kp, ki", [(50.0, 100.0), (200.0, 2000.0)])
+def test_sampled_pi_poles_match_python_control(kp, ki):
+    cl = Linearization(msd_loop(kp, ki)).closed_loop()
+    ours = np.sort_complex(cl.poles[np.abs(cl.poles) > 1e-9])
+    ref = np.sort_complex(reference_poles(kp, ki))
+    assert ours == pytest.approx(ref, abs=1e-7)
+    assert cl.period == pytest.approx(0.02)
+
+
+def test_loop_transfer_and_margins_match_python_control():
+    kp, ki, T = 200.0, 2000.0, 0.02
+    L = Linearization(msd_loop(kp, ki)).loop("pi.tau[0]")
+    P = control.sample_system(control.ss([[0, 1], [-K / M, -B / M]], [[0], [1 / M]], [[1, 0]], 0), T, "zoh")
+    z = control.tf("z")
+    z.dt = T
+    ref = (kp + ki * T * z / (z - 1)) * P
+    w = np.array([0.5, 3.0, 20.0, 100.0])
+    assert np.asarray(L(np.exp(1j * w * T))).ravel() == pytest.approx(np.asarray(ref(np.exp(1j * w * T))).ravel(), rel=1e-6)
+    gm, pm, *_ = control.stability_margins(L)
+    gm_ref, pm_ref, *_ = control.stability_margins(ref)
+    assert gm == pytest.approx(gm_ref, rel=1e-5) and pm == pytest.approx(pm_ref, rel=1e-5)
+
+
+def test_stability_boundary_in_kp_matches_python_control():
+    # the boundary is where the reference's largest |z| crosses 1; bisect it independently
+    def rho_ref(kp):
+        return max(abs(reference_poles(kp, 0.0)))
+
+    lo, hi = 1.0, 5000.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if rho_ref(mid) >= 1 else (mid, hi)
+    for kp, expect in ((0.9 * lo, True), (1.1 * lo, False)):
+        cl = Linearization(msd_loop(kp, 0.0)).closed_loop()
+        assert cl.stable is expect
+
+
+def test_multirate_lifting_matches_simulated_map():
+    """PI at 100 Hz behind a 50 Hz zero-order hold: hyperperiod 20 ms; the lifted
+    closed loop equals the finite-difference Jacobian of the simulated map."""
+    d = hs.Diagram("mr")
+    d.add(Constant("r", value=0.0))
+    d.add(Sum("e", signs="+-"))
+    d.add(ZeroOrderHold("s", rate=50))
+    d.add(PositionPID("pi", Kp=100.0, Ki=300.0, Kd=0.0, rate=100, width=1))
+    d.add(StateSpace("plant", A=[[0, 1], [-K / M, -B / M]], B=[[0], [1 / M]], C=[[1, 0]]))
+    for a, b in [("r.y", "e.u1"), ("plant.y", "e.u2"), ("e.y", "s.u"), ("s.y", "pi.e"),
+                 ("r.dy", "pi.ed"), ("pi.tau", "plant.u")]:
+        d.connect(a, b)
+    system = d.build()
+    cl = Linearization(system).closed_loop()
+    assert cl.period == pytest.approx(0.02)
+    sim = hs.Simulator(system, hs.RK4(1e-5), log_period=0.02)
+    pi = system.index["pi"]
+
+    def F(x):  # (plant x, pi integrator) over one hyperperiod
+        ctx = system.create_context()
+        ctx.xc = x[:2].copy()
+        ctx.xd[pi] = x[2:].copy()
+        c = sim.run(0.02, context=ctx).context
+        return np.concatenate([c.xc, c.xd[pi]])
+
+    x0 = np.zeros(3)
+    J = np.column_stack([(F(x0 + 1e-6 * e) - F(x0 - 1e-6 * e)) / 2e-6 for e in np.eye(3)])
+    ours = np.sort_complex(cl.poles[np.abs(cl.poles) > 1e-9])
+    assert ours == pytest.approx(np.sort_complex(np.linalg.eigvals(J)), abs=1e-6)
+    with pytest.raises(LinearizationError, match="single-rate"):
+        Linearization(system).loop("pi.tau[0]")
+
+
+def test_hand_mode_in_linearized_plant():
+    lin = Linearization(hs.build(DIAGRAMS / "hybrid_controller.yaml", friction=False)[0])
+    A, _ = lin.continuous()
+    f = [abs(e.imag) / (2 * np.pi) for e in np.linalg.eigvals(A)]
+    eq18 = np.sqrt((9e5 + 8e5) / 0.58) / (2 * np.pi)
+    assert min(abs(x - eq18) for x in f) / eq18 < 0.01  # measured 269.96 vs 272.48 Hz
+
+
+SMOOTH = ROOT / "tests" / "data" / "smooth_contact.yaml"
+STABLE = {"fpi.Ki": [24.0, 22.0], "force_cmd.time": 10.0}  # Kfi / 10: a stable linear loop
+
+
+def test_linear_step_matches_nonlinear_simulation():
+    system, _, _ = hs.build(SMOOTH, **STABLE)
+    G = Linearization(system).io("force_cmd.y[0]", "ft.CF[0]")
+    n, T = 60, G.dt
+    lin = 0.05 * np.ravel(control.step_response(G, T=np.arange(n) * T).outputs)
+    res = hs.simulate(SMOOTH, **{**STABLE, "force_cmd.initial": [10.05, 0.0]}, t_end=n * T, log_period=T)
+    # a 0.05 N step keeps tau_e inside the limiter band: measured 3.1e-7 N apart
+    assert np.max(np.abs(res["ft.CF[0]"][:n] - 10.0 - lin)) < 1e-5
+    assert lin[-1] == pytest.approx(0.05, abs=1e-3)
+
+
+def test_predicted_gain_boundary_brackets_nonlinear_instability():
+    from hybridsim.analysis import critical_scale
+
+    kfp = np.array([0.4, 0.3])
+    c = critical_scale(SMOOTH, STABLE, "fpi.Kp", kfp)
+    assert 2.0 < c < 5.0  # measured x3.28 of the Appendix A Kfp
+
+    def error_growth(scale):
+        ov = {**STABLE, "fpi.Kp": (kfp * scale).tolist(), "force_cmd.initial": [10.05, 0.0]}
+        r = hs.simulate(SMOOTH, **ov, t_end=2.0)
+        e = np.abs(r["ft.CF[0]"] - 10.05)
+        return e[r.t > 1.8].max() / e[r.t < 0.2].max()
+
+    assert error_growth(0.9 * c) < 0.01   # decays (measured 1e-3)
+    assert error_growth(1.1 * c) > 1.0    # grows (measured 3.7)
