@@ -207,7 +207,7 @@ def summary_lines(res):
         lines.append(f"  loop {name} ({m['signal']}): gain margin {gm}, phase margin {pm}")
     for cname, c in res.get("cases", {}).items():
         lines.append(f"  case {cname} {c['set']}: largest |z| {c['spectral_radius']:.4f}"
-                     f" ({'stable' if c['stable'] else 'unstable'})")
+                     f" ({'stable' if c['stable'] else 'not stable'})")
     if res.get("rates"):
         lines.append("  servo rate (Hz): " + "  ".join(
             f"{r['rate_hz']}:{r['spectral_radius']:.3f}{'' if r['stable'] else '!'}" for r in res["rates"]))

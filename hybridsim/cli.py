@@ -4,6 +4,7 @@ Exit status: 0 success; 2 bad diagram / bad input; 3 simulation diverged;
 4 FMU problem; 70 internal error (please report it, with ``--debug``).
 """
 import argparse
+import json
 
 import sys
 from pathlib import Path
@@ -19,6 +20,8 @@ examples:
   hybridsim run diagrams/fig9_force_and_position.yaml --set arm.damping=[5,50]
   hybridsim check diagrams/fig8_receding_surface.yaml
   hybridsim draw diagrams/hybrid_controller.yaml -o fig6.png
+  hybridsim analyze diagrams/hybrid_controller.yaml --set rate=120
+  hybridsim report diagrams/fig9_force_and_position.yaml -o out/fig9_report
   hybridsim blocks                                               # the block library
 
 --set PATH=VALUE: PATH is a name in the diagram's 'params', a block
@@ -104,6 +107,39 @@ def cmd_draw(args):
     return 0
 
 
+def cmd_analyze(args):
+    from . import analysis
+
+    f = _load(args.diagram, args.set)
+    ov = _overrides(args.set)
+    res = analysis.analyze(f.path, at=args.at, **ov)
+    res.pop("_objects")
+    print("\n".join(analysis.summary_lines(res)))
+    if args.output:
+        from .files import atomic_file
+        from .report import _json
+
+        out = Path(args.output) / "analysis.json"
+        with atomic_file(out) as fh:
+            fh.write(json.dumps(res, indent=2, default=_json) + "\n")
+        print(f"wrote {out}")
+    return 0
+
+
+def cmd_report(args):
+    from .report import write_report
+
+    f = _load(args.diagram, args.set)
+    out = Path(args.output or Path("out") / f"{f.name}_report")
+    print(f"analysing {f.name} ...", file=sys.stderr)
+    data = write_report(f.path, out, **_overrides(args.set))
+    for c in data["configurations"]:
+        print(f"  {c['label'] or f.name}: largest |z| {c['growth']:.4f} "
+              f"({'stable' if c['stable'] else 'not stable'}), least damping {c['least_damping']}")
+    print(f"wrote {out}/report.html (+ PNG and SVG figures, analysis.json)")
+    return 0
+
+
 def cmd_blocks(args):
     from .registry import lookup, parameters, types
 
@@ -146,6 +182,21 @@ def build_parser():
     with_diagram(d)
     d.add_argument("-o", "--output", metavar="FILE", help="image file (.png, .svg, .pdf)")
     d.set_defaults(func=cmd_draw)
+    a = sub.add_parser("analyze", help="linearize: closed-loop poles, margins, rate and gain sweeps",
+                       description="Linearize the diagram about its initial state (or the state at "
+                                   "--at seconds) and print the sampled-data closed-loop poles, loop "
+                                   "margins at the analysis points, and stability against servo rate "
+                                   "and gain scaling (settings: the diagram's 'analysis' section).")
+    with_diagram(a)
+    a.add_argument("--at", type=float, metavar="T", help="linearize about the state at T s of simulation")
+    a.add_argument("-o", "--output", metavar="OUTDIR", help="also write OUTDIR/analysis.json")
+    a.set_defaults(func=cmd_analyze)
+    rp = sub.add_parser("report", help="HTML stability report with Bode, root locus, pole map, sweeps",
+                        description="Analyse every variant (and each 'analysis.compare' setting) and "
+                                    "write one self-contained report.html with PNG/SVG figures.")
+    with_diagram(rp)
+    rp.add_argument("-o", "--output", metavar="OUTDIR", help="output folder (default out/<name>_report)")
+    rp.set_defaults(func=cmd_report)
     b = sub.add_parser("blocks", help="list the block types")
     b.add_argument("-v", "--verbose", action="store_true", help="with their parameters")
     b.set_defaults(func=cmd_blocks)

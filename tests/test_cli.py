@@ -88,3 +88,28 @@ def test_draw_and_blocks_and_help(tmp_path, capsys):
         main(["--help"])
     assert exc.value.code == 0
     assert "--set PATH=VALUE" in capsys.readouterr().out
+
+
+def test_analyze_prints_poles_margins_and_sweeps(tmp_path, capsys):
+    code, out, _ = run(capsys, "analyze", DIAGRAMS / "hybrid_controller.yaml", "--set", "rate=120",
+                       "-o", tmp_path)
+    assert code == 0
+    assert "largest |z|" in out and "loop force (dF.y[0])" in out and "servo rate (Hz)" in out
+    doc = json.loads((tmp_path / "analysis.json").read_text())
+    assert doc["period_s"] == pytest.approx(1 / 120) and doc["loops"]["force"]["signal"] == "dF.y[0]"
+    assert 0.99 < doc["hand_mode_hz"] / 272.48 < 1.0
+
+
+def test_report_writes_html_and_figures(tmp_path, capsys):
+    code, out, _ = run(capsys, "report", DIAGRAMS / "fig9_force_and_position.yaml", "-o", tmp_path / "r")
+    assert code == 0
+    names = {p.name for p in (tmp_path / "r").iterdir()}
+    for stem in ("diagram", "bode_force", "bode_position", "poles", "root_locus", "stability_vs_rate",
+                 "stability_vs_gain", "step_linear_vs_nonlinear"):
+        assert {f"{stem}.png", f"{stem}.svg"} <= names
+    page = (tmp_path / "r" / "report.html").read_text()
+    assert page.count("data:image/png;base64") >= 8
+    assert "as printed</b>, rate=60 … rate=120" in page and "damped</b>" in page
+    data = json.loads((tmp_path / "r" / "analysis.json").read_text())
+    labels = [c["label"] for c in data["configurations"]]
+    assert labels[:3] == ["as printed rate=60", "as printed rate=80", "as printed rate=120"]
