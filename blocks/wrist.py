@@ -7,7 +7,7 @@ from hybridsim.block import Block
 from hybridsim.registry import register
 
 from ._util import vector
-from .kinematics import L_OFFSET, endpoint, jacobian
+from .kinematics import L_OFFSET
 
 
 @register("wrist")
@@ -58,13 +58,15 @@ class Wrist(Block):
         return np.concatenate([w, self.wd0])
 
     def output(self, t, x, u):
-        q, qd = u[0], u[1]
+        q1, q2 = u[0]
+        qd1, qd2 = u[1]
         w1, w2, wd1, wd2 = x
-        c, s = math.cos(q[0]), math.sin(q[0])
-        hand = endpoint(q, self.l) + (w1 * c - w2 * s, w1 * s + w2 * c)
-        vel = (jacobian(q, self.l) @ qd
-               + (wd1 * c - wd2 * s, wd1 * s + wd2 * c)
-               + qd[0] * np.array([-w1 * s - w2 * c, w1 * c - w2 * s]))
+        c, s, l = math.cos(q1), math.sin(q1), self.l
+        rw1, rw2 = w1 * c - w2 * s, w1 * s + w2 * c          # R(q1) w
+        hand = (q2 * c + l * s + rw1, q2 * s - l * c + rw2)    # Lambda(q) + R w
+        # d/dt [Lambda(q) + R w] = J q' + R w' + q1' dR/dq1 w
+        vel = ((-q2 * s + l * c) * qd1 + c * qd2 + wd1 * c - wd2 * s - qd1 * rw2,
+               (q2 * c + l * s) * qd1 + s * qd2 + wd1 * s + wd2 * c + qd1 * rw1)
         k, b = self.Kw, self.bw
         return ((-k * w1, -k * w2), (k * w1 + b * wd1, k * w2 + b * wd2), hand, vel)
 

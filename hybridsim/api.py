@@ -8,6 +8,7 @@
 :func:`write_outputs` writes CSV, plots and ``metrics.json`` atomically.
 """
 import json
+import os
 from pathlib import Path
 
 from . import metrics as _metrics
@@ -75,19 +76,46 @@ def simulate(path_or_file, variant=None, progress=False, **overrides):
     return simulator.run(settings["simulation"]["t_end"])
 
 
-def run_experiment(path_or_file, progress=False, **overrides):
-    """Run every variant of a file. Returns a list of dicts with keys
-    ``label``, ``overrides``, ``result``, ``metrics``; and the settings."""
+def _run_variant(f, label, variant, progress=False):
+    system, simulator, settings = build(f, variant)
+    simulator.progress = progress
+    result = simulator.run(settings["simulation"]["t_end"])
+    m = _metrics.compute(result, settings["signals"], settings["metrics"])
+    m["wall_time_s"] = result.meta["wall_time_s"]
+    result.context = None  # the final state stays in the worker
+    return {"label": label, "overrides": variant, "result": result, "metrics": m}, settings
+
+
+def run_experiment(path_or_file, progress=False, jobs=None, **overrides):
+    """Run every variant of a file; returns ``(file, runs, settings)``.
+
+    ``runs`` is a list of dicts with keys ``label``, ``overrides``, ``result``
+    and ``metrics``, in variant order. Several variants run in parallel on
+    ``jobs`` processes (default: one per core); ``jobs=1`` runs them here.
+    """
     f = path_or_file if isinstance(path_or_file, DiagramFile) else load(path_or_file, **overrides)
-    runs, settings = [], None
-    for label, variant in f.variants():
-        system, simulator, settings = build(f, variant)
-        simulator.progress = progress
-        result = simulator.run(settings["simulation"]["t_end"])
-        m = _metrics.compute(result, settings["signals"], settings["metrics"])
-        m["wall_time_s"] = result.meta["wall_time_s"]
-        runs.append({"label": label, "overrides": variant, "result": result, "metrics": m})
-    return f, runs, settings
+    variants = f.variants()
+    jobs = min(len(variants), jobs or os.cpu_count() or 1)
+    if jobs <= 1:
+        out = [_run_variant(f, label, v, progress) for label, v in variants]
+    else:
+        from concurrent.futures import ProcessPoolExecutor
+
+        bar = None
+        if progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=len(variants), unit="run", delay=1.0, leave=False)
+        with ProcessPoolExecutor(jobs) as pool:
+            futures = [pool.submit(_run_variant, f, label, v) for label, v in variants]
+            out = []
+            for fut in futures:
+                out.append(fut.result())
+                if bar is not None:
+                    bar.update(1)
+        if bar is not None:
+            bar.close()
+    return f, [r for r, _ in out], out[-1][1]
 
 
 def write_outputs(f, runs, settings, outdir):

@@ -35,3 +35,16 @@ def test_preload_is_in_static_balance():
     F = w.output(0, x0, [q, np.zeros(2), np.zeros(1)])[0]
     c, s = math.cos(q[0]), math.sin(q[0])
     assert (c * F[0] - s * F[1], s * F[0] + c * F[1]) == pytest.approx((5.0, 0.0))
+
+
+def test_hand_velocity_is_the_time_derivative_of_hand_position():
+    w = Wrist(Kw=8e5)
+    q, qd = np.array([0.3, 0.48]), np.array([0.7, -0.2])
+    x, xd = np.array([1e-5, -2e-5]), np.array([0.01, 0.03])
+    h = 1e-7
+
+    def hand(t):
+        return np.array(w.output(0, np.concatenate([x + t * xd, xd]), [q + t * qd, qd, np.zeros(1)])[2])
+
+    v = w.output(0, np.concatenate([x, xd]), [q, qd, np.zeros(1)])[3]
+    assert v == pytest.approx((hand(h) - hand(-h)) / (2 * h), rel=1e-7)
