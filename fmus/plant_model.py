@@ -1,0 +1,160 @@
+"""The plant FMU's variables: the one source of modelDescription.xml and plant_vars.h.
+
+Every real variable of the FMU, in value-reference order. The C code keeps
+all of them in one array indexed by value reference, so a variable added here
+appears in the XML and in C at the same reference; they cannot drift.
+Physical constants and defaults are MODEL.md's (Appendix A of the paper).
+"""
+import hashlib
+import uuid
+
+MODEL_NAME = "hybridsim_plant"
+DESCRIPTION = ("Raibert & Craig (1981) two-joint arm with stick-slip friction, hand on a wrist force "
+               "sensor and a unilateral reaction surface (eqs 5-11, MODEL.md)")
+
+# (name, causality, variability, start, unit, description)
+P, I, O, L = "parameter", "input", "output", "local"
+VARIABLES = [
+    # inputs
+    ("tau[1]", I, "continuous", 0.0, "N.m", "joint 1 actuator torque"),
+    ("tau[2]", I, "continuous", 0.0, "N", "joint 2 actuator force"),
+    ("x_surface", I, "continuous", 0.5, "m", "surface position along C-X"),
+    ("v_surface", I, "continuous", 0.0, "m/s", "surface velocity along C-X"),
+    # outputs
+    ("q[1]", O, "continuous", None, "rad", "joint 1 angle"),
+    ("q[2]", O, "continuous", None, "m", "joint 2 extension"),
+    ("qd[1]", O, "continuous", None, "rad/s", "joint 1 rate"),
+    ("qd[2]", O, "continuous", None, "m/s", "joint 2 rate"),
+    ("F[1]", O, "continuous", None, "N", "sensed wrist force -Kw w, hand frame axis 1"),
+    ("F[2]", O, "continuous", None, "N", "sensed wrist force -Kw w, hand frame axis 2"),
+    ("x_hand[1]", O, "continuous", None, "m", "hand position C-X"),
+    ("x_hand[2]", O, "continuous", None, "m", "hand position C-Y"),
+    ("fx", O, "continuous", None, "N", "contact force of the surface"),
+    ("contact", O, "continuous", None, "1", "1 in contact, else 0"),
+    # parameters
+    ("Kw", P, "fixed", 8.0e5, "N/m", "wrist stiffness"),
+    ("Kr", P, "fixed", 9.0e5, "N/m", "surface stiffness"),
+    ("M2", P, "fixed", 6.68, "kg", "link 2 mass"),
+    ("M3", P, "fixed", 0.58, "kg", "hand mass"),
+    ("I1_0", P, "fixed", 3.98, "kg.m2", "I1(q2) = I1_0 + I1_1 q2 + I1_2 q2^2"),
+    ("I1_1", P, "fixed", -5.25, "kg.m", "I1 coefficient of q2"),
+    ("I1_2", P, "fixed", 6.47, "kg", "I1 coefficient of q2^2"),
+    ("l", P, "fixed", 0.153, "m", "link offset"),
+    ("tau_c[1]", P, "fixed", 5.0, "N.m", "Coulomb friction joint 1"),
+    ("tau_c[2]", P, "fixed", 3.5, "N", "Coulomb friction joint 2"),
+    ("tau_s[1]", P, "fixed", 5.75, "N.m", "static friction joint 1"),
+    ("tau_s[2]", P, "fixed", 4.6, "N", "static friction joint 2"),
+    ("friction", P, "fixed", 1.0, "1", "1 friction on, 0 off"),
+    ("stick_band", P, "fixed", 1e-4, "1", "Karnopp capture band on joint speeds (rad/s, m/s)"),
+    ("stick_time", P, "fixed", 1e-3, "s", "time constant bringing a stuck joint to rest"),
+    ("b[1]", P, "fixed", 0.0, "N.m.s/rad", "joint 1 viscous damping"),
+    ("b[2]", P, "fixed", 0.0, "N.s/m", "joint 2 viscous damping"),
+    ("bw", P, "fixed", 0.0, "N.s/m", "wrist damping"),
+    ("br", P, "fixed", 0.0, "N.s/m", "surface contact damping"),
+    ("unilateral", P, "fixed", 1.0, "1", "1: the surface only pushes"),
+    ("endpoint0[1]", P, "fixed", 0.50002361111, "m", "initial arm endpoint C-X (inverse kinematics)"),
+    ("endpoint0[2]", P, "fixed", 0.0, "m", "initial arm endpoint C-Y"),
+    ("preload", P, "fixed", 10.0, "N", "initial contact force the hand balances along C-X"),
+    ("max_substep", P, "fixed", 1e-4, "s", "co-simulation: largest internal RK4 step"),
+    # continuous states and their derivatives (states first, derivatives after, same order)
+    ("s.q1", L, "continuous", 0.0, "rad", "state q1"),
+    ("s.q2", L, "continuous", 0.0, "m", "state q2"),
+    ("s.qd1", L, "continuous", 0.0, "rad/s", "state q1'"),
+    ("s.qd2", L, "continuous", 0.0, "m/s", "state q2'"),
+    ("s.w1", L, "continuous", 0.0, "m", "state w1 (hand frame)"),
+    ("s.w2", L, "continuous", 0.0, "m", "state w2"),
+    ("s.wd1", L, "continuous", 0.0, "m/s", "state w1'"),
+    ("s.wd2", L, "continuous", 0.0, "m/s", "state w2'"),
+]
+N_STATES = 8
+STATE_NAMES = [v[0] for v in VARIABLES if v[0].startswith("s.")]
+DERIVATIVES = [f"der({n})" for n in STATE_NAMES]
+N_EVENT_INDICATORS = 3  # |q1'| - band, |q2'| - band, penetration
+
+
+def all_variables():
+    """VARIABLES plus the derivative variables, with value references 0..n-1."""
+    out = list(VARIABLES)
+    units = {v[0]: v[4] for v in VARIABLES}
+    for s, d in zip(STATE_NAMES, DERIVATIVES):
+        out.append((d, L, "continuous", None, units[s] + "/s", f"derivative of {s}"))
+    return out
+
+
+def c_name(name):
+    """C macro for a variable: 'tau_c[2]' -> VR_TAU_C_2, 'der(s.q1)' -> VR_DER_S_Q1."""
+    out = name.replace("der(", "der_").replace(")", "").replace("[", "_").replace("]", "").replace(".", "_")
+    return "VR_" + out.upper()
+
+
+def guid():
+    text = repr(all_variables()).encode()
+    return "{" + str(uuid.UUID(hashlib.md5(text).hexdigest())) + "}"
+
+
+def vars_header():
+    """plant_vars.h: value references, count and start values."""
+    vs = all_variables()
+    lines = ["/* Generated by fmus/plant_model.py - do not edit. */",
+             "#ifndef PLANT_VARS_H", "#define PLANT_VARS_H", "",
+             f'#define MODEL_GUID "{guid()}"', f"#define N_VARS {len(vs)}",
+             f"#define N_STATES {N_STATES}", f"#define N_EVENT_INDICATORS {N_EVENT_INDICATORS}", ""]
+    for k, v in enumerate(vs):
+        lines.append(f"#define {c_name(v[0])} {k}  /* {v[0]}: {v[5]} */")
+    lines.append(f"#define VR_STATE0 {c_name(STATE_NAMES[0])}")
+    lines.append(f"#define VR_DER0 {c_name(DERIVATIVES[0])}")
+    starts = ", ".join(repr(float(v[3])) if v[3] is not None else "0.0" for v in vs)
+    lines += ["", f"static const double START_VALUES[N_VARS] = {{{starts}}};", "", "#endif", ""]
+    return "\n".join(lines)
+
+
+def model_description():
+    """modelDescription.xml (FMI 2.0, Co-Simulation and Model Exchange)."""
+    from xml.sax.saxutils import escape
+
+    vs = all_variables()
+    index = {v[0]: k + 1 for k, v in enumerate(vs)}  # 1-based ScalarVariable index
+    units = sorted({v[4] for v in vs if v[4] and v[4] != "1"})
+    out = ['<?xml version="1.0" encoding="UTF-8"?>',
+           '<fmiModelDescription fmiVersion="2.0" modelName="%s" guid="%s"' % (MODEL_NAME, guid()),
+           '  description="%s" generationTool="hybridsim" variableNamingConvention="structured"'
+           % escape(DESCRIPTION),
+           f'  numberOfEventIndicators="{N_EVENT_INDICATORS}">',
+           f'  <ModelExchange modelIdentifier="{MODEL_NAME}" canGetAndSetFMUstate="true"/>',
+           f'  <CoSimulation modelIdentifier="{MODEL_NAME}" canHandleVariableCommunicationStepSize="true"'
+           ' canGetAndSetFMUstate="true"/>',
+           "  <UnitDefinitions>"]
+    out += [f'    <Unit name="{escape(u)}"/>' for u in units]
+    out += ["  </UnitDefinitions>", '  <DefaultExperiment startTime="0" stopTime="4" stepSize="0.016666666666666666"/>',
+            "  <ModelVariables>"]
+    for k, (name, caus, var, start, unit, desc) in enumerate(vs):
+        attrs = f'name="{escape(name)}" valueReference="{k}" description="{escape(desc)}" causality="{caus}" variability="{var}"'
+        real = f'unit="{escape(unit)}"' if unit and unit != "1" else ""
+        if name.startswith("der("):
+            real += f' derivative="{index[name[4:-1]]}"'
+        if caus == "output":
+            attrs += ' initial="calculated"'
+        elif caus == "local":
+            attrs += ' initial="calculated"' if name.startswith("s.") or name.startswith("der(") else ""
+        if start is not None and caus in ("input", "parameter"):
+            real += f' start="{start!r}"'
+        out.append(f"    <ScalarVariable {attrs}><Real {real.strip()}/></ScalarVariable>")
+    out.append("  </ModelVariables>")
+    out.append("  <ModelStructure>")
+    out.append("    <Outputs>")
+    states = " ".join(str(index[n]) for n in STATE_NAMES)
+    surface = f"{index['x_surface']} {index['v_surface']}"
+    for v in vs:  # outputs depend on the states; the contact force also on the surface input
+        if v[1] == "output":
+            deps = f"{states} {surface}" if v[0] in ("fx", "contact") else states
+            out.append(f'      <Unknown index="{index[v[0]]}" dependencies="{deps}"/>')
+    out.append("    </Outputs>")
+    out.append("    <Derivatives>")
+    out += [f'      <Unknown index="{index[d]}"/>' for d in DERIVATIVES]
+    out.append("    </Derivatives>")
+    out.append("    <InitialUnknowns>")
+    initial = [v[0] for v in vs if v[1] == "output"] + STATE_NAMES + DERIVATIVES
+    out += [f'      <Unknown index="{index[n]}"/>' for n in sorted(initial, key=index.get)]
+    out.append("    </InitialUnknowns>")
+    out += ["  </ModelStructure>", "</fmiModelDescription>", ""]
+    return "\n".join(out)

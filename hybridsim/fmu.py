@@ -1,0 +1,326 @@
+"""The FMU bridge: build the plant FMU, and use any FMU as a block (via fmpy).
+
+* :func:`build_fmu` compiles a C model behind the FMI 2.0 API into a ``.fmu``
+  (``hybridsim fmu build`` builds the plant of ``fmus/``).
+* :class:`FMUBlock` (``type: fmu`` in YAML) loads an FMI 2.0 or 3.0 FMU.
+  Inputs and outputs become ports; variables named ``x[1]``, ``x[2]``, ...
+  are grouped into one port ``x`` of that width. Co-Simulation FMUs are
+  discrete blocks stepped at the block's period (outputs at a hit are the
+  FMU's outputs at that time, then the inputs are set and the FMU steps one
+  period: zero-order hold on the inputs). Model Exchange FMUs are continuous
+  blocks integrated by hybridsim's solver, their event indicators used as
+  zero crossings. Direct feedthrough comes from the model structure.
+
+A Co-Simulation FMU keeps its state inside the FMU instance, not in the
+hybridsim context: a diagram with one runs one simulation at a time, and
+each run re-instantiates it at t = 0.
+"""
+import contextlib
+import ctypes
+import os
+import re
+import shutil
+import subprocess
+import tempfile
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from .block import Block
+from .errors import FMUError
+from .registry import closest, register
+
+_INDEXED = re.compile(r"^(.*)\[(\d+)\]$")
+
+
+def _group(variables):
+    """[(port name, [variables in element order])] for 'x[1]', 'x[2]', ... and scalars."""
+    ports = {}
+    for v in variables:
+        m = _INDEXED.match(v.name)
+        base, idx = (m.group(1), int(m.group(2))) if m else (v.name, 1)
+        ports.setdefault(base, []).append((idx, v))
+    out = []
+    for base, items in ports.items():
+        items.sort(key=lambda t: t[0])
+        out.append((base.replace(".", "_"), [v for _, v in items]))
+    return out
+
+
+@register("fmu")
+class FMUBlock(Block):
+    """Any FMI 2.0/3.0 FMU as a block.
+
+    Parameters
+    ----------
+    path : str       the .fmu file (relative paths: to the working folder)
+    mode : 'cs' or 'me'   Co-Simulation (needs ``rate`` or ``period``) or Model Exchange
+    parameters : dict     start values to set, by variable name
+    rate, period          sample rate (Hz) or period (s) of a Co-Simulation FMU
+    """
+
+    def __init__(self, name="fmu", path=None, mode="cs", parameters=None, rate=None, period=None):
+        super().__init__(name)
+        if not path:
+            raise ValueError("an fmu block needs 'path'")
+        import fmpy
+        from fmpy.model_description import read_model_description
+
+        self.path = Path(path)
+        if not self.path.exists():
+            raise FMUError(f"FMU {str(self.path)!r}: file not found")
+        if not zipfile.is_zipfile(self.path):
+            raise FMUError(f"FMU {str(self.path)!r}: not an FMU (not a zip archive)")
+        try:
+            md = read_model_description(str(self.path))
+        except Exception as exc:  # noqa: BLE001 - fmpy raises many kinds
+            raise FMUError(f"FMU {str(self.path)!r}: cannot read modelDescription.xml: {exc}") from None
+        if md.fmiVersion not in ("2.0", "3.0"):
+            raise FMUError(f"FMU {str(self.path)!r}: FMI version {md.fmiVersion} is not supported (2.0 or 3.0)")
+        self.md = md
+        self.mode = str(mode).lower()
+        kind = {"cs": md.coSimulation, "me": md.modelExchange}.get(self.mode, None)
+        if self.mode not in ("cs", "me"):
+            raise ValueError(f"mode must be 'cs' or 'me', got {mode!r}")
+        if kind is None:
+            raise FMUError(f"FMU {str(self.path)!r} offers no {'Co-Simulation' if self.mode == 'cs' else 'Model Exchange'}")
+        platform = fmpy.platform_tuple if md.fmiVersion == "3.0" else fmpy.platform
+        binaries = {p for p in fmpy.supported_platforms(str(self.path))}
+        if fmpy.platform not in binaries and fmpy.platform_tuple not in binaries:
+            raise FMUError(f"FMU {str(self.path)!r} has no binary for this platform ({platform}); "
+                           f"it has: {', '.join(sorted(binaries)) or 'none'}")
+        self.model_identifier = kind.modelIdentifier
+        byname = {v.name: v for v in md.modelVariables}
+        self.parameters = {}
+        for pname, value in (parameters or {}).items():
+            if pname not in byname:
+                raise FMUError(f"FMU {str(self.path)!r} has no variable {pname!r}{closest(pname, byname)}")
+            self.parameters[pname] = value
+        self.in_ports = _group([v for v in md.modelVariables if v.causality == "input"])
+        self.out_ports = _group([v for v in md.modelVariables if v.causality == "output"])
+        for pname, vs in self.in_ports:
+            self.declare_input(pname, len(vs))
+        in_index = {v.valueReference: pname for pname, vs in self.in_ports for v in vs}
+        deps = {}
+        for u in md.outputs:
+            if u.dependencies is None:
+                deps[u.variable.name] = None
+            else:
+                deps[u.variable.name] = {in_index[d.valueReference] for d in u.dependencies
+                                         if d.valueReference in in_index}
+        for pname, vs in self.out_ports:
+            dep = set()
+            for v in vs:
+                d = deps.get(v.name)
+                if d is None:
+                    dep = None
+                    break
+                dep |= d
+            self.declare_output(pname, len(vs), depends_on=None if dep is None else sorted(dep))
+        self.in_vrs = [[v.valueReference for v in vs] for _, vs in self.in_ports]
+        self.out_vrs = [[v.valueReference for v in vs] for _, vs in self.out_ports]
+        self.out_flat = [vr for vrs in self.out_vrs for vr in vrs]
+        self.cuts = np.cumsum([0] + [len(v) for v in self.out_vrs])
+        self.in_flat = [vr for vrs in self.in_vrs for vr in vrs]
+        if self.mode == "cs":
+            if (rate is None) == (period is None):
+                raise ValueError("a Co-Simulation FMU needs exactly one of rate (Hz) or period (s)")
+            self.declare_rate(period=period, rate=rate)
+            self.T = float(self.period)
+        else:
+            self.nx = md.numberOfContinuousStates
+            self.nz = md.numberOfEventIndicators
+            self.declare_continuous_state(self.nx, atol=1e-12)
+        self._fmu = None
+        self._unzipdir = None
+        self._messages = []
+
+    # -- the FMU instance ------------------------------------------------------
+    def _call(self, what, fn, *args):
+        try:
+            return fn(*args)
+        except Exception as exc:  # noqa: BLE001
+            log = "; ".join(self._messages[-3:])
+            raise FMUError(f"FMU block {self.name!r}: {what} failed: {exc}"
+                           + (f" - the FMU says: {log}" if log else "")) from None
+
+    def _instantiate(self):
+        import fmpy
+        from fmpy.fmi2 import FMU2Model, FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+        from fmpy.fmi2 import defaultCallbacks as cb2
+
+        self.close()
+        self._unzipdir = fmpy.extract(str(self.path))
+        self._messages = []
+        cls = FMU2Slave if self.mode == "cs" else FMU2Model
+        if self.md.fmiVersion == "3.0":
+            from fmpy.fmi3 import FMU3Model, FMU3Slave
+
+            cls = FMU3Slave if self.mode == "cs" else FMU3Model
+        kw = dict(guid=self.md.guid, unzipDirectory=self._unzipdir,
+                  modelIdentifier=self.model_identifier, instanceName=self.name)
+        fmu = self._call("loading the binary", cls, **kw)
+        if self.md.fmiVersion == "2.0":
+            def logger(env, name, status, category, message):
+                self._messages.append(message.decode(errors="replace"))
+
+            self._logger = fmi2CallbackLoggerTYPE(logger)
+            cbs = fmi2CallbackFunctions()
+            cbs.logger = self._logger
+            cbs.allocateMemory, cbs.freeMemory = cb2.allocateMemory, cb2.freeMemory
+            with contextlib.suppress(Exception):
+                from fmpy.logging import addLoggerProxy
+
+                addLoggerProxy(ctypes.byref(cbs))
+            self._callbacks = cbs
+            self._call("fmi2Instantiate", fmu.instantiate, False, cbs)
+        else:
+            self._call("fmi3Instantiate", fmu.instantiate)
+        self._call("setupExperiment", fmu.setupExperiment, None, 0.0) if self.md.fmiVersion == "2.0" else None
+        byname = {v.name: v for v in self.md.modelVariables}
+        self._call("enterInitializationMode", fmu.enterInitializationMode)
+        for pname, value in self.parameters.items():
+            self._call(f"setting {pname}", fmu.setReal, [byname[pname].valueReference], [float(value)])
+        self._call("exitInitializationMode", fmu.exitInitializationMode)
+        if self.mode == "me":
+            if self.md.fmiVersion == "2.0":
+                info = self._call("newDiscreteStates", fmu.newDiscreteStates)
+                _ = info
+                self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
+            else:
+                self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
+        self._fmu = fmu
+        return fmu
+
+    def close(self):
+        """Free the FMU instance and delete its extracted files."""
+        if self._fmu is not None:
+            with contextlib.suppress(Exception):
+                self._fmu.terminate()
+            with contextlib.suppress(Exception):
+                self._fmu.freeInstance()
+            self._fmu = None
+        if self._unzipdir:
+            shutil.rmtree(self._unzipdir, ignore_errors=True)
+            self._unzipdir = None
+
+    def __del__(self):  # pragma: no cover - interpreter shutdown order varies
+        with contextlib.suppress(Exception):
+            self.close()
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state.update(_fmu=None, _unzipdir=None, _logger=None, _callbacks=None)
+        return state
+
+    def _outputs(self):
+        vals = np.asarray(self._call("fmi2GetReal", self._fmu.getReal, self.out_flat), float)
+        return tuple(vals[a:b] for a, b in zip(self.cuts[:-1], self.cuts[1:]))
+
+    def _set_inputs(self, u):
+        if self.in_flat:
+            self._call("fmi2SetReal", self._fmu.setReal, self.in_flat,
+                       [float(x) for x in np.concatenate(u)])
+
+    # -- block API ----------------------------------------------------------------
+    def initial_state(self, u=None):
+        fmu = self._instantiate()
+        if self.mode == "me":
+            x = np.zeros(self.nx)
+            self._call("getContinuousStates", fmu.getContinuousStates, x.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
+            return x
+        return np.zeros(0)
+
+    def output(self, t, x, u):
+        if self.mode == "me":
+            self._me_set(t, x, u)
+        else:
+            self._set_inputs(u)
+        return self._outputs()
+
+    def update(self, t, x, u):
+        self._set_inputs(u)
+        self._call(f"doStep at t={t:.6g}", self._fmu.doStep, t, self.T)
+        return x
+
+    def _me_set(self, t, x, u):
+        fmu = self._fmu
+        fmu.setTime(t)
+        fmu.setContinuousStates(np.ascontiguousarray(x).ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
+        self._set_inputs(u)
+
+    def derivatives(self, t, x, u):
+        self._me_set(t, x, u)
+        dx = np.zeros(self.nx)
+        self._call("getDerivatives", self._fmu.getDerivatives, dx.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
+        return dx
+
+    def zero_crossings(self, t, x, u):
+        if self.mode != "me" or not self.nz:
+            return np.zeros(0)
+        self._me_set(t, x, u)
+        z = np.zeros(self.nz)
+        self._call("getEventIndicators", self._fmu.getEventIndicators, z.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nz)
+        return z
+
+
+# -- building -------------------------------------------------------------------------
+
+def find_compiler():
+    """Path of the system C compiler (cc or gcc), or raise FMUError."""
+    for name in (os.environ.get("CC"), "cc", "gcc"):
+        if name and shutil.which(name):
+            return shutil.which(name)
+    raise FMUError("no C compiler found (looked for $CC, cc, gcc): install gcc "
+                   "(Debian/Ubuntu: sudo apt-get install gcc)")
+
+
+def build_fmu(out, model_identifier, sources, model_description, headers, include_dirs=()):
+    """Compile ``sources`` into a shared library and pack an FMI 2.0 FMU at ``out``.
+
+    ``headers``: {file name: text} of generated headers; ``include_dirs``:
+    folders with the FMI headers. Everything is packed with its sources.
+    """
+    import fmpy
+
+    cc = find_compiler()
+    out = Path(out)
+    with tempfile.TemporaryDirectory(prefix="hybridsim-fmu-") as tmp:
+        tmp = Path(tmp)
+        src = tmp / "sources"
+        binary = tmp / "binaries" / fmpy.platform
+        src.mkdir(parents=True)
+        binary.mkdir(parents=True)
+        for name, text in headers.items():
+            (src / name).write_text(text)
+        for f in sources:
+            shutil.copy(f, src / Path(f).name)
+        for d in include_dirs:
+            for h in Path(d).glob("*.h"):
+                shutil.copy(h, src / h.name)
+        (tmp / "modelDescription.xml").write_text(model_description)
+        lib = binary / f"{model_identifier}.so"
+        cmd = [cc, "-std=c99", "-O2", "-fPIC", "-shared", "-Wall", "-I", str(src), "-o", str(lib)]
+        cmd += [str(src / Path(f).name) for f in sources] + ["-lm"]
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise FMUError(f"compiling {model_identifier} failed:\n{proc.stderr.strip()}")
+        out.parent.mkdir(parents=True, exist_ok=True)
+        part = out.with_name(f".{out.name}.part")
+        with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
+            for f in sorted(tmp.rglob("*")):
+                if f.is_file():
+                    z.write(f, f.relative_to(tmp).as_posix())
+        os.replace(part, out)
+    return out
+
+
+def build_plant_fmu(out="plant.fmu"):
+    """Build the hybridsim plant FMU (Co-Simulation + Model Exchange) at ``out``."""
+    import fmus
+    from fmus import plant_model as pm
+
+    here = Path(fmus.__file__).parent
+    return build_fmu(out, pm.MODEL_NAME, [here / "plant.c"], pm.model_description(),
+                     {"plant_vars.h": pm.vars_header()}, [here / "include"])
