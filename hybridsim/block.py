@@ -22,7 +22,8 @@ and implements some of
   sets ``init_needs_inputs = True`` (e.g. a pre-loaded spring whose direction
   depends on another block's state);
 * ``zero_crossings(t, x, u)`` -> array whose sign changes mark
-  discontinuities (friction stick/slip, contact make/break).
+  discontinuities (friction stick/slip, contact make/break);
+* ``release()``: free outside resources when a run ends (FMU instances).
 
 ``u`` is a list of numpy arrays in input declaration order, ``x`` a numpy
 array (a view of the diagram's state vector for continuous blocks).
@@ -178,6 +179,9 @@ class Block:
 
     def zero_crossings(self, t, x, u):
         return None
+
+    def release(self):
+        """Free outside resources (an FMU instance, files) when a run ends."""
 
     def __repr__(self):
         return f"<{type(self).__name__} {self.name!r}>"

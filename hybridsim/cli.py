@@ -22,6 +22,7 @@ examples:
   hybridsim draw diagrams/hybrid_controller.yaml -o fig6.png
   hybridsim analyze diagrams/hybrid_controller.yaml --set rate=120
   hybridsim report diagrams/fig9_force_and_position.yaml -o out/fig9_report
+  hybridsim fmu build -o plant.fmu && hybridsim run diagrams/fig9_fmu_cs.yaml
   hybridsim blocks                                               # the block library
 
 --set PATH=VALUE: PATH is a name in the diagram's 'params', a block
@@ -152,6 +153,14 @@ def cmd_reproduce(args):
     return 0
 
 
+def cmd_fmu_build(args):
+    from .fmu import build_plant_fmu
+
+    out = build_plant_fmu(args.output)
+    print(f"wrote {out} (FMI 2.0, Co-Simulation and Model Exchange, sources included)")
+    return 0
+
+
 def cmd_blocks(args):
     from .registry import lookup, parameters, types
 
@@ -217,6 +226,15 @@ def build_parser():
     rr.add_argument("-o", "--output", metavar="OUTDIR", help="output folder (default out/reproduce)")
     rr.add_argument("-j", "--jobs", type=int, help="parallel processes (default: one per core)")
     rr.set_defaults(func=cmd_reproduce)
+    fm = sub.add_parser("fmu", help="FMU tools: 'hybridsim fmu build' exports the plant")
+    fsub = fm.add_subparsers(dest="fmu_command", metavar="FMU_COMMAND")
+    fb = fsub.add_parser("build", help="compile the plant (fmus/plant.c) into an FMI 2.0 FMU",
+                         description="Generate modelDescription.xml and the C variable table from "
+                                     "fmus/plant_model.py, compile fmus/plant.c with the system C "
+                                     "compiler (cc or gcc, or $CC) and pack plant.fmu with its sources.")
+    fb.add_argument("-o", "--output", default="plant.fmu", metavar="FILE", help="the FMU to write (default plant.fmu)")
+    fb.set_defaults(func=cmd_fmu_build)
+    fm.set_defaults(func=lambda a: (fm.print_help(), 2)[1])
     b = sub.add_parser("blocks", help="list the block types")
     b.add_argument("-v", "--verbose", action="store_true", help="with their parameters")
     b.set_defaults(func=cmd_blocks)

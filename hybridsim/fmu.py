@@ -94,6 +94,12 @@ class FMUBlock(Block):
         byname = {v.name: v for v in md.modelVariables}
         self.parameters = {}
         for pname, value in (parameters or {}).items():
+            if pname not in byname and f"{pname}[1]" in byname and isinstance(value, (list, tuple)):
+                for k, v in enumerate(value, start=1):  # b: [1, 2] sets b[1] and b[2]
+                    if f"{pname}[{k}]" not in byname:
+                        raise FMUError(f"FMU {str(self.path)!r} has no variable {pname}[{k}]")
+                    self.parameters[f"{pname}[{k}]"] = v
+                continue
             if pname not in byname:
                 raise FMUError(f"FMU {str(self.path)!r} has no variable {pname!r}{closest(pname, byname)}")
             self.parameters[pname] = value
@@ -137,9 +143,9 @@ class FMUBlock(Block):
         self._messages = []
 
     # -- the FMU instance ------------------------------------------------------
-    def _call(self, what, fn, *args):
+    def _call(self, what, fn, *args, **kwargs):
         try:
-            return fn(*args)
+            return fn(*args, **kwargs)
         except Exception as exc:  # noqa: BLE001
             log = "; ".join(self._messages[-3:])
             raise FMUError(f"FMU block {self.name!r}: {what} failed: {exc}"
@@ -204,6 +210,9 @@ class FMUBlock(Block):
         if self._unzipdir:
             shutil.rmtree(self._unzipdir, ignore_errors=True)
             self._unzipdir = None
+
+    def release(self):
+        self.close()
 
     def __del__(self):  # pragma: no cover - interpreter shutdown order varies
         with contextlib.suppress(Exception):

@@ -120,10 +120,11 @@ def _parse(path):
 def _read(path, chain=()):
     """Parse ``path`` and merge it over the file it ``extends`` (if any).
 
-    Merging: ``params``, ``simulation``, ``signals``, ``metrics``, ``plot`` and
-    ``variants`` are updated key by key; a block given again with a ``type``
-    replaces the base block, without one it updates the base block's
-    parameters; ``wires`` and ``log`` are appended; other keys replace.
+    Merging: ``params``, ``simulation``, ``signals``, ``metrics``, ``plot``,
+    ``variants`` and ``analysis`` are updated key by key; a block given again
+    with a ``type`` replaces the base block, without one it updates the base
+    block's parameters, and ``name: null`` removes it with its wires;
+    ``wires`` and ``log`` are appended; other keys replace.
     """
     data = _parse(path)
     base_name = data.get("extends")
@@ -142,6 +143,10 @@ def _read(path, chain=()):
         cur = merged.get(key)
         if key == "blocks" and isinstance(cur, dict) and isinstance(val, dict):
             for bname, spec in val.items():
+                if spec is None and bname in cur:  # 'name: null' removes a base block and its wires
+                    del cur[bname]
+                    _drop_wires(merged, bname)
+                    continue
                 if isinstance(spec, dict) and "type" not in spec and isinstance(cur.get(bname), dict):
                     cur[bname].update(spec)
                     cur[bname].lines.update(spec.lines)
@@ -163,6 +168,25 @@ def _read(path, chain=()):
             merged[key] = val
         merged.lines[key] = data.lines[key]
     return merged
+
+
+def _drop_wires(data, bname):
+    """Remove the wires of ``data`` that touch block ``bname``."""
+    wires = data.get("wires")
+    if not isinstance(wires, list):
+        return
+    keep = [k for k, w in enumerate(wires)
+            if not any(str(e).strip().split(".")[0] == bname
+                       for e in (w.split("->") if isinstance(w, str) else w))]
+    new = _List(wires[k] for k in keep)
+    new.line, new.lines, new.locs = wires.line, [wires.lines[k] for k in keep], [wires.locs[k] for k in keep]
+    data["wires"] = new
+    log = data.get("log")
+    if isinstance(log, list):
+        keep = [k for k, r in enumerate(log) if str(r).split(".")[0] != bname]
+        new = _List(log[k] for k in keep)
+        new.line, new.lines, new.locs = log.line, [log.lines[k] for k in keep], [log.locs[k] for k in keep]
+        data["log"] = new
 
 
 def _plain(v):

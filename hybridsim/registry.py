@@ -9,7 +9,7 @@ import importlib
 import inspect
 
 _TYPES = {}
-_LIBRARIES = ["blocks"]
+_LIBRARIES = ["blocks", "hybridsim.fmu"]
 
 
 def register(type_name):

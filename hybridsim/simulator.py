@@ -18,7 +18,7 @@ import time as _time
 
 import numpy as np
 
-from .errors import SimulationError
+from .errors import DiagramError, SimulationError
 from .result import Result
 from .schedule import Schedule
 from .solvers import RK4
@@ -77,7 +77,7 @@ class Simulator:
             try:
                 system.port_ref(r)
             except (KeyError, AttributeError, ValueError):
-                raise SimulationError(f"cannot log {r!r}: no such output") from None
+                raise DiagramError([f"cannot log {r!r}: no such output"], system.source) from None
         self.log_refs = refs
         self._log_ports = [system.port_ref(r) for r in refs]
         self.log_path = system.evaluation_path({i for i, _ in self._log_ports})
@@ -128,26 +128,43 @@ class Simulator:
             raise SimulationError(f"end time must be positive, got {t_end!r}")
         ctx = context or sysm.create_context()
         rhs, events = self._bind(ctx)
-        blocks, kind = sysm.blocks, sysm.kind
-        discrete = sysm.discrete
+        blocks, discrete = sysm.blocks, sysm.discrete
         sched = Schedule(
             [(blocks[i].period, blocks[i].time_offset) for i in discrete] + [(self.log_period, 0)],
             [blocks[i].name for i in discrete] + ["log"],
         )
         LOG = len(discrete)
-        which = list(range(LOG))
         n_last = sched.last_tick_before(t_end)
         log_every = sched.ticks[LOG][0]
         hits = {blocks[i].name: 0 for i in discrete}
         rows_t, rows = [], []
+        bar = _progress(t_end) if self.progress else None
+        wall0 = _time.perf_counter()
+        try:
+            rows_t, rows, xc = self._loop(ctx, sched, rhs, events, record_to=(rows_t, rows), bar=bar,
+                                          t_end=t_end, n_last=n_last, log_every=log_every, hits=hits)
+        finally:
+            if bar is not None:
+                bar.close()
+            for b in blocks:
+                b.release()
+        ctx.t = t_end
+        wall = _time.perf_counter() - wall0
+        return self._result(rows_t, rows, ctx, t_end, wall, hits)
+
+    def _loop(self, ctx, sched, rhs, events, record_to, bar, t_end, n_last, log_every, hits):
+        """The tick loop of :meth:`run`; returns (times, rows, final xc)."""
+        sysm = self.system
+        blocks, kind, discrete = sysm.blocks, sysm.kind, sysm.discrete
+        LOG = len(discrete)
+        which = list(range(LOG))
+        rows_t, rows = record_to
 
         def record(t):
             rows_t.append(t)
             rows.append(np.concatenate([ctx.y[i][o] for i, o in self._log_ports])
                         if self._log_ports else np.zeros(0))
 
-        bar = _progress(t_end) if self.progress else None
-        wall0 = _time.perf_counter()
         n = 0
         xc = ctx.xc
         with np.errstate(over="ignore", invalid="ignore"):
@@ -190,17 +207,17 @@ class Simulator:
             if _on_grid(t_end, float(self.log_period)) and rows_t[-1] < t_end:
                 ctx.evaluate(self.log_path, t_end, xc)
                 record(t_end)
-        ctx.t = t_end
-        if bar is not None:
-            bar.close()
-        wall = _time.perf_counter() - wall0
+        return rows_t, rows, xc
+
+    def _result(self, rows_t, rows, ctx, t_end, wall, hits):
+        blocks = self.system.blocks
         data = np.array(rows) if rows else np.zeros((0, 0))
         signals, col = {}, 0
         for ref, (i, o) in zip(self.log_refs, self._log_ports):
             w = blocks[i].outputs[o].width
             signals[ref] = data[:, col:col + w] if data.size else np.zeros((0, w))
             col += w
-        meta = {"diagram": sysm.name, "solver": repr(self.solver), "t_end": t_end,
+        meta = {"diagram": self.system.name, "solver": repr(self.solver), "t_end": t_end,
                 "wall_time_s": wall, "hits": hits}
         return Result(np.array(rows_t), signals, meta, context=ctx)
 
