@@ -10,6 +10,7 @@ from .diagram import Diagram
 from .errors import (DiagramError, FMUError, HybridsimError, LoaderError, RateError,
                      SimulationError)
 from .registry import register
+from . import registry
 from .simulator import Simulator
 from .solvers import RK4, ScipySolver
 

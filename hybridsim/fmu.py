@@ -2,7 +2,7 @@
 
 * :func:`build_fmu` compiles a C model behind the FMI 2.0 API into a ``.fmu``
   (``hybridsim fmu build`` builds the plant of ``fmus/``).
-* :class:`FMUBlock` (``type: fmu`` in YAML) loads an FMI 2.0 or 3.0 FMU.
+* :class:`FMUBlock` (``type: fmu`` in YAML) loads an FMI 2.0 FMU (3.0: not yet).
   Inputs and outputs become ports; variables named ``x[1]``, ``x[2]``, ...
   are grouped into one port ``x`` of that width. Co-Simulation FMUs are
   discrete blocks stepped at the block's period (outputs at a hit are the
@@ -50,7 +50,7 @@ def _group(variables):
 
 @register("fmu")
 class FMUBlock(Block):
-    """Any FMI 2.0/3.0 FMU as a block.
+    """Any FMI 2.0 FMU as a block.
 
     Parameters
     ----------
@@ -76,8 +76,9 @@ class FMUBlock(Block):
             md = read_model_description(str(self.path))
         except Exception as exc:  # noqa: BLE001 - fmpy raises many kinds
             raise FMUError(f"FMU {str(self.path)!r}: cannot read modelDescription.xml: {exc}") from None
-        if md.fmiVersion not in ("2.0", "3.0"):
-            raise FMUError(f"FMU {str(self.path)!r}: FMI version {md.fmiVersion} is not supported (2.0 or 3.0)")
+        if md.fmiVersion != "2.0":
+            raise FMUError(f"FMU {str(self.path)!r}: FMI version {md.fmiVersion} is not supported "
+                           "(FMI 2.0 only, for now)")
         self.md = md
         self.mode = str(mode).lower()
         kind = {"cs": md.coSimulation, "me": md.modelExchange}.get(self.mode, None)
@@ -85,10 +86,9 @@ class FMUBlock(Block):
             raise ValueError(f"mode must be 'cs' or 'me', got {mode!r}")
         if kind is None:
             raise FMUError(f"FMU {str(self.path)!r} offers no {'Co-Simulation' if self.mode == 'cs' else 'Model Exchange'}")
-        platform = fmpy.platform_tuple if md.fmiVersion == "3.0" else fmpy.platform
         binaries = {p for p in fmpy.supported_platforms(str(self.path))}
-        if fmpy.platform not in binaries and fmpy.platform_tuple not in binaries:
-            raise FMUError(f"FMU {str(self.path)!r} has no binary for this platform ({platform}); "
+        if fmpy.platform not in binaries:
+            raise FMUError(f"FMU {str(self.path)!r} has no binary for this platform ({fmpy.platform}); "
                            f"it has: {', '.join(sorted(binaries)) or 'none'}")
         self.model_identifier = kind.modelIdentifier
         byname = {v.name: v for v in md.modelVariables}
@@ -160,42 +160,32 @@ class FMUBlock(Block):
         self._unzipdir = fmpy.extract(str(self.path))
         self._messages = []
         cls = FMU2Slave if self.mode == "cs" else FMU2Model
-        if self.md.fmiVersion == "3.0":
-            from fmpy.fmi3 import FMU3Model, FMU3Slave
-
-            cls = FMU3Slave if self.mode == "cs" else FMU3Model
         kw = dict(guid=self.md.guid, unzipDirectory=self._unzipdir,
                   modelIdentifier=self.model_identifier, instanceName=self.name)
         fmu = self._call("loading the binary", cls, **kw)
-        if self.md.fmiVersion == "2.0":
-            def logger(env, name, status, category, message):
-                self._messages.append(message.decode(errors="replace"))
 
-            self._logger = fmi2CallbackLoggerTYPE(logger)
-            cbs = fmi2CallbackFunctions()
-            cbs.logger = self._logger
-            cbs.allocateMemory, cbs.freeMemory = cb2.allocateMemory, cb2.freeMemory
-            with contextlib.suppress(Exception):
-                from fmpy.logging import addLoggerProxy
+        def logger(env, name, status, category, message):
+            self._messages.append(message.decode(errors="replace"))
 
-                addLoggerProxy(ctypes.byref(cbs))
-            self._callbacks = cbs
-            self._call("fmi2Instantiate", fmu.instantiate, False, cbs)
-        else:
-            self._call("fmi3Instantiate", fmu.instantiate)
-        self._call("setupExperiment", fmu.setupExperiment, None, 0.0) if self.md.fmiVersion == "2.0" else None
+        self._logger = fmi2CallbackLoggerTYPE(logger)
+        cbs = fmi2CallbackFunctions()
+        cbs.logger = self._logger
+        cbs.allocateMemory, cbs.freeMemory = cb2.allocateMemory, cb2.freeMemory
+        with contextlib.suppress(Exception):
+            from fmpy.logging import addLoggerProxy  # formats the FMU's printf-style messages
+
+            addLoggerProxy(ctypes.byref(cbs))
+        self._callbacks = cbs
+        self._call("fmi2Instantiate", fmu.instantiate, False, cbs)
+        self._call("setupExperiment", fmu.setupExperiment, None, 0.0)
         byname = {v.name: v for v in self.md.modelVariables}
         self._call("enterInitializationMode", fmu.enterInitializationMode)
         for pname, value in self.parameters.items():
             self._call(f"setting {pname}", fmu.setReal, [byname[pname].valueReference], [float(value)])
         self._call("exitInitializationMode", fmu.exitInitializationMode)
         if self.mode == "me":
-            if self.md.fmiVersion == "2.0":
-                info = self._call("newDiscreteStates", fmu.newDiscreteStates)
-                _ = info
-                self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
-            else:
-                self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
+            self._call("newDiscreteStates", fmu.newDiscreteStates)
+            self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
         self._fmu = fmu
         return fmu
 

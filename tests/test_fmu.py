@@ -192,3 +192,17 @@ def test_fmu_call_error_carries_the_fmus_message_and_cleans_up(plant, capsys):
 def test_cli_builds_the_fmu(tmp_path, capsys):
     assert main(["fmu", "build", "-o", str(tmp_path / "p.fmu")]) == 0
     assert zipfile.is_zipfile(tmp_path / "p.fmu")
+
+
+def test_model_structure_feeds_the_algebraic_loop_check(plant):
+    # fx depends directly on the x_surface input (model structure): fx -> x_surface is a loop
+    d = hs.Diagram("loop")
+    d.add(FMUBlock("p", path=str(plant), mode="me"))
+    d.add(hs.registry.lookup("gain")("g", K=1e-9))
+    d.add(hs.registry.lookup("constant")("c", value=[0.0, 0.0]))
+    d.add(hs.registry.lookup("constant")("v", value=0.0))
+    for a, b in [("c.y", "p.tau"), ("p.fx", "g.u"), ("g.y", "p.x_surface"), ("v.y", "p.v_surface")]:
+        d.connect(a, b)
+    with pytest.raises(hs.DiagramError, match="algebraic loop"):
+        d.build()
+    assert FMUBlock("p", path=str(plant), mode="me").outputs[0].depends_on == ()  # q: states only
