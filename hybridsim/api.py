@@ -39,18 +39,17 @@ def _atol_vector(system, sim):
     return a
 
 
+SIMULATION_KEYS = {"t_end", "solver", "step", "rtol", "atol", "max_step", "log_period", "max_state"}
+
+
 def load(path, **overrides):
-    """Parse a diagram file, applying ``overrides`` ({'rate': 80, 'arm.damping': [...]})."""
-    return DiagramFile(path, _split(overrides)[0])
+    """Parse a diagram file, applying ``overrides``.
 
-
-def _split(overrides):
-    """Keyword overrides: t_end/solver/step... go to simulation, others as given."""
-    sim_keys = {"t_end", "solver", "step", "rtol", "atol", "max_step", "log_period"}
-    ov = {}
-    for k, v in overrides.items():
-        ov[f"simulation.{k}" if k in sim_keys else k.replace("__", ".")] = v
-    return ov, None
+    Keys: a name in ``params`` (``rate=80``), a block parameter
+    (``**{"arm.damping": [5, 50]}``), or a simulation setting (``t_end=1``).
+    """
+    ov = {(f"simulation.{k}" if k in SIMULATION_KEYS else k): v for k, v in overrides.items()}
+    return DiagramFile(path, ov)
 
 
 def build(path_or_file, variant=None, **overrides):

@@ -50,12 +50,15 @@ class _List(list):
     lines = None
 
 
-class _Loader(yaml.SafeLoader):
+class NumberLoader(yaml.SafeLoader):
+    """Safe YAML that reads 9.0e5 and 1e-4 as numbers (YAML 1.1 makes them strings)."""
+
+
+class _Loader(NumberLoader):
     source_path = None
 
 
-# YAML 1.1 reads 9.0e5 and 1e-4 as strings; engineers write them as numbers.
-_Loader.add_implicit_resolver(
+NumberLoader.add_implicit_resolver(
     "tag:yaml.org,2002:float",
     re.compile(r"""^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?(?:[eE][-+]?[0-9]+)$"""),
     list("-+0123456789"),

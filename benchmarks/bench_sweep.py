@@ -1,0 +1,58 @@
+"""Benchmark: sweep throughput, runs per second, serial vs local pool vs Dask.
+
+Run on demand:  python benchmarks/bench_sweep.py [--points 8]
+
+One small sweep (Fig 7, 5 N, 0.6 s simulated per run) executed serially, on a
+local process pool of 2, and on a local Dask cluster with 1 and 2 worker
+processes, each from an empty output folder, in one process run.
+"""
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from hybridsim.sweep import run_sweep  # noqa: E402
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--points", type=int, default=8)
+    args = ap.parse_args()
+    scales = [0.5 + 0.25 * k for k in range(args.points)]
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        spec = tmp / "s.yaml"
+        spec.write_text(f"diagram: {ROOT / 'diagrams' / 'fig7_force_steps.yaml'}\n"
+                        "set: {force: 5.0, rate: 60, simulation.t_end: 0.6}\n"
+                        f"scale: {{fpi.Kp: {scales}}}\n")
+
+        def timed(label, **kw):
+            t0 = time.perf_counter()
+            run_sweep(spec, tmp / label, progress=False, **kw)
+            dt = time.perf_counter() - t0
+            return dt
+
+        rows = [("serial", timed("serial", jobs=1)), ("local pool (2)", timed("pool", jobs=2))]
+        try:
+            from distributed import Client, LocalCluster
+
+            for n in (1, 2):
+                with LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cl, Client(cl) as client:
+                    client.run(lambda: __import__("hybridsim.api"))  # warm the workers' imports
+                    rows.append((f"dask, {n} worker(s)", timed(f"dask{n}", dask=client)))
+        except ImportError:
+            print("(distributed not installed: no Dask rows)")
+    base = rows[0][1]
+    print(f"{args.points} runs of Fig 7 (0.6 s simulated each)\n")
+    print(f"{'executor':>20} {'wall s':>8} {'runs/s':>7} {'speed-up':>9}")
+    for label, dt in rows:
+        print(f"{label:>20} {dt:8.2f} {args.points / dt:7.2f} {base / dt:9.2f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,311 @@
+"""Parameter sweeps: many runs of one diagram, reduced to a tidy table.
+
+A sweep file::
+
+    diagram: ../diagrams/fig7_force_steps.yaml   # relative to this file
+    set: {force: 5.0, rate: 60, simulation.t_end: 1.5}   # fixed for every point
+    grid:                      # full factorial over values ...
+      rate: [60, 120]
+    scale:                     # ... and over multiples of a parameter's value
+      fpi.Kp: [0.5, 1, 2]
+    random:                    # or/and: seeded uniform samples
+      n: 20
+      seed: 1
+      ranges: {Kr: [8.0e5, 1.0e6]}
+    traces: false              # also keep each run's CSV
+    stability: true            # also the linearized closed loop's largest |z|
+
+Every point is one run (per variant of the diagram) reduced to its metrics
+(rise time, overshoot, steady-state error, contact lost, max position error,
+and the stability verdict: whether the run completed). Points run in
+parallel on all local cores, or on a Dask cluster (``--dask ADDRESS``).
+
+Resuming: each finished point is appended as one JSON line to
+``points.jsonl`` in the output folder, keyed by a hash of its overrides; a
+second run of the same sweep skips the points already there, so an
+interrupted sweep loses and duplicates nothing. A point whose run diverges is
+recorded as failed, with the message, and the sweep carries on.
+"""
+import hashlib
+import itertools
+import json
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from .errors import HybridsimError, LoaderError
+from .files import atomic_file
+from .loader import NumberLoader
+
+SWEEP_KEYS = {"diagram", "set", "grid", "scale", "random", "traces", "stability"}
+
+
+class Sweep:
+    """A parsed sweep file: the diagram, fixed overrides and the list of points."""
+
+    def __init__(self, path):
+        self.path = Path(path)
+        try:
+            data = yaml.load(self.path.read_text(), Loader=NumberLoader)
+        except FileNotFoundError:
+            raise LoaderError("no such file", self.path) from None
+        except yaml.YAMLError as exc:
+            mark = getattr(exc, "problem_mark", None)
+            raise LoaderError(f"YAML syntax error: {getattr(exc, 'problem', exc)}", self.path,
+                              mark.line + 1 if mark else None) from None
+        if not isinstance(data, dict) or "diagram" not in data:
+            raise LoaderError("a sweep file is a mapping with at least 'diagram'", self.path)
+        unknown = set(data) - SWEEP_KEYS
+        if unknown:
+            raise LoaderError(f"unknown sweep keys {sorted(unknown)}; keys: {sorted(SWEEP_KEYS)}", self.path)
+        self.diagram = (self.path.parent / data["diagram"]).resolve()
+        self.fixed = dict(data.get("set") or {})
+        self.grid = dict(data.get("grid") or {})
+        self.scale = dict(data.get("scale") or {})
+        self.random = data.get("random")
+        self.traces = bool(data.get("traces", False))
+        self.stability = bool(data.get("stability", False))
+        self._base = None
+
+    def _base_value(self, ref):
+        """Value of a parameter or block parameter in the diagram (for scaling)."""
+        from .analysis import _param_value
+        from .api import load
+
+        if self._base is None:
+            self._base = load(self.diagram, **self.fixed)
+        f = self._base
+        if "." not in ref:
+            if ref not in f.params:
+                raise HybridsimError(f"sweep: no parameter {ref!r} in {self.diagram.name}")
+            return np.asarray(f.params[ref], float)
+        try:
+            return _param_value(f, ref)
+        except (KeyError, ValueError) as exc:
+            raise HybridsimError(f"sweep: cannot scale {ref!r}: {exc}") from None
+
+    def points(self):
+        """List of dicts: 'params' (what the table shows) and 'overrides' (what runs)."""
+        pts = []
+        axes = [(k, v, False) for k, v in self.grid.items()] + [(k, v, True) for k, v in self.scale.items()]
+        if axes:
+            for combo in itertools.product(*(v for _, v, _ in axes)):
+                params, ov = {}, {}
+                for (k, _, scaled), val in zip(axes, combo):
+                    if scaled:
+                        params[f"{k}*"] = float(val)
+                        ov[k] = (self._base_value(k) * float(val)).tolist()
+                    else:
+                        params[k] = val
+                        ov[k] = val
+                pts.append({"params": params, "overrides": ov})
+        if self.random:
+            rng = np.random.default_rng(int(self.random.get("seed", 0)))
+            for _ in range(int(self.random.get("n", 10))):
+                params = {k: float(rng.uniform(lo, hi)) for k, (lo, hi) in self.random["ranges"].items()}
+                pts.append({"params": params, "overrides": dict(params)})
+        if not pts:
+            raise HybridsimError(f"{self.path}: the sweep has no points (give grid, scale or random)")
+        for p in pts:
+            p["key"] = point_key(p["overrides"])
+        return pts
+
+
+def point_key(overrides):
+    text = json.dumps(overrides, sort_keys=True, default=float)
+    return hashlib.sha1(text.encode()).hexdigest()[:16]
+
+
+def run_point(diagram, fixed, point, traces_dir=None, stability=False):
+    """Run one point (all variants); returns a list of result rows. Never raises
+    for a failing run: the row says 'failed' and why."""
+    from .api import run_experiment
+
+    rows = []
+    t0 = time.perf_counter()
+    extra = {}
+    if stability:
+        extra["linear_largest_abs_z"] = _linear_growth(diagram, {**fixed, **point["overrides"]})
+    try:
+        f, runs, _ = run_experiment(diagram, jobs=1, **{**fixed, **point["overrides"]})
+    except HybridsimError as exc:
+        return [{"key": point["key"], **point["params"], "variant": "", "status": "failed",
+                 "message": str(exc).splitlines()[0], "wall_time_s": time.perf_counter() - t0}]
+    for r in runs:
+        m = {k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in r["metrics"].items()
+             if not isinstance(v, (list, dict))}
+        rows.append({"key": point["key"], **point["params"], "variant": r["label"], "status": "ok",
+                     "message": "", **m, **extra})
+        if traces_dir:
+            r["result"].to_csv(Path(traces_dir) / f"{point['key']}{('_' + r['label']) if r['label'] else ''}.csv")
+    return rows
+
+
+def _linear_growth(diagram, overrides):
+    """Largest |z| of the linearized closed loop on the diagram's analysis branch."""
+    from .analysis import _rho, settings_of
+    from .api import load
+
+    try:
+        cfg = settings_of(load(diagram, **overrides))
+        return _rho(diagram, {**cfg["set"], **overrides})
+    except HybridsimError:
+        return None
+
+
+def _load_done(jsonl):
+    done = {}
+    if jsonl.exists():
+        for line in jsonl.read_text().splitlines():
+            try:
+                rec = json.loads(line)
+            except json.JSONDecodeError:
+                continue  # a line cut by a crash: that point runs again
+            done[rec["key"]] = rec["rows"]
+    return done
+
+
+def _append(jsonl, key, rows):
+    line = json.dumps({"key": key, "rows": rows}, default=_jsonable) + "\n"
+    if jsonl.exists() and jsonl.stat().st_size:
+        with open(jsonl, "rb") as fh:
+            fh.seek(-1, os.SEEK_END)
+            if fh.read(1) != b"\n":  # a line cut by a crash: start ours on a fresh line
+                line = "\n" + line
+    with open(jsonl, "a") as fh:  # one write of one line: appended whole
+        fh.write(line)
+        fh.flush()
+        os.fsync(fh.fileno())
+
+
+def _jsonable(v):
+    if isinstance(v, (np.floating, np.integer)):
+        return v.item()
+    if isinstance(v, np.bool_):
+        return bool(v)
+    return str(v)
+
+
+def run_sweep(path, outdir, jobs=None, dask=None, progress=True):
+    """Run (or resume) a sweep; returns the table as a list of row dicts."""
+    sw = Sweep(path)
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    jsonl = outdir / "points.jsonl"
+    pts = sw.points()
+    done = _load_done(jsonl)
+    todo = [p for p in pts if p["key"] not in done]
+    traces = None
+    if sw.traces:
+        traces = outdir / "traces"
+        traces.mkdir(exist_ok=True)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(pts), initial=len(pts) - len(todo), unit="run", smoothing=0.1,
+                   desc=sw.path.stem)
+    args = (str(sw.diagram), sw.fixed, sw.stability)
+    try:
+        for key, rows in _execute(todo, args, traces, jobs, dask):
+            _append(jsonl, key, rows)
+            done[key] = rows
+            if bar is not None:
+                bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+    table = [row for p in pts if p["key"] in done for row in done[p["key"]]]
+    write_table(table, outdir)
+    heatmaps(table, sw, outdir)
+    return table
+
+
+def _execute(todo, args, traces, jobs, dask):
+    """Yield (key, rows) as points finish: serially, on local processes, or on Dask."""
+    diagram, fixed, stability = args
+    if dask:
+        from distributed import Client, as_completed
+
+        client = dask if not isinstance(dask, str) else Client(dask)
+        try:
+            futs = {client.submit(run_point, diagram, fixed, p, traces, stability, pure=False): p["key"] for p in todo}
+            for fut in as_completed(futs):
+                yield futs[fut], fut.result()
+        finally:
+            if isinstance(dask, str):
+                client.close()
+        return
+    jobs = jobs or os.cpu_count() or 1
+    if jobs <= 1 or len(todo) <= 1:
+        for p in todo:
+            yield p["key"], run_point(diagram, fixed, p, traces, stability)
+        return
+    from concurrent.futures import ProcessPoolExecutor, as_completed as done_first
+
+    with ProcessPoolExecutor(jobs) as pool:
+        futs = {pool.submit(run_point, diagram, fixed, p, traces, stability): p["key"] for p in todo}
+        for fut in done_first(futs):
+            yield futs[fut], fut.result()
+
+
+def write_table(rows, outdir):
+    """sweep.csv and sweep.parquet (tidy: one row per point and variant), atomically."""
+    import pandas as pd
+
+    df = pd.DataFrame(rows)
+    with atomic_file(Path(outdir) / "sweep.csv") as fh:
+        df.to_csv(fh, index=False)
+    with atomic_file(Path(outdir) / "sweep.parquet", "wb") as fh:
+        df.to_parquet(fh, index=False)
+    return df
+
+
+def heatmaps(rows, sw, outdir):
+    """A heat map of the main metrics over the first two swept parameters."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import pandas as pd
+
+    axes = list(sw.grid) + [f"{k}*" for k in sw.scale]
+    if len(axes) < 2 or not rows:
+        return
+    df = pd.DataFrame(rows)
+    xa, ya = axes[0], axes[1]
+    metrics = [m for m in ("ss_force_error_filtered_N", "overshoot_pct", "contact_lost") if m in df]
+    if not metrics:
+        return
+    fig, axs = plt.subplots(1, len(metrics), figsize=(4.6 * len(metrics), 3.8), squeeze=False)
+    for ax, m in zip(axs[0], metrics):
+        piv = df[df["status"] == "ok"].groupby([ya, xa])[m].mean().unstack(xa).astype(float)
+        im = ax.imshow(piv.values, origin="lower", aspect="auto", cmap="viridis")
+        ax.set_xticks(range(len(piv.columns)), [f"{v:g}" for v in piv.columns])
+        ax.set_yticks(range(len(piv.index)), [f"{v:g}" for v in piv.index])
+        ax.set_xlabel(xa)
+        ax.set_ylabel(ya)
+        ax.set_title(m, fontsize=9)
+        fig.colorbar(im, ax=ax, shrink=0.8)
+        # the paper's operating point: scale 1 of a scaled axis, or the base value
+        px = _index_of_one(piv.columns, xa)
+        py = _index_of_one(piv.index, ya)
+        if px is not None and py is not None:
+            ax.plot(px, py, "r*", ms=14, label="paper (Appendix A)")
+            ax.legend(fontsize=7, loc="upper right")
+    fig.tight_layout()
+    with atomic_file(Path(outdir) / "heatmap.png", "wb") as fh:
+        fig.savefig(fh, format="png", dpi=110)
+    plt.close(fig)
+
+
+def _index_of_one(values, axis):
+    if not axis.endswith("*"):
+        return None
+    for k, v in enumerate(values):
+        if abs(float(v) - 1.0) < 1e-12:
+            return k
+    return None

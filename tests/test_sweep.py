@@ -1,0 +1,90 @@
+"""Sweeps: the same table serially, on local processes and on Dask; resume; failures."""
+import json
+
+import pandas as pd
+import pytest
+
+from hybridsim import sweep as sw
+from hybridsim.cli import main
+
+from conftest import DIAGRAMS
+
+SMALL = f"""
+diagram: {DIAGRAMS / 'fig7_force_steps.yaml'}
+set: {{force: 5.0, simulation.t_end: 0.6}}
+grid:
+  rate: [60, 120]
+scale:
+  fpi.Kp: [1.0, 2.0]
+stability: true
+"""
+
+
+def table(path):
+    df = pd.read_csv(path).drop(columns=["wall_time_s"])
+    return df.sort_values("key").reset_index(drop=True)
+
+
+@pytest.fixture
+def sweep_file(tmp_path):
+    p = tmp_path / "s.yaml"
+    p.write_text(SMALL)
+    return p
+
+
+def test_serial_pool_and_dask_give_the_same_table(sweep_file, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    sw.run_sweep(sweep_file, tmp_path / "serial", jobs=1, progress=False)
+    sw.run_sweep(sweep_file, tmp_path / "pool", jobs=2, progress=False)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        sw.run_sweep(sweep_file, tmp_path / "dask", dask=client, progress=False)
+    ref = table(tmp_path / "serial" / "sweep.csv")
+    assert len(ref) == 4 and (ref["status"] == "ok").all()
+    assert {"rate", "fpi.Kp*", "overshoot_pct", "linear_largest_abs_z"} <= set(ref.columns)
+    pd.testing.assert_frame_equal(ref, table(tmp_path / "pool" / "sweep.csv"))
+    pd.testing.assert_frame_equal(ref, table(tmp_path / "dask" / "sweep.csv"))
+    assert len(pd.read_parquet(tmp_path / "serial" / "sweep.parquet")) == 4
+    assert (tmp_path / "serial" / "heatmap.png").stat().st_size > 5000
+
+
+def test_resume_runs_only_the_missing_points(sweep_file, tmp_path, monkeypatch):
+    out = tmp_path / "o"
+    sw.run_sweep(sweep_file, out, jobs=1, progress=False)
+    lines = (out / "points.jsonl").read_text().splitlines()
+    # an interrupted sweep: one point never finished, another's line was cut mid-write
+    (out / "points.jsonl").write_text("\n".join(lines[:2]) + "\n" + lines[2][:40])
+    calls = []
+    real = sw.run_point
+    monkeypatch.setattr(sw, "run_point", lambda *a, **k: calls.append(a[2]["key"]) or real(*a, **k))
+    sw.run_sweep(sweep_file, out, jobs=1, progress=False)
+    assert len(calls) == 2
+    keys = [json.loads(x)["key"] for x in (out / "points.jsonl").read_text().splitlines()
+            if x.startswith("{") and x.endswith("}")]
+    assert len(set(keys)) == 4
+    assert len(pd.read_csv(out / "sweep.csv")) == 4
+
+
+def test_failing_point_is_recorded_not_fatal(tmp_path, capsys):
+    p = tmp_path / "f.yaml"
+    p.write_text(f"""
+diagram: {DIAGRAMS / 'fig7_force_steps.yaml'}
+set: {{force: 5.0, rate: 60, friction: false, fpi.limit: null, simulation.t_end: 1.5}}
+grid:
+  surface.unilateral: [true, false]
+""")
+    code = main(["sweep", str(p), "-o", str(tmp_path / "o"), "-q", "-j", "2"])
+    assert code == 0
+    df = pd.read_csv(tmp_path / "o" / "sweep.csv")
+    failed = df[df["status"] == "failed"]
+    assert len(df) == 2 and len(failed) >= 1
+    assert failed["message"].str.contains("diverged").all()
+    assert "failed" in capsys.readouterr().out
+
+
+def test_random_design_is_seeded(tmp_path):
+    p = tmp_path / "r.yaml"
+    p.write_text(f"diagram: {DIAGRAMS / 'fig7_force_steps.yaml'}\nrandom: {{n: 3, seed: 7, ranges: {{Kr: [8.0e5, 1.0e6]}}}}\n")
+    a, b = sw.Sweep(p).points(), sw.Sweep(p).points()
+    assert [x["params"] for x in a] == [x["params"] for x in b]
+    assert all(8e5 <= x["params"]["Kr"] <= 1e6 for x in a)
