@@ -29,6 +29,12 @@ from .errors import SimulationError
 
 #: restarts at zero crossings allowed within one interval between sample hits
 MAX_RESTARTS = 10000
+#: after a crossing, that switch is re-armed this fraction of the interval later,
+#: once its function is at least REARM_LEVEL away from zero
+REARM = 1e-4
+REARM_LEVEL = 1e-12
+#: a switch located more often than this in one interval is stepped over for the rest of it
+MAX_REPEATS = 20
 
 
 class RK4:
@@ -79,10 +85,16 @@ class ScipySolver:
         pending = sorted(t for t in t_out if t0 < t < t1)
         outs = []
         skip = None  # the event just located is not armed again at its own root
+        stretch = REARM * (t1 - t0)
+        hits, muted = {}, set()  # a switch that fires over and over (sliding along it) is muted
         for _ in range(MAX_RESTARTS):
-            funs = _event_functions(events, t0, x, skip) if events is not None else None
+            off = muted | ({skip} if skip is not None else set())
+            funs = _event_functions(events, t0, x, off) if events is not None else None
+            # the event just located stays disarmed only until its function has left
+            # zero, so a quick second crossing of the same switch is not stepped over
+            t_end = t1 if skip is None else min(t1, t0 + stretch)
             sol = solve_ivp(
-                f, (t0, t1), x, method=self.method, rtol=self.rtol, atol=self.atol,
+                f, (t0, t_end), x, method=self.method, rtol=self.rtol, atol=self.atol,
                 max_step=self.max_step, dense_output=bool(pending), events=funs,
             )
             if sol.status == -1:
@@ -92,12 +104,19 @@ class ScipySolver:
             if sol.status == 1:  # stopped at a zero crossing
                 k = next(k for k, te in enumerate(sol.t_events) if len(te))
                 t_stop, x_stop = sol.t_events[k][0], sol.y_events[k][0]
-                skip = funs[k].j
+                skip, stretch = funs[k].j, REARM * (t1 - t0)
+                hits[skip] = hits.get(skip, 0) + 1
+                if hits[skip] > MAX_REPEATS:
+                    muted.add(skip)  # stepped over from here to the next sample hit
             else:
-                t_stop, x_stop = t1, sol.y[:, -1]
+                t_stop, x_stop = t_end, sol.y[:, -1]
+                if skip is not None and abs(np.asarray(events(t_stop, x_stop))[skip]) < REARM_LEVEL:
+                    stretch *= 2  # still at its root: keep it disarmed a while longer
+                else:
+                    skip = None
             while pending and pending[0] <= t_stop:
                 outs.append(sol.sol(pending.pop(0)))
-            if sol.status != 1 or t_stop >= t1:
+            if t_stop >= t1:
                 return x_stop, outs
             t0, x = t_stop, x_stop
         raise SimulationError(
@@ -109,8 +128,8 @@ class ScipySolver:
         return f"ScipySolver({self.method}, rtol={self.rtol:g})"
 
 
-def _event_functions(events, t0, x0, skip):
-    """One terminal scipy event function per zero-crossing component."""
+def _event_functions(events, t0, x0, off):
+    """One terminal scipy event function per zero-crossing component not in ``off``."""
     cache = {}
 
     def values(t, x):
@@ -122,7 +141,7 @@ def _event_functions(events, t0, x0, skip):
     m = values(t0, x0).size
     funs = []
     for j in range(m):
-        if j == skip:
+        if j in off:
             continue
 
         def g(t, x, j=j):
