@@ -14,7 +14,7 @@ from . import registry
 from .simulator import Simulator
 from .solvers import RK4, ScipySolver
 
-__all__ = ["Block", "Diagram", "Simulator", "RK4", "ScipySolver", "register", "simulate", "load",
+__all__ = ["registry", "Block", "Diagram", "Simulator", "RK4", "ScipySolver", "register", "simulate", "load",
            "build", "run_experiment", "write_outputs", "HybridsimError", "DiagramError",
            "LoaderError", "RateError", "SimulationError", "FMUError"]
 __version__ = "0.1.0"

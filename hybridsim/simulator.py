@@ -86,17 +86,14 @@ class Simulator:
     # -- the fused right-hand side --------------------------------------------
     def _compile(self):
         sysm = self.system
-        self._steps = []
-        empty = np.zeros(0)
-        for i in sysm.rhs_path:
-            self._steps.append((sysm.blocks[i].output, sysm.xslices[i], i, empty))
+        self._steps = [(sysm.blocks[i].output, sysm.xslices[i], i) for i in sysm.rhs_path]
         self._ders = [(sysm.blocks[i].derivatives, sysm.xslices[i], i) for i in sysm.stateful]
         self._event_blocks = [(sysm.blocks[i].zero_crossings, sysm.xslices[i], i) for i in sysm.events]
 
     def _bind(self, ctx):
         """Build rhs(t, x) and events(t, x) closures over one context."""
         y, u, xd, n_x = ctx.y, ctx.u, ctx.xd, self.system.n_x
-        steps = [(out, s, u[i], y[i], xd[i]) for out, s, i, _ in self._steps]
+        steps = [(out, s, u[i], y[i], xd[i]) for out, s, i in self._steps]
         ders = [(der, s, u[i]) for der, s, i in self._ders]
 
         def rhs(t, x):
