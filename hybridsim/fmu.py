@@ -69,7 +69,8 @@ class FMUBlock(Block):
 
         self.path = Path(path)
         if not self.path.exists():
-            raise FMUError(f"FMU {str(self.path)!r}: file not found")
+            raise FMUError(f"FMU {str(self.path)!r}: file not found (the plant FMU is built with "
+                           "'hybridsim fmu build -o plant.fmu')")
         if not zipfile.is_zipfile(self.path):
             raise FMUError(f"FMU {str(self.path)!r}: not an FMU (not a zip archive)")
         try:

@@ -14,9 +14,17 @@ from conftest import DIAGRAMS, ROOT
 ALL = sorted(DIAGRAMS.glob("*.yaml"))
 
 
+@pytest.fixture(scope="module")
+def plant_fmu(tmp_path_factory):
+    from hybridsim.fmu import build_plant_fmu
+
+    return build_plant_fmu(tmp_path_factory.mktemp("fmu") / "plant.fmu")
+
+
 @pytest.mark.parametrize("path", ALL, ids=lambda p: p.stem)
-def test_every_variant_builds(path):
-    f = DiagramFile(path)
+def test_every_variant_builds(path, request):
+    overrides = {"fmu": str(request.getfixturevalue("plant_fmu"))} if "fmu" in path.stem else None
+    f = DiagramFile(path, overrides)
     for _, variant in f.variants():
         diagram, _ = f.build(variant)
         diagram.build()
