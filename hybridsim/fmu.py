@@ -2,7 +2,7 @@
 
 * :func:`build_fmu` compiles a C model behind the FMI 2.0 API into a ``.fmu``
   (``hybridsim fmu build`` builds the plant of ``fmus/``).
-* :class:`FMUBlock` (``type: fmu`` in YAML) loads an FMI 2.0 FMU (3.0: not yet).
+* :class:`FMUBlock` (``type: fmu`` in YAML) loads an FMI 2.0 or 3.0 FMU.
   Inputs and outputs become ports; variables named ``x[1]``, ``x[2]``, ...
   are grouped into one port ``x`` of that width. Co-Simulation FMUs are
   discrete blocks stepped at the block's period (outputs at a hit are the
@@ -50,7 +50,7 @@ def _group(variables):
 
 @register("fmu")
 class FMUBlock(Block):
-    """Any FMI 2.0 FMU as a block.
+    """Any FMI 2.0 or 3.0 FMU as a block (Float64 inputs and outputs).
 
     Parameters
     ----------
@@ -77,9 +77,10 @@ class FMUBlock(Block):
             md = read_model_description(str(self.path))
         except Exception as exc:  # noqa: BLE001 - fmpy raises many kinds
             raise FMUError(f"FMU {str(self.path)!r}: cannot read modelDescription.xml: {exc}") from None
-        if md.fmiVersion != "2.0":
+        if md.fmiVersion not in ("2.0", "3.0"):
             raise FMUError(f"FMU {str(self.path)!r}: FMI version {md.fmiVersion} is not supported "
-                           "(FMI 2.0 only, for now)")
+                           "(FMI 2.0 or 3.0)")
+        self.fmi3 = md.fmiVersion == "3.0"
         self.md = md
         self.mode = str(mode).lower()
         kind = {"cs": md.coSimulation, "me": md.modelExchange}.get(self.mode, None)
@@ -88,8 +89,9 @@ class FMUBlock(Block):
         if kind is None:
             raise FMUError(f"FMU {str(self.path)!r} offers no {'Co-Simulation' if self.mode == 'cs' else 'Model Exchange'}")
         binaries = {p for p in fmpy.supported_platforms(str(self.path))}
-        if fmpy.platform not in binaries:
-            raise FMUError(f"FMU {str(self.path)!r} has no binary for this platform ({fmpy.platform}); "
+        here = fmpy.platform  # fmpy names FMI 3 platform tuples the same way
+        if here not in binaries:
+            raise FMUError(f"FMU {str(self.path)!r} has no binary for this platform ({here}); "
                            f"it has: {', '.join(sorted(binaries)) or 'none'}")
         self.model_identifier = kind.modelIdentifier
         byname = {v.name: v for v in md.modelVariables}
@@ -154,16 +156,29 @@ class FMUBlock(Block):
 
     def _instantiate(self):
         import fmpy
-        from fmpy.fmi2 import FMU2Model, FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
-        from fmpy.fmi2 import defaultCallbacks as cb2
 
         self.close()
         self._unzipdir = fmpy.extract(str(self.path))
         self._messages = []
-        cls = FMU2Slave if self.mode == "cs" else FMU2Model
         kw = dict(guid=self.md.guid, unzipDirectory=self._unzipdir,
                   modelIdentifier=self.model_identifier, instanceName=self.name)
-        fmu = self._call("loading the binary", cls, **kw)
+        fmu = (self._instantiate3 if self.fmi3 else self._instantiate2)(kw)
+        byname = {v.name: v for v in self.md.modelVariables}
+        for pname, value in self.parameters.items():
+            self._call(f"setting {pname}", self._set, [byname[pname].valueReference], [float(value)])
+        self._call("exitInitializationMode", fmu.exitInitializationMode)
+        if self.mode == "me":
+            self._call("updateDiscreteStates" if self.fmi3 else "newDiscreteStates",
+                       fmu.updateDiscreteStates if self.fmi3 else fmu.newDiscreteStates)
+            self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
+        self._fmu = fmu
+        return fmu
+
+    def _instantiate2(self, kw):
+        from fmpy.fmi2 import FMU2Model, FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+        from fmpy.fmi2 import defaultCallbacks as cb2
+
+        fmu = self._call("loading the binary", FMU2Slave if self.mode == "cs" else FMU2Model, **kw)
 
         def logger(env, name, status, category, message):
             self._messages.append(message.decode(errors="replace"))
@@ -179,15 +194,23 @@ class FMUBlock(Block):
         self._callbacks = cbs
         self._call("fmi2Instantiate", fmu.instantiate, False, cbs)
         self._call("setupExperiment", fmu.setupExperiment, None, 0.0)
-        byname = {v.name: v for v in self.md.modelVariables}
         self._call("enterInitializationMode", fmu.enterInitializationMode)
-        for pname, value in self.parameters.items():
-            self._call(f"setting {pname}", fmu.setReal, [byname[pname].valueReference], [float(value)])
-        self._call("exitInitializationMode", fmu.exitInitializationMode)
-        if self.mode == "me":
-            self._call("newDiscreteStates", fmu.newDiscreteStates)
-            self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
-        self._fmu = fmu
+        self._get, self._set = fmu.getReal, fmu.setReal
+        self._get_der = getattr(fmu, "getDerivatives", None)  # ME only
+        return fmu
+
+    def _instantiate3(self, kw):
+        from fmpy.fmi3 import FMU3Model, FMU3Slave
+
+        fmu = self._call("loading the binary", FMU3Slave if self.mode == "cs" else FMU3Model, **kw)
+
+        def logger(env, status, category, message):
+            self._messages.append(message.decode(errors="replace") if message else "")
+
+        self._call("fmi3Instantiate", fmu.instantiate, logMessage=logger)
+        self._call("enterInitializationMode", fmu.enterInitializationMode, startTime=0.0)
+        self._get, self._set = fmu.getFloat64, fmu.setFloat64
+        self._get_der = getattr(fmu, "getContinuousStateDerivatives", None)  # ME only
         return fmu
 
     def close(self):
@@ -211,16 +234,17 @@ class FMUBlock(Block):
 
     def __getstate__(self):
         state = dict(self.__dict__)
-        state.update(_fmu=None, _unzipdir=None, _logger=None, _callbacks=None)
+        state.update(_fmu=None, _unzipdir=None, _logger=None, _callbacks=None,
+                     _get=None, _set=None, _get_der=None)
         return state
 
     def _outputs(self):
-        vals = np.asarray(self._call("fmi2GetReal", self._fmu.getReal, self.out_flat), float)
+        vals = np.asarray(self._call("get outputs", self._get, self.out_flat), float)
         return tuple(vals[a:b] for a, b in zip(self.cuts[:-1], self.cuts[1:]))
 
     def _set_inputs(self, u):
         if self.in_flat:
-            self._call("fmi2SetReal", self._fmu.setReal, self.in_flat,
+            self._call("set inputs", self._set, self.in_flat,
                        [float(x) for x in np.concatenate(u)])
 
     # -- block API ----------------------------------------------------------------
@@ -253,7 +277,7 @@ class FMUBlock(Block):
     def derivatives(self, t, x, u):
         self._me_set(t, x, u)
         dx = np.zeros(self.nx)
-        self._call("getDerivatives", self._fmu.getDerivatives, dx.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
+        self._call("get derivatives", self._get_der, dx.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
         return dx
 
     def zero_crossings(self, t, x, u):
@@ -277,7 +301,10 @@ def find_compiler():
 
 
 def build_fmu(out, model_identifier, sources, model_description, headers, include_dirs=()):
-    """Compile ``sources`` into a shared library and pack an FMI 2.0 FMU at ``out``.
+    """Compile ``sources`` into a shared library and pack an FMU at ``out``.
+
+    The binary goes where the model description's FMI version expects it
+    (``binaries/linux64`` for 2.0, ``binaries/x86_64-linux`` for 3.0).
 
     ``headers``: {file name: text} of generated headers; ``include_dirs``:
     folders with the FMI headers. Everything is packed with its sources.
@@ -289,7 +316,8 @@ def build_fmu(out, model_identifier, sources, model_description, headers, includ
     with tempfile.TemporaryDirectory(prefix="hybridsim-fmu-") as tmp:
         tmp = Path(tmp)
         src = tmp / "sources"
-        binary = tmp / "binaries" / fmpy.platform
+        fmi3 = 'fmiVersion="3.0"' in model_description
+        binary = tmp / "binaries" / (fmpy.platform_tuple if fmi3 else fmpy.platform)
         src.mkdir(parents=True)
         binary.mkdir(parents=True)
         for name, text in headers.items():

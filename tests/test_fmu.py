@@ -23,10 +23,13 @@ def plant(tmp_path_factory):
     return build_plant_fmu(tmp_path_factory.mktemp("fmu") / "plant.fmu")
 
 
-@pytest.fixture(scope="module")
-def vdp(tmp_path_factory):
-    d = ROOT / "tests" / "data" / "vdp"
-    return build_fmu(tmp_path_factory.mktemp("vdp") / "vdp.fmu", "vdp", [d / "vdp.c"],
+@pytest.fixture(scope="module", params=["vdp", "vdp3"], ids=["fmi2", "fmi3"])
+def vdp(request, tmp_path_factory):
+    """The same Van der Pol oscillator as an FMI 2.0 and as an FMI 3.0 FMU."""
+    name = request.param
+    d = ROOT / "tests" / "data" / name
+    sources = sorted(d.glob("*.c"))
+    return build_fmu(tmp_path_factory.mktemp(name) / f"{name}.fmu", name, sources,
                      (d / "modelDescription.xml").read_text(), {}, [ROOT / "fmus" / "include"])
 
 
