@@ -42,17 +42,20 @@ class Manipulator(Block):
     l : m                link offset
     """
 
+    tuple_kernels = True
+
     def __init__(self, name="arm", I1=(3.98, -5.25, 6.47), M2=6.68, M3=0.58,
                  tau_c=(5.0, 3.5), tau_s=(5.75, 4.6), friction=True,
                  damping=(0.0, 0.0), q0=None, endpoint0=None, qd0=(0.0, 0.0),
                  l=L_OFFSET, stick_band=1e-4, stick_time=1e-3):
         super().__init__(name)
-        self.I1 = vector(I1, "I1", 3)
+        # plain floats: the kernels below run on tuples as well as arrays
+        self.I1 = tuple(float(v) for v in vector(I1, "I1", 3))
         self.m2 = float(M2) + float(M3)
-        self.tau_c = vector(tau_c, "tau_c", 2) if friction else np.zeros(2)
-        self.tau_s = vector(tau_s, "tau_s", 2) if friction else np.zeros(2)
+        self.tau_c = tuple(float(v) for v in vector(tau_c, "tau_c", 2)) if friction else (0.0, 0.0)
+        self.tau_s = tuple(float(v) for v in vector(tau_s, "tau_s", 2)) if friction else (0.0, 0.0)
         self.friction = bool(friction)
-        self.b = vector(damping, "damping", 2)
+        self.b = tuple(float(v) for v in vector(damping, "damping", 2))
         self.l = float(l)
         self.eps, self.t_stick = float(stick_band), float(stick_time)
         if q0 is not None and endpoint0 is not None:
@@ -95,7 +98,7 @@ class Manipulator(Block):
         F2 = tau[1] + f[0] - self.b[1] * v2                        # eq 6 without B2
         a1 = (F1 + self._friction(v1, F1, I1, 0)) / I1
         a2 = (F2 + self._friction(v2, F2, self.m2, 1)) / self.m2
-        return np.array([v1, v2, a1, a2])
+        return (v1, v2, a1, a2)
 
     def zero_crossings(self, t, x, u):
         if not self.friction:

@@ -15,6 +15,7 @@ from ._util import vector
 
 class _Source(Block):
     time_varying = True
+    tuple_kernels = True  # no state, no inputs: runs as is in the fused path
 
     def __init__(self, name, width):
         super().__init__(name)

@@ -19,6 +19,8 @@ class Surface(Block):
     come from inputs ``xs`` and ``vs`` (Fig 8's receding table).
     """
 
+    tuple_kernels = True
+
     def __init__(self, name="surface", Kr=9.0e5, br=0.0, position=0.5,
                  moving=False, unilateral=True):
         super().__init__(name)

@@ -34,6 +34,7 @@ class Wrist(Block):
     """
 
     init_needs_inputs = True
+    tuple_kernels = True
 
     def __init__(self, name="wrist", Kw=8.0e5, bw=0.0, M3=0.58, l=L_OFFSET,
                  preload=0.0, dw0=(0.0, 0.0), wd0=(0.0, 0.0)):
@@ -74,6 +75,6 @@ class Wrist(Block):
         w1, w2, wd1, wd2 = x
         q1, fx = u[0][0], u[2][0]
         k, b, m = self.Kw, self.bw, self.M3
-        return np.array([wd1, wd2,
-                         (-k * w1 - b * wd1 - fx * math.cos(q1)) / m,   # eq 7
-                         (-k * w2 - b * wd2 + fx * math.sin(q1)) / m])  # eq 8
+        return (wd1, wd2,
+                (-k * w1 - b * wd1 - fx * math.cos(q1)) / m,   # eq 7
+                (-k * w2 - b * wd2 + fx * math.sin(q1)) / m)   # eq 8

@@ -98,6 +98,9 @@ class Block:
     init_needs_inputs = False
     #: the simulator records every input of this block (a scope / recorder)
     log_inputs = False
+    #: output/derivatives also accept plain tuples (x: floats, u: tuples of floats)
+    #: and return tuples; such blocks run in the fused RK4 path (hybridsim.fused)
+    tuple_kernels = False
 
     def __init__(self, name="block"):
         self.name = name

@@ -51,10 +51,14 @@ class Simulator:
         stops the run with :class:`SimulationError`.
     progress : bool
         Show a progress bar (tqdm) on runs that last more than a second.
+    fused : bool
+        With RK4 and blocks that all declare ``tuple_kernels``, integrate with
+        one generated function (:mod:`hybridsim.fused`): same numbers, several
+        times faster. ``False`` forces the generic path.
     """
 
     def __init__(self, system, solver=None, log=(), log_period=0.0005,
-                 max_state=1e6, progress=False):
+                 max_state=1e6, progress=False, fused=True):
         from .block import to_period
 
         self.system = system
@@ -82,6 +86,9 @@ class Simulator:
         self._log_ports = [system.port_ref(r) for r in refs]
         self.log_path = system.evaluation_path({i for i, _ in self._log_ports})
         self._compile()
+        from . import fused as _fused
+
+        self._fused = _fused.build(system) if fused and _fused.eligible(system, self.solver) else None
 
     # -- the fused right-hand side --------------------------------------------
     def _compile(self):
@@ -188,7 +195,10 @@ class Simulator:
                 t_out = [sched.time(m) for m in range(n + log_every - n % log_every, m_hi, log_every)
                          if sched.time(m) < t_next]
                 if sysm.n_x:
-                    xc, xs = self.solver.advance(rhs, t, t_next, xc, t_out, events)
+                    if self._fused is not None:
+                        xc, xs = self._advance_fused(ctx, t, t_next, xc, t_out)
+                    else:
+                        xc, xs = self.solver.advance(rhs, t, t_next, xc, t_out, events)
                     self._check(xc, t_next)
                 else:
                     xs = [xc] * len(t_out)
@@ -217,6 +227,23 @@ class Simulator:
         meta = {"diagram": self.system.name, "solver": repr(self.solver), "t_end": t_end,
                 "wall_time_s": wall, "hits": hits}
         return Result(np.array(rows_t), signals, meta, context=ctx)
+
+    def _advance_fused(self, ctx, t0, t1, x, t_out):
+        """RK4 over [t0, t1] (split at t_out) with the generated fused stepper."""
+        from .fused import steps
+
+        advance, held = self._fused
+        H = tuple(tuple(ctx.y[a][o].tolist()) for a, o in held)
+        X = tuple(x.tolist())
+        h, outs = self.solver.step, []
+        with np.errstate(over="ignore", invalid="ignore"):
+            for tb in t_out:
+                X = advance(t0, tb, steps(t0, tb, h), X, H)
+                outs.append(np.array(X))
+                t0 = tb
+            if t1 > t0:
+                X = advance(t0, t1, steps(t0, t1, h), X, H)
+        return np.array(X), outs
 
     def _check(self, x, t):
         bad = ~np.isfinite(x) | (np.abs(x) > self.max_state)

@@ -1,0 +1,35 @@
+"""The fused RK4 path gives the generic path's numbers, bit for bit."""
+import numpy as np
+import pytest
+
+import hybridsim as hs
+from hybridsim import fused
+
+from conftest import DIAGRAMS, ROOT
+
+
+@pytest.mark.parametrize("path, extra", [
+    (DIAGRAMS / "fig9_force_and_position.yaml", {"rate": 120, "t_end": 0.4}),
+    (DIAGRAMS / "fig8_receding_surface.yaml", {"t_end": 1.2}),
+    (ROOT / "tests" / "data" / "smooth_contact.yaml", {}),
+], ids=["fig9", "fig8-moving-surface", "damped"])
+def test_fused_equals_generic(path, extra):
+    assert hs.build(path, **extra)[1]._fused is not None
+    a = hs.simulate(path, fused=True, **extra)
+    b = hs.simulate(path, fused=False, **extra)
+    assert np.array_equal(a.t, b.t)
+    assert np.array_equal(a.table(), b.table())
+
+
+def test_fused_only_where_every_block_has_tuple_kernels():
+    system, sim, _ = hs.build(DIAGRAMS / "fig9_force_and_position.yaml")
+    assert sim._fused is not None
+    assert not fused.eligible(system, hs.ScipySolver("Radau"))
+    system, sim, _ = hs.build(DIAGRAMS / "fig9_force_and_position.yaml", fused=False)
+    assert sim._fused is None
+    # a block without tuple kernels on the right-hand side path keeps the generic path
+    d = hs.Diagram("lp")
+    d.add(hs.registry.lookup("constant")("c", value=1.0))
+    d.add(hs.registry.lookup("lowpass")("f"))
+    d.connect("c.y", "f.u")
+    assert not fused.eligible(d.build(), hs.RK4())
