@@ -39,22 +39,8 @@ def _fric(v, F, m, i):
     return min(TS[i], max(-TS[i], -F - m * v / TSTICK))
 
 
-def plain_rhs(t, x, tau):
-    q1, q2, v1, v2, w1, w2, wd1, wd2 = x
-    c, s = math.cos(q1), math.sin(q1)
-    pen = q2 * c + L * s + w1 * c - w2 * s - XS
-    fx = KR * pen if pen > 0 else 0.0
-    f1, f2 = KW * w1, KW * w2
-    i1 = 3.98 - 5.25 * q2 + 6.47 * q2 * q2
-    F1 = tau[0] + q2 * f2 + L * f1
-    F2 = tau[1] + f1
-    m = M2 + M3
-    return np.array([v1, v2, (F1 + _fric(v1, F1, i1, 0)) / i1, (F2 + _fric(v2, F2, m, 1)) / m,
-                     wd1, wd2, (-KW * w1 - fx * c) / M3, (-KW * w2 + fx * s) / M3])
-
-
 def bare_rhs(t, x, tau):
-    """plain_rhs on a tuple of floats, returning a tuple (no numpy)."""
+    """MODEL.md's plant (eqs 5-11, Karnopp friction) on floats: a tuple of derivatives."""
     q1, q2, v1, v2, w1, w2, wd1, wd2 = x
     c, s = math.cos(q1), math.sin(q1)
     pen = q2 * c + L * s + w1 * c - w2 * s - XS
@@ -87,6 +73,11 @@ def bare_run(rate, t_end, step):
             k4 = bare_rhs(t + h, tuple(a + h * b for a, b in zip(x, k3)), tau)
             x = tuple(a + h / 6 * (b + 2 * (c + d) + e) for a, b, c, d, e in zip(x, k1, k2, k3, k4))
     return np.array(forces)
+
+
+def plain_rhs(t, x, tau):
+    """The same right-hand side as a numpy array (for the numpy and scipy loops)."""
+    return np.array(bare_rhs(t, x, tau))
 
 
 def plain_controller(t, x, z, T):
