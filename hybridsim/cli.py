@@ -66,12 +66,15 @@ def cmd_run(args):
         m = r["metrics"]
         head = r["label"] or f.name
         parts = []
+        lost = m.get("contact_lost")
         for key, fmt in (("rise_time_s", "rise {:.3f} s"), ("overshoot_pct", "overshoot {:.0f} %"),
                          ("ss_force_error_filtered_N", "steady error {:.2f} N"),
                          ("force_error_max_filtered_N", "max force error {:.2f} N"),
                          ("max_position_error_m", "max position error {:.2f} mm"),
                          ("oscillation_hz", "oscillation {:.1f} Hz")):
             v = m.get(key)
+            if lost and key in ("rise_time_s", "overshoot_pct"):
+                continue  # a bouncing hand has no meaningful step response (metrics.json keeps them)
             if v is not None:
                 parts.append(fmt.format(v * 1000 if key.endswith("_m") else v))
         if "contact_lost" in m:
