@@ -55,7 +55,7 @@ def linearization(path, at=None, **overrides):
     return Linearization(system, ctx, t)
 
 
-def _param_value(f, ref):
+def param_value(f, ref):
     """Current value of 'block.param' (from the file or the block's default)."""
     bname, pname = ref.split(".")
     spec = f.data["blocks"][bname]
@@ -66,6 +66,13 @@ def _param_value(f, ref):
         return np.asarray(val, float)
     cls = lookup(spec["type"])
     return np.asarray(inspect.signature(cls.__init__).parameters[pname].default, float)
+
+
+def least_damping(poles):
+    """Smallest damping ratio among oscillatory poles (above 0.5 Hz, not at z = 1)."""
+    d = [p["damping"] for p in poles
+         if p["freq_hz"] and p["freq_hz"] > 0.5 and abs(complex(p["re"], p["im"]) - 1) > 1e-7]
+    return min(d) if d else None
 
 
 def margins(L):
@@ -87,7 +94,8 @@ def margins(L):
     }
 
 
-def _rho(path, overrides):
+def largest_abs_z(path, overrides):
+    """Largest |z| (besides z = 1) of a diagram file's closed loop, or None."""
     try:
         system, _, _ = build(path, **overrides)
         return Linearization(system).closed_loop().growth
@@ -101,25 +109,26 @@ def critical_scale(path, base, param, value, lo=1.0, hi=None, tol=0.01):
     Found by doubling/halving from 1, then bisection to ``tol`` (relative).
     Returns None when no boundary lies within 1e-4..1e4.
     """
-    def rho(s):
-        return _rho(path, {**base, param: (value * s).tolist()})
+    def unstable(s):
+        r = largest_abs_z(path, {**base, param: (value * s).tolist()})
+        return r is None or r >= 1.0
 
-    if rho(lo) >= 1.0:
-        # already unstable: search downwards for the stable side
-        hi, lo = lo, lo
-        while rho(lo) >= 1.0 and lo > 1e-4:
-            lo /= 2
-        if lo <= 1e-4:
-            return None
-    else:
+    if unstable(lo):  # walk down to a stable scale
+        while True:
+            hi, lo = lo, lo / 2
+            if lo < 1e-4:
+                return None
+            if not unstable(lo):
+                break
+    else:  # walk up to an unstable one
         hi = hi or lo * 2
-        while rho(hi) < 1.0:
+        while not unstable(hi):
             hi *= 2
             if hi > 1e4:
                 return None
     while hi / lo > 1 + tol:
         mid = np.sqrt(lo * hi)
-        if rho(mid) >= 1.0:
+        if unstable(mid):
             hi = mid
         else:
             lo = mid
@@ -161,7 +170,7 @@ def analyze(path, at=None, sweeps=True, **overrides):
         out["_objects"]["loops"][name] = L
     out["cases"] = {}
     for cname, cov in cfg["cases"].items():
-        rho = _rho(path, {**base, **cov})
+        rho = largest_abs_z(path, {**base, **cov})
         out["cases"][cname] = {"set": cov, "spectral_radius": rho, "stable": rho is not None and rho < 1}
     if not sweeps:
         return out
@@ -169,14 +178,14 @@ def analyze(path, at=None, sweeps=True, **overrides):
     out["rates"] = []
     if rp in f.params:
         for r in cfg["rates"]:
-            rho = _rho(path, {**base, rp: r})
+            rho = largest_abs_z(path, {**base, rp: r})
             out["rates"].append({"rate_hz": r, "spectral_radius": rho, "stable": rho is not None and rho < 1})
     out["gains"] = {}
     for gname, ref in cfg["gains"].items():
-        value = _param_value(f, ref)
+        value = param_value(f, ref)
         rows = []
         for s in cfg["scales"]:
-            rho = _rho(path, {**base, ref: (value * s).tolist()})
+            rho = largest_abs_z(path, {**base, ref: (value * s).tolist()})
             rows.append({"scale": s, "spectral_radius": rho, "stable": rho is not None and rho < 1})
         out["gains"][gname] = {"param": ref, "value": value.tolist(), "sweep": rows,
                                "critical_scale": critical_scale(path, base, ref, value)}

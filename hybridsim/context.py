@@ -59,8 +59,3 @@ class Context:
             outs = blocks[i].output(t, self.block_state(i, xc), u[i])
             for buf, v in zip(y[i], outs):
                 buf[:] = v
-
-    def output(self, ref):
-        """Current value of output 'block.port' (a copy)."""
-        i, o = self.system.port_ref(ref)
-        return self.y[i][o].copy()

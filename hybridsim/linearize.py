@@ -37,7 +37,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from .errors import HybridsimError
-from .simulator import parse_signal
+from .result import parse_signal
 
 
 class LinearizationError(HybridsimError):

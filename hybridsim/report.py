@@ -212,12 +212,10 @@ def write_report(path, outdir, **overrides):
                 objs = res.pop("_objects")
                 models.append((label, objs["closed_loop"]))
                 loops += [(f"{label}: {k}", L) for k, L in objs["loops"].items()]
-                damp = [p["damping"] for p in res["poles"]
-                        if p["freq_hz"] and p["freq_hz"] > 0.5 and abs(complex(p["re"], p["im"]) - 1) > 1e-7]
                 data["configurations"].append({
                     "label": label, "compare": cname, "variant": vlabel, "set": {**vov, **cov}, "growth": res["growth"], "stable": res["stable"],
                     "integrator_modes": res["integrator_modes"],
-                    "least_damping": min(damp) if damp else None,
+                    "least_damping": an.least_damping(res["poles"]),
                     "hand_mode_hz": res.get("hand_mode_hz"),
                     **{f"{k}_{m}": v.get(m) for k, v in res["loops"].items()
                        for m in ("gain_margin_db", "phase_margin_deg")},
@@ -241,7 +239,7 @@ def write_report(path, outdir, **overrides):
         force_gain = next(iter(cfg["gains"].items()), None)
         if force_gain:
             name, ref = force_gain
-            value = an._param_value(f, ref)
+            value = an.param_value(f, ref)
             _save(root_locus(path, base, ref, value, np.logspace(-2, 1.5, 36)), "root_locus", tmp, figures)
         if full.get("rates"):
             _save(sweep_chart([("as printed", full["rates"])], "rate_hz", "servo rate (Hz)"),

@@ -215,10 +215,8 @@ def _stability(damping):
         for rate in (60, 80, 120):
             res = an.analyze(DIAGRAMS / "hybrid_controller.yaml", sweeps=False, rate=rate, **extra)
             res.pop("_objects")
-            damp = [p["damping"] for p in res["poles"] if p["freq_hz"] and p["freq_hz"] > 0.5
-                    and abs(complex(p["re"], p["im"]) - 1) > 1e-7]
             rows.append({"model": label, "rate_hz": rate, "largest_abs_z": res["growth"],
-                         "least_damping": min(damp) if damp else None,
+                         "least_damping": an.least_damping(res["poles"]),
                          "force_phase_margin_deg": res["loops"]["force"].get("phase_margin_deg"),
                          "force_gain_margin_db": res["loops"]["force"].get("gain_margin_db")})
     return rows

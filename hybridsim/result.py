@@ -6,6 +6,14 @@ import numpy as np
 from .files import atomic_file
 
 
+def parse_signal(ref):
+    """'block.port' or 'block.port[i]' -> ('block.port', i or None)."""
+    if ref.endswith("]") and "[" in ref:
+        base, idx = ref[:-1].split("[", 1)
+        return base, int(idx)
+    return ref, None
+
+
 class Result:
     """Logged signals of one run.
 
@@ -22,14 +30,11 @@ class Result:
         self.context = context
 
     def __getitem__(self, ref):
-        if ref.endswith("]") and "[" in ref:
-            base, idx = ref[:-1].split("[", 1)
-            return self.signals[base][:, int(idx)]
-        return self.signals[ref]
+        base, idx = parse_signal(ref)
+        return self.signals[base] if idx is None else self.signals[base][:, idx]
 
     def __contains__(self, ref):
-        base = ref.split("[", 1)[0]
-        return base in self.signals
+        return parse_signal(ref)[0] in self.signals
 
     def columns(self):
         """Column names: 'time' then 'block.port[i]' for every element."""

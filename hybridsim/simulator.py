@@ -19,17 +19,9 @@ import time as _time
 import numpy as np
 
 from .errors import DiagramError, SimulationError
-from .result import Result
+from .result import Result, parse_signal
 from .schedule import Schedule
 from .solvers import RK4
-
-
-def parse_signal(ref):
-    """'block.port' or 'block.port[i]' -> ('block.port', i or None)."""
-    if ref.endswith("]") and "[" in ref:
-        base, idx = ref[:-1].split("[", 1)
-        return base, int(idx)
-    return ref, None
 
 
 class Simulator:
@@ -169,14 +161,17 @@ class Simulator:
             rows.append(np.concatenate([ctx.y[i][o] for i, o in self._log_ports])
                         if self._log_ports else np.zeros(0))
 
+        passes = {}  # due set -> blocks to evaluate at such a hit, in order
+
         n = 0
         xc = ctx.xc
         with np.errstate(over="ignore", invalid="ignore"):
             while True:
                 t = sched.time(n)
-                due = {discrete[j] for j in sched.due(n) if j < LOG}
-                ctx.evaluate([i for i in range(len(blocks)) if kind[i] != "discrete" or i in due],
-                             t, xc)
+                due = frozenset(discrete[j] for j in sched.due(n) if j < LOG)
+                if due not in passes:
+                    passes[due] = [i for i in range(len(blocks)) if kind[i] != "discrete" or i in due]
+                ctx.evaluate(passes[due], t, xc)
                 if n % log_every == 0:
                     record(t)
                 for i in sorted(due):

@@ -72,7 +72,7 @@ class Sweep:
 
     def _base_value(self, ref):
         """Value of a parameter or block parameter in the diagram (for scaling)."""
-        from .analysis import _param_value
+        from .analysis import param_value
         from .api import load
 
         if self._base is None:
@@ -83,7 +83,7 @@ class Sweep:
                 raise HybridsimError(f"sweep: no parameter {ref!r} in {self.diagram.name}")
             return np.asarray(f.params[ref], float)
         try:
-            return _param_value(f, ref)
+            return param_value(f, ref)
         except (KeyError, ValueError) as exc:
             raise HybridsimError(f"sweep: cannot scale {ref!r}: {exc}") from None
 
@@ -146,12 +146,12 @@ def run_point(diagram, fixed, point, traces_dir=None, stability=False):
 
 def _linear_growth(diagram, overrides):
     """Largest |z| of the linearized closed loop on the diagram's analysis branch."""
-    from .analysis import _rho, settings_of
+    from .analysis import largest_abs_z, settings_of
     from .api import load
 
     try:
         cfg = settings_of(load(diagram, **overrides))
-        return _rho(diagram, {**cfg["set"], **overrides})
+        return largest_abs_z(diagram, {**cfg["set"], **overrides})
     except HybridsimError:
         return None
 
