@@ -4,6 +4,7 @@ import math
 import numpy as np
 
 from hybridsim.block import Block
+from hybridsim.kernels import Kernels, kernel
 from hybridsim.registry import register
 
 from ._util import matrix, vector
@@ -17,16 +18,19 @@ class Sum(Block):
         super().__init__(name)
         if not signs or set(signs) - {"+", "-"}:
             raise ValueError(f"signs must be a string of + and -, got {signs!r}")
-        self.signs = [1.0 if c == "+" else -1.0 for c in signs]
-        for k in range(len(self.signs)):
+        self.params = (tuple(1.0 if c == "+" else -1.0 for c in signs),)
+        for k in range(len(signs)):
             self.declare_input(f"u{k + 1}", width)
         self.declare_output("y", width)
 
-    def output(self, t, x, u):
-        y = self.signs[0] * u[0]
-        for s, v in zip(self.signs[1:], u[1:]):
-            y = y + s * v
-        return (y,)
+
+@kernel
+def sum_output(p, t, x, u):
+    signs = p[0]
+    y = signs[0] * np.asarray(u[0])
+    for k in range(1, len(u)):
+        y = y + signs[k] * np.asarray(u[k])
+    return (y,)
 
 
 @register("gain")
@@ -35,12 +39,14 @@ class Gain(Block):
 
     def __init__(self, name="gain", K=1.0, width=1):
         super().__init__(name)
-        self.K = matrix(K, "K", width)
+        self.params = (matrix(K, "K", width),)
         self.declare_input("u", width)
         self.declare_output("y", width)
 
-    def output(self, t, x, u):
-        return (self.K @ u[0],)
+
+@kernel
+def gain_output(p, t, x, u):
+    return (np.dot(p[0], np.asarray(u[0])),)
 
 
 @register("selection")
@@ -55,12 +61,14 @@ class Selection(Block):
         s = vector(S, "S")
         if set(np.unique(s)) - {0.0, 1.0}:
             raise ValueError(f"S must hold only 0 and 1, got {S!r}")
-        self.mask = 1.0 - s if complement else s
+        self.params = (1.0 - s if complement else s,)  # the diagonal of S or I - S
         self.declare_input("u", s.size)
         self.declare_output("y", s.size)
 
-    def output(self, t, x, u):
-        return (self.mask * u[0],)
+
+@kernel
+def selection_output(p, t, x, u):
+    return (p[0] * np.asarray(u[0]),)  # eq 13
 
 
 @register("mux")
@@ -102,8 +110,10 @@ class ZeroOrderHold(Block):
         self.declare_input("u", width)
         self.declare_output("y", width)
 
-    def output(self, t, x, u):
-        return (u[0],)
+
+@kernel
+def zoh_output(p, t, x, u):
+    return (u[0],)
 
 
 @register("delay")
@@ -121,11 +131,15 @@ class UnitDelay(Block):
     def initial_state(self, u=None):
         return self.x0.copy()
 
-    def output(self, t, x, u):
-        return (x,)
 
-    def update(self, t, x, u):
-        return u[0].copy()
+@kernel
+def delay_output(p, t, x, u):
+    return (x,)
+
+
+@kernel
+def delay_update(p, t, x, u):
+    return u[0]
 
 
 @register("lowpass")
@@ -138,10 +152,11 @@ class LowPass(Block):
 
     def __init__(self, name="filter", cutoff=12.0, width=1, initial=0.0):
         super().__init__(name)
-        self.wc = 2 * math.pi * float(cutoff)
-        if not self.wc > 0:
+        wc = 2 * math.pi * float(cutoff)
+        if not wc > 0:
             raise ValueError("cutoff must be positive")
         self.n = int(width)
+        self.params = (wc, self.n)
         self.y0 = vector(initial, "initial", self.n)
         self.declare_input("u", self.n)
         self.declare_output("y", self.n, depends_on=())
@@ -150,13 +165,18 @@ class LowPass(Block):
     def initial_state(self, u=None):
         return np.concatenate([self.y0, np.zeros(self.n)])
 
-    def output(self, t, x, u):
-        return (x[: self.n],)
 
-    def derivatives(self, t, x, u):
-        y, yd = x[: self.n], x[self.n:]
-        wc = self.wc
-        return np.concatenate([yd, wc * wc * (u[0] - y) - math.sqrt(2) * wc * yd])
+@kernel
+def lowpass_output(p, t, x, u):
+    return (np.asarray(x)[: p[1]],)
+
+
+@kernel
+def lowpass_derivatives(p, t, x, u):
+    wc, n = p
+    xa = np.asarray(x)
+    y, yd = xa[:n], xa[n:]
+    return np.concatenate((yd, wc * wc * (np.asarray(u[0]) - y) - math.sqrt(2) * wc * yd))
 
 
 @register("recorder")
@@ -181,12 +201,15 @@ class Counter(Block):
         self.declare_discrete_state(1)
         self.declare_output("y", 1)
 
-    def output(self, t, x, u):
-        return (x + 1,)
 
-    def update(self, t, x, u):
-        return x + 1
+@kernel
+def counter_output(p, t, x, u):
+    return ((x[0] + 1.0,),)
 
+
+@kernel
+def counter_update(p, t, x, u):
+    return (x[0] + 1.0,)
 
 
 
@@ -200,23 +223,40 @@ class StateSpace(Block):
 
     def __init__(self, name="ss", A=((0.0,),), B=((1.0,),), C=((1.0,),), D=None, x0=None):
         super().__init__(name)
-        self.A, self.B, self.C = (np.atleast_2d(np.asarray(m, float)) for m in (A, B, C))
-        n, m, p = self.A.shape[0], self.B.shape[1], self.C.shape[0]
-        if self.A.shape != (n, n) or self.B.shape[0] != n or self.C.shape[1] != n:
-            raise ValueError(f"inconsistent shapes A {self.A.shape}, B {self.B.shape}, C {self.C.shape}")
-        self.D = np.zeros((p, m)) if D is None else np.atleast_2d(np.asarray(D, float))
-        if self.D.shape != (p, m):
-            raise ValueError(f"D must be {p}x{m}, got {self.D.shape}")
+        A, B, C = (np.atleast_2d(np.asarray(m, float)) for m in (A, B, C))
+        n, m, p = A.shape[0], B.shape[1], C.shape[0]
+        if A.shape != (n, n) or B.shape[0] != n or C.shape[1] != n:
+            raise ValueError(f"inconsistent shapes A {A.shape}, B {B.shape}, C {C.shape}")
+        D = np.zeros((p, m)) if D is None else np.atleast_2d(np.asarray(D, float))
+        if D.shape != (p, m):
+            raise ValueError(f"D must be {p}x{m}, got {D.shape}")
+        self.params = tuple(np.ascontiguousarray(M) for M in (A, B, C, D))
         self.x0 = np.zeros(n) if x0 is None else vector(x0, "x0", n)
         self.declare_input("u", m)
-        self.declare_output("y", p, depends_on=None if np.any(self.D) else ())
+        self.declare_output("y", p, depends_on=None if np.any(D) else ())
         self.declare_continuous_state(n)
 
     def initial_state(self, u=None):
         return self.x0.copy()
 
-    def output(self, t, x, u):
-        return (self.C @ x + self.D @ u[0],)
 
-    def derivatives(self, t, x, u):
-        return self.A @ x + self.B @ u[0]
+@kernel
+def state_space_output(p, t, x, u):
+    A, B, C, D = p
+    return (np.dot(C, np.asarray(x)) + np.dot(D, np.asarray(u[0])),)
+
+
+@kernel
+def state_space_derivatives(p, t, x, u):
+    A, B, C, D = p
+    return np.dot(A, np.asarray(x)) + np.dot(B, np.asarray(u[0]))
+
+
+Sum.kernels = Kernels(output=sum_output)
+Gain.kernels = Kernels(output=gain_output)
+Selection.kernels = Kernels(output=selection_output)
+ZeroOrderHold.kernels = Kernels(output=zoh_output)
+UnitDelay.kernels = Kernels(output=delay_output, update=delay_update)
+LowPass.kernels = Kernels(output=lowpass_output, derivatives=lowpass_derivatives)
+Counter.kernels = Kernels(output=counter_output, update=counter_update)
+StateSpace.kernels = Kernels(output=state_space_output, derivatives=state_space_derivatives)

@@ -7,6 +7,7 @@ current sample (z <- z + e T, and the new z is applied at once).
 import numpy as np
 
 from hybridsim.block import Block
+from hybridsim.kernels import Kernels, kernel
 from hybridsim.registry import register
 
 from ._util import matrix, vector
@@ -35,17 +36,22 @@ class PositionPID(_Sampled):
     def __init__(self, name="pid", Kp=(460.0, 1650.0), Ki=(1.3, 1200.0), Kd=(30.0, 250.0),
                  rate=None, period=None, width=2):
         super().__init__(name, rate, period, width)
-        self.Kp, self.Ki, self.Kd = (matrix(K, k, width) for K, k in ((Kp, "Kp"), (Ki, "Ki"), (Kd, "Kd")))
+        self.params = tuple(matrix(K, k, width) for K, k in ((Kp, "Kp"), (Ki, "Ki"), (Kd, "Kd"))) + (self.T,)
         self.declare_input("e", width)
         self.declare_input("ed", width)
         self.declare_output("tau", width)
 
-    def output(self, t, z, u):
-        e, ed = u
-        return (self.Kp @ e + self.Ki @ (z + e * self.T) + self.Kd @ ed,)
 
-    def update(self, t, z, u):
-        return z + u[0] * self.T
+@kernel
+def pid_output(p, t, z, u):
+    Kp, Ki, Kd, T = p
+    e, ed = np.asarray(u[0]), np.asarray(u[1])
+    return (np.dot(Kp, e) + np.dot(Ki, np.asarray(z) + e * T) + np.dot(Kd, ed),)  # eq 15a
+
+
+@kernel
+def pid_update(p, t, z, u):
+    return np.asarray(z) + np.asarray(u[0]) * p[3]  # rectangle rule, current sample included
 
 
 @register("force_pi")
@@ -62,18 +68,31 @@ class ForcePI(_Sampled):
     def __init__(self, name="fpi", Kp=(0.4, 0.3), Ki=(240.0, 220.0), limit=(0.004, 0.1),
                  rate=None, period=None, width=2):
         super().__init__(name, rate, period, width)
-        self.Kp, self.Ki = matrix(Kp, "Kp", width), matrix(Ki, "Ki", width)
-        self.limit = None if limit is None else vector(limit, "limit", width)
+        limit = np.full(width, np.inf) if limit is None else vector(limit, "limit", width)
+        self.params = (matrix(Kp, "Kp", width), matrix(Ki, "Ki", width), limit, self.T)
         self.declare_input("e", width)
         self.declare_input("ff", width)
         self.declare_output("tau", width)
 
-    def _clipped(self, e):
-        return e if self.limit is None else np.clip(e, -self.limit, self.limit)
 
-    def output(self, t, z, u):
-        e, ff = u
-        return (ff + self.Kp @ e + self.Ki @ (z + self._clipped(e) * self.T),)
+@kernel
+def limited(e, limit):
+    """The saturation limiter: e clipped element-wise to +-limit."""
+    return np.minimum(np.maximum(e, -limit), limit)
 
-    def update(self, t, z, u):
-        return z + self._clipped(u[0]) * self.T
+
+@kernel
+def force_pi_output(p, t, z, u):
+    Kp, Ki, limit, T = p
+    e, ff = np.asarray(u[0]), np.asarray(u[1])
+    return (ff + np.dot(Kp, e) + np.dot(Ki, np.asarray(z) + limited(e, limit) * T),)  # eq 15b
+
+
+@kernel
+def force_pi_update(p, t, z, u):
+    Kp, Ki, limit, T = p
+    return np.asarray(z) + limited(np.asarray(u[0]), limit) * T
+
+
+PositionPID.kernels = Kernels(output=pid_output, update=pid_update)
+ForcePI.kernels = Kernels(output=force_pi_output, update=force_pi_update)

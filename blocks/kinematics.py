@@ -8,21 +8,34 @@ import math
 import numpy as np
 
 from hybridsim.block import Block
+from hybridsim.kernels import Kernels, kernel
 from hybridsim.registry import register
 
 L_OFFSET = 0.153  # link offset l, m (Appendix A)
 
 
-def endpoint(q, l=L_OFFSET):
-    """Lambda(q), eq 3a: arm endpoint in {C}, m."""
+@kernel
+def endpoint_xy(q, l):
+    """Lambda(q), eq 3a: arm endpoint (X, Y) in {C}, m."""
     c, s = math.cos(q[0]), math.sin(q[0])
-    return np.array([q[1] * c + l * s, q[1] * s - l * c])
+    return (q[1] * c + l * s, q[1] * s - l * c)
+
+
+def endpoint(q, l=L_OFFSET):
+    """Lambda(q) as an array."""
+    return np.array(endpoint_xy(q, l))
+
+
+@kernel
+def jacobian_rows(q, l):
+    """J(q) = d Lambda / dq (MODEL.md's corrected form) as ((J11, J12), (J21, J22))."""
+    c, s = math.cos(q[0]), math.sin(q[0])
+    return (-q[1] * s + l * c, c), (q[1] * c + l * s, s)
 
 
 def jacobian(q, l=L_OFFSET):
-    """J(q) = d Lambda / dq (MODEL.md's corrected form)."""
-    c, s = math.cos(q[0]), math.sin(q[0])
-    return np.array([[-q[1] * s + l * c, c], [q[1] * c + l * s, s]])
+    """J(q) as a 2x2 array."""
+    return np.array(jacobian_rows(q, l))
 
 
 def inverse_kinematics(X, Y, l=L_OFFSET):
@@ -45,7 +58,7 @@ class _ArmMap(Block):
 
     def __init__(self, name, arg, out, l):
         super().__init__(name)
-        self.l = float(l)
+        self.params = (float(l),)
         self.declare_input("q", 2)
         if arg:
             self.declare_input(arg, 2)
@@ -59,8 +72,10 @@ class ForwardKinematics(_ArmMap):
     def __init__(self, name="fk", l=L_OFFSET):
         super().__init__(name, None, "X", l)
 
-    def output(self, t, x, u):
-        return (endpoint(u[0], self.l),)
+
+@kernel
+def fk_output(p, t, x, u):
+    return (endpoint_xy(u[0], p[0]),)  # eq 3a
 
 
 @register("jacobian")
@@ -70,8 +85,12 @@ class Jacobian(_ArmMap):
     def __init__(self, name="jac", l=L_OFFSET):
         super().__init__(name, "qd", "Xd", l)
 
-    def output(self, t, x, u):
-        return (jacobian(u[0], self.l) @ u[1],)
+
+@kernel
+def jacobian_output(p, t, x, u):
+    (a, b), (c, d) = jacobian_rows(u[0], p[0])
+    qd = u[1]
+    return ((a * qd[0] + b * qd[1], c * qd[0] + d * qd[1]),)  # eq 12b
 
 
 @register("inverse_jacobian")
@@ -81,8 +100,13 @@ class InverseJacobian(_ArmMap):
     def __init__(self, name="jinv", l=L_OFFSET):
         super().__init__(name, "X", "qe", l)
 
-    def output(self, t, x, u):
-        return (np.linalg.solve(jacobian(u[0], self.l), u[1]),)
+
+@kernel
+def inverse_jacobian_output(p, t, x, u):
+    (a, b), (c, d) = jacobian_rows(u[0], p[0])
+    X = u[1]
+    det = a * d - b * c  # = -q2: J is singular only at q2 = 0
+    return (((d * X[0] - b * X[1]) / det, (a * X[1] - c * X[0]) / det),)  # eq 14a
 
 
 @register("jacobian_transpose")
@@ -92,8 +116,12 @@ class JacobianTranspose(_ArmMap):
     def __init__(self, name="jt", l=L_OFFSET):
         super().__init__(name, "F", "tau", l)
 
-    def output(self, t, x, u):
-        return (jacobian(u[0], self.l).T @ u[1],)
+
+@kernel
+def jacobian_transpose_output(p, t, x, u):
+    (a, b), (c, d) = jacobian_rows(u[0], p[0])
+    F = u[1]
+    return ((a * F[0] + c * F[1], b * F[0] + d * F[1]),)  # eq 14b
 
 
 @register("force_transform")
@@ -103,10 +131,12 @@ class ForceTransform(_ArmMap):
     def __init__(self, name="ft"):
         super().__init__(name, "F", "CF", L_OFFSET)
 
-    def output(self, t, x, u):
-        c, s = math.cos(u[0][0]), math.sin(u[0][0])
-        f1, f2 = u[1]
-        return ((c * f1 - s * f2, s * f1 + c * f2),)
+
+@kernel
+def force_transform_output(p, t, x, u):
+    c, s = math.cos(u[0][0]), math.sin(u[0][0])
+    f1, f2 = u[1][0], u[1][1]
+    return ((c * f1 - s * f2, s * f1 + c * f2),)  # eq 3b
 
 
 def force_transform_6d(R, V):
@@ -130,9 +160,19 @@ class ForceTransform6D(Block):
 
     def __init__(self, name="ft6", rotation=((1, 0, 0), (0, 1, 0), (0, 0, 1)), offset=(0, 0, 0)):
         super().__init__(name)
-        self.T = force_transform_6d(rotation, offset)
+        self.params = (force_transform_6d(rotation, offset),)
         self.declare_input("F", 6)
         self.declare_output("CF", 6)
 
-    def output(self, t, x, u):
-        return (self.T @ u[0],)
+
+@kernel
+def force_transform_6d_output(p, t, x, u):
+    return (np.dot(p[0], np.asarray(u[0])),)  # eq 3b
+
+
+ForwardKinematics.kernels = Kernels(output=fk_output)
+Jacobian.kernels = Kernels(output=jacobian_output)
+InverseJacobian.kernels = Kernels(output=inverse_jacobian_output)
+JacobianTranspose.kernels = Kernels(output=jacobian_transpose_output)
+ForceTransform.kernels = Kernels(output=force_transform_output)
+ForceTransform6D.kernels = Kernels(output=force_transform_6d_output)

@@ -1,9 +1,11 @@
 """The arm of Fig 3: joint 1 revolute, joint 2 prismatic, with stick-slip friction."""
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from hybridsim.block import Block
+from hybridsim.kernels import Kernels, kernel
 from hybridsim.registry import register
 
 from ._util import vector
@@ -42,27 +44,26 @@ class Manipulator(Block):
     l : m                link offset
     """
 
-    tuple_kernels = True
+    kernels = None  # set below, after the kernel functions
 
     def __init__(self, name="arm", I1=(3.98, -5.25, 6.47), M2=6.68, M3=0.58,
                  tau_c=(5.0, 3.5), tau_s=(5.75, 4.6), friction=True,
                  damping=(0.0, 0.0), q0=None, endpoint0=None, qd0=(0.0, 0.0),
                  l=L_OFFSET, stick_band=1e-4, stick_time=1e-3):
         super().__init__(name)
-        # plain floats: the kernels below run on tuples as well as arrays
-        self.I1 = tuple(float(v) for v in vector(I1, "I1", 3))
-        self.m2 = float(M2) + float(M3)
-        self.tau_c = tuple(float(v) for v in vector(tau_c, "tau_c", 2)) if friction else (0.0, 0.0)
-        self.tau_s = tuple(float(v) for v in vector(tau_s, "tau_s", 2)) if friction else (0.0, 0.0)
-        self.friction = bool(friction)
-        self.b = tuple(float(v) for v in vector(damping, "damping", 2))
-        self.l = float(l)
-        self.eps, self.t_stick = float(stick_band), float(stick_time)
+        floats = lambda v, what, n: tuple(float(e) for e in vector(v, what, n))  # noqa: E731
+        zero = (0.0, 0.0)
+        self.params = ArmParams(
+            I1=floats(I1, "I1", 3), m2=float(M2) + float(M3),
+            tau_c=floats(tau_c, "tau_c", 2) if friction else zero,
+            tau_s=floats(tau_s, "tau_s", 2) if friction else zero,
+            friction=bool(friction), b=floats(damping, "damping", 2), l=float(l),
+            eps=float(stick_band), t_stick=float(stick_time))
         if q0 is not None and endpoint0 is not None:
             raise ValueError("give q0 or endpoint0, not both")
         if endpoint0 is not None:
             e = vector(endpoint0, "endpoint0", 2)
-            q0 = inverse_kinematics(e[0], e[1], self.l)
+            q0 = inverse_kinematics(e[0], e[1], self.params.l)
         self.x0 = np.concatenate([vector(q0 if q0 is not None else (0, 0.5), "q0", 2),
                                   vector(qd0, "qd0", 2)])
         self.declare_input("tau", 2)
@@ -74,33 +75,59 @@ class Manipulator(Block):
     def initial_state(self, u=None):
         return self.x0.copy()
 
-    def output(self, t, x, u):
-        return x[0:2], x[2:4]
-
     def inertia(self, q2):
-        a = self.I1
-        return a[0] + a[1] * q2 + a[2] * q2 * q2
-
-    def _friction(self, v, F, m, i):
-        """B_i of eq 11 (Karnopp, see class docstring)."""
-        if not self.friction:
-            return 0.0
-        if abs(v) >= self.eps:
-            return -math.copysign(self.tau_c[i], v)
-        ts = self.tau_s[i]
-        return min(ts, max(-ts, -F - m * v / self.t_stick))
-
-    def derivatives(self, t, x, u):
-        q2, v1, v2 = x[1], x[2], x[3]
-        tau, f = u[0], u[1]
-        I1 = self.inertia(q2)
-        F1 = tau[0] + q2 * f[1] + self.l * f[0] - self.b[0] * v1  # eq 5 without B1
-        F2 = tau[1] + f[0] - self.b[1] * v2                        # eq 6 without B2
-        a1 = (F1 + self._friction(v1, F1, I1, 0)) / I1
-        a2 = (F2 + self._friction(v2, F2, self.m2, 1)) / self.m2
-        return (v1, v2, a1, a2)
+        """I1(q2), kg m^2."""
+        return inertia(self.params.I1, q2)
 
     def zero_crossings(self, t, x, u):
-        if not self.friction:
+        if not self.params.friction:
             return np.zeros(0)
-        return np.abs(x[2:4]) - self.eps  # slide <-> stick
+        return np.abs(x[2:4]) - self.params.eps  # slide <-> stick
+
+
+class ArmParams(NamedTuple):
+    I1: tuple        # a0, a1, a2 of I1(q2), kg m^2
+    m2: float        # M2 + M3, kg
+    tau_c: tuple     # Coulomb friction, N m and N
+    tau_s: tuple     # static friction, N m and N
+    friction: bool
+    b: tuple         # viscous joint damping b1, b2
+    l: float         # link offset, m
+    eps: float       # stick band, rad/s and m/s
+    t_stick: float   # time constant that brings a sticking joint to rest, s
+
+
+@kernel
+def inertia(a, q2):
+    """I1(q2) = a0 + a1 q2 + a2 q2^2, kg m^2."""
+    return a[0] + a[1] * q2 + a[2] * q2 * q2
+
+
+@kernel
+def friction_force(v, F, m, tau_c, tau_s, eps, t_stick):
+    """B_i of eq 11 (Karnopp, see the Manipulator docstring) for one joint."""
+    if abs(v) >= eps:
+        return -math.copysign(tau_c, v)
+    return min(tau_s, max(-tau_s, -F - m * v / t_stick))
+
+
+@kernel
+def arm_output(p, t, x, u):
+    return x[0:2], x[2:4]
+
+
+@kernel
+def arm_derivatives(p, t, x, u):
+    I1c, m2, tau_c, tau_s, friction, b, l, eps, t_stick = p
+    q2, v1, v2 = x[1], x[2], x[3]
+    tau, f = u[0], u[1]
+    I1 = inertia(I1c, q2)
+    F1 = tau[0] + q2 * f[1] + l * f[0] - b[0] * v1  # eq 5 without B1
+    F2 = tau[1] + f[0] - b[1] * v2                  # eq 6 without B2
+    if friction:
+        F1 = F1 + friction_force(v1, F1, I1, tau_c[0], tau_s[0], eps, t_stick)
+        F2 = F2 + friction_force(v2, F2, m2, tau_c[1], tau_s[1], eps, t_stick)
+    return (v1, v2, F1 / I1, F2 / m2)
+
+
+Manipulator.kernels = Kernels(output=arm_output, derivatives=arm_derivatives)

@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from hybridsim.block import Block
+from hybridsim.kernels import Kernels, kernel
 from hybridsim.registry import register
 
 from ._util import vector
@@ -15,7 +16,6 @@ from ._util import vector
 
 class _Source(Block):
     time_varying = True
-    tuple_kernels = True  # no state, no inputs: runs as is in the fused path
 
     def __init__(self, name, width):
         super().__init__(name)
@@ -32,6 +32,10 @@ def _widths(**params):
     return n
 
 
+def _floats(value, name, n=None):
+    return tuple(float(v) for v in vector(value, name, n))
+
+
 @register("constant")
 class Constant(_Source):
     """y = value."""
@@ -39,12 +43,14 @@ class Constant(_Source):
     time_varying = False
 
     def __init__(self, name="const", value=0.0):
-        self.value = vector(value, "value")
-        super().__init__(name, self.value.size)
-        self.zero = np.zeros(self.value.size)
+        value = _floats(value, "value")
+        super().__init__(name, len(value))
+        self.params = (value, (0.0,) * len(value))
 
-    def output(self, t, x, u):
-        return self.value, self.zero
+
+@kernel
+def constant_output(p, t, x, u):
+    return p[0], p[1]
 
 
 @register("step")
@@ -53,13 +59,15 @@ class Step(_Source):
 
     def __init__(self, name="step", initial=0.0, final=1.0, time=0.0):
         n = _widths(initial=initial, final=final)
-        self.initial, self.final = vector(initial, "initial", n), vector(final, "final", n)
-        self.time = float(time)
         super().__init__(name, n)
-        self.zero = np.zeros(n)
+        self.params = (_floats(initial, "initial", n), _floats(final, "final", n),
+                       float(time), (0.0,) * n)
 
-    def output(self, t, x, u):
-        return (self.final if t >= self.time else self.initial), self.zero
+
+@kernel
+def step_output(p, t, x, u):
+    initial, final, time, zero = p
+    return (final if t >= time else initial), zero
 
 
 @register("ramp")
@@ -68,18 +76,21 @@ class Ramp(_Source):
 
     def __init__(self, name="ramp", initial=0.0, slope=1.0, start=0.0, stop=math.inf):
         n = _widths(initial=initial, slope=slope)
-        self.initial, self.slope = vector(initial, "initial", n), vector(slope, "slope", n)
-        self.start, self.stop = float(start), float(stop)
-        if self.stop < self.start:
+        start, stop = float(start), float(stop)
+        if stop < start:
             raise ValueError("ramp stop must not be before start")
         super().__init__(name, n)
-        self.zero = np.zeros(n)
+        self.params = (vector(initial, "initial", n), vector(slope, "slope", n), start, stop,
+                       np.zeros(n))
 
-    def output(self, t, x, u):
-        if t < self.start:
-            return self.initial, self.zero
-        moving = t < self.stop
-        return self.initial + self.slope * (min(t, self.stop) - self.start), (self.slope if moving else self.zero)
+
+@kernel
+def ramp_output(p, t, x, u):
+    initial, slope, start, stop, zero = p
+    if t < start:
+        return initial, zero
+    moving = t < stop
+    return initial + slope * (min(t, stop) - start), (slope if moving else zero)
 
 
 @register("cosine")
@@ -88,13 +99,16 @@ class Cosine(_Source):
 
     def __init__(self, name="cosine", offset=0.0, amplitude=1.0, frequency=1.0, phase=0.0):
         n = _widths(offset=offset, amplitude=amplitude)
-        self.offset, self.amp = vector(offset, "offset", n), vector(amplitude, "amplitude", n)
-        self.w, self.phase = 2 * math.pi * float(frequency), float(phase)
         super().__init__(name, n)
+        self.params = (vector(offset, "offset", n), vector(amplitude, "amplitude", n),
+                       2 * math.pi * float(frequency), float(phase))
 
-    def output(self, t, x, u):
-        a = self.w * t + self.phase
-        return self.offset + self.amp * math.cos(a), -self.amp * self.w * math.sin(a)
+
+@kernel
+def cosine_output(p, t, x, u):
+    offset, amp, w, phase = p
+    a = w * t + phase
+    return offset + amp * math.cos(a), -amp * w * math.sin(a)
 
 
 @register("table")
@@ -102,19 +116,31 @@ class Table(_Source):
     """Piecewise-linear y(t) through (times[k], values[k]); held beyond the ends."""
 
     def __init__(self, name="table", times=(0.0, 1.0), values=(0.0, 1.0)):
-        self.times = vector(times, "times")
+        times = vector(times, "times")
         vals = np.asarray(values, float)
-        self.values = vals[:, None] if vals.ndim == 1 else vals
-        if self.values.shape[0] != self.times.size or self.times.size < 2:
+        values = vals[:, None] if vals.ndim == 1 else vals
+        if values.shape[0] != times.size or times.size < 2:
             raise ValueError("table needs at least 2 times and one row of values per time")
-        if np.any(np.diff(self.times) <= 0):
+        if np.any(np.diff(times) <= 0):
             raise ValueError("table times must increase strictly")
-        super().__init__(name, self.values.shape[1])
+        super().__init__(name, values.shape[1])
+        self.params = (times, np.ascontiguousarray(values))
 
-    def output(self, t, x, u):
-        k = int(np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, self.times.size - 2))
-        t0, t1 = self.times[k], self.times[k + 1]
-        slope = (self.values[k + 1] - self.values[k]) / (t1 - t0)
-        if t < self.times[0] or t >= self.times[-1]:
-            return (self.values[0] if t < t0 else self.values[-1]), np.zeros_like(slope)
-        return self.values[k] + slope * (t - t0), slope
+
+@kernel
+def table_output(p, t, x, u):
+    times, values = p
+    n = times.size
+    k = min(max(np.searchsorted(times, t, side="right") - 1, 0), n - 2)
+    t0, t1 = times[k], times[k + 1]
+    slope = (values[k + 1] - values[k]) / (t1 - t0)
+    if t < times[0] or t >= times[n - 1]:
+        return (values[0] if t < t0 else values[n - 1]).copy(), np.zeros_like(slope)
+    return values[k] + slope * (t - t0), slope
+
+
+Constant.kernels = Kernels(output=constant_output)
+Step.kernels = Kernels(output=step_output)
+Ramp.kernels = Kernels(output=ramp_output)
+Cosine.kernels = Kernels(output=cosine_output)
+Table.kernels = Kernels(output=table_output)

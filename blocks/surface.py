@@ -1,7 +1,10 @@
 """The reaction surface (eq 9), unilateral: it can push, never pull."""
+from typing import NamedTuple
+
 import numpy as np
 
 from hybridsim.block import Block
+from hybridsim.kernels import Kernels, kernel
 from hybridsim.registry import register
 
 
@@ -19,34 +22,52 @@ class Surface(Block):
     come from inputs ``xs`` and ``vs`` (Fig 8's receding table).
     """
 
-    tuple_kernels = True
-
     def __init__(self, name="surface", Kr=9.0e5, br=0.0, position=0.5,
                  moving=False, unilateral=True):
         super().__init__(name)
-        self.Kr, self.br, self.xs = float(Kr), float(br), float(position)
-        self.unilateral = bool(unilateral)
+        self.params = SurfaceParams(Kr=float(Kr), br=float(br), xs=float(position),
+                                    unilateral=bool(unilateral))
         self.moving = bool(moving)
         self.declare_input("x", 2)
         self.declare_input("v", 2)
         if self.moving:
             self.declare_input("xs", 1)
             self.declare_input("vs", 1)
+            self.kernels = Kernels(output=moving_surface_output)
         self.declare_output("fx", 1)
         self.declare_output("contact", 1)
 
-    def _penetration(self, u):
-        if self.moving:
-            return u[0][0] - u[2][0], u[1][0] - u[3][0]
-        return u[0][0] - self.xs, u[1][0]
-
-    def output(self, t, x, u):
-        p, pd = self._penetration(u)
-        if self.unilateral:
-            if p <= 0.0:
-                return (0.0,), (0.0,)
-            return (max(0.0, self.Kr * p + self.br * pd),), (1.0,)
-        return (self.Kr * p + self.br * pd,), (float(p > 0.0),)
-
     def zero_crossings(self, t, x, u):
-        return np.array([self._penetration(u)[0]])  # contact make / break
+        p = u[0][0] - (u[2][0] if self.moving else self.params.xs)
+        return np.array([p])  # contact make / break
+
+
+class SurfaceParams(NamedTuple):
+    Kr: float         # surface stiffness, N/m
+    br: float         # contact damping, N s/m
+    xs: float         # surface position along C-X when fixed, m
+    unilateral: bool
+
+
+@kernel
+def contact_force(p, pen, pen_d):
+    """Eq 9 for penetration ``pen`` (m) and its rate: (fx N, contact 0/1)."""
+    Kr, br, _, unilateral = p
+    if unilateral:
+        if pen <= 0.0:
+            return (0.0,), (0.0,)
+        return (max(0.0, Kr * pen + br * pen_d),), (1.0,)
+    return (Kr * pen + br * pen_d,), (1.0 if pen > 0.0 else 0.0,)
+
+
+@kernel
+def surface_output(p, t, x, u):
+    return contact_force(p, u[0][0] - p[2], u[1][0])
+
+
+@kernel
+def moving_surface_output(p, t, x, u):
+    return contact_force(p, u[0][0] - u[2][0], u[1][0] - u[3][0])
+
+
+Surface.kernels = Kernels(output=surface_output)

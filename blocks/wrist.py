@@ -1,9 +1,11 @@
 """The hand on the wrist force sensor (eqs 7, 8) and what the sensor reads."""
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from hybridsim.block import Block
+from hybridsim.kernels import Kernels, kernel
 from hybridsim.registry import register
 
 from ._util import vector
@@ -34,13 +36,12 @@ class Wrist(Block):
     """
 
     init_needs_inputs = True
-    tuple_kernels = True
 
     def __init__(self, name="wrist", Kw=8.0e5, bw=0.0, M3=0.58, l=L_OFFSET,
                  preload=0.0, dw0=(0.0, 0.0), wd0=(0.0, 0.0)):
         super().__init__(name)
-        self.Kw, self.bw, self.M3, self.l = float(Kw), float(bw), float(M3), float(l)
-        if not (self.Kw > 0 and self.M3 > 0):
+        self.params = WristParams(Kw=float(Kw), bw=float(bw), M3=float(M3), l=float(l))
+        if not (self.params.Kw > 0 and self.params.M3 > 0):
             raise ValueError("Kw and M3 must be positive")
         self.preload = float(preload)
         self.dw0, self.wd0 = vector(dw0, "dw0", 2), vector(wd0, "wd0", 2)
@@ -55,26 +56,40 @@ class Wrist(Block):
 
     def initial_state(self, u=None):
         q1 = u[0][0] if u is not None else 0.0
-        w = self.preload * np.array([-math.cos(q1), math.sin(q1)]) / self.Kw + self.dw0
+        w = self.preload * np.array([-math.cos(q1), math.sin(q1)]) / self.params.Kw + self.dw0
         return np.concatenate([w, self.wd0])
 
-    def output(self, t, x, u):
-        q1, q2 = u[0]
-        qd1, qd2 = u[1]
-        w1, w2, wd1, wd2 = x
-        c, s, l = math.cos(q1), math.sin(q1), self.l
-        rw1, rw2 = w1 * c - w2 * s, w1 * s + w2 * c          # R(q1) w
-        hand = (q2 * c + l * s + rw1, q2 * s - l * c + rw2)    # Lambda(q) + R w
-        # d/dt [Lambda(q) + R w] = J q' + R w' + q1' dR/dq1 w
-        vel = ((-q2 * s + l * c) * qd1 + c * qd2 + wd1 * c - wd2 * s - qd1 * rw2,
-               (q2 * c + l * s) * qd1 + s * qd2 + wd1 * s + wd2 * c + qd1 * rw1)
-        k, b = self.Kw, self.bw
-        return ((-k * w1, -k * w2), (k * w1 + b * wd1, k * w2 + b * wd2), hand, vel)
 
-    def derivatives(self, t, x, u):
-        w1, w2, wd1, wd2 = x
-        q1, fx = u[0][0], u[2][0]
-        k, b, m = self.Kw, self.bw, self.M3
-        return (wd1, wd2,
-                (-k * w1 - b * wd1 - fx * math.cos(q1)) / m,   # eq 7
-                (-k * w2 - b * wd2 + fx * math.sin(q1)) / m)   # eq 8
+class WristParams(NamedTuple):
+    Kw: float   # wrist stiffness, N/m
+    bw: float   # wrist damping, N s/m
+    M3: float   # hand mass, kg
+    l: float    # link offset, m
+
+
+@kernel
+def wrist_output(p, t, x, u):
+    q1, q2 = u[0][0], u[0][1]
+    qd1, qd2 = u[1][0], u[1][1]
+    w1, w2, wd1, wd2 = x[0], x[1], x[2], x[3]
+    k, b, _, l = p
+    c, s = math.cos(q1), math.sin(q1)
+    rw1, rw2 = w1 * c - w2 * s, w1 * s + w2 * c          # R(q1) w
+    hand = (q2 * c + l * s + rw1, q2 * s - l * c + rw2)    # Lambda(q) + R w
+    # d/dt [Lambda(q) + R w] = J q' + R w' + q1' dR/dq1 w
+    vel = ((-q2 * s + l * c) * qd1 + c * qd2 + wd1 * c - wd2 * s - qd1 * rw2,
+           (q2 * c + l * s) * qd1 + s * qd2 + wd1 * s + wd2 * c + qd1 * rw1)
+    return ((-k * w1, -k * w2), (k * w1 + b * wd1, k * w2 + b * wd2), hand, vel)
+
+
+@kernel
+def wrist_derivatives(p, t, x, u):
+    w1, w2, wd1, wd2 = x[0], x[1], x[2], x[3]
+    q1, fx = u[0][0], u[2][0]
+    k, b, m, _ = p
+    return (wd1, wd2,
+            (-k * w1 - b * wd1 - fx * math.cos(q1)) / m,   # eq 7
+            (-k * w2 - b * wd2 + fx * math.sin(q1)) / m)   # eq 8
+
+
+Wrist.kernels = Kernels(output=wrist_output, derivatives=wrist_derivatives)

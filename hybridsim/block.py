@@ -12,7 +12,8 @@ never reaches into another block. In its ``__init__`` a block declares
   discrete state (``declare_discrete_state``);
 * ``time_varying = True`` if its outputs depend on ``t`` itself (sources).
 
-and implements some of
+and implements some of (or gives them as pure ``kernels``, see
+:mod:`hybridsim.kernels`)
 
 * ``output(t, x, u)`` -> sequence of arrays, one per output port;
 * ``derivatives(t, x, u)`` -> array (continuous state);
@@ -98,9 +99,12 @@ class Block:
     init_needs_inputs = False
     #: the simulator records every input of this block (a scope / recorder)
     log_inputs = False
-    #: output/derivatives also accept plain tuples (x: floats, u: tuples of floats)
-    #: and return tuples; such blocks run in the fused RK4 path (hybridsim.fused)
-    tuple_kernels = False
+    #: the block's equations as pure functions f(p, t, x, u) (hybridsim.kernels);
+    #: the methods below call them with ``params``. Blocks with kernels run on
+    #: the fused and compiled paths as well as the generic one.
+    kernels = None
+    #: the numbers the kernels read (a tuple or namedtuple, set in __init__)
+    params = ()
 
     def __init__(self, name="block"):
         self.name = name
@@ -169,13 +173,18 @@ class Block:
 
     # -- computations (override) --------------------------------------------
     def output(self, t, x, u):
-        return ()
+        k = self.kernels
+        return k.output(self.params, t, x, u) if k is not None and k.output else ()
 
     def derivatives(self, t, x, u):
+        k = self.kernels
+        if k is not None and k.derivatives:
+            return k.derivatives(self.params, t, x, u)
         return np.zeros(self.n_continuous)
 
     def update(self, t, x, u):
-        return x
+        k = self.kernels
+        return k.update(self.params, t, x, u) if k is not None and k.update else x
 
     def initial_state(self, u=None):
         return np.zeros(self.n_continuous or self.n_discrete)

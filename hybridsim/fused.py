@@ -1,11 +1,12 @@
 """The fused RK4 path: one generated Python function steps the whole plant.
 
-When every block the right-hand side evaluates declares ``tuple_kernels``,
-the simulator generates (once per system) a function that integrates an
-interval between sample hits with classic RK4 on plain Python floats: block
-kernels are called with tuples, wires are local variables, the RK4 stages are
-written out element by element, held inputs are tuples read once per
-interval. No graph walking, buffers or small numpy arrays on the inner loop.
+When every block the right-hand side evaluates has pure ``kernels``
+(:mod:`hybridsim.kernels`), the simulator generates (once per system) a
+function that integrates an interval between sample hits with classic RK4 on
+plain Python floats: kernels are called with tuples, wires are local
+variables, the RK4 stages are written out element by element, held inputs are
+tuples read once per interval. No graph walking, buffers or small numpy
+arrays on the inner loop (when the kernels themselves use none).
 
 It performs exactly the operations of :class:`~hybridsim.solvers.RK4` in the
 same order, so both give the same numbers (a test checks it bit for bit); the
@@ -20,8 +21,18 @@ def eligible(system, solver):
 
     if type(solver) is not RK4 or not system.n_x:
         return False
-    blocks = set(system.rhs_path) | set(system.stateful)
-    return all(system.blocks[i].tuple_kernels for i in blocks)
+    return all(has_kernels(system.blocks[i]) for i in set(system.rhs_path) | set(system.stateful))
+
+
+def has_kernels(block, *names):
+    """True when ``block`` gives the kernels it needs (``output`` and, for
+    continuous or discrete state, ``derivatives`` / ``update``) or ``names``."""
+    k = block.kernels
+    if k is None:
+        return False
+    names = names or (("output",) + (("derivatives",) if block.n_continuous else ())
+                      + (("update",) if block.n_discrete else ()))
+    return all(getattr(k, n) is not None for n in names)
 
 
 def build(system):
@@ -56,16 +67,16 @@ def build(system):
 
     done = set()
     for i in path:
-        env[f"out{i}"] = sysm.blocks[i].output
+        env[f"out{i}"], env[f"P{i}"] = sysm.blocks[i].kernels.output, sysm.blocks[i].params
         args = [arg(i, a, o, k, done) for k, (a, o) in enumerate(sysm.sources[i])]
-        lines.append(f"    o{i} = out{i}(t, {state(i)}, ({''.join(x + ', ' for x in args)}))")
+        lines.append(f"    o{i} = out{i}(P{i}, t, {state(i)}, ({''.join(x + ', ' for x in args)}))")
         done.add(i)
     done = on_path
     parts = []
     for i in stateful:
-        env[f"der{i}"] = sysm.blocks[i].derivatives
+        env[f"der{i}"], env[f"P{i}"] = sysm.blocks[i].kernels.derivatives, sysm.blocks[i].params
         args = [arg(i, a, o, k, done) for k, (a, o) in enumerate(sysm.sources[i])]
-        lines.append(f"    d{i} = tuple(der{i}(t, {state(i)}, ({''.join(x + ', ' for x in args)})))")
+        lines.append(f"    d{i} = tuple(der{i}(P{i}, t, {state(i)}, ({''.join(x + ', ' for x in args)})))")
         parts.append(f"d{i}")
     lines.append(f"    return {' + '.join(parts)}")
     n = sysm.n_x

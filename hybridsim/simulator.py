@@ -176,7 +176,7 @@ class Simulator:
                     record(t)
                 for i in sorted(due):
                     blk = blocks[i]
-                    ctx.xd[i] = np.asarray(blk.update(t, ctx.xd[i], ctx.u[i]), float)
+                    ctx.xd[i] = np.array(blk.update(t, ctx.xd[i], ctx.u[i]), float)  # a copy: never a wire's buffer
                     hits[blk.name] += 1
                     if not np.all(np.isfinite(ctx.xd[i])):
                         raise SimulationError(

@@ -23,7 +23,7 @@ log: [zoh.y]
 def test_good_file_builds_and_substitutes(tmp_path):
     f = DiagramFile(write(tmp_path, GOOD))
     d, settings = f.build()
-    assert d.blocks["g"].K[0, 0] == 2.0
+    assert d.blocks["g"].params[0][0, 0] == 2.0  # K
     assert settings["simulation"]["log_period"] == 0.01  # 1.0e-2 read as a number
     d.build()
 
@@ -88,7 +88,7 @@ def test_extends_merges_blocks_and_params(tmp_path):
     write(tmp_path, GOOD, "base.yaml")
     child = write(tmp_path, "extends: base.yaml\nparams: {k: 5.0}\nblocks:\n  src: {final: 3.0}\n", "child.yaml")
     d, _ = DiagramFile(child).build()
-    assert d.blocks["g"].K[0, 0] == 5.0 and d.blocks["src"].final[0] == 3.0
+    assert d.blocks["g"].params[0][0, 0] == 5.0 and d.blocks["src"].params[1] == (3.0,)  # K, final
     assert len(d.wires) == 2
 
 
@@ -97,6 +97,6 @@ def test_overrides_and_variants(tmp_path):
     f = DiagramFile(p, {"g.K": 4.0, "simulation.t_end": 0.5})
     assert [v for _, v in f.variants()] == [{"k": 1.0}, {"k": 3.0}]
     d, s = f.build()
-    assert d.blocks["g"].K[0, 0] == 4.0 and s["simulation"]["t_end"] == 0.5
+    assert d.blocks["g"].params[0][0, 0] == 4.0 and s["simulation"]["t_end"] == 0.5
     with pytest.raises(LoaderError, match="no parameter 'kk'"):
         DiagramFile(p, {"kk": 1})

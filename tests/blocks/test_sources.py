@@ -14,8 +14,8 @@ def test_eq17b_cosine():
 
 def test_eq17a_step():
     s = Step(initial=10.0, final=20.0, time=1.0)
-    assert s.output(0.999, None, [])[0] == pytest.approx(10.0)
-    assert s.output(1.0, None, [])[0] == pytest.approx(20.0)
+    assert s.output(0.999, None, [])[0] == pytest.approx((10.0,))
+    assert s.output(1.0, None, [])[0] == pytest.approx((20.0,))
 
 
 def test_ramp_holds_after_stop():
