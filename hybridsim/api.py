@@ -39,7 +39,7 @@ def _atol_vector(system, sim):
     return a
 
 
-SIMULATION_KEYS = {"t_end", "solver", "step", "rtol", "atol", "max_step", "log_period", "max_state", "fused"}
+SIMULATION_KEYS = {"t_end", "solver", "step", "rtol", "atol", "max_step", "log_period", "max_state", "fused", "compiled"}
 
 
 def load(path, **overrides):
@@ -64,7 +64,8 @@ def build(path_or_file, variant=None, **overrides):
     log = list(settings["log"]) + list(settings["signals"].values())
     simulator = Simulator(system, solver, log=log,
                           log_period=sim.get("log_period", 0.0005),
-                          max_state=sim.get("max_state", 1e6), fused=bool(sim.get("fused", True)))
+                          max_state=sim.get("max_state", 1e6), fused=bool(sim.get("fused", True)),
+                          compiled=bool(sim.get("compiled", False)))
     return system, simulator, settings
 
 

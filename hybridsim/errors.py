@@ -54,3 +54,9 @@ class FMUError(HybridsimError):
     """An FMU that cannot be loaded or whose call failed."""
 
     exit_code = 4
+
+
+class CompiledPathError(HybridsimError):
+    """The compiled path was asked for but cannot run this diagram (or numba is missing)."""
+
+    exit_code = 2

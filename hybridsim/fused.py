@@ -42,13 +42,35 @@ def build(system):
     ``t1`` starting at state tuple ``X`` with held inputs ``H`` (tuple of
     tuples, one per port in ``held_ports``); returns the final state tuple.
     """
+    source, env, held = rk4_source(system)
+    code = compile(source, f"<fused rhs of {system.name}>", "exec")
+    exec(code, env)  # noqa: S102 - our own generated source, no user text in it
+    env["advance"].source = source
+    return env["advance"], held
+
+
+def rk4_source(system, params_arg=False):
+    """Source of ``rhs`` and ``advance`` for ``system``: ``(source, env, held_ports)``.
+
+    ``env`` maps the names the source uses to the kernels (``out3``, ``der5``)
+    and, unless ``params_arg``, to the blocks' params (``P3``). With
+    ``params_arg`` both functions take the params of every block as one more
+    argument ``P`` (indexed by block), as the compiled path needs.
+    """
     sysm = system
     path = sorted(set(sysm.rhs_path))
     stateful = sysm.stateful
     on_path = set(path)
     held, held_index = [], {}
     env = {}
-    lines = ["def rhs(t, X, H):"]
+    extra = ", P" if params_arg else ""
+    lines = [f"def rhs(t, X, H{extra}):"]
+
+    def params(i):
+        if params_arg:
+            return f"P[{i}]"
+        env[f"P{i}"] = sysm.blocks[i].params
+        return f"P{i}"
 
     def arg(i, a, o, k, done):
         if a in on_path and a in done:
@@ -67,42 +89,38 @@ def build(system):
 
     done = set()
     for i in path:
-        env[f"out{i}"], env[f"P{i}"] = sysm.blocks[i].kernels.output, sysm.blocks[i].params
+        env[f"out{i}"] = sysm.blocks[i].kernels.output
         args = [arg(i, a, o, k, done) for k, (a, o) in enumerate(sysm.sources[i])]
-        lines.append(f"    o{i} = out{i}(P{i}, t, {state(i)}, ({''.join(x + ', ' for x in args)}))")
+        lines.append(f"    o{i} = out{i}({params(i)}, t, {state(i)}, ({''.join(x + ', ' for x in args)}))")
         done.add(i)
     done = on_path
     parts = []
-    for i in stateful:
-        env[f"der{i}"], env[f"P{i}"] = sysm.blocks[i].kernels.derivatives, sysm.blocks[i].params
-        args = [arg(i, a, o, k, done) for k, (a, o) in enumerate(sysm.sources[i])]
-        lines.append(f"    d{i} = tuple(der{i}(P{i}, t, {state(i)}, ({''.join(x + ', ' for x in args)})))")
-        parts.append(f"d{i}")
-    lines.append(f"    return {' + '.join(parts)}")
     n = sysm.n_x
+    for i in stateful:
+        env[f"der{i}"] = sysm.blocks[i].kernels.derivatives
+        args = [arg(i, a, o, k, done) for k, (a, o) in enumerate(sysm.sources[i])]
+        lines.append(f"    d{i} = der{i}({params(i)}, t, {state(i)}, ({''.join(x + ', ' for x in args)}))")
+        parts += [f"d{i}[{j}]" for j in range(sysm.blocks[i].n_continuous)]
+    lines.append(f"    return ({''.join(p + ', ' for p in parts)})")
     comb = lambda a, c, k: "(" + "".join(f"{a}[{j}] + {c} * {k}[{j}], " for j in range(n)) + ")"  # noqa: E731
     final = "(" + "".join(f"X[{j}] + h6 * (k1[{j}] + 2.0 * (k2[{j}] + k3[{j}]) + k4[{j}]), "
                           for j in range(n)) + ")"
     lines += [
         "",
-        "def advance(t0, t1, n, X, H):",
+        f"def advance(t0, t1, n, X, H{extra}):",
         "    h = (t1 - t0) / n",
         "    hh = 0.5 * h",
         "    h6 = h / 6.0",
         "    for k in range(n):",
         "        t = t0 + k * h",
-        "        k1 = rhs(t, X, H)",
-        f"        k2 = rhs(t + hh, {comb('X', 'hh', 'k1')}, H)",
-        f"        k3 = rhs(t + hh, {comb('X', 'hh', 'k2')}, H)",
-        f"        k4 = rhs(t + h, {comb('X', 'h', 'k3')}, H)",
+        f"        k1 = rhs(t, X, H{extra})",
+        f"        k2 = rhs(t + hh, {comb('X', 'hh', 'k1')}, H{extra})",
+        f"        k3 = rhs(t + hh, {comb('X', 'hh', 'k2')}, H{extra})",
+        f"        k4 = rhs(t + h, {comb('X', 'h', 'k3')}, H{extra})",
         f"        X = {final}",
         "    return X",
     ]
-    source = "\n".join(lines)
-    code = compile(source, f"<fused rhs of {sysm.name}>", "exec")
-    exec(code, env)  # noqa: S102 - our own generated source, no user text in it
-    env["advance"].source = source
-    return env["advance"], held
+    return "\n".join(lines), env, held
 
 
 def steps(t0, t1, step):

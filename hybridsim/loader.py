@@ -31,7 +31,7 @@ from .registry import closest, lookup, parameters, types
 
 TOP_KEYS = ["extends", "name", "description", "params", "blocks", "wires", "simulation", "log",
             "signals", "metrics", "variants", "plot", "analysis"]
-SIM_KEYS = ["t_end", "solver", "step", "rtol", "atol", "max_step", "log_period", "max_state", "fused"]
+SIM_KEYS = ["t_end", "solver", "step", "rtol", "atol", "max_step", "log_period", "max_state", "fused", "compiled"]
 SOLVERS = ["rk4", "radau", "bdf", "lsoda", "rk45", "rk23", "dop853"]
 SIGNAL_ROLES = ["force", "force_desired", "position", "position_desired", "contact",
                 "surface", "hand", "oscillation"]

@@ -10,6 +10,8 @@ exactly however long the run.
 from fractions import Fraction
 from math import gcd
 
+import numpy as np
+
 from .errors import RateError
 
 #: most base ticks the shortest period may span before rates count as incommensurate
@@ -46,8 +48,22 @@ class Schedule:
                 )
 
     def time(self, n):
-        """Exact time of tick ``n`` as a float (one rounding)."""
+        """Exact time of tick ``n`` as a float (one rounding); ``n`` may be an int array."""
         return n * self.base.numerator / self.base.denominator
+
+    def hits(self, n_last):
+        """Every tick up to ``n_last`` at which anything is due (tick 0 always).
+
+        Returns ``(n, due)``: the ticks (int64 array, increasing) and a
+        boolean array ``due[k, i]``, timing ``i`` due at tick ``n[k]``.
+        """
+        parts = [np.zeros(1, dtype=np.int64)]
+        parts += [np.arange(o, n_last + 1, p, dtype=np.int64) for p, o in self.ticks if o <= n_last]
+        n = np.unique(np.concatenate(parts))
+        due = np.zeros((n.size, len(self.ticks)), dtype=bool)
+        for i, (p, o) in enumerate(self.ticks):
+            due[:, i] = (n >= o) & ((n - o) % p == 0)
+        return n, due
 
     def due(self, n):
         """Indices of the timings due at tick ``n``."""

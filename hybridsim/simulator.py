@@ -47,10 +47,15 @@ class Simulator:
         With RK4 and blocks that all declare ``tuple_kernels``, integrate with
         one generated function (:mod:`hybridsim.fused`): same numbers, several
         times faster. ``False`` forces the generic path.
+    compiled : bool
+        Run the whole loop compiled with numba (:mod:`hybridsim.compiled`):
+        RK4 only, every block with kernels; raises
+        :class:`~hybridsim.errors.CompiledPathError` otherwise. The first run of
+        a diagram structure compiles (seconds; cached on disk after that).
     """
 
     def __init__(self, system, solver=None, log=(), log_period=0.0005,
-                 max_state=1e6, progress=False, fused=True):
+                 max_state=1e6, progress=False, fused=True, compiled=False):
         from .block import to_period
 
         self.system = system
@@ -81,6 +86,11 @@ class Simulator:
         from . import fused as _fused
 
         self._fused = _fused.build(system) if fused and _fused.eligible(system, self.solver) else None
+        self._compiled = None
+        if compiled:
+            from .compiled import CompiledLoop
+
+            self._compiled = CompiledLoop(system, self.solver, self._log_ports, self.log_path)
 
     # -- the fused right-hand side --------------------------------------------
     def _compile(self):
@@ -129,16 +139,16 @@ class Simulator:
             [(blocks[i].period, blocks[i].time_offset) for i in discrete] + [(self.log_period, 0)],
             [blocks[i].name for i in discrete] + ["log"],
         )
-        LOG = len(discrete)
-        n_last = sched.last_tick_before(t_end)
-        log_every = sched.ticks[LOG][0]
-        hits = {blocks[i].name: 0 for i in discrete}
-        rows_t, rows = [], []
+        ticks, due = sched.hits(sched.last_tick_before(t_end))
+        times = sched.time(ticks)
         bar = _progress(t_end) if self.progress else None
         wall0 = _time.perf_counter()
         try:
-            rows_t, rows, xc = self._loop(ctx, sched, rhs, events, record_to=(rows_t, rows), bar=bar,
-                                          t_end=t_end, n_last=n_last, log_every=log_every, hits=hits)
+            if self._compiled is not None:
+                rows_t, rows, hits = self._compiled.run(ctx, times, due, t_end, self._final_record(t_end),
+                                                        self.max_state)
+            else:
+                rows_t, rows, hits = self._loop(ctx, self._walk(times, due, t_end), rhs, events, bar, t_end)
         finally:
             if bar is not None:
                 bar.close()
@@ -148,13 +158,30 @@ class Simulator:
         wall = _time.perf_counter() - wall0
         return self._result(rows_t, rows, ctx, t_end, wall, hits)
 
-    def _loop(self, ctx, sched, rhs, events, record_to, bar, t_end, n_last, log_every, hits):
-        """The tick loop of :meth:`run`; returns (times, rows, final xc)."""
+    def _walk(self, times, due, t_end):
+        """The hits of a run in order, as ``(t, due, record, t_out, t_next)``.
+
+        ``times``, ``due``: from :meth:`Schedule.hits` (discrete blocks' columns,
+        then the log's). ``due``: the discrete blocks due at ``t``; ``record``:
+        a log row at ``t``; ``t_out``: the log times between ``t`` and the next
+        hit ``t_next`` (``t_end`` after the last hit).
+        """
+        discrete = self.system.discrete
+        D = len(discrete)
+        hit = due[:, :D].any(axis=1)
+        hit[0] = True
+        starts = np.flatnonzero(hit).tolist() + [len(times)]
+        times = times.tolist()
+        for a, b in zip(starts[:-1], starts[1:]):
+            due_now = frozenset(discrete[j] for j in np.flatnonzero(due[a, :D]))
+            yield times[a], due_now, bool(due[a, D]), times[a + 1:b], (times[b] if b < len(times) else t_end)
+
+    def _loop(self, ctx, walk, rhs, events, bar, t_end):
+        """The tick loop of :meth:`run`; returns (times, rows, hits per block)."""
         sysm = self.system
         blocks, kind, discrete = sysm.blocks, sysm.kind, sysm.discrete
-        LOG = len(discrete)
-        which = list(range(LOG))
-        rows_t, rows = record_to
+        rows_t, rows = [], []
+        hits = {blocks[i].name: 0 for i in discrete}
 
         def record(t):
             rows_t.append(t)
@@ -162,17 +189,13 @@ class Simulator:
                         if self._log_ports else np.zeros(0))
 
         passes = {}  # due set -> blocks to evaluate at such a hit, in order
-
-        n = 0
         xc = ctx.xc
         with np.errstate(over="ignore", invalid="ignore"):
-            while True:
-                t = sched.time(n)
-                due = frozenset(discrete[j] for j in sched.due(n) if j < LOG)
+            for t, due, log_here, t_out, t_next in walk:
                 if due not in passes:
                     passes[due] = [i for i in range(len(blocks)) if kind[i] != "discrete" or i in due]
                 ctx.evaluate(passes[due], t, xc)
-                if n % log_every == 0:
+                if log_here:
                     record(t)
                 for i in sorted(due):
                     blk = blocks[i]
@@ -183,12 +206,6 @@ class Simulator:
                             f"simulation diverged at t={t:.6g} s: discrete state of block "
                             f"{blk.name!r} is not finite"
                         )
-                n_next = sched.next_hit(n + 1, which) if which else None
-                last = n_next is None or n_next > n_last
-                t_next = t_end if last else sched.time(n_next)
-                m_hi = n_next if not last else n_last + 1
-                t_out = [sched.time(m) for m in range(n + log_every - n % log_every, m_hi, log_every)
-                         if sched.time(m) < t_next]
                 if sysm.n_x:
                     if self._fused is not None:
                         xc, xs = self._advance_fused(ctx, t, t_next, xc, t_out)
@@ -203,17 +220,18 @@ class Simulator:
                 ctx.xc = xc
                 if bar is not None:
                     bar.update(t_next - bar.n)
-                if last:
-                    break
-                n = n_next
-            if _on_grid(t_end, float(self.log_period)) and rows_t[-1] < t_end:
+            if self._final_record(t_end):
                 ctx.evaluate(self.log_path, t_end, xc)
                 record(t_end)
-        return rows_t, rows, xc
+        return rows_t, rows, hits
+
+    def _final_record(self, t_end):
+        """A row at t_end when it lies on the log grid (the hits stop before it)."""
+        return _on_grid(t_end, float(self.log_period))
 
     def _result(self, rows_t, rows, ctx, t_end, wall, hits):
         blocks = self.system.blocks
-        data = np.array(rows) if rows else np.zeros((0, 0))
+        data = np.array(rows) if len(rows) else np.zeros((0, 0))
         signals, col = {}, 0
         for ref, (i, o) in zip(self.log_refs, self._log_ports):
             w = blocks[i].outputs[o].width

@@ -1,0 +1,273 @@
+"""The compiled path: a whole run as one numba-compiled loop.
+
+``compiled: true`` (YAML ``simulation``, CLI ``--compiled``, or
+``Simulator(compiled=True)``) generates, for one system, a Python module with
+three functions - the fused right-hand side and RK4 stepper of
+:mod:`hybridsim.fused`, and ``run``, the simulator's tick loop written out
+for this diagram: every signal element is a local float, every block a call
+of its kernel (:mod:`hybridsim.kernels`) - and compiles them with numba in
+nopython mode. The blocks' Python kernels are the very code that gets
+compiled, and the generic path stays the reference the tests compare with.
+
+Python walks the schedule first (the same walk as the generic loop: hits,
+log points, step counts) and hands it over as arrays, so the compiled loop
+does no rational arithmetic. Block parameters are arguments, not constants,
+so one compiled module serves every parameter value of a diagram's structure;
+modules and numba's machine code are cached on disk (``HYBRIDSIM_CACHE``,
+default ``~/.cache/hybridsim``), keyed by the generated source and the
+kernels' source text.
+
+Needs: the RK4 solver, and kernels in every block that computes something
+(FMU blocks have none). Discontinuities are stepped over, as in RK4.
+"""
+import hashlib
+import importlib.util
+import inspect
+import os
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from .errors import CompiledPathError, SimulationError
+from .fused import has_kernels, rk4_source, steps
+from .kernels import marked
+
+_loaded = {}        # source hash -> compiled run function (this process)
+_registered = set()  # kernels registered with numba
+
+
+def problems(system, solver):
+    """Why ``system`` cannot run compiled with ``solver`` (empty list: it can)."""
+    from .solvers import RK4
+
+    out = []
+    if type(solver) is not RK4:
+        out.append(f"the compiled path integrates with RK4; this diagram's solver is {solver!r}")
+    missing = [f"{b.name} ({type(b).__name__})" for b in system.blocks
+               if (b.outputs or b.n_continuous or b.n_discrete) and not has_kernels(b)]
+    if missing:
+        out.append("these blocks have no kernels (hybridsim.kernels) to compile: " + ", ".join(missing))
+    return out
+
+
+def cache_dir():
+    """Where generated modules and numba's cache live."""
+    root = os.environ.get("HYBRIDSIM_CACHE") or Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "hybridsim"
+    return Path(root) / "compiled"
+
+
+class CompiledLoop:
+    """The compiled ``run`` of one system with its log layout."""
+
+    def __init__(self, system, solver, log_ports, log_path):
+        why = problems(system, solver)
+        if why:
+            raise CompiledPathError("cannot use the compiled path: " + "; ".join(why))
+        try:
+            import numba  # noqa: F401
+        except ImportError:  # pragma: no cover - numba is in the test extra
+            raise CompiledPathError(
+                "the compiled path needs numba: pip install 'hybridsim[fast]' (or run without --compiled)"
+            ) from None
+        self.system, self.step = system, solver.step
+        self.log_ports, self.log_path = log_ports, log_path
+        self.source, env, self.held = _module_source(system, log_ports, log_path)
+        self.run_fn = _load(self.source, env)
+
+    def run(self, ctx, times, due, t_end, final_record, max_state):
+        """Run from ``ctx`` over the ticks ``times`` with ``due`` (from
+        :meth:`Schedule.hits`: discrete blocks' columns, then the log's);
+        returns (row times, rows, hits per block)."""
+        from numba.core.errors import NumbaIRAssumptionWarning
+
+        sysm = self.system
+        discrete = sysm.discrete
+        D = len(discrete)
+        hit = due[:, :D].any(axis=1)
+        hit[0] = True
+        record = due[:, D].copy()
+        T = np.append(times, t_end)
+        KIND = np.append(np.where(hit, 0, 1), 1 if final_record else 2).astype(np.int64)
+        DUE = np.vstack([due[:, :D], np.zeros((1, D), dtype=bool)])
+        record = np.append(record, final_record)
+        REC = np.where(record, np.cumsum(record) - 1, -1).astype(np.int64)
+        rows_t = T[record].tolist()
+        t = T.tolist()
+        NSTEP = np.array([steps(a, b, self.step) if b > a else 0 for a, b in zip(t[:-1], t[1:])] + [0],
+                         dtype=np.int64)
+        width = sum(sysm.blocks[i].outputs[o].width for i, o in self.log_ports)
+        LOG = np.zeros((len(rows_t), width))
+        Y = np.concatenate([np.asarray(v, float) for vals in ctx.y for v in vals] + [np.zeros(0)])
+        Z = np.concatenate([np.asarray(z, float) for z in ctx.xd] + [np.zeros(0)])
+        status = np.zeros(3, dtype=np.int64)
+        P = tuple(b.params for b in sysm.blocks)
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            # numba's inliner trips an internal "pedantic" SSA check on some kernels;
+            # the results are checked bit for bit against the generic path (tests)
+            warnings.simplefilter("ignore", NumbaIRAssumptionWarning)
+            X = self.run_fn(P, tuple(ctx.xc.tolist()), Y, Z, T, KIND, DUE, REC, NSTEP, LOG,
+                            float(max_state), status)
+        ctx.xc = np.array(X, dtype=float)
+        k = 0
+        for vals in ctx.y:
+            for v in vals:
+                v[:] = Y[k:k + v.size]
+                k += v.size
+        k = 0
+        for i, z in enumerate(ctx.xd):
+            ctx.xd[i] = Z[k:k + z.size].copy()
+            k += z.size
+        if status[0]:
+            self._diverged(status, T)
+        hits = {sysm.blocks[i].name: int(n) for i, n in zip(discrete, DUE.sum(axis=0))}
+        return rows_t, LOG, hits
+
+    def _diverged(self, status, T):
+        t = T[status[0] - 1]
+        if status[1] < 0:
+            name = self.system.blocks[-status[1] - 1].name
+            raise SimulationError(f"simulation diverged at t={t:.6g} s: discrete state of block "
+                                  f"{name!r} is not finite")
+        name, j = self.system.state_owner(int(status[1]))
+        raise SimulationError(
+            f"simulation diverged at t={t:.6g} s: state {j} of block {name!r} left the limit "
+            "(not finite or too large). The closed loop may be unstable at these gains and "
+            "rates, or the solver step too large."
+        )
+
+
+def _module_source(system, log_ports, log_path):
+    """Source of the generated module and the names it needs: (source, env, held)."""
+    sysm = system
+    rk4, env, held = rk4_source(sysm, params_arg=True)
+    blocks, kind = sysm.blocks, sysm.kind
+    y = lambda i, o: [f"y{i}_{o}_{j}" for j in range(blocks[i].outputs[o].width)]  # noqa: E731
+    z = lambda i: [f"z{i}_{j}" for j in range(blocks[i].n_discrete)]  # noqa: E731
+    tup = lambda names: "(" + "".join(n + ", " for n in names) + ")"  # noqa: E731
+    due_col = {i: c for c, i in enumerate(sysm.discrete)}
+
+    def state(i):
+        s = sysm.xslices[i]
+        if s is not None:
+            return f"X[{s.start}:{s.stop}]"
+        return tup(z(i))
+
+    def inputs(i):
+        return tup(tup(y(a, o)) for a, o in sysm.sources[i])
+
+    def evaluate(i, indent):
+        b = blocks[i]
+        if not b.outputs:
+            return []
+        env[f"out{i}"] = b.kernels.output
+        pad = " " * indent
+        lines = [f"{pad}r = out{i}(P[{i}], t, {state(i)}, {inputs(i)})"]
+        for o in range(len(b.outputs)):
+            lines += [f"{pad}{name} = r[{o}][{j}]" for j, name in enumerate(y(i, o))]
+        return lines
+
+    L = ["def run(P, X, Y, Z, T, KIND, DUE, REC, NSTEP, LOG, max_state, STATUS):"]
+    k = 0
+    for i, b in enumerate(blocks):  # every signal element a local float
+        for o in range(len(b.outputs)):
+            for name in y(i, o):
+                L.append(f"    {name} = Y[{k}]")
+                k += 1
+    k = 0
+    for i, b in enumerate(blocks):
+        for name in z(i):
+            L.append(f"    {name} = Z[{k}]")
+            k += 1
+    L += ["    for k in range(T.shape[0]):", "        t = T[k]", "        if KIND[k] == 0:  # a sample hit"]
+    for i in range(len(blocks)):
+        if kind[i] == "discrete":
+            L.append(f"            if DUE[k, {due_col[i]}]:")
+            L += evaluate(i, 16) or ["                pass"]
+        else:
+            L += evaluate(i, 12)
+    L.append("        elif KIND[k] == 1:  # a log point between hits")
+    L += [line for i in log_path for line in evaluate(i, 12)] or ["            pass"]
+    logged = [name for i, o in log_ports for name in y(i, o)]
+    L.append("        if REC[k] >= 0:")
+    L += [f"            LOG[REC[k], {c}] = {name}" for c, name in enumerate(logged)] or ["            pass"]
+    L.append("        if KIND[k] == 0:")
+    L.append("            pass")
+    for i in sysm.discrete:
+        if blocks[i].n_discrete:
+            env[f"upd{i}"] = blocks[i].kernels.update
+            L.append(f"            if DUE[k, {due_col[i]}]:")
+            L.append(f"                r = upd{i}(P[{i}], t, {state(i)}, {inputs(i)})")
+            L += [f"                {name} = r[{j}]" for j, name in enumerate(z(i))]
+            ok = " and ".join(f"math.isfinite({name})" for name in z(i))
+            L += [f"                if not ({ok}):", f"                    STATUS[0] = k + 1",
+                  f"                    STATUS[1] = {-i - 1}", "                    break"]
+    if sysm.n_x:
+        held_in = tup(tup(y(a, o)) for a, o in held)
+        L += ["        if NSTEP[k] > 0:",
+              f"            X = advance(t, T[k + 1], NSTEP[k], X, {held_in}, P)",
+              f"            for j in range({sysm.n_x}):",
+              "                if not abs(X[j]) <= max_state:",
+              "                    STATUS[0] = k + 2",
+              "                    STATUS[1] = j",
+              "                    break",
+              "            if STATUS[0]:",
+              "                break"]
+    k = 0
+    for i, b in enumerate(blocks):
+        for o in range(len(b.outputs)):
+            for name in y(i, o):
+                L.append(f"    Y[{k}] = {name}")
+                k += 1
+    k = 0
+    for i, b in enumerate(blocks):
+        for name in z(i):
+            L.append(f"    Z[{k}] = {name}")
+            k += 1
+    L.append("    return X")
+    body = "\n".join(L)
+    kernel_text = "".join(inspect.getsource(f) for f in sorted(set(env.values()) | set(marked()),
+                                                            key=lambda f: (f.__module__, f.__qualname__)))
+    stamp = hashlib.sha256(kernel_text.encode()).hexdigest()[:16]
+    head = (f"# generated by hybridsim.compiled for diagram {sysm.name!r}; kernels {stamp}\n"
+            "import math\n\nfrom numba import njit\n\n\n")
+    source = head + (_njit(rk4) + "\n\n\n" if sysm.n_x else "") + _njit(body) + "\n"
+    return source, env, held
+
+
+def _njit(source):
+    """Put ``@njit(cache=True)`` over every top-level def of ``source``."""
+    return "\n".join("@njit(cache=True)\n" + line if line.startswith("def ") else line
+                     for line in source.split("\n"))
+
+
+def _load(source, env):
+    """Import the generated module (written once to the cache) and return ``run``."""
+    key = hashlib.sha256(source.encode()).hexdigest()[:24]
+    if key in _loaded:
+        return _loaded[key]
+    from numba.extending import register_jitable
+
+    for f in set(marked()) | set(env.values()):
+        if f not in _registered:
+            register_jitable(inline="always")(f)  # inlined: 3x faster than calls here
+            _registered.add(f)
+    folder = cache_dir()
+    path = folder / f"loop_{key}.py"
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        if not path.exists():
+            tmp = path.with_suffix(f".{os.getpid()}.tmp")
+            tmp.write_text(source)
+            os.replace(tmp, path)
+    except OSError as exc:
+        raise CompiledPathError(f"cannot write the compiled module to {folder}: {exc} "
+                                "(set HYBRIDSIM_CACHE to a writable folder)") from None
+    spec = importlib.util.spec_from_file_location(f"hybridsim_loop_{key}", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # numba's cache finds the module by name
+    spec.loader.exec_module(module)
+    vars(module).update(env)  # the kernels, by the names the source uses
+    _loaded[key] = module.run
+    return module.run
