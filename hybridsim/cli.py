@@ -56,7 +56,7 @@ def _load(path, sets):
 def cmd_run(args):
     from . import api
 
-    f = _load(args.diagram, args.set)
+    f = _load(args.diagram, list(args.set or []) + (["simulation.compiled=true"] if args.compiled else []))
     outdir = Path(args.output) if args.output else Path("out") / f.name
     n = len(f.variants())
     print(f"running {f.name} ({n} run{'s' if n > 1 else ''}) ...", file=sys.stderr)
@@ -212,6 +212,10 @@ def build_parser():
     with_diagram(r)
     r.add_argument("-o", "--output", metavar="OUTDIR", help="output folder (default out/<name>)")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    r.add_argument("--compiled", action="store_true",
+                   help="run the whole loop compiled with numba (RK4; every block needs kernels). "
+                        "The first run of a diagram compiles for about 10 s, later runs load it "
+                        "from the cache ($HYBRIDSIM_CACHE or ~/.cache/hybridsim)")
     r.set_defaults(func=cmd_run)
     c = sub.add_parser("check", help="validate a diagram without running it")
     with_diagram(c)

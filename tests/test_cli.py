@@ -5,7 +5,7 @@ import pytest
 
 from hybridsim.cli import main
 
-from conftest import DIAGRAMS, write
+from conftest import DIAGRAMS, ROOT, write
 from test_loader import GOOD
 
 
@@ -113,3 +113,14 @@ def test_report_writes_html_and_figures(tmp_path, capsys):
     data = json.loads((tmp_path / "r" / "analysis.json").read_text())
     labels = [c["label"] for c in data["configurations"]]
     assert labels[:3] == ["as printed rate=60", "as printed rate=80", "as printed rate=120"]
+
+
+def test_run_compiled_writes_the_same_csv(tmp_path, capsys):
+    smooth = ROOT / "tests" / "data" / "smooth_contact.yaml"
+    code, _, _ = run(capsys, "run", smooth, "-q", "-o", tmp_path / "a")
+    assert code == 0
+    code, _, _ = run(capsys, "run", smooth, "-q", "-o", tmp_path / "b", "--compiled")
+    assert code == 0
+    assert (tmp_path / "a" / "smooth_contact.csv").read_text() == (tmp_path / "b" / "smooth_contact.csv").read_text()
+    code, _, err = run(capsys, "run", smooth, "-q", "-o", tmp_path / "c", "--compiled", "--set", "simulation.solver=radau")
+    assert code == 2 and "compiled path integrates with RK4" in err

@@ -1,0 +1,76 @@
+"""The compiled path (numba) gives the generic path's numbers, bit for bit."""
+import numpy as np
+import pytest
+
+import hybridsim as hs
+from hybridsim.block import Block
+from hybridsim.errors import CompiledPathError, SimulationError
+
+from conftest import DIAGRAMS, ROOT
+
+SMOOTH = ROOT / "tests" / "data" / "smooth_contact.yaml"
+
+
+@pytest.mark.parametrize("path, extra", [
+    (DIAGRAMS / "fig9_force_and_position.yaml", {"rate": 120, "t_end": 0.4}),
+    (DIAGRAMS / "fig8_receding_surface.yaml", {"t_end": 1.2}),
+    (SMOOTH, {"log_period": 1 / 120}),
+], ids=["fig9-friction", "fig8-moving-surface", "damped-log-at-ticks"])
+def test_compiled_equals_generic(path, extra):
+    a = hs.simulate(path, compiled=True, **extra)
+    b = hs.simulate(path, fused=False, **extra)
+    assert np.array_equal(a.t, b.t)
+    assert np.array_equal(a.table(), b.table())
+    assert a.meta["hits"] == b.meta["hits"]
+    # the context after the run holds the same final state and wire values
+    assert np.array_equal(a.context.xc, b.context.xc)
+    for ya, yb in zip(a.context.y, b.context.y):
+        for va, vb in zip(ya, yb):
+            assert np.array_equal(va, vb)
+
+
+def test_one_compiled_module_serves_other_parameter_values():
+    from hybridsim import compiled
+
+    a = hs.build(SMOOTH, compiled=True)[1]._compiled
+    b = hs.build(SMOOTH, compiled=True, **{"fpi.Kp": [0.2, 0.1], "Kr": 1.0e6})[1]._compiled
+    assert a.run_fn is b.run_fn  # params are arguments, not compiled-in constants
+    assert a.source == b.source
+    assert compiled.cache_dir().is_dir()
+    res = hs.simulate(SMOOTH, compiled=True, **{"fpi.Kp": [0.2, 0.1]})
+    ref = hs.simulate(SMOOTH, **{"fpi.Kp": [0.2, 0.1]})
+    assert np.array_equal(res.table(), ref.table())
+
+
+def test_divergence_is_reported_on_the_compiled_path():
+    ov = {"fpi.Kp": [400.0, 300.0], "max_state": 50.0}
+    with pytest.raises(SimulationError, match=r"diverged at t=.* block '(arm|wrist)'") as generic:
+        hs.simulate(SMOOTH, **ov)
+    with pytest.raises(SimulationError, match=r"diverged at t=.* block '(arm|wrist)'") as comp:
+        hs.simulate(SMOOTH, compiled=True, **ov)
+    t = lambda e: float(str(e.value).split("t=")[1].split(" ")[0])  # noqa: E731
+    assert t(comp) <= t(generic)  # checked at every log point, not only at hits
+
+
+def test_compiled_path_says_what_it_cannot_compile():
+    class Integrator(Block):  # methods only, no kernels
+        def __init__(self, name):
+            super().__init__(name)
+            self.declare_input("u", 1)
+            self.declare_output("y", 1, depends_on=())
+            self.declare_continuous_state(1)
+
+        def output(self, t, x, u):
+            return (x,)
+
+        def derivatives(self, t, x, u):
+            return u[0]
+
+    d = hs.Diagram("integrate")
+    d.add(hs.registry.lookup("constant")("c", value=1.0))
+    d.add(Integrator("f"))
+    d.connect("c.y", "f.u")
+    with pytest.raises(CompiledPathError, match=r"no kernels .*: f \(Integrator\)"):
+        hs.Simulator(d.build(), compiled=True)
+    with pytest.raises(CompiledPathError, match="RK4"):
+        hs.build(SMOOTH, compiled=True, solver="radau")
