@@ -1,16 +1,18 @@
-"""Benchmark: the Fig 9 run through the engine vs. a plain script of the same equations.
+"""Benchmark: the Fig 9 run through the engine vs. plain loops of the same equations.
 
 Run on demand (not part of the test suite):
 
-    python benchmarks/bench_fig9.py [--repeat 3] [--t-end 4]
+    python benchmarks/bench_fig9.py [--repeat 5] [--t-end 4]
 
 The "plain" side is written here from MODEL.md independently of the engine and
-the block library: one hand-fused right-hand side and controller, integrated
-between ticks by (a) a bare numpy RK4 loop with the same step and (b) scipy's
-solve_ivp (DOP853) with the same tolerances. Each engine path is timed against
-its plain counterpart in the same process run and reported as a ratio; the
-force trajectories of both sides are compared over 0-0.25 s (before the
-undamped model loses contact and the motion turns chaotic) as a cross-check.
+the block library: a C99 loop (fig9_loop.c, compiled by this script with the
+system C compiler), a bare Python RK4 loop over floats, and one hand-fused
+numpy right-hand side and controller integrated between ticks by a numpy RK4
+loop or scipy's solve_ivp (DOP853). Each engine path (compiled, fused,
+generic, FMU plant) is timed against its plain counterpart in the same process
+run and reported as a ratio; force trajectories are compared over 0-0.25 s
+(before the undamped model loses contact and the motion turns chaotic) as a
+cross-check.
 """
 import argparse
 import math
@@ -136,17 +138,38 @@ def plain_run(rate, t_end, method, step=1e-4, rtol=1e-8):
     return np.array(forces)
 
 
-def engine_run(rate, t_end, method, step=1e-4, rtol=1e-8, fused=True):
+def engine(rate, t_end, method, step=1e-4, rtol=1e-8, fused=True, compiled=False):
+    """A built simulator of Fig 9 (building - YAML, checks, code generation - is timed apart)."""
     extra = dict(step=step) if method == "rk4" else dict(rtol=rtol, atol=1e-10)
     _, sim, settings = hs.build(ROOT / "diagrams" / "fig9_force_and_position.yaml", log_period=1 / rate,
-                                rate=rate, solver=method, t_end=t_end, fused=fused, **extra)
-    return sim.run(t_end)
+                                rate=rate, solver=method, t_end=t_end, fused=fused, compiled=compiled,
+                                **extra)
+    return sim
 
 
-def fmu_run(rate, t_end, fmu):
-    _, sim, _ = hs.build(ROOT / "diagrams" / "fig9_fmu_cs.yaml", rate=rate, t_end=t_end, fmu=str(fmu),
-                         log_period=1 / rate)
-    return sim.run(t_end)
+def c_loop(folder):
+    """Compile fig9_loop.c; returns run(rate, t_end, step, repeat) -> (median s, forces), or None."""
+    import shutil
+    import subprocess
+
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        return None
+    exe = Path(folder) / "fig9_loop"
+    subprocess.run([cc, "-O2", "-std=c99", "-o", str(exe), str(ROOT / "benchmarks" / "fig9_loop.c"), "-lm"],
+                   check=True)
+
+    def run(rate, t_end, step, repeat):
+        out = subprocess.run([str(exe), str(rate), str(t_end), repr(step), str(repeat)],
+                             capture_output=True, text=True, check=True).stdout.split()
+        return float(out[1]), np.array(out[2:], float)
+
+    return run
+
+
+def fmu_sim(rate, t_end, fmu):
+    return hs.build(ROOT / "diagrams" / "fig9_fmu_cs.yaml", rate=rate, t_end=t_end, fmu=str(fmu),
+                    log_period=1 / rate)[1]
 
 
 def timed(fn, repeat):
@@ -160,40 +183,64 @@ def timed(fn, repeat):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--t-end", type=float, default=4.0)
     args = ap.parse_args()
     print(f"Fig 9, {args.t_end} s simulated, friction on, logged at the ticks, median of {args.repeat}\n")
     h = 2.78e-4  # accurate enough for the issue's targets (README: 0.11 N, 1.7e-4 mm over 0-0.25 s)
-    print(f"RK4 h = {h * 1e3:.3f} ms: bare Python float loop vs the engine (fused and generic paths)")
-    print(f"{'rate':>5} {'bare loop s':>12} {'fused s':>8} {'generic s':>10} {'fused/bare':>11}")
-    for rate in (60, 120):
-        tb, _ = timed(lambda: bare_run(rate, args.t_end, h), args.repeat)
-        tf, _ = timed(lambda: engine_run(rate, args.t_end, "rk4", step=h), args.repeat)
-        tg, _ = timed(lambda: engine_run(rate, args.t_end, "rk4", step=h, fused=False), args.repeat)
-        print(f"{rate:>5} {tb:12.3f} {tf:8.3f} {tg:10.3f} {tf / tb:11.2f}")
+    import os
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        os.environ["HYBRIDSIM_CACHE"] = tmp  # a cold cache: the first compiled run compiles
+        t0 = time.perf_counter()
+        hs.build(ROOT / "diagrams" / "fig9_force_and_position.yaml", compiled=True, log_period=1 / 120,
+                 step=h)[1].run(0.01)
+        cold = time.perf_counter() - t0
+        c_run = c_loop(tmp)
+        print(f"RK4 h = {h * 1e3:.3f} ms, times in ms. C: fig9_loop.c -O2; bare: a Python float loop; "
+              "engine paths: compiled (numba), fused (Python), generic")
+        print(f"{'rate':>5} {'C':>7} {'bare':>7} {'compiled':>9} {'fused':>7} {'generic':>8} "
+              f"{'compiled/C':>11} {'fused/bare':>11}   compiled vs C, force 0-0.25 s")
+        for rate in (60, 120):
+            tc, fc = c_run(rate, args.t_end, h, args.repeat) if c_run else (float("nan"), None)
+            tb, _ = timed(lambda: bare_run(rate, args.t_end, h), args.repeat)
+            sims = [engine(rate, args.t_end, "rk4", step=h, compiled=True), engine(rate, args.t_end, "rk4", step=h),
+                    engine(rate, args.t_end, "rk4", step=h, fused=False)]
+            tx, res = timed(lambda: sims[0].run(args.t_end), args.repeat)
+            tf, _ = timed(lambda: sims[1].run(args.t_end), args.repeat)
+            tg, _ = timed(lambda: sims[2].run(args.t_end), args.repeat)
+            n = int(0.25 * rate)
+            diff = np.max(np.abs(res["ft.CF[0]"][:n] - fc[:n])) if fc is not None else float("nan")
+            print(f"{rate:>5} {tc * 1e3:7.2f} {tb * 1e3:7.1f} {tx * 1e3:9.2f} {tf * 1e3:7.1f} {tg * 1e3:8.1f} "
+                  f"{tx / tc:11.2f} {tf / tb:11.2f}   {diff:.1e} N")
+        print(f"compiled path, first run of the diagram (numba compiles, cold cache): {cold:.1f} s")
+        for name, kw in (("compiled", dict(compiled=True)), ("fused", {}), ("generic", dict(fused=False))):
+            tb, _ = timed(lambda: engine(120, args.t_end, "rk4", step=h, **kw), args.repeat)
+            print(f"building the simulator from YAML ({name}): {tb * 1e3:.1f} ms")
     print(f"\n{'rate':>5} {'path':>8} {'plain s':>9} {'engine s':>9} {'ratio':>6}  force diff 0-0.25 s"
           "   (plain numpy script; RK4 h = 0.1 ms)")
     for rate in (60, 120):
         for method in ("rk4", "dop853"):
             tp, fp = timed(lambda: plain_run(rate, args.t_end, method), args.repeat)
-            te, res = timed(lambda: engine_run(rate, args.t_end, method), args.repeat)
+            sim = engine(rate, args.t_end, method)
+            te, res = timed(lambda: sim.run(args.t_end), args.repeat)
             # engine force at the controller ticks, before contact is lost
             ticks = np.arange(int(0.25 * rate)) / rate
             fe = res["ft.CF[0]"][: ticks.size]  # logged at the ticks
             diff = np.max(np.abs(fe - fp[: ticks.size]))
             print(f"{rate:>5} {method:>8} {tp:9.3f} {te:9.3f} {te / tp:6.2f}  {diff:.2e} N")
-    import tempfile
-
     from hybridsim.fmu import build_plant_fmu
 
     with tempfile.TemporaryDirectory() as tmp:
         fmu = build_plant_fmu(Path(tmp) / "plant.fmu")
         print(f"\n{'rate':>5} {'Python plant s':>15} {'FMU (CS) plant s':>17} {'ratio':>6}   same run, RK4 1e-4 s, logged at the ticks")
         for rate in (60, 120):
-            tpy, _ = timed(lambda: hs.build(ROOT / "diagrams" / "fig9_force_and_position.yaml", rate=rate,
-                                            t_end=args.t_end, log_period=1 / rate)[1].run(args.t_end), args.repeat)
-            tf, _ = timed(lambda: fmu_run(rate, args.t_end, fmu), args.repeat)
+            sim = hs.build(ROOT / "diagrams" / "fig9_force_and_position.yaml", rate=rate,
+                           t_end=args.t_end, log_period=1 / rate)[1]
+            tpy, _ = timed(lambda: sim.run(args.t_end), args.repeat)
+            fsim = fmu_sim(rate, args.t_end, fmu)
+            tf, _ = timed(lambda: fsim.run(args.t_end), args.repeat)
             print(f"{rate:>5} {tpy:15.3f} {tf:17.3f} {tpy / tf:6.1f}x")
 
 

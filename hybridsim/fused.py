@@ -126,3 +126,10 @@ def rk4_source(system, params_arg=False):
 def steps(t0, t1, step):
     """Number of equal RK4 steps no longer than ``step`` (as RK4 chooses it)."""
     return max(1, math.ceil((t1 - t0) / step - 1e-9))
+
+
+def steps_between(times, step):
+    """:func:`steps` from each of ``times`` to the next (an int64 array, one shorter)."""
+    import numpy as np
+
+    return np.maximum(1, np.ceil(np.diff(times) / step - 1e-9)).astype(np.int64)
