@@ -4,9 +4,12 @@ Run on demand:  python benchmarks/bench_sweep.py [--points 8]
 
 One small sweep (Fig 7, 5 N, 0.6 s simulated per run) executed serially, on a
 local process pool of 2, and on a local Dask cluster with 1 and 2 worker
-processes, each from an empty output folder, in one process run.
+processes, each from an empty output folder, in one process run; then the
+same sweep on the compiled path (``simulation.compiled: true``), serially and
+on the pool, after one warm-up run has put the compiled module in the cache.
 """
 import argparse
+import os
 import sys
 import tempfile
 import time
@@ -25,14 +28,15 @@ def main():
     scales = [0.5 + 0.25 * k for k in range(args.points)]
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        spec = tmp / "s.yaml"
-        spec.write_text(f"diagram: {ROOT / 'diagrams' / 'fig7_force_steps.yaml'}\n"
-                        "set: {force: 5.0, rate: 60, simulation.t_end: 0.6}\n"
-                        f"scale: {{fpi.Kp: {scales}}}\n")
+        spec, fast = tmp / "s.yaml", tmp / "fast.yaml"
+        for path, extra in ((spec, ""), (fast, ", simulation.compiled: true")):
+            path.write_text(f"diagram: {ROOT / 'diagrams' / 'fig7_force_steps.yaml'}\n"
+                            f"set: {{force: 5.0, rate: 60, simulation.t_end: 0.6{extra}}}\n"
+                            f"scale: {{fpi.Kp: {scales}}}\n")
 
-        def timed(label, **kw):
+        def timed(label, sweep=spec, **kw):
             t0 = time.perf_counter()
-            run_sweep(spec, tmp / label, progress=False, **kw)
+            run_sweep(sweep, tmp / label, progress=False, **kw)
             dt = time.perf_counter() - t0
             return dt
 
@@ -47,6 +51,17 @@ def main():
                     rows.append((f"dask, {n} worker(s)", timed(f"dask{n}", dask=client)))
         except ImportError:
             print("(distributed not installed: no Dask rows)")
+        try:
+            import numba  # noqa: F401
+
+            os.environ["HYBRIDSIM_CACHE"] = str(tmp / "cache")
+            t0 = time.perf_counter()
+            timed("warm", sweep=fast, jobs=1)
+            print(f"compiled path warm-up (compiles once, {args.points} runs): {time.perf_counter() - t0:.1f} s")
+            rows += [("compiled, serial", timed("fast1", sweep=fast, jobs=1)),
+                     ("compiled, pool (2)", timed("fast2", sweep=fast, jobs=2))]
+        except ImportError:
+            print("(numba not installed: no compiled rows)")
     base = rows[0][1]
     print(f"{args.points} runs of Fig 7 (0.6 s simulated each)\n")
     print(f"{'executor':>20} {'wall s':>8} {'runs/s':>7} {'speed-up':>9}")
