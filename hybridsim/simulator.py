@@ -44,7 +44,7 @@ class Simulator:
     progress : bool
         Show a progress bar (tqdm) on runs that last more than a second.
     fused : bool
-        With RK4 and blocks that all declare ``tuple_kernels``, integrate with
+        With RK4 and kernels in every block on the right-hand side, integrate with
         one generated function (:mod:`hybridsim.fused`): same numbers, several
         times faster. ``False`` forces the generic path.
     compiled : bool
@@ -127,7 +127,11 @@ class Simulator:
 
     # -- the run ------------------------------------------------------------------
     def run(self, t_end, context=None):
-        """Simulate from t = 0 to ``t_end`` s; return a :class:`Result`."""
+        """Simulate from t = 0 to ``t_end`` s; return a :class:`Result`.
+
+        The result's context holds the state at ``t_end``, the held outputs of
+        discrete blocks and every other output evaluated at ``t_end``.
+        """
         sysm = self.system
         t_end = float(t_end)
         if not t_end > 0:
@@ -149,6 +153,8 @@ class Simulator:
                                                         self.max_state)
             else:
                 rows_t, rows, hits = self._loop(ctx, self._walk(times, due, t_end), rhs, events, bar, t_end)
+            # the context ends consistent: every output not held, evaluated at t_end
+            ctx.evaluate([i for i in range(len(blocks)) if sysm.kind[i] != "discrete"], t_end, ctx.xc)
         finally:
             if bar is not None:
                 bar.close()

@@ -15,7 +15,11 @@ SMOOTH = ROOT / "tests" / "data" / "smooth_contact.yaml"
     (DIAGRAMS / "fig9_force_and_position.yaml", {"rate": 120, "t_end": 0.4}),
     (DIAGRAMS / "fig8_receding_surface.yaml", {"t_end": 1.2}),
     (SMOOTH, {"log_period": 1 / 120}),
-], ids=["fig9-friction", "fig8-moving-surface", "damped-log-at-ticks"])
+    (DIAGRAMS / "fig9_force_and_position.yaml", {"t_end": 0.3, "pid.rate": 60, "fpi.rate": 120,
+                                                 "log_period": 0.0007}),
+    (ROOT / "tests" / "data" / "every_kernel_block.yaml", {}),
+], ids=["fig9-friction", "fig8-moving-surface", "damped-log-at-ticks", "fig9-two-rates-odd-log",
+        "every-kernel-block"])
 def test_compiled_equals_generic(path, extra):
     a = hs.simulate(path, compiled=True, **extra)
     b = hs.simulate(path, fused=False, **extra)
