@@ -167,18 +167,11 @@ def _module_source(system, log_ports, log_path):
             lines += [f"{pad}{name} = r[{o}][{j}]" for j, name in enumerate(y(i, o))]
         return lines
 
+    wires = [name for i, b in enumerate(blocks) for o in range(len(b.outputs)) for name in y(i, o)]
+    states = [name for i in range(len(blocks)) for name in z(i)]
     L = ["def run(P, X, Y, Z, T, KIND, DUE, REC, NSTEP, LOG, max_state, STATUS):"]
-    k = 0
-    for i, b in enumerate(blocks):  # every signal element a local float
-        for o in range(len(b.outputs)):
-            for name in y(i, o):
-                L.append(f"    {name} = Y[{k}]")
-                k += 1
-    k = 0
-    for i, b in enumerate(blocks):
-        for name in z(i):
-            L.append(f"    {name} = Z[{k}]")
-            k += 1
+    L += [f"    {name} = Y[{k}]" for k, name in enumerate(wires)]  # every signal element a local float
+    L += [f"    {name} = Z[{k}]" for k, name in enumerate(states)]
     L += ["    for k in range(T.shape[0]):", "        t = T[k]", "        if KIND[k] == 0:  # a sample hit"]
     for i in range(len(blocks)):
         if kind[i] == "discrete":
@@ -191,17 +184,15 @@ def _module_source(system, log_ports, log_path):
     logged = [name for i, o in log_ports for name in y(i, o)]
     L.append("        if REC[k] >= 0:")
     L += [f"            LOG[REC[k], {c}] = {name}" for c, name in enumerate(logged)] or ["            pass"]
-    L.append("        if KIND[k] == 0:")
-    L.append("            pass")
-    for i in sysm.discrete:
+    for i in sysm.discrete:  # updates, after every output of the hit
         if blocks[i].n_discrete:
             env[f"upd{i}"] = blocks[i].kernels.update
-            L.append(f"            if DUE[k, {due_col[i]}]:")
-            L.append(f"                r = upd{i}(P[{i}], t, {state(i)}, {inputs(i)})")
-            L += [f"                {name} = r[{j}]" for j, name in enumerate(z(i))]
             ok = " and ".join(f"math.isfinite({name})" for name in z(i))
-            L += [f"                if not ({ok}):", f"                    STATUS[0] = k + 1",
-                  f"                    STATUS[1] = {-i - 1}", "                    break"]
+            L += [f"        if KIND[k] == 0 and DUE[k, {due_col[i]}]:",
+                  f"            r = upd{i}(P[{i}], t, {state(i)}, {inputs(i)})"]
+            L += [f"            {name} = r[{j}]" for j, name in enumerate(z(i))]
+            L += [f"            if not ({ok}):", "                STATUS[0] = k + 1",
+                  f"                STATUS[1] = {-i - 1}", "                break"]
     if sysm.n_x:
         held_in = tup(tup(y(a, o)) for a, o in held)
         L += ["        if NSTEP[k] > 0:",
@@ -213,17 +204,8 @@ def _module_source(system, log_ports, log_path):
               "                    break",
               "            if STATUS[0]:",
               "                break"]
-    k = 0
-    for i, b in enumerate(blocks):
-        for o in range(len(b.outputs)):
-            for name in y(i, o):
-                L.append(f"    Y[{k}] = {name}")
-                k += 1
-    k = 0
-    for i, b in enumerate(blocks):
-        for name in z(i):
-            L.append(f"    Z[{k}] = {name}")
-            k += 1
+    L += [f"    Y[{k}] = {name}" for k, name in enumerate(wires)]
+    L += [f"    Z[{k}] = {name}" for k, name in enumerate(states)]
     L.append("    return X")
     body = "\n".join(L)
     stamp = _stamp(frozenset(env.values()) | frozenset(marked()))

@@ -11,6 +11,31 @@ def diagrams():
     return DIAGRAMS
 
 
+def integrator_without_kernels():
+    """A diagram (constant -> integrator) whose integrator has methods, no kernels."""
+    import hybridsim as hs
+    from hybridsim.block import Block
+
+    class Integrator(Block):
+        def __init__(self, name):
+            super().__init__(name)
+            self.declare_input("u", 1)
+            self.declare_output("y", 1, depends_on=())
+            self.declare_continuous_state(1)
+
+        def output(self, t, x, u):
+            return (x,)
+
+        def derivatives(self, t, x, u):
+            return u[0]
+
+    d = hs.Diagram("integrate")
+    d.add(hs.registry.lookup("constant")("c", value=1.0))
+    d.add(Integrator("f"))
+    d.connect("c.y", "f.u")
+    return d
+
+
 def write(tmp_path, text, name="d.yaml"):
     p = tmp_path / name
     p.write_text(text)

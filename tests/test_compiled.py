@@ -3,10 +3,9 @@ import numpy as np
 import pytest
 
 import hybridsim as hs
-from hybridsim.block import Block
 from hybridsim.errors import CompiledPathError, SimulationError
 
-from conftest import DIAGRAMS, ROOT
+from conftest import DIAGRAMS, ROOT, integrator_without_kernels
 
 SMOOTH = ROOT / "tests" / "data" / "smooth_contact.yaml"
 
@@ -57,23 +56,7 @@ def test_divergence_is_reported_on_the_compiled_path():
 
 
 def test_compiled_path_says_what_it_cannot_compile():
-    class Integrator(Block):  # methods only, no kernels
-        def __init__(self, name):
-            super().__init__(name)
-            self.declare_input("u", 1)
-            self.declare_output("y", 1, depends_on=())
-            self.declare_continuous_state(1)
-
-        def output(self, t, x, u):
-            return (x,)
-
-        def derivatives(self, t, x, u):
-            return u[0]
-
-    d = hs.Diagram("integrate")
-    d.add(hs.registry.lookup("constant")("c", value=1.0))
-    d.add(Integrator("f"))
-    d.connect("c.y", "f.u")
+    d = integrator_without_kernels()
     with pytest.raises(CompiledPathError, match=r"no kernels .*: f \(Integrator\)"):
         hs.Simulator(d.build(), compiled=True)
     with pytest.raises(CompiledPathError, match="RK4"):

@@ -4,9 +4,8 @@ import pytest
 
 import hybridsim as hs
 from hybridsim import fused
-from hybridsim.block import Block
 
-from conftest import DIAGRAMS, ROOT
+from conftest import DIAGRAMS, ROOT, integrator_without_kernels
 
 
 @pytest.mark.parametrize("path, extra", [
@@ -29,19 +28,7 @@ def test_fused_only_where_every_block_has_kernels():
     system, sim, _ = hs.build(DIAGRAMS / "fig9_force_and_position.yaml", fused=False)
     assert sim._fused is None
     # a block without kernels on the right-hand side path keeps the generic path
-    class Integrator(Block):  # methods only, no kernels
-        def __init__(self, name):
-            super().__init__(name)
-            self.declare_input("u", 1)
-            self.declare_continuous_state(1)
-
-        def derivatives(self, t, x, u):
-            return u[0]
-
-    d = hs.Diagram("integrate")
-    d.add(hs.registry.lookup("constant")("c", value=1.0))
-    d.add(Integrator("f"))
-    d.connect("c.y", "f.u")
+    d = integrator_without_kernels()
     assert not fused.eligible(d.build(), hs.RK4())
     # a width-generic block with numpy kernels is eligible (and still exact)
     d = hs.Diagram("lp")
