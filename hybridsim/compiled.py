@@ -25,6 +25,7 @@ import hashlib
 import importlib.util
 import inspect
 import os
+import re
 import sys
 import warnings
 from pathlib import Path
@@ -70,7 +71,7 @@ class CompiledLoop:
             import numba  # noqa: F401
         except ImportError:  # pragma: no cover - numba is in the test extra
             raise CompiledPathError(
-                "the compiled path needs numba: pip install 'hybridsim[fast]' (or run without --compiled)"
+                "the compiled path needs numba: pip install -e \".[fast]\" (or run without --compiled)"
             ) from None
         self.system, self.step = system, solver.step
         self.log_ports, self.log_path = log_ports, log_path
@@ -81,7 +82,7 @@ class CompiledLoop:
         """Run from ``ctx`` over the ticks ``times`` with ``due`` (from
         :meth:`Schedule.hits`: discrete blocks' columns, then the log's);
         returns (row times, rows, hits per block)."""
-        from numba.core.errors import NumbaIRAssumptionWarning
+        from numba.core.errors import NumbaError, NumbaIRAssumptionWarning
 
         sysm = self.system
         discrete = sysm.discrete
@@ -106,8 +107,11 @@ class CompiledLoop:
             # numba's inliner trips an internal "pedantic" SSA check on some kernels;
             # the results are checked bit for bit against the generic path (tests)
             warnings.simplefilter("ignore", NumbaIRAssumptionWarning)
-            X = self.run_fn(P, tuple(ctx.xc.tolist()), Y, Z, T, KIND, DUE, REC, NSTEP, LOG,
-                            float(max_state), status)
+            try:
+                X = self.run_fn(P, tuple(ctx.xc.tolist()), Y, Z, T, KIND, DUE, REC, NSTEP, LOG,
+                                float(max_state), status)
+            except NumbaError as exc:
+                raise CompiledPathError(_compile_failure(exc, sysm)) from None
         ctx.xc = np.array(X, dtype=float)
         k = 0
         for vals in ctx.y:
@@ -215,11 +219,31 @@ def _module_source(system, log_ports, log_path):
     return source, env, held
 
 
+def _compile_failure(exc, system):
+    """What to tell a user whose kernels numba cannot compile."""
+    text = re.sub(r"\x1b\[[0-9;]*m", "", str(exc))  # numba colours its messages
+    culprits = sorted({f"{b.name} ({type(b).__name__})" for b in system.blocks if b.kernels is not None
+                       for f in b.kernels if f is not None and f.__name__ in text})
+    lines = [line.strip() for line in text.splitlines() if line.strip()]
+    why = ("Untyped global", "Unknown attribute", "Cannot", "not supported", "unsupported", "Invalid use")
+    first = next((line for line in lines if any(w in line for w in why)), lines[0] if lines else "")
+    return ("numba cannot compile the kernels of this diagram"
+            + (f"; the message names block(s) {', '.join(culprits)}" if culprits else "")
+            + f": {first} (kernels must keep to numba's nopython subset, see hybridsim.kernels; "
+              "or run without compiled)")
+
+
 @functools.lru_cache(maxsize=None)
 def _stamp(functions):
     """A hash of the kernels' source text (a kernel edited means a new module)."""
-    text = "".join(inspect.getsource(f) for f in sorted(functions, key=lambda f: (f.__module__, f.__qualname__)))
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
+    def text(f):
+        try:
+            return inspect.getsource(f)
+        except (OSError, TypeError):  # defined at a prompt: its byte code then
+            return f.__code__.co_code.hex() + repr(f.__code__.co_consts)
+
+    key = lambda f: (f.__module__, f.__qualname__)  # noqa: E731
+    return hashlib.sha256("".join(text(f) for f in sorted(functions, key=key)).encode()).hexdigest()[:16]
 
 
 def _njit(source):

@@ -6,6 +6,7 @@ import hybridsim as hs
 from hybridsim.errors import CompiledPathError, SimulationError
 
 from conftest import DIAGRAMS, ROOT, integrator_without_kernels
+from hybridsim.block import Block
 
 SMOOTH = ROOT / "tests" / "data" / "smooth_contact.yaml"
 
@@ -61,3 +62,29 @@ def test_compiled_path_says_what_it_cannot_compile():
         hs.Simulator(d.build(), compiled=True)
     with pytest.raises(CompiledPathError, match="RK4"):
         hs.build(SMOOTH, compiled=True, solver="radau")
+
+
+def test_a_kernel_numba_cannot_compile_is_named():
+    from hybridsim.kernels import Kernels, kernel
+
+    def twice(v):  # a helper not marked @kernel: numba cannot call it
+        return 2.0 * v
+
+    @kernel
+    def labelled_output(p, t, x, u):
+        return ((twice(u[0][0]),),)
+
+    class Labelled(Block):
+        kernels = Kernels(output=labelled_output)
+
+        def __init__(self, name):
+            super().__init__(name)
+            self.declare_input("u", 1)
+            self.declare_output("y", 1)
+
+    d = hs.Diagram("bad_kernel")
+    d.add(hs.registry.lookup("constant")("c", value=1.0))
+    d.add(Labelled("lab"))
+    d.connect("c.y", "lab.u")
+    with pytest.raises(CompiledPathError, match=r"numba cannot compile .* lab \(Labelled\): Untyped global name .twice."):
+        hs.Simulator(d.build(), log=["lab.y"], compiled=True).run(0.01)
