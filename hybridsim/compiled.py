@@ -78,22 +78,18 @@ class CompiledLoop:
         self.source, env, self.held = _module_source(system, log_ports, log_path)
         self.run_fn = _load(self.source, env)
 
-    def run(self, ctx, times, due, t_end, final_record, max_state):
-        """Run from ``ctx`` over the ticks ``times`` with ``due`` (from
-        :meth:`Schedule.hits`: discrete blocks' columns, then the log's);
+    def run(self, ctx, stops, t_end, final_record, max_state):
+        """Run from ``ctx`` over ``stops`` (a :class:`~hybridsim.simulator.Stops`);
         returns (row times, rows, hits per block)."""
         from numba.core.errors import NumbaError, NumbaIRAssumptionWarning
 
         sysm = self.system
         discrete = sysm.discrete
         D = len(discrete)
-        hit = due[:, :D].any(axis=1)
-        hit[0] = True
-        record = due[:, D].copy()
-        T = np.append(times, t_end)
-        KIND = np.append(np.where(hit, 0, 1), 1 if final_record else 2).astype(np.int64)
-        DUE = np.vstack([due[:, :D], np.zeros((1, D), dtype=bool)])
-        record = np.append(record, final_record)
+        T = np.append(stops.times, t_end)
+        KIND = np.append(np.where(stops.hit, 0, 1), 1 if final_record else 2).astype(np.int64)
+        DUE = np.vstack([stops.due, np.zeros((1, D), dtype=bool)])
+        record = np.append(stops.record, final_record)
         REC = np.where(record, np.cumsum(record) - 1, -1).astype(np.int64)
         rows_t = T[record].tolist()
         NSTEP = np.append(steps_between(T, self.step), 0)

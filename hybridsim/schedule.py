@@ -69,15 +69,6 @@ class Schedule:
         """Indices of the timings due at tick ``n``."""
         return [i for i, (p, o) in enumerate(self.ticks) if n >= o and (n - o) % p == 0]
 
-    def next_hit(self, n, which=None):
-        """Smallest tick >= ``n`` at which any (or each in ``which``) is due."""
-        best = None
-        for i in (range(len(self.ticks)) if which is None else which):
-            p, o = self.ticks[i]
-            m = o if n <= o else o + -(-(n - o) // p) * p
-            best = m if best is None else min(best, m)
-        return best
-
     def last_tick_before(self, t_end):
         """Largest n with ``time(n) < t_end``.
 

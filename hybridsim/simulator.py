@@ -15,6 +15,7 @@ Ticks run at ``0 <= n * base < t_end``; the run ends with the state at
 ``t_end``.
 """
 import time as _time
+from typing import NamedTuple
 
 import numpy as np
 
@@ -143,16 +144,15 @@ class Simulator:
             [(blocks[i].period, blocks[i].time_offset) for i in discrete] + [(self.log_period, 0)],
             [blocks[i].name for i in discrete] + ["log"],
         )
-        ticks, due = sched.hits(sched.last_tick_before(t_end))
-        times = sched.time(ticks)
+        stops = _stops(sched, t_end, len(discrete))
         bar = _progress(t_end) if self.progress else None
         wall0 = _time.perf_counter()
         try:
             if self._compiled is not None:
-                rows_t, rows, hits = self._compiled.run(ctx, times, due, t_end, self._final_record(t_end),
+                rows_t, rows, hits = self._compiled.run(ctx, stops, t_end, self._final_record(t_end),
                                                         self.max_state)
             else:
-                rows_t, rows, hits = self._loop(ctx, self._walk(times, due, t_end), rhs, events, bar, t_end)
+                rows_t, rows, hits = self._loop(ctx, self._walk(stops, t_end), rhs, events, bar, t_end)
             # the context ends consistent: every output not held, evaluated at t_end
             ctx.evaluate([i for i in range(len(blocks)) if sysm.kind[i] != "discrete"], t_end, ctx.xc)
         finally:
@@ -164,23 +164,19 @@ class Simulator:
         wall = _time.perf_counter() - wall0
         return self._result(rows_t, rows, ctx, t_end, wall, hits)
 
-    def _walk(self, times, due, t_end):
+    def _walk(self, stops, t_end):
         """The hits of a run in order, as ``(t, due, record, t_out, t_next)``.
 
-        ``times``, ``due``: from :meth:`Schedule.hits` (discrete blocks' columns,
-        then the log's). ``due``: the discrete blocks due at ``t``; ``record``:
-        a log row at ``t``; ``t_out``: the log times between ``t`` and the next
-        hit ``t_next`` (``t_end`` after the last hit).
+        ``due``: the discrete blocks due at ``t``; ``record``: a log row at
+        ``t``; ``t_out``: the log times between ``t`` and the next hit
+        ``t_next`` (``t_end`` after the last hit).
         """
         discrete = self.system.discrete
-        D = len(discrete)
-        hit = due[:, :D].any(axis=1)
-        hit[0] = True
-        starts = np.flatnonzero(hit).tolist() + [len(times)]
-        times = times.tolist()
+        starts = np.flatnonzero(stops.hit).tolist() + [len(stops.times)]
+        times = stops.times.tolist()
         for a, b in zip(starts[:-1], starts[1:]):
-            due_now = frozenset(discrete[j] for j in np.flatnonzero(due[a, :D]))
-            yield times[a], due_now, bool(due[a, D]), times[a + 1:b], (times[b] if b < len(times) else t_end)
+            due_now = frozenset(discrete[j] for j in np.flatnonzero(stops.due[a]))
+            yield times[a], due_now, bool(stops.record[a]), times[a + 1:b], (times[b] if b < len(times) else t_end)
 
     def _loop(self, ctx, walk, rhs, events, bar, t_end):
         """The tick loop of :meth:`run`; returns (times, rows, hits per block)."""
@@ -274,6 +270,23 @@ class Simulator:
                 f"is {x[k]:.3g} (limit {self.max_state:g}). The closed loop may be "
                 "unstable at these gains and rates, or the solver step too large."
             )
+
+
+class Stops(NamedTuple):
+    """Where a run stops before ``t_end``: sample hits and log points, in order."""
+
+    times: np.ndarray   # s
+    due: np.ndarray     # due[k, j]: discrete block j (in system.discrete order) due at stop k
+    hit: np.ndarray     # a sample hit (a full pass); else a log point between hits
+    record: np.ndarray  # a log row at this stop
+
+
+def _stops(sched, t_end, n_discrete):
+    """The :class:`Stops` of ``sched`` (discrete blocks' timings, then the log's) before ``t_end``."""
+    ticks, due = sched.hits(sched.last_tick_before(t_end))
+    hit = due[:, :n_discrete].any(axis=1)
+    hit[0] = True  # the first pass of a run, due or not
+    return Stops(sched.time(ticks), due[:, :n_discrete], hit, due[:, n_discrete])
 
 
 def _on_grid(t, period):

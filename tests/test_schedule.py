@@ -13,17 +13,22 @@ def test_base_tick_is_gcd_of_periods():
     assert s.ticks == [(4, 0), (3, 0), (2, 0)]
 
 
-def test_due_and_next_hit():
+def test_due_and_hits():
     s = Schedule([(rate_to_period(60), 0), (rate_to_period(80), 0)])
     assert s.due(0) == [0, 1]
-    assert s.next_hit(1) == 3  # 80 Hz at tick 3 of 240 Hz
-    assert s.due(12) == [0, 1]
+    n, due = s.hits(12)
+    assert n.tolist() == [0, 3, 4, 6, 8, 9, 12]  # of 240 Hz: 60 Hz every 4 ticks, 80 Hz every 3
+    assert due[1].tolist() == [False, True]      # tick 3: 80 Hz only
+    assert due[-1].tolist() == [True, True] and s.due(12) == [0, 1]
 
 
 def test_offset():
     s = Schedule([(Fraction(1, 10), Fraction(1, 20))])
     assert s.ticks == [(2, 1)]
-    assert s.next_hit(0) == 1 and s.due(0) == []
+    assert s.due(0) == []
+    n, due = s.hits(5)
+    assert n.tolist() == [0, 1, 3, 5]  # tick 0 always: the first pass of a run
+    assert due[:, 0].tolist() == [False, True, True, True]
 
 
 def test_time_is_exact_on_grid():
