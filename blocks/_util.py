@@ -18,6 +18,11 @@ def vector(value, name, width=None):
     return arr
 
 
+def floats(value, name, width=None):
+    """A parameter as a tuple of floats (what kernels read; see :func:`vector`)."""
+    return tuple(float(v) for v in vector(value, name, width))
+
+
 def matrix(value, name, n):
     """A gain as an n x n matrix: a scalar, a diagonal list, or a full matrix."""
     arr = np.asarray(value, dtype=float)

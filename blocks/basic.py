@@ -212,8 +212,6 @@ def counter_update(p, t, x, u):
     return (x[0] + 1.0,)
 
 
-
-
 @register("state_space")
 class StateSpace(Block):
     """Continuous LTI system x' = A x + B u, y = C x + D u (any plant or filter).

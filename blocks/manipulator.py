@@ -8,7 +8,7 @@ from hybridsim.block import Block
 from hybridsim.kernels import Kernels, kernel
 from hybridsim.registry import register
 
-from ._util import vector
+from ._util import floats, vector
 from .kinematics import L_OFFSET, inverse_kinematics
 
 
@@ -51,7 +51,6 @@ class Manipulator(Block):
                  damping=(0.0, 0.0), q0=None, endpoint0=None, qd0=(0.0, 0.0),
                  l=L_OFFSET, stick_band=1e-4, stick_time=1e-3):
         super().__init__(name)
-        floats = lambda v, what, n: tuple(float(e) for e in vector(v, what, n))  # noqa: E731
         zero = (0.0, 0.0)
         self.params = ArmParams(
             I1=floats(I1, "I1", 3), m2=float(M2) + float(M3),

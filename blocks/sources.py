@@ -11,7 +11,7 @@ from hybridsim.block import Block
 from hybridsim.kernels import Kernels, kernel
 from hybridsim.registry import register
 
-from ._util import vector
+from ._util import floats, vector
 
 
 class _Source(Block):
@@ -32,10 +32,6 @@ def _widths(**params):
     return n
 
 
-def _floats(value, name, n=None):
-    return tuple(float(v) for v in vector(value, name, n))
-
-
 @register("constant")
 class Constant(_Source):
     """y = value."""
@@ -43,7 +39,7 @@ class Constant(_Source):
     time_varying = False
 
     def __init__(self, name="const", value=0.0):
-        value = _floats(value, "value")
+        value = floats(value, "value")
         super().__init__(name, len(value))
         self.params = (value, (0.0,) * len(value))
 
@@ -60,7 +56,7 @@ class Step(_Source):
     def __init__(self, name="step", initial=0.0, final=1.0, time=0.0):
         n = _widths(initial=initial, final=final)
         super().__init__(name, n)
-        self.params = (_floats(initial, "initial", n), _floats(final, "final", n),
+        self.params = (floats(initial, "initial", n), floats(final, "final", n),
                        float(time), (0.0,) * n)
 
 
