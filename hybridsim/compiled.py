@@ -162,9 +162,9 @@ def _module_source(system, log_ports, log_path):
             return []
         env[f"out{i}"] = b.kernels.output
         pad = " " * indent
-        lines = [f"{pad}r = out{i}(P[{i}], t, {state(i)}, {inputs(i)})"]
+        lines = [f"{pad}r{i} = out{i}(P[{i}], t, {state(i)}, {inputs(i)})"]  # one name per block: one type
         for o in range(len(b.outputs)):
-            lines += [f"{pad}{name} = r[{o}][{j}]" for j, name in enumerate(y(i, o))]
+            lines += [f"{pad}{name} = r{i}[{o}][{j}]" for j, name in enumerate(y(i, o))]
         return lines
 
     wires = [name for i, b in enumerate(blocks) for o in range(len(b.outputs)) for name in y(i, o)]
@@ -189,8 +189,8 @@ def _module_source(system, log_ports, log_path):
             env[f"upd{i}"] = blocks[i].kernels.update
             ok = " and ".join(f"math.isfinite({name})" for name in z(i))
             L += [f"        if KIND[k] == 0 and DUE[k, {due_col[i]}]:",
-                  f"            r = upd{i}(P[{i}], t, {state(i)}, {inputs(i)})"]
-            L += [f"            {name} = r[{j}]" for j, name in enumerate(z(i))]
+                  f"            s{i} = upd{i}(P[{i}], t, {state(i)}, {inputs(i)})"]
+            L += [f"            {name} = s{i}[{j}]" for j, name in enumerate(z(i))]
             L += [f"            if not ({ok}):", "                STATUS[0] = k + 1",
                   f"                STATUS[1] = {-i - 1}", "                break"]
     if sysm.n_x:
