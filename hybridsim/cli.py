@@ -170,7 +170,8 @@ def cmd_sweep(args):
     from .sweep import run_sweep
 
     out = Path(args.output or Path("out") / Path(args.sweep).stem)
-    rows = run_sweep(args.sweep, out, jobs=args.jobs, dask=args.dask, progress=not args.quiet)
+    rows = run_sweep(args.sweep, out, jobs=args.jobs, dask=args.dask, progress=not args.quiet,
+                     compiled=args.compiled)
     failed = [r for r in rows if r["status"] != "ok"]
     print(f"{len(rows)} rows ({len(failed)} failed) -> {out}/sweep.csv, sweep.parquet, heatmap.png, points.jsonl")
     for r in failed[:5]:
@@ -266,6 +267,8 @@ def build_parser():
     sw.add_argument("-j", "--jobs", type=int, help="local processes (default: one per core)")
     sw.add_argument("--dask", metavar="ADDRESS", help="run on a Dask distributed scheduler, e.g. tcp://host:8786")
     sw.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    sw.add_argument("--compiled", action="store_true",
+                    help="run every point compiled with numba (compiles once, then cached)")
     sw.set_defaults(func=cmd_sweep)
     b = sub.add_parser("blocks", help="list the block types")
     b.add_argument("-v", "--verbose", action="store_true", help="with their parameters")

@@ -189,9 +189,15 @@ def _jsonable(v):
     return str(v)
 
 
-def run_sweep(path, outdir, jobs=None, dask=None, progress=True):
-    """Run (or resume) a sweep; returns the table as a list of row dicts."""
+def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False):
+    """Run (or resume) a sweep; returns the table as a list of row dicts.
+
+    ``compiled``: run every point on the compiled path (as ``simulation.compiled:
+    true`` in ``set``); the same numbers, so finished points are reused either way.
+    """
     sw = Sweep(path)
+    if compiled:
+        sw.fixed["simulation.compiled"] = True
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     jsonl = outdir / "points.jsonl"

@@ -88,3 +88,11 @@ def test_random_design_is_seeded(tmp_path):
     a, b = sw.Sweep(p).points(), sw.Sweep(p).points()
     assert [x["params"] for x in a] == [x["params"] for x in b]
     assert all(8e5 <= x["params"]["Kr"] <= 1e6 for x in a)
+
+
+def test_compiled_sweep_gives_the_same_table(sweep_file, tmp_path):
+    pytest.importorskip("numba")
+    sw.run_sweep(sweep_file, tmp_path / "plain", jobs=1, progress=False)
+    code = main(["sweep", str(sweep_file), "-o", str(tmp_path / "fast"), "-j", "1", "-q", "--compiled"])
+    assert code == 0
+    pd.testing.assert_frame_equal(table(tmp_path / "plain" / "sweep.csv"), table(tmp_path / "fast" / "sweep.csv"))
