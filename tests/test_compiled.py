@@ -88,3 +88,20 @@ def test_a_kernel_numba_cannot_compile_is_named():
     d.connect("c.y", "lab.u")
     with pytest.raises(CompiledPathError, match=r"numba cannot compile .* lab \(Labelled\): Untyped global name .twice."):
         hs.Simulator(d.build(), log=["lab.y"], compiled=True).run(0.01)
+
+
+def test_same_wiring_with_other_block_types_is_another_module():
+    def diagram(kind, **params):
+        d = hs.Diagram("shape")
+        d.add(hs.registry.lookup("constant")("c", value=1.0))
+        d.add(hs.registry.lookup(kind)("m", **params))
+        d.add(hs.registry.lookup("lowpass")("f", cutoff=50.0))
+        d.connect("c.y", "m.u")
+        d.connect("m.y", "f.u")
+        return d.build()
+
+    gain = hs.Simulator(diagram("gain", K=3.0), log=["f.y"], compiled=True)
+    sel = hs.Simulator(diagram("selection", S=[1]), log=["f.y"], compiled=True)
+    assert gain._compiled.run_fn is not sel._compiled.run_fn
+    assert gain.run(0.5)["f.y"][-1, 0] == pytest.approx(3.0, abs=1e-6)  # unity-gain filter of 3 u
+    assert sel.run(0.5)["f.y"][-1, 0] == pytest.approx(1.0, abs=1e-6)   # of S u = u
