@@ -215,7 +215,7 @@ def build_parser():
     r.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     r.add_argument("--compiled", action="store_true",
                    help="run the whole loop compiled with numba (RK4; every block needs kernels). "
-                        "The first run of a diagram compiles for about 10 s, later runs load it "
+                        "The first run of a diagram compiles for 10-15 s, later runs load it "
                         "from the cache ($HYBRIDSIM_CACHE or ~/.cache/hybridsim)")
     r.set_defaults(func=cmd_run)
     c = sub.add_parser("check", help="validate a diagram without running it")
