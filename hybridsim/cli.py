@@ -150,7 +150,8 @@ def cmd_reproduce(args):
     from .reproduce import reproduce, summary_rows
 
     out = Path(args.output or "out/reproduce")
-    report = reproduce(out, jobs=args.jobs, progress=lambda m: print(f"  {m} ...", file=sys.stderr))
+    report = reproduce(out, jobs=args.jobs, progress=lambda m: print(f"  {m} ...", file=sys.stderr),
+                       compiled=args.compiled)
     for exp, claim, ours, ok in summary_rows(report):
         print(f"  {'✓' if ok else '✗'} {exp}: {claim} - ours: {ours}")
     print(f"wrote {out}/reproduce.html (+ figures, metrics.csv, reproduce.json) "
@@ -247,6 +248,9 @@ def build_parser():
                                     "Writes one self-contained HTML report.")
     rr.add_argument("-o", "--output", metavar="OUTDIR", help="output folder (default out/reproduce)")
     rr.add_argument("-j", "--jobs", type=int, help="parallel processes (default: one per core)")
+    rr.add_argument("--compiled", action="store_true",
+                    help="every simulation on the compiled path (numba): the first time compiles "
+                         "each experiment's diagram (about a minute), later runs are faster")
     rr.set_defaults(func=cmd_reproduce)
     fm = sub.add_parser("fmu", help="FMU tools: 'hybridsim fmu build' exports the plant")
     fsub = fm.add_subparsers(dest="fmu_command", metavar="FMU_COMMAND")

@@ -151,14 +151,16 @@ def _evaluate(args):
     return claims, runs, settings
 
 
-def _pool_map(items, jobs):
+def _pool_map(items, jobs, extra=None):
+    """_evaluate over (name, overrides) items, with ``extra`` overrides added to each."""
+    items = [(name, {**ov, **(extra or {})}) for name, ov in items]
     if jobs <= 1:
         return [_evaluate(i) for i in items]
     with ProcessPoolExecutor(jobs) as pool:
         return list(pool.map(_evaluate, items))
 
 
-def damping_search(name, family, jobs, grid=GRID, bisections=2):
+def damping_search(name, family, jobs, grid=GRID, bisections=2, extra=None):
     """Smallest s of a damping family for which every claim of ``name`` holds.
 
     Tries ``grid`` (in parallel), then bisects between the last failing and the
@@ -170,7 +172,7 @@ def damping_search(name, family, jobs, grid=GRID, bisections=2):
     if name == "Fig 7":
         base = {**base, "rate": 60}  # the claims are about the 60 Hz runs
     trials = []
-    results = _pool_map([(name, {**base, **ov(s)}) for s in grid], jobs)
+    results = _pool_map([(name, {**base, **ov(s)}) for s in grid], jobs, extra)
     ok_at = None
     for s, (claims, _, _) in zip(grid, results):
         passed = all(c[3] for c in claims)
@@ -183,7 +185,7 @@ def damping_search(name, family, jobs, grid=GRID, bisections=2):
     hi = ok_at
     for _ in range(bisections):
         mid = math.sqrt(lo * hi) if lo > 0 else hi / 2
-        claims, _, _ = _evaluate((name, {**base, **ov(mid)}))
+        claims, _, _ = _evaluate((name, {**base, **ov(mid), **(extra or {})}))
         passed = all(c[3] for c in claims)
         trials.append({"s": mid, "passed": passed, "claims": [c[3] for c in claims]})
         lo, hi = (lo, mid) if passed else (mid, hi)
@@ -246,12 +248,14 @@ def _explanations():
 
 
 def reproduce(outdir, jobs=None, progress=None, experiments=None, grid=GRID, bisections=2,
-              sensitivities=None):
+              sensitivities=None, compiled=False):
     """Run everything, write ``outdir/reproduce.html`` (+ figures, CSV, JSON).
 
     ``experiments`` (names such as "Fig 7"), ``grid``, ``bisections`` and
-    ``sensitivities`` narrow the work (the defaults do all of it).
+    ``sensitivities`` narrow the work (the defaults do all of it); ``compiled``
+    runs every simulation on the compiled path (the same numbers).
     """
+    extra = {"compiled": True} if compiled else {}
     from .plots import experiment_figure
     import matplotlib.pyplot as plt
 
@@ -262,7 +266,7 @@ def reproduce(outdir, jobs=None, progress=None, experiments=None, grid=GRID, bis
     say("running the experiments as printed")
     chosen = [e for e in EXPERIMENTS if experiments is None or e[0] in experiments]
     sensitivities = SENSITIVITIES if sensitivities is None else sensitivities
-    printed = _pool_map([(name, {}) for name, *_ in chosen], jobs)
+    printed = _pool_map([(name, {}) for name, *_ in chosen], jobs, extra)
     why = _explanations()
     figures = []
     for (name, fname, _, _), (claims, runs, settings) in zip(chosen, printed):
@@ -276,11 +280,11 @@ def reproduce(outdir, jobs=None, progress=None, experiments=None, grid=GRID, bis
         if not all(c[3] for c in claims):
             for family in FAMILIES:
                 say(f"{name}: searching the smallest {family} damping that reproduces it")
-                entry["searches"].append(damping_search(name, family, jobs, grid, bisections))
+                entry["searches"].append(damping_search(name, family, jobs, grid, bisections, extra))
             found = [s for s in entry["searches"] if s["found"] is not None]
             if found:
                 best = min(found, key=lambda s: s["found"])
-                claims_d, runs_d, settings_d = _evaluate((name, best["damping"]))
+                claims_d, runs_d, settings_d = _evaluate((name, {**best["damping"], **extra}))
                 entry["damped"] = {"damping": best["damping"],
                                    "claims": [{"claim": c[0], "ours": c[2], "reproduced": c[3]} for c in claims_d]}
                 if runs_d:
@@ -291,7 +295,7 @@ def reproduce(outdir, jobs=None, progress=None, experiments=None, grid=GRID, bis
     damping = dampings[0] if dampings else FAMILIES["joint"](16.0)
     report["stability"] = {"damping": damping, "rows": _stability(damping)}
     say("sensitivity runs")
-    sens = _pool_map([(exp, ov) for _, exp, ov in sensitivities], jobs)
+    sens = _pool_map([(exp, ov) for _, exp, ov in sensitivities], jobs, extra)
     for (label, exp, ov), (claims, runs, _) in zip(sensitivities, sens):
         r = runs[0]["metrics"] if runs else {"contact_lost": None}
         report["sensitivities"].append({

@@ -74,3 +74,14 @@ def test_damping_search_reports_its_trials(small_report):
         assert s["trials"] and all("passed" in t for t in s["trials"])
         if s["found"] is not None:
             assert any(t["passed"] and t["s"] == s["found"] for t in s["trials"])
+
+
+def test_compiled_reproduce_judges_the_same(small_report, tmp_path):
+    pytest.importorskip("numba")
+    _, report = small_report
+    fast = rp.reproduce(tmp_path / "c", jobs=1, experiments=["eq 18"], grid=[16.0], bisections=1,
+                        sensitivities=[], compiled=True)
+    ref = next(e for e in report["experiments"] if e["name"] == "eq 18")
+    assert fast["experiments"][0]["claims"] == ref["claims"]
+    assert [m["oscillation_hz"] for m in fast["experiments"][0]["metrics"]] == \
+           [m["oscillation_hz"] for m in ref["metrics"]]
