@@ -5,6 +5,7 @@ Exit status: 0 success; 2 bad diagram / bad input; 3 simulation diverged;
 """
 import argparse
 import json
+import logging
 
 import sys
 from pathlib import Path
@@ -193,6 +194,16 @@ def cmd_blocks(args):
     return 0
 
 
+def _show_notes():
+    """hybridsim's INFO messages (e.g. "compiling ... with numba") on stderr, once."""
+    log = logging.getLogger("hybridsim")
+    if not log.handlers:
+        handler = logging.StreamHandler(sys.stderr)
+        handler.setFormatter(logging.Formatter("  %(message)s"))
+        log.addHandler(handler)
+        log.setLevel(logging.INFO)
+
+
 def build_parser():
     p = argparse.ArgumentParser(
         prog="hybridsim",
@@ -283,6 +294,7 @@ def build_parser():
 def main(argv=None):
     parser = build_parser()
     args = parser.parse_args(argv)
+    _show_notes()
     if not getattr(args, "func", None):
         parser.print_help()
         return 2

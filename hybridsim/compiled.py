@@ -24,6 +24,7 @@ import functools
 import hashlib
 import importlib.util
 import inspect
+import logging
 import os
 import re
 import sys
@@ -36,6 +37,7 @@ from .errors import CompiledPathError, SimulationError
 from .fused import has_kernels, rk4_source, steps_between
 from .kernels import marked
 
+log = logging.getLogger(__name__)
 _loaded = {}        # source hash -> compiled run function (this process)
 _registered = set()  # kernels registered with numba
 
@@ -76,7 +78,7 @@ class CompiledLoop:
         self.system, self.step = system, solver.step
         self.log_ports, self.log_path = log_ports, log_path
         self.source, env, self.held = _module_source(system, log_ports, log_path)
-        self.run_fn = _load(self.source, env)
+        self.run_fn = _load(self.source, env, system.name)
 
     def run(self, ctx, stops, t_end, final_record, max_state):
         """Run from ``ctx`` over ``stops`` (a :class:`~hybridsim.simulator.Stops`);
@@ -250,7 +252,7 @@ def _njit(source):
                      for line in source.split("\n"))
 
 
-def _load(source, env):
+def _load(source, env, name):
     """Import the generated module (written once to the cache) and return ``run``."""
     key = hashlib.sha256(source.encode()).hexdigest()[:24]
     if key in _loaded:
@@ -266,6 +268,8 @@ def _load(source, env):
     try:
         folder.mkdir(parents=True, exist_ok=True)
         if not path.exists():
+            log.info("compiling %r with numba: its first run takes 10-20 s, later runs load it "
+                     "from %s", name, folder)
             tmp = path.with_suffix(f".{os.getpid()}.tmp")
             tmp.write_text(source)
             os.replace(tmp, path)

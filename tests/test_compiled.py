@@ -105,3 +105,20 @@ def test_same_wiring_with_other_block_types_is_another_module():
     assert gain._compiled.run_fn is not sel._compiled.run_fn
     assert gain.run(0.5)["f.y"][-1, 0] == pytest.approx(3.0, abs=1e-6)  # unity-gain filter of 3 u
     assert sel.run(0.5)["f.y"][-1, 0] == pytest.approx(1.0, abs=1e-6)   # of S u = u
+
+
+def test_first_compile_is_announced_once(tmp_path, monkeypatch, caplog):
+    from hybridsim import compiled
+
+    monkeypatch.setenv("HYBRIDSIM_CACHE", str(tmp_path))
+    source = f"# {tmp_path}\nfrom numba import njit\n\n\n@njit(cache=True)\ndef run(a):\n    return a + 1\n"
+    with caplog.at_level("INFO", logger="hybridsim"):
+        run = compiled._load(source, {}, "tiny")
+    assert run(1) == 2
+    assert "compiling 'tiny' with numba" in caplog.text
+    assert len(list((tmp_path / "compiled").glob("loop_*.py"))) == 1
+    caplog.clear()
+    with caplog.at_level("INFO", logger="hybridsim"):
+        compiled._loaded.clear()
+        compiled._load(source, {}, "tiny")  # module file there: no announcement
+    assert "compiling" not in caplog.text
