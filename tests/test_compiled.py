@@ -18,8 +18,9 @@ SMOOTH = ROOT / "tests" / "data" / "smooth_contact.yaml"
     (DIAGRAMS / "fig9_force_and_position.yaml", {"t_end": 0.3, "pid.rate": 60, "fpi.rate": 120,
                                                  "log_period": 0.0007}),
     (ROOT / "tests" / "data" / "every_kernel_block.yaml", {}),
+    (ROOT / "tests" / "data" / "discrete_only.yaml", {}),
 ], ids=["fig9-friction", "fig8-moving-surface", "damped-log-at-ticks", "fig9-two-rates-odd-log",
-        "every-kernel-block"])
+        "every-kernel-block", "discrete-only"])
 def test_compiled_equals_generic(path, extra):
     a = hs.simulate(path, compiled=True, **extra)
     b = hs.simulate(path, fused=False, **extra)
@@ -54,6 +55,14 @@ def test_divergence_is_reported_on_the_compiled_path():
         hs.simulate(SMOOTH, compiled=True, **ov)
     t = lambda e: float(str(e.value).split("t=")[1].split(" ")[0])  # noqa: E731
     assert t(comp) <= t(generic)  # checked at every log point, not only at hits
+
+
+def test_discrete_divergence_is_reported_on_the_compiled_path():
+    path = ROOT / "tests" / "data" / "discrete_only.yaml"
+    # the 50 Hz delay shows at its last hit (0.48 s) what it took at 0.46 s: 2 x cnt.y = 2 x 47
+    assert hs.simulate(path, compiled=True)["d.y"][-1, 0] == 94.0
+    with pytest.raises(SimulationError, match=r"diverged at t=0 s: discrete state of block 'd'"):
+        hs.simulate(path, compiled=True, **{"g.K": float("inf")})
 
 
 def test_compiled_path_says_what_it_cannot_compile():
