@@ -194,13 +194,21 @@ def cmd_blocks(args):
     return 0
 
 
+class _Stderr(logging.StreamHandler):
+    """Writes to whatever ``sys.stderr`` is at the time (tests and tools replace it)."""
+
+    stream = property(lambda self: sys.stderr, lambda self, value: None)
+
+
+_notes = _Stderr()
+_notes.setFormatter(logging.Formatter("  %(message)s"))
+
+
 def _show_notes():
-    """hybridsim's INFO messages (e.g. "compiling ... with numba") on stderr, once."""
+    """hybridsim's INFO messages (e.g. "compiling ... with numba") on stderr."""
     log = logging.getLogger("hybridsim")
-    if not log.handlers:
-        handler = logging.StreamHandler(sys.stderr)
-        handler.setFormatter(logging.Formatter("  %(message)s"))
-        log.addHandler(handler)
+    if _notes not in log.handlers:
+        log.addHandler(_notes)
         log.setLevel(logging.INFO)
 
 

@@ -32,6 +32,8 @@ def experiment_figure(f, runs, settings):
         panels.append("oscillation")
     if "contact" in sig and "oscillation" not in sig:
         panels.append("contact")
+    if not panels:  # no roles given: a scope, one panel per logged signal
+        return _scope_figure(f, runs)
     heights = [3 if p in ("position", "force", "surface", "oscillation") else 1 for p in panels]
     fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(8, 1.2 + 1.3 * sum(heights) / 1.5),
                              gridspec_kw={"height_ratios": heights}, squeeze=False)
@@ -80,6 +82,31 @@ def experiment_figure(f, runs, settings):
         if p in ("position", "force", "surface", "oscillation") and (len(runs) > 1 or p == "surface"):
             ax.legend(fontsize=7, loc="best", ncol=2 if len(runs) > 4 else 1)
     axes[-1].set_xlabel("time (ms)" if panels[-1] == "oscillation" else "time (s)")
+    fig.suptitle(f.description or f.name, fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def _scope_figure(f, runs, most=8):
+    """Every logged signal (up to ``most``) in its own panel, each run in its own colour."""
+    refs = list(runs[0]["result"].signals)[:most] if runs else []
+    fig, axes = plt.subplots(max(1, len(refs)), 1, sharex=True, figsize=(8, 1.5 + 1.6 * max(1, len(refs))),
+                             squeeze=False)
+    axes = axes[:, 0]
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for k, run in enumerate(runs):
+        r, c = run["result"], colors[k % len(colors)]
+        for ax, ref in zip(axes, refs):
+            v = r.signals[ref]
+            for j in range(v.shape[1]):
+                ax.plot(r.t, v[:, j], color=c, lw=1.2, ls=("-", "--", ":", "-.")[j % 4],
+                        label=f"{run['label'] or f.name} [{j}]" if v.shape[1] > 1 or len(runs) > 1 else None)
+            ax.set_ylabel(ref, fontsize=8)
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7, loc="best")
+    axes[-1].set_xlabel("time (s)")
     fig.suptitle(f.description or f.name, fontsize=10)
     fig.tight_layout()
     return fig
