@@ -68,8 +68,9 @@ def checked_jacobian(fun, x0, steps):
     """Jacobian and an estimate of its error (difference to steps / 4)."""
     J1 = _jacobian(fun, x0, steps)
     J2 = _jacobian(fun, x0, steps / 4)
-    scale = max(np.max(np.abs(J2)), 1e-300)
-    return J2, float(np.max(np.abs(J2 - J1)) / scale) if J2.size else 0.0
+    if not J2.size:  # no continuous state (or no input): nothing to difference
+        return J2, 0.0
+    return J2, float(np.max(np.abs(J2 - J1)) / max(np.max(np.abs(J2)), 1e-300))
 
 
 class Linearization:

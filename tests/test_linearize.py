@@ -154,3 +154,12 @@ def test_predicted_gain_boundary_brackets_nonlinear_instability():
 
     assert error_growth(0.9 * c) < 0.01   # decays (measured 1e-3)
     assert error_growth(1.1 * c) > 1.0    # grows (measured 3.7)
+
+
+def test_a_diagram_without_continuous_state_linearizes():
+    # counter -> gain -> delay: only discrete states; the counter's x+1 is a pole at z = 1
+    sysm, sim, _ = hs.build(ROOT / "tests" / "data" / "discrete_only.yaml")
+    model = Linearization(sysm, sysm.create_context()).closed_loop()
+    # the delay's state is dropped (its column vanishes: z = 0); the counter's x + 1 is z = 1
+    assert model.names == ["cnt.xd[0]"]
+    assert model.poles[0] == pytest.approx(1.0, abs=1e-6)
