@@ -131,3 +131,13 @@ def test_first_compile_is_announced_once(tmp_path, monkeypatch, caplog):
         compiled._loaded.clear()
         compiled._load(source, {}, "tiny")  # module file there: no announcement
     assert "compiling" not in caplog.text
+
+
+def test_an_unwritable_cache_is_a_clear_error(tmp_path, monkeypatch):
+    from hybridsim import compiled
+
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    monkeypatch.setenv("HYBRIDSIM_CACHE", str(blocker))
+    with pytest.raises(CompiledPathError, match="cannot write the compiled module .* HYBRIDSIM_CACHE"):
+        compiled._load(f"# {tmp_path}\ndef run():\n    return 0\n", {}, "tiny")
