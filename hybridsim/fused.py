@@ -24,15 +24,14 @@ def eligible(system, solver):
     return all(has_kernels(system.blocks[i]) for i in set(system.rhs_path) | set(system.stateful))
 
 
-def has_kernels(block, *names):
-    """True when ``block`` gives the kernels it needs (``output`` and, for
-    continuous or discrete state, ``derivatives`` / ``update``) or ``names``."""
+def has_kernels(block):
+    """True when ``block`` gives the kernels it needs: ``output``, and
+    ``derivatives`` / ``update`` when it has continuous / discrete state."""
     k = block.kernels
     if k is None:
         return False
-    names = names or (("output",) + (("derivatives",) if block.n_continuous else ())
-                      + (("update",) if block.n_discrete else ()))
-    return all(getattr(k, n) is not None for n in names)
+    return (k.output is not None and (not block.n_continuous or k.derivatives is not None)
+            and (not block.n_discrete or k.update is not None))
 
 
 def build(system):
