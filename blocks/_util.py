@@ -1,35 +1,108 @@
-"""Small helpers shared by the block library (parameter shaping)."""
+"""Parameter checks shared by the block library.
+
+Each helper validates one parameter where the block declares it and raises
+:class:`~hybridsim.errors.ParameterError` naming it, so the loader can point
+at the parameter's file and line. Numbers must be finite unless ``inf_ok``.
+"""
 import numpy as np
 
+from hybridsim.errors import ParameterError
 
-def vector(value, name, width=None):
-    """A parameter as a 1-D float array (a scalar broadcasts to ``width``)."""
+
+def _check_values(arr, name, inf_ok, sign):
+    if np.isnan(arr).any() or (not inf_ok and np.isinf(arr).any()):
+        raise ParameterError(name, f"must be finite, got {arr.tolist()!r}")
+    if sign == "positive" and not (arr > 0).all():
+        raise ParameterError(name, f"must be positive (it divides), got {arr.tolist()!r}")
+    if sign == "nonnegative" and not (arr >= 0).all():
+        raise ParameterError(name, f"must not be negative, got {arr.tolist()!r}")
+
+
+def scalar(value, name, sign=None, inf_ok=False):
+    """A parameter as one finite float; ``sign``: None, 'positive' or 'nonnegative'."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise ParameterError(name, f"must be a number, got {value!r}")
+    v = float(value)
+    _check_values(np.array([v]), name, inf_ok, sign)
+    return v
+
+
+def flag(value, name):
+    """A parameter that is true or false (YAML ``true``/``false``, not a string)."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    raise ParameterError(name, f"must be true or false, got {value!r}")
+
+
+def count(value, name, minimum=1):
+    """A parameter that is a whole number >= ``minimum`` (widths, sizes)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) and not (
+            isinstance(value, float) and value.is_integer()):
+        raise ParameterError(name, f"must be a whole number, got {value!r}")
+    if int(value) < minimum:
+        raise ParameterError(name, f"must be at least {minimum}, got {value!r}")
+    if int(value) > 10_000:
+        raise ParameterError(name, f"must be at most 10000, got {value!r}")
+    return int(value)
+
+
+def vector(value, name, width=None, sign=None, inf_ok=False):
+    """A parameter as a 1-D float array.
+
+    A single number broadcasts to ``width``; a list must have exactly
+    ``width`` elements (``[0.5]`` where two are needed is an error, not a
+    broadcast).
+    """
+    if isinstance(value, bool) or isinstance(value, str):
+        raise ParameterError(name, f"must be a number or a list of numbers, got {value!r}")
     try:
-        arr = np.atleast_1d(np.asarray(value, dtype=float))
+        arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"parameter {name!r} must be a number or a list of numbers, got {value!r}") from None
-    if arr.ndim != 1:
-        raise ValueError(f"parameter {name!r} must be a flat list, got shape {arr.shape}")
-    if width is not None:
-        if arr.size == 1:
-            arr = np.full(width, arr[0])
-        elif arr.size != width:
-            raise ValueError(f"parameter {name!r} must have {width} elements, got {arr.size}")
+        raise ParameterError(name, f"must be a number or a list of numbers, got {value!r}") from None
+    if arr.ndim > 1:
+        raise ParameterError(name, f"must be a flat list, got shape {arr.shape}")
+    if arr.ndim == 0:
+        arr = np.full(width if width is not None else 1, float(arr))
+    elif width is not None and arr.size != width:
+        raise ParameterError(name, f"must have {width} elements, got {arr.size}")
+    if arr.size == 0:
+        raise ParameterError(name, "must not be empty")
+    _check_values(arr, name, inf_ok, sign)
     return arr
 
 
-def floats(value, name, width=None):
+def floats(value, name, width=None, sign=None, inf_ok=False):
     """A parameter as a tuple of floats (what kernels read; see :func:`vector`)."""
-    return tuple(float(v) for v in vector(value, name, width))
+    return tuple(float(v) for v in vector(value, name, width, sign, inf_ok))
 
 
 def matrix(value, name, n):
-    """A gain as an n x n matrix: a scalar, a diagonal list, or a full matrix."""
-    arr = np.asarray(value, dtype=float)
+    """A gain as an n x n matrix: a scalar, a diagonal list, or a full matrix (finite)."""
+    if isinstance(value, (bool, str)):
+        raise ParameterError(name, f"must be a number, a list or a matrix, got {value!r}")
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ParameterError(name, f"must be a number, a list or a matrix, got {value!r}") from None
     if arr.ndim == 0:
+        _check_values(arr.reshape(1), name, False, None)
         return np.eye(n) * float(arr)
     if arr.ndim == 1:
         return np.diag(vector(arr, name, n))
     if arr.shape != (n, n):
-        raise ValueError(f"parameter {name!r} must be {n}x{n}, got shape {arr.shape}")
+        raise ParameterError(name, f"must be {n}x{n}, got shape {arr.shape}")
+    _check_values(arr.ravel(), name, False, None)
     return arr
+
+
+def finite_matrix(value, name):
+    """A 2-D float array of finite numbers (state-space matrices)."""
+    try:
+        arr = np.atleast_2d(np.asarray(value, dtype=float))
+    except (TypeError, ValueError):
+        raise ParameterError(name, f"must be a matrix of numbers, got {value!r}") from None
+    if arr.ndim != 2:
+        raise ParameterError(name, f"must be a matrix, got shape {arr.shape}")
+    _check_values(arr.ravel(), name, False, None)
+    return arr
+

@@ -4,10 +4,11 @@ import math
 import numpy as np
 
 from hybridsim.block import Block
+from hybridsim.errors import ParameterError
 from hybridsim.kernels import Kernels, kernel
 from hybridsim.registry import register
 
-from ._util import matrix, vector
+from ._util import count, finite_matrix, flag, matrix, scalar, vector
 
 
 @register("sum")
@@ -16,7 +17,7 @@ class Sum(Block):
 
     def __init__(self, name="sum", signs="+-", width=1):
         super().__init__(name)
-        if not signs or set(signs) - {"+", "-"}:
+        if not isinstance(signs, str) or not signs or set(signs) - {"+", "-"}:
             raise ValueError(f"signs must be a string of + and -, got {signs!r}")
         self.params = (tuple(1.0 if c == "+" else -1.0 for c in signs),)
         for k in range(len(signs)):
@@ -60,7 +61,8 @@ class Selection(Block):
         super().__init__(name)
         s = vector(S, "S")
         if set(np.unique(s)) - {0.0, 1.0}:
-            raise ValueError(f"S must hold only 0 and 1, got {S!r}")
+            raise ParameterError("S", f"must hold only 0 and 1, got {S!r}")
+        complement = flag(complement, "complement")
         self.params = (1.0 - s if complement else s,)  # the diagonal of S or I - S
         self.declare_input("u", s.size)
         self.declare_output("y", s.size)
@@ -77,9 +79,10 @@ class Mux(Block):
 
     def __init__(self, name="mux", widths=(1, 1)):
         super().__init__(name)
+        widths = _widths(widths)
         for k, w in enumerate(widths):
-            self.declare_input(f"u{k + 1}", int(w))
-        self.declare_output("y", int(sum(widths)))
+            self.declare_input(f"u{k + 1}", w)
+        self.declare_output("y", sum(widths))
 
     def output(self, t, x, u):
         return (np.concatenate(u),)
@@ -91,13 +94,20 @@ class Demux(Block):
 
     def __init__(self, name="demux", widths=(1, 1)):
         super().__init__(name)
-        self.cuts = np.cumsum([0] + [int(w) for w in widths])
+        widths = _widths(widths)
+        self.cuts = np.cumsum([0] + widths)
         self.declare_input("u", int(self.cuts[-1]))
         for k, w in enumerate(widths):
             self.declare_output(f"y{k + 1}", int(w))
 
     def output(self, t, x, u):
         return tuple(u[0][a:b] for a, b in zip(self.cuts[:-1], self.cuts[1:]))
+
+
+def _widths(widths):
+    if not isinstance(widths, (list, tuple)) or not widths:
+        raise ParameterError("widths", f"must be a list of port widths, got {widths!r}")
+    return [count(w, "widths") for w in widths]
 
 
 @register("zoh")
@@ -152,10 +162,8 @@ class LowPass(Block):
 
     def __init__(self, name="filter", cutoff=12.0, width=1, initial=0.0):
         super().__init__(name)
-        wc = 2 * math.pi * float(cutoff)
-        if not wc > 0:
-            raise ValueError("cutoff must be positive")
-        self.n = int(width)
+        wc = 2 * math.pi * scalar(cutoff, "cutoff", "positive")
+        self.n = count(width, "width")
         self.params = (wc, self.n)
         self.y0 = vector(initial, "initial", self.n)
         self.declare_input("u", self.n)
@@ -187,8 +195,10 @@ class Recorder(Block):
 
     def __init__(self, name="scope", inputs=None):
         super().__init__(name)
+        if inputs is not None and not isinstance(inputs, dict):
+            raise ParameterError("inputs", f"must map input names to widths, got {inputs!r}")
         for k, w in (inputs or {"u": 1}).items():
-            self.declare_input(str(k), int(w))
+            self.declare_input(str(k), count(w, "inputs"))
 
 
 @register("counter")
@@ -221,13 +231,13 @@ class StateSpace(Block):
 
     def __init__(self, name="ss", A=((0.0,),), B=((1.0,),), C=((1.0,),), D=None, x0=None):
         super().__init__(name)
-        A, B, C = (np.atleast_2d(np.asarray(m, float)) for m in (A, B, C))
+        A, B, C = (finite_matrix(M, k) for M, k in ((A, "A"), (B, "B"), (C, "C")))
         n, m, p = A.shape[0], B.shape[1], C.shape[0]
         if A.shape != (n, n) or B.shape[0] != n or C.shape[1] != n:
-            raise ValueError(f"inconsistent shapes A {A.shape}, B {B.shape}, C {C.shape}")
-        D = np.zeros((p, m)) if D is None else np.atleast_2d(np.asarray(D, float))
+            raise ParameterError("A", f"B and C have inconsistent shapes: A {A.shape}, B {B.shape}, C {C.shape}")
+        D = np.zeros((p, m)) if D is None else finite_matrix(D, "D")
         if D.shape != (p, m):
-            raise ValueError(f"D must be {p}x{m}, got {D.shape}")
+            raise ParameterError("D", f"must be {p}x{m}, got {D.shape}")
         self.params = tuple(np.ascontiguousarray(M) for M in (A, B, C, D))
         self.x0 = np.zeros(n) if x0 is None else vector(x0, "x0", n)
         self.declare_input("u", m)

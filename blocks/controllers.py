@@ -7,17 +7,19 @@ current sample (z <- z + e T, and the new z is applied at once).
 import numpy as np
 
 from hybridsim.block import Block
+from hybridsim.errors import ParameterError
 from hybridsim.kernels import Kernels, kernel
 from hybridsim.registry import register
 
-from ._util import matrix, vector
+from ._util import count, matrix, vector
 
 
 class _Sampled(Block):
     def __init__(self, name, rate, period, n):
         super().__init__(name)
         if (rate is None) == (period is None):
-            raise ValueError("give exactly one of rate (Hz) or period (s)")
+            raise ParameterError("rate", "or period: give exactly one of rate (Hz) or period (s)")
+        n = count(n, "width")
         self.declare_rate(period=period, rate=rate)
         self.T = float(self.period)
         self.n = n
@@ -36,6 +38,7 @@ class PositionPID(_Sampled):
     def __init__(self, name="pid", Kp=(460.0, 1650.0), Ki=(1.3, 1200.0), Kd=(30.0, 250.0),
                  rate=None, period=None, width=2):
         super().__init__(name, rate, period, width)
+        width = self.n
         self.params = tuple(matrix(K, k, width) for K, k in ((Kp, "Kp"), (Ki, "Ki"), (Kd, "Kd"))) + (self.T,)
         self.declare_input("e", width)
         self.declare_input("ed", width)
@@ -68,7 +71,9 @@ class ForcePI(_Sampled):
     def __init__(self, name="fpi", Kp=(0.4, 0.3), Ki=(240.0, 220.0), limit=(0.004, 0.1),
                  rate=None, period=None, width=2):
         super().__init__(name, rate, period, width)
-        limit = np.full(width, np.inf) if limit is None else vector(limit, "limit", width)
+        width = self.n
+        limit = np.full(width, np.inf) if limit is None else vector(limit, "limit", width, "nonnegative",
+                                                                    inf_ok=True)
         self.params = (matrix(Kp, "Kp", width), matrix(Ki, "Ki", width), limit, self.T)
         self.declare_input("e", width)
         self.declare_input("ff", width)

@@ -8,8 +8,11 @@ import math
 import numpy as np
 
 from hybridsim.block import Block
+from hybridsim.errors import ParameterError
 from hybridsim.kernels import Kernels, kernel
 from hybridsim.registry import register
+
+from ._util import finite_matrix, scalar, vector
 
 L_OFFSET = 0.153  # link offset l, m (Appendix A)
 
@@ -58,7 +61,7 @@ class _ArmMap(Block):
 
     def __init__(self, name, arg, out, l):
         super().__init__(name)
-        self.params = (float(l),)
+        self.params = (scalar(l, "l"),)
         self.declare_input("q", 2)
         if arg:
             self.declare_input(arg, 2)
@@ -160,7 +163,10 @@ class ForceTransform6D(Block):
 
     def __init__(self, name="ft6", rotation=((1, 0, 0), (0, 1, 0), (0, 0, 1)), offset=(0, 0, 0)):
         super().__init__(name)
-        self.params = (force_transform_6d(rotation, offset),)
+        R = finite_matrix(rotation, "rotation")
+        if R.shape != (3, 3):
+            raise ParameterError("rotation", f"must be 3x3, got shape {R.shape}")
+        self.params = (force_transform_6d(R, vector(offset, "offset", 3)),)
         self.declare_input("F", 6)
         self.declare_output("CF", 6)
 

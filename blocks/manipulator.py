@@ -5,10 +5,11 @@ from typing import NamedTuple
 import numpy as np
 
 from hybridsim.block import Block
+from hybridsim.errors import ParameterError
 from hybridsim.kernels import Kernels, kernel
 from hybridsim.registry import register
 
-from ._util import floats, vector
+from ._util import flag, floats, scalar, vector
 from .kinematics import L_OFFSET, inverse_kinematics
 
 
@@ -52,19 +53,28 @@ class Manipulator(Block):
                  l=L_OFFSET, stick_band=1e-4, stick_time=1e-3):
         super().__init__(name)
         zero = (0.0, 0.0)
+        friction = flag(friction, "friction")
+        m2 = scalar(M2, "M2", "nonnegative") + scalar(M3, "M3", "positive")
         self.params = ArmParams(
-            I1=floats(I1, "I1", 3), m2=float(M2) + float(M3),
-            tau_c=floats(tau_c, "tau_c", 2) if friction else zero,
-            tau_s=floats(tau_s, "tau_s", 2) if friction else zero,
-            friction=bool(friction), b=floats(damping, "damping", 2), l=float(l),
-            eps=float(stick_band), t_stick=float(stick_time))
+            I1=floats(I1, "I1", 3), m2=m2,
+            tau_c=floats(tau_c, "tau_c", 2, "nonnegative") if friction else zero,
+            tau_s=floats(tau_s, "tau_s", 2, "nonnegative") if friction else zero,
+            friction=friction, b=floats(damping, "damping", 2, "nonnegative"), l=scalar(l, "l"),
+            eps=scalar(stick_band, "stick_band", "nonnegative"),
+            t_stick=scalar(stick_time, "stick_time", "positive"))
         if q0 is not None and endpoint0 is not None:
-            raise ValueError("give q0 or endpoint0, not both")
+            raise ParameterError("endpoint0", "and q0 both given: give one of them")
         if endpoint0 is not None:
             e = vector(endpoint0, "endpoint0", 2)
-            q0 = inverse_kinematics(e[0], e[1], self.params.l)
-        self.x0 = np.concatenate([vector(q0 if q0 is not None else (0, 0.5), "q0", 2),
-                                  vector(qd0, "qd0", 2)])
+            try:
+                q0 = inverse_kinematics(e[0], e[1], self.params.l)
+            except ValueError as exc:
+                raise ParameterError("endpoint0", f"is out of reach: {exc}") from None
+        q0 = vector(q0 if q0 is not None else (0, 0.5), "q0", 2)
+        if not inertia(self.params.I1, q0[1]) > 0:
+            raise ParameterError("I1", f"gives I1(q2) = {inertia(self.params.I1, q0[1]):g} kg m^2 at the "
+                                       f"initial q2 = {q0[1]:g} m; the inertia must be positive (it divides)")
+        self.x0 = np.concatenate([q0, vector(qd0, "qd0", 2)])
         self.declare_input("tau", 2)
         self.declare_input("f_wrist", 2)
         self.declare_output("q", 2, depends_on=())

@@ -8,10 +8,11 @@ import math
 import numpy as np
 
 from hybridsim.block import Block
+from hybridsim.errors import ParameterError
 from hybridsim.kernels import Kernels, kernel
 from hybridsim.registry import register
 
-from ._util import floats, vector
+from ._util import finite_matrix, floats, scalar, vector
 
 
 class _Source(Block):
@@ -24,6 +25,8 @@ class _Source(Block):
 
 
 def _widths(**params):
+    for name, v in params.items():
+        vector(v, name)  # numbers, finite, flat
     sizes = {np.size(v) for v in params.values()}
     n = max(sizes)
     bad = sizes - {1, n}
@@ -57,7 +60,7 @@ class Step(_Source):
         n = _widths(initial=initial, final=final)
         super().__init__(name, n)
         self.params = (floats(initial, "initial", n), floats(final, "final", n),
-                       float(time), (0.0,) * n)
+                       scalar(time, "time"), (0.0,) * n)
 
 
 @kernel
@@ -72,9 +75,9 @@ class Ramp(_Source):
 
     def __init__(self, name="ramp", initial=0.0, slope=1.0, start=0.0, stop=math.inf):
         n = _widths(initial=initial, slope=slope)
-        start, stop = float(start), float(stop)
+        start, stop = scalar(start, "start"), scalar(stop, "stop", inf_ok=True)
         if stop < start:
-            raise ValueError("ramp stop must not be before start")
+            raise ParameterError("stop", "must not be before start")
         super().__init__(name, n)
         self.params = (vector(initial, "initial", n), vector(slope, "slope", n), start, stop,
                        np.zeros(n))
@@ -97,7 +100,7 @@ class Cosine(_Source):
         n = _widths(offset=offset, amplitude=amplitude)
         super().__init__(name, n)
         self.params = (vector(offset, "offset", n), vector(amplitude, "amplitude", n),
-                       2 * math.pi * float(frequency), float(phase))
+                       2 * math.pi * scalar(frequency, "frequency"), scalar(phase, "phase"))
 
 
 @kernel
@@ -113,12 +116,12 @@ class Table(_Source):
 
     def __init__(self, name="table", times=(0.0, 1.0), values=(0.0, 1.0)):
         times = vector(times, "times")
-        vals = np.asarray(values, float)
-        values = vals[:, None] if vals.ndim == 1 else vals
+        vals = finite_matrix(values, "values")
+        values = vals.T if np.ndim(values) == 1 else vals
         if values.shape[0] != times.size or times.size < 2:
-            raise ValueError("table needs at least 2 times and one row of values per time")
+            raise ParameterError("values", "needs at least 2 times and one row of values per time")
         if np.any(np.diff(times) <= 0):
-            raise ValueError("table times must increase strictly")
+            raise ParameterError("times", "must increase strictly")
         super().__init__(name, values.shape[1])
         self.params = (times, np.ascontiguousarray(values))
 

@@ -7,6 +7,8 @@ from hybridsim.block import Block
 from hybridsim.kernels import Kernels, kernel
 from hybridsim.registry import register
 
+from ._util import flag, scalar
+
 
 @register("surface")
 class Surface(Block):
@@ -25,9 +27,10 @@ class Surface(Block):
     def __init__(self, name="surface", Kr=9.0e5, br=0.0, position=0.5,
                  moving=False, unilateral=True):
         super().__init__(name)
-        self.params = SurfaceParams(Kr=float(Kr), br=float(br), xs=float(position),
-                                    unilateral=bool(unilateral))
-        self.moving = bool(moving)
+        self.params = SurfaceParams(Kr=scalar(Kr, "Kr", "positive"), br=scalar(br, "br", "nonnegative"),
+                                    xs=scalar(position, "position"),
+                                    unilateral=flag(unilateral, "unilateral"))
+        self.moving = flag(moving, "moving")
         self.declare_input("x", 2)
         self.declare_input("v", 2)
         if self.moving:

@@ -8,7 +8,7 @@ from hybridsim.block import Block
 from hybridsim.kernels import Kernels, kernel
 from hybridsim.registry import register
 
-from ._util import vector
+from ._util import scalar, vector
 from .kinematics import L_OFFSET
 
 
@@ -40,10 +40,9 @@ class Wrist(Block):
     def __init__(self, name="wrist", Kw=8.0e5, bw=0.0, M3=0.58, l=L_OFFSET,
                  preload=0.0, dw0=(0.0, 0.0), wd0=(0.0, 0.0)):
         super().__init__(name)
-        self.params = WristParams(Kw=float(Kw), bw=float(bw), M3=float(M3), l=float(l))
-        if not (self.params.Kw > 0 and self.params.M3 > 0):
-            raise ValueError("Kw and M3 must be positive")
-        self.preload = float(preload)
+        self.params = WristParams(Kw=scalar(Kw, "Kw", "positive"), bw=scalar(bw, "bw", "nonnegative"),
+                                  M3=scalar(M3, "M3", "positive"), l=scalar(l, "l"))
+        self.preload = scalar(preload, "preload")
         self.dw0, self.wd0 = vector(dw0, "dw0", 2), vector(wd0, "wd0", 2)
         self.declare_input("q", 2)
         self.declare_input("qd", 2)

@@ -4,17 +4,18 @@ The engine (block API, diagram, system, scheduler, solvers, simulator) knows
 no particular block; the block library lives in the top-level ``blocks``
 package. Start with :func:`simulate` or the ``hybridsim`` command.
 """
-from .api import build, load, run_experiment, simulate, write_outputs
+from .api import build, check, load, run_experiment, simulate, write_outputs
 from .block import Block
 from .diagram import Diagram
-from .errors import (DiagramError, FMUError, HybridsimError, LoaderError, RateError,
-                     SimulationError)
+from .errors import (CompiledPathError, DiagramError, FMUError, HybridsimError, InputError,
+                     LoaderError, OutputError, ParameterError, RateError, SimulationError)
 from .registry import register
 from . import registry
 from .simulator import Simulator
 from .solvers import RK4, ScipySolver
 
 __all__ = ["registry", "Block", "Diagram", "Simulator", "RK4", "ScipySolver", "register", "simulate", "load",
-           "build", "run_experiment", "write_outputs", "HybridsimError", "DiagramError",
-           "LoaderError", "RateError", "SimulationError", "FMUError"]
+           "build", "check", "run_experiment", "write_outputs", "HybridsimError", "InputError",
+           "DiagramError", "LoaderError", "RateError", "ParameterError", "OutputError",
+           "CompiledPathError", "SimulationError", "FMUError"]
 __version__ = "0.1.0"

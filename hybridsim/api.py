@@ -12,7 +12,7 @@ import os
 from pathlib import Path
 
 from . import metrics as _metrics
-from .files import atomic_dir
+from .files import atomic_dir, safe_name
 from .loader import DiagramFile
 from .simulator import Simulator
 from .solvers import RK4, ScipySolver
@@ -52,8 +52,12 @@ def load(path, **overrides):
     return DiagramFile(path, ov)
 
 
-def build(path_or_file, variant=None, **overrides):
-    """(system, simulator, settings) for one variant of a diagram file."""
+def build(path_or_file, variant=None, check_only=False, **overrides):
+    """(system, simulator, settings) for one variant of a diagram file.
+
+    ``check_only``: do not generate the compiled module (only check that the
+    compiled path can take the diagram), as ``hybridsim check`` does.
+    """
     f = path_or_file if isinstance(path_or_file, DiagramFile) else load(path_or_file, **overrides)
     diagram, settings = f.build(variant)
     system = diagram.build()
@@ -62,11 +66,38 @@ def build(path_or_file, variant=None, **overrides):
     if isinstance(solver, ScipySolver):
         solver.atol = _atol_vector(system, sim)
     log = list(settings["log"]) + list(settings["signals"].values())
+    compiled = bool(sim.get("compiled", False))
+    if compiled and check_only:
+        from .compiled import problems
+        from .errors import CompiledPathError
+
+        why = problems(system, solver)
+        if why:
+            raise CompiledPathError("cannot use the compiled path: " + "; ".join(why))
     simulator = Simulator(system, solver, log=log,
                           log_period=sim.get("log_period", 0.0005),
                           max_state=sim.get("max_state", 1e6), fused=bool(sim.get("fused", True)),
-                          compiled=bool(sim.get("compiled", False)))
+                          compiled=compiled and not check_only)
     return system, simulator, settings
+
+
+def check(path_or_file, **overrides):
+    """Validate every variant of a diagram file as a run would, without running it.
+
+    Builds each variant's system and simulator (what ``run`` does before its
+    first step), so a file that passes cannot fail later for a reason this
+    could have seen. Returns a summary dict: ``blocks``, ``states``,
+    ``rates`` (Hz, over all variants) and ``runs``. Raises the
+    :class:`~hybridsim.errors.InputError` of the first bad variant.
+    """
+    f = path_or_file if isinstance(path_or_file, DiagramFile) else load(path_or_file, **overrides)
+    rates, system = set(), None
+    variants = f.variants()
+    for label, variant in variants:
+        system, simulator, settings = build(f, variant, check_only=True)
+        rates |= {float(1 / b.period) for b in system.blocks if b.period}
+    return {"blocks": len(system.blocks), "states": system.n_x, "rates": sorted(rates),
+            "runs": len(variants)}
 
 
 def simulate(path_or_file, variant=None, progress=False, **overrides):
@@ -123,13 +154,14 @@ def write_outputs(f, runs, settings, outdir):
     from .plots import experiment_figure
 
     outdir = Path(outdir)
+    name = safe_name(f.name)
     with atomic_dir(outdir) as tmp:
         for r in runs:
-            stem = f.name + (("_" + _slug(r["label"])) if r["label"] else "")
+            stem = name + (("_" + _slug(r["label"])) if r["label"] else "")
             r["result"].to_csv(tmp / f"{stem}.csv")
         fig = experiment_figure(f, runs, settings)
-        fig.savefig(tmp / f"{f.name}.png", dpi=130)
-        fig.savefig(tmp / f"{f.name}.svg")
+        fig.savefig(tmp / f"{name}.png", dpi=130)
+        fig.savefig(tmp / f"{name}.svg")
         import matplotlib.pyplot as plt
 
         plt.close(fig)
@@ -142,4 +174,4 @@ def write_outputs(f, runs, settings, outdir):
 
 
 def _slug(label):
-    return "".join(c if c.isalnum() or c in "-." else "-" for c in label.replace("=", "")).strip("-")
+    return safe_name("".join(c if c.isalnum() or c in "-." else "-" for c in label.replace("=", "")), "run")

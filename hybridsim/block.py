@@ -33,7 +33,20 @@ from fractions import Fraction
 
 import numpy as np
 
-from .errors import RateError
+from .errors import ParameterError, RateError
+
+#: the widest port a block may declare
+MAX_WIDTH = 10_000
+
+
+def port_width(width, param="width"):
+    """``width`` as a port width: a whole number 1..MAX_WIDTH, else ParameterError."""
+    ok = not isinstance(width, bool) and (isinstance(width, (int, np.integer)) or (
+        isinstance(width, float) and width.is_integer()))
+    if not ok or not 1 <= int(width) <= MAX_WIDTH:
+        raise ParameterError(param, f"must be a whole number of elements from 1 to {MAX_WIDTH}, "
+                                    f"got {width!r}")
+    return int(width)
 
 
 class Port:
@@ -119,7 +132,7 @@ class Block:
     # -- declarations ---------------------------------------------------
     def declare_input(self, name, width):
         """Add an input port of ``width`` elements; returns its index."""
-        self.inputs.append(Port(self, name, int(width), len(self.inputs)))
+        self.inputs.append(Port(self, name, port_width(width), len(self.inputs)))
         return len(self.inputs) - 1
 
     def declare_output(self, name, width, depends_on=None):
@@ -129,17 +142,21 @@ class Block:
         ``None`` means all inputs, ``()`` means none (a state-only output).
         """
         dep = None if depends_on is None else tuple(depends_on)
-        self.outputs.append(Port(self, name, int(width), len(self.outputs), dep))
+        self.outputs.append(Port(self, name, port_width(width), len(self.outputs), dep))
         return len(self.outputs) - 1
 
     def declare_continuous_state(self, n, atol=None):
         """Declare ``n`` continuous states; ``atol`` per state (or scalar)."""
-        self.n_continuous = int(n)
+        self.n_continuous = port_width(n, "states") if n else 0
         if atol is not None:
             self.atol = np.broadcast_to(np.asarray(atol, float), (n,)).copy()
 
     def declare_rate(self, period=None, rate=None, offset=0):
         """Make the block discrete: sampled every ``period`` s (or ``rate`` Hz)."""
+        if rate is not None and period is not None:
+            raise RateError("give rate (Hz) or period (s), not both")
+        if rate is None and period is None:
+            raise RateError("needs a rate (Hz) or a period (s)")
         self.period = rate_to_period(rate) if rate is not None else to_period(period)
         self.time_offset = Fraction(0) if not offset else to_period(offset, "offset")
         if self.time_offset >= self.period:
@@ -150,7 +167,7 @@ class Block:
 
     def declare_discrete_state(self, n):
         """Declare ``n`` discrete states (needs a rate)."""
-        self.n_discrete = int(n)
+        self.n_discrete = port_width(n, "states") if n else 0
 
     # -- queries ------------------------------------------------------------
     @property

@@ -6,13 +6,15 @@ Exit status: 0 success; 2 bad diagram / bad input; 3 simulation diverged;
 import argparse
 import json
 import logging
-
+import math
+import signal
 import sys
 from pathlib import Path
 
 import yaml
 
-from .errors import HybridsimError
+from .errors import HybridsimError, InputError
+from .files import check_output_dir, check_output_file, safe_name
 from .loader import NumberLoader
 
 EPILOG = """\
@@ -39,12 +41,21 @@ def _overrides(items):
     out = {}
     for item in items or []:
         if "=" not in item:
-            raise HybridsimError(f"--set expects PATH=VALUE, got {item!r}")
+            raise InputError(f"--set expects PATH=VALUE, got {item!r}")
         key, val = item.split("=", 1)
+        if not key.strip():
+            raise InputError(f"--set expects PATH=VALUE, got {item!r} (no PATH)")
+        if len(val) > 10_000:
+            raise InputError(f"--set {key}: the value is longer than 10000 characters")
         try:
-            out[key.strip()] = yaml.load(val, Loader=NumberLoader)
+            value = yaml.load(val, Loader=NumberLoader)
         except yaml.YAMLError as exc:
-            raise HybridsimError(f"--set {key}: cannot read value {val!r}: {exc}") from None
+            raise InputError(f"--set {key}: cannot read value {val!r}: "
+                             f"{getattr(exc, 'problem', None) or exc}") from None
+        if isinstance(value, dict):
+            raise InputError(f"--set {key}: the value must be a number, a list or a word, "
+                             f"got a mapping {val!r}")
+        out[key.strip()] = value
     return out
 
 
@@ -58,7 +69,8 @@ def cmd_run(args):
     from . import api
 
     f = _load(args.diagram, list(args.set or []) + (["simulation.compiled=true"] if args.compiled else []))
-    outdir = Path(args.output) if args.output else Path("out") / f.name
+    outdir = check_output_dir(Path(args.output) if args.output else Path("out") / safe_name(f.name))
+    api.check(f)
     n = len(f.variants())
     print(f"running {f.name} ({n} run{'s' if n > 1 else ''}) ...", file=sys.stderr)
     f, runs, settings = api.run_experiment(f, progress=not args.quiet)
@@ -83,19 +95,18 @@ def cmd_run(args):
                          else "contact kept")
         parts.append(f"{m['wall_time_s']:.2f} s wall")
         print(f"  {head}: " + ", ".join(parts))
-    print(f"wrote {outdir}/ (CSV, {f.name}.png/.svg, metrics.json)")
+    print(f"wrote {outdir}/ (CSV, {safe_name(f.name)}.png/.svg, metrics.json)")
     return 0
 
 
 def cmd_check(args):
+    from . import api
+
     f = _load(args.diagram, args.set)
-    for label, variant in f.variants():
-        diagram, _ = f.build(variant)
-        system = diagram.build()
-    rates = sorted({float(1 / b.period) for b in system.blocks if b.period})
-    print(f"{f.path}: OK - {len(system.blocks)} blocks, {system.n_x} continuous states, "
-          f"rates {', '.join(f'{r:g} Hz' for r in rates) or 'none'}, "
-          f"{len(f.variants())} run(s)")
+    info = api.check(f)
+    print(f"{f.path}: OK - {info['blocks']} blocks, {info['states']} continuous states, "
+          f"rates {', '.join(f'{r:g} Hz' for r in info['rates']) or 'none'}, "
+          f"{info['runs']} run(s)")
     return 0
 
 
@@ -104,9 +115,9 @@ def cmd_draw(args):
     from .files import atomic_file
 
     f = _load(args.diagram, args.set)
+    out = check_output_file(args.output or f"{safe_name(f.name)}.png", _image_formats())
     diagram, _ = f.build(f.variants()[0][1])
     system = diagram.build()
-    out = Path(args.output or f"{f.name}.png")
     fig = draw_diagram(system, f.description or f.name)
     with atomic_file(out, "wb") as fh:
         fig.savefig(fh, format=out.suffix.lstrip(".") or "png", dpi=120)
@@ -114,10 +125,18 @@ def cmd_draw(args):
     return 0
 
 
+def _image_formats():
+    from matplotlib.figure import Figure
+
+    return sorted(Figure().canvas.get_supported_filetypes())
+
+
 def cmd_analyze(args):
     from . import analysis
 
     f = _load(args.diagram, args.set)
+    if args.output:
+        check_output_dir(args.output)
     ov = _overrides(args.set)
     res = analysis.analyze(f.path, at=args.at, **ov)
     res.pop("_objects")
@@ -137,7 +156,7 @@ def cmd_report(args):
     from .report import write_report
 
     f = _load(args.diagram, args.set)
-    out = Path(args.output or Path("out") / f"{f.name}_report")
+    out = check_output_dir(Path(args.output or Path("out") / f"{safe_name(f.name)}_report"))
     print(f"analysing {f.name} ...", file=sys.stderr)
     data = write_report(f.path, out, **_overrides(args.set))
     for c in data["configurations"]:
@@ -150,7 +169,7 @@ def cmd_report(args):
 def cmd_reproduce(args):
     from .reproduce import reproduce, summary_rows
 
-    out = Path(args.output or "out/reproduce")
+    out = check_output_dir(Path(args.output or "out/reproduce"))
     report = reproduce(out, jobs=args.jobs, progress=lambda m: print(f"  {m} ...", file=sys.stderr),
                        compiled=args.compiled)
     for exp, claim, ours, ok in summary_rows(report):
@@ -163,7 +182,7 @@ def cmd_reproduce(args):
 def cmd_fmu_build(args):
     from .fmu import build_plant_fmu
 
-    out = build_plant_fmu(args.output)
+    out = build_plant_fmu(check_output_file(args.output, ["fmu"]))
     print(f"wrote {out} (FMI 2.0, Co-Simulation and Model Exchange, sources included)")
     return 0
 
@@ -171,9 +190,9 @@ def cmd_fmu_build(args):
 def cmd_sweep(args):
     from .sweep import run_sweep
 
-    out = Path(args.output or Path("out") / Path(args.sweep).stem)
+    out = check_output_dir(Path(args.output or Path("out") / safe_name(Path(args.sweep).stem)))
     rows = run_sweep(args.sweep, out, jobs=args.jobs, dask=args.dask, progress=not args.quiet,
-                     compiled=args.compiled)
+                     compiled=args.compiled, force=args.force)
     failed = [r for r in rows if r["status"] != "ok"]
     print(f"{len(rows)} rows ({len(failed)} failed) -> {out}/sweep.csv, sweep.parquet, heatmap.png, points.jsonl")
     for r in failed[:5]:
@@ -210,6 +229,34 @@ def _show_notes():
     if _notes not in log.handlers:
         log.addHandler(_notes)
         log.setLevel(logging.INFO)
+
+
+def _jobs(text):
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expects a whole number of processes, got {text!r}") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"expects at least 1 process, got {n}")
+    return n
+
+
+def _seconds(text):
+    try:
+        t = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expects a time in seconds, got {text!r}") from None
+    if not (math.isfinite(t) and t >= 0):
+        raise argparse.ArgumentTypeError(f"expects a finite time >= 0 s, got {text!r}")
+    return t
+
+
+class Terminated(BaseException):
+    """SIGTERM, raised like Ctrl-C so temporary files are removed on the way out."""
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated()
 
 
 def build_parser():
@@ -251,7 +298,7 @@ def build_parser():
                                    "margins at the analysis points, and stability against servo rate "
                                    "and gain scaling (settings: the diagram's 'analysis' section).")
     with_diagram(a)
-    a.add_argument("--at", type=float, metavar="T", help="linearize about the state at T s of simulation")
+    a.add_argument("--at", type=_seconds, metavar="T", help="linearize about the state at T s of simulation")
     a.add_argument("-o", "--output", metavar="OUTDIR", help="also write OUTDIR/analysis.json")
     a.set_defaults(func=cmd_analyze)
     rp = sub.add_parser("report", help="HTML stability report with Bode, root locus, pole map, sweeps",
@@ -266,7 +313,7 @@ def build_parser():
                                     "explain it with the stability analysis, and run sensitivities. "
                                     "Writes one self-contained HTML report.")
     rr.add_argument("-o", "--output", metavar="OUTDIR", help="output folder (default out/reproduce)")
-    rr.add_argument("-j", "--jobs", type=int, help="parallel processes (default: one per core)")
+    rr.add_argument("-j", "--jobs", type=_jobs, help="parallel processes (default: one per core)")
     rr.add_argument("--compiled", action="store_true",
                     help="every simulation on the compiled path (numba): the first time compiles "
                          "each experiment's diagram (about a minute), later runs are faster")
@@ -287,11 +334,14 @@ def build_parser():
                                     "resume: finished points (points.jsonl) are skipped.")
     sw.add_argument("sweep", help="sweep file (see diagrams/sweeps/)")
     sw.add_argument("-o", "--output", metavar="OUTDIR", help="output folder (default out/<sweep name>)")
-    sw.add_argument("-j", "--jobs", type=int, help="local processes (default: one per core)")
+    sw.add_argument("-j", "--jobs", type=_jobs, help="local processes (default: one per core)")
     sw.add_argument("--dask", metavar="ADDRESS", help="run on a Dask distributed scheduler, e.g. tcp://host:8786")
     sw.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     sw.add_argument("--compiled", action="store_true",
                     help="run every point compiled with numba (compiles once, then cached)")
+    sw.add_argument("--force", action="store_true",
+                    help="when OUTDIR holds points of a different sweep (another diagram, set, "
+                         "solver or hybridsim version), discard them and start afresh")
     sw.set_defaults(func=cmd_sweep)
     b = sub.add_parser("blocks", help="list the block types")
     b.add_argument("-v", "--verbose", action="store_true", help="with their parameters")
@@ -306,6 +356,11 @@ def main(argv=None):
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    previous = signal.getsignal(signal.SIGTERM)
+    try:
+        signal.signal(signal.SIGTERM, _on_sigterm)
+    except ValueError:  # not the main thread: leave signals alone
+        previous = None
     try:
         return args.func(args)
     except HybridsimError as exc:
@@ -314,12 +369,18 @@ def main(argv=None):
     except KeyboardInterrupt:
         print("interrupted; earlier results left as they were", file=sys.stderr)
         return 130
+    except Terminated:
+        print("terminated; earlier results left as they were", file=sys.stderr)
+        return 143
     except Exception as exc:  # noqa: BLE001 - last line of defence, see --debug
         if args.debug:
             raise
         print(f"internal error: {type(exc).__name__}: {exc}\n"
               "(this is a bug in hybridsim; run again with --debug for the traceback)", file=sys.stderr)
         return 70
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,20 +1,34 @@
-"""Exception types. Each kind of bad input has its own class and exit code.
+"""Exception types, one family per exit status of the ``hybridsim`` command.
 
-The CLI maps these to a one-paragraph message and a non-zero exit status; the
-Python API lets them propagate so callers can catch exactly what they expect.
+=========  ==========================================================
+exit code  exception (Python API)
+=========  ==========================================================
+2          :class:`InputError` and its subclasses: a bad diagram, sweep,
+           option, parameter or output path (found before any run)
+3          :class:`SimulationError`: a run that diverged or whose solver failed
+4          :class:`FMUError`: an FMU that cannot be loaded or whose call failed
+70         anything else: an internal error (a bug; ``--debug`` shows it)
+=========  ==========================================================
+
+The CLI maps these to a one-paragraph message and the exit status; the Python
+API lets them propagate so callers can catch exactly what they expect.
 """
 
 
 class HybridsimError(Exception):
-    """Base class of every error hybridsim reports to a user."""
+    """Base class of every error hybridsim reports to a user (never raised itself)."""
 
     exit_code = 1
 
 
-class DiagramError(HybridsimError):
-    """A diagram that cannot be built: lists *all* problems found at once."""
+class InputError(HybridsimError):
+    """Bad input of any kind: a file, an option, a value, an output path (exit 2)."""
 
     exit_code = 2
+
+
+class DiagramError(InputError):
+    """A diagram that cannot be built: lists *all* problems found at once."""
 
     def __init__(self, problems, source=None):
         self.problems = list(problems)
@@ -25,10 +39,8 @@ class DiagramError(HybridsimError):
         super().__init__("\n".join(lines))
 
 
-class LoaderError(HybridsimError):
-    """A YAML diagram file that is malformed, with file and line."""
-
-    exit_code = 2
+class LoaderError(InputError):
+    """A YAML diagram or sweep file that is malformed, with file and line."""
 
     def __init__(self, message, path=None, line=None):
         self.path, self.line = path, line
@@ -38,25 +50,33 @@ class LoaderError(HybridsimError):
         super().__init__(f"{where}: {message}")
 
 
-class RateError(HybridsimError):
+class RateError(InputError):
     """Sample periods that are not positive or not commensurate."""
 
-    exit_code = 2
+
+class ParameterError(InputError, ValueError):
+    """A block parameter with a bad value; ``param`` names it (for its file:line)."""
+
+    def __init__(self, param, message):
+        self.param = param
+        super().__init__(f"parameter {param!r} {message}")
+
+
+class OutputError(InputError):
+    """An output path hybridsim must not or cannot write (an existing file, no permission)."""
+
+
+class CompiledPathError(InputError):
+    """The compiled path was asked for but cannot run this diagram (or numba is missing)."""
 
 
 class SimulationError(HybridsimError):
-    """A run that diverged or whose solver failed."""
+    """A run that diverged or whose solver failed (exit 3)."""
 
     exit_code = 3
 
 
 class FMUError(HybridsimError):
-    """An FMU that cannot be loaded or whose call failed."""
+    """An FMU that cannot be loaded or whose call failed (exit 4)."""
 
     exit_code = 4
-
-
-class CompiledPathError(HybridsimError):
-    """The compiled path was asked for but cannot run this diagram (or numba is missing)."""
-
-    exit_code = 2

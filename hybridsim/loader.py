@@ -19,15 +19,20 @@ The format (see README, "Diagram format")::
 Nothing in a file is evaluated; '$name' substitution is the only indirection.
 """
 import copy
+import logging
+import math
+import os
 import re
 import itertools
+import stat
 from pathlib import Path
 
 import yaml
 
 from .diagram import Diagram
-from .errors import DiagramError, LoaderError, RateError
+from .errors import DiagramError, LoaderError, ParameterError, RateError
 from .registry import closest, lookup, parameters, types
+from . import limits
 
 TOP_KEYS = ["extends", "name", "description", "params", "blocks", "wires", "simulation", "log",
             "signals", "metrics", "variants", "plot", "analysis"]
@@ -66,6 +71,19 @@ NumberLoader.add_implicit_resolver(
 
 
 def _construct_mapping(loader, node):
+    own = {}
+    for knode, _ in node.value:  # keys written in this mapping (merged '<<' keys may repeat)
+        if knode.tag == "tag:yaml.org,2002:merge":
+            continue
+        key = loader.construct_object(knode, deep=True)
+        try:
+            hash(key)
+        except TypeError:
+            raise LoaderError("a mapping key must be a plain value", line=knode.start_mark.line + 1) from None
+        if key in own:
+            raise LoaderError(f"duplicate key {key!r} (first given on line {own[key]}); "
+                              "each key may appear once in a mapping", line=knode.start_mark.line + 1)
+        own[key] = knode.start_mark.line + 1
     loader.flatten_mapping(node)
     d = _Dict()
     d.line, d.lines, d.file = node.start_mark.line + 1, {}, loader.source_path
@@ -94,33 +112,115 @@ _Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _constru
 _Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_SEQUENCE_TAG, _construct_sequence)
 
 
-def _parse(path):
-    """The YAML mapping in ``path`` with file/line tracking, or LoaderError."""
+def _compose_node(self, parent, index):
+    """The composer's recursion, with a depth limit (deep nesting is refused, not a crash)."""
+    self.depth = getattr(self, "depth", 0) + 1
     try:
-        text = path.read_text()
+        if self.depth > limits.MAX_YAML_DEPTH:
+            mark = self.peek_event().start_mark
+            raise LoaderError(f"values nested deeper than {limits.MAX_YAML_DEPTH} levels",
+                              line=mark.line + 1)
+        return yaml.composer.Composer.compose_node(self, parent, index)
+    finally:
+        self.depth -= 1
+
+
+_Loader.compose_node = _compose_node
+
+_BUSY = object()
+
+
+def _expanded_size(node, memo):
+    """How many values ``node`` stands for once every alias is expanded (cycles refused)."""
+    key = id(node)
+    got = memo.get(key)
+    if got is _BUSY:
+        raise LoaderError("a YAML alias refers to the value that contains it (a recursive structure)",
+                          line=node.start_mark.line + 1)
+    if got is not None:
+        return got
+    memo[key] = _BUSY
+    if isinstance(node, yaml.SequenceNode):
+        n = 1 + sum(_expanded_size(c, memo) for c in node.value)
+    elif isinstance(node, yaml.MappingNode):
+        n = 1 + sum(_expanded_size(k, memo) + _expanded_size(v, memo) for k, v in node.value)
+    else:
+        n = 1
+    memo[key] = n
+    return n
+
+
+def read_text(path, budget=limits.MAX_FILE_BYTES):
+    """The text of a diagram or sweep file: a regular UTF-8 file of at most ``budget`` bytes."""
+    try:
+        st = os.stat(path)
     except FileNotFoundError:
         raise LoaderError("no such file", path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise LoaderError(f"cannot read: {exc}", path) from None
-    loader = _Loader(text)
-    loader.source_path = str(path)
+    except OSError as exc:
+        raise LoaderError(f"cannot read: {exc.strerror}", path) from None
+    if not stat.S_ISREG(st.st_mode):
+        what = "a folder" if stat.S_ISDIR(st.st_mode) else "not a regular file (a device, FIFO or socket)"
+        raise LoaderError(f"is {what}; a diagram is a YAML file", path)
+    if st.st_size > budget:
+        raise LoaderError(f"file is {st.st_size / 2**20:.1f} MiB; a diagram and the files it "
+                          f"extends may hold {limits.MAX_FILE_BYTES / 2**20:.0f} MiB together", path)
     try:
-        data = loader.get_single_data()
+        with open(path, "rb") as fh:
+            raw = fh.read(budget + 1)
+    except OSError as exc:
+        raise LoaderError(f"cannot read: {exc.strerror}", path) from None
+    if len(raw) > budget:
+        raise LoaderError(f"file grew past {budget} bytes while read", path)
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise LoaderError("not UTF-8 text (a binary file?)", path, line) from None
+
+
+def parse_file(path, budget=limits.MAX_FILE_BYTES, what="a diagram file must be a mapping with a 'blocks' section"):
+    """The YAML mapping in ``path`` with file/line tracking, or LoaderError.
+
+    Refused before anything is built: files that are not regular or too large,
+    characters YAML forbids (NUL), nesting deeper than
+    ``limits.MAX_YAML_DEPTH``, aliases that expand to more than
+    ``limits.MAX_YAML_VALUES`` values, duplicate keys.
+    """
+    text = read_text(path, budget)
+    loader = None
+    try:
+        loader = _Loader(text)
+        loader.source_path = str(path)
+        node = loader.get_single_node()
+        if node is None:
+            raise LoaderError(what, path, 1)
+        size = _expanded_size(node, {})
+        if size > limits.MAX_YAML_VALUES:
+            raise LoaderError(f"the YAML expands to {size} values (its aliases repeat values); "
+                              f"at most {limits.MAX_YAML_VALUES} are read", path)
+        data = loader.construct_document(node)
     except LoaderError as exc:
         raise LoaderError(str(exc).split(": ", 1)[-1], path, exc.line) from None
+    except yaml.reader.ReaderError as exc:
+        line = text.count("\n", 0, max(exc.position, 0)) + 1
+        raise LoaderError(f"character {exc.character!r} is not allowed in YAML text "
+                          "(a NUL byte or a binary file?)", path, line) from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         problem = getattr(exc, "problem", None) or str(exc)
         raise LoaderError(f"YAML syntax error: {problem}", path,
                           mark.line + 1 if mark else None) from None
+    except RecursionError:
+        raise LoaderError("values nested too deeply", path) from None
     finally:
-        loader.dispose()
+        if loader is not None:
+            loader.dispose()
     if not isinstance(data, dict):
-        raise LoaderError("a diagram file must be a mapping with a 'blocks' section", path, 1)
-    return data
+        raise LoaderError(what, path, 1)
+    return data, len(text.encode("utf-8"))
 
 
-def _read(path, chain=()):
+def _read(path, chain=(), budget=None, files=None):
     """Parse ``path`` and merge it over the file it ``extends`` (if any).
 
     Merging: ``params``, ``simulation``, ``signals``, ``metrics``, ``plot``,
@@ -129,16 +229,27 @@ def _read(path, chain=()):
     block's parameters, and ``name: null`` removes it with its wires;
     ``wires`` and ``log`` are appended; other keys replace.
     """
-    data = _parse(path)
+    budget = limits.MAX_FILE_BYTES if budget is None else budget
+    data, used = parse_file(path, budget)
+    if files is not None:
+        files.append(Path(path).resolve())
     base_name = data.get("extends")
     if base_name is None:
         return data
-    base_path = (path.parent / str(base_name)).resolve()
+    line = data.lines["extends"]
+    if not isinstance(base_name, str) or not base_name:
+        raise LoaderError(f"'extends' must be a file name, got {base_name!r}", path, line)
+    if Path(base_name).suffix.lower() not in limits.YAML_SUFFIXES:
+        raise LoaderError(f"'extends': {base_name!r} is not a YAML file (it must end in "
+                          f"{' or '.join(limits.YAML_SUFFIXES)})", path, line)
+    base_path = (path.parent / base_name).resolve()
     if base_path in chain or base_path == path.resolve():
-        raise LoaderError(f"'extends' forms a cycle through {base_name!r}", path, data.lines["extends"])
+        raise LoaderError(f"'extends' forms a cycle through {base_name!r}", path, line)
     if not base_path.exists():
-        raise LoaderError(f"'extends': no such file {str(base_name)!r}", path, data.lines["extends"])
-    base = _read(base_path, chain + (path.resolve(),))
+        raise LoaderError(f"'extends': no such file {base_name!r}", path, line)
+    if len(chain) >= limits.MAX_EXTENDS:
+        raise LoaderError(f"'extends' chains more than {limits.MAX_EXTENDS} files", path, line)
+    base = _read(base_path, chain + (path.resolve(),), budget - used, files)
     merged = base
     for key, val in data.items():
         if key == "extends":
@@ -192,6 +303,24 @@ def _drop_wires(data, bname):
         data["log"] = new
 
 
+_REF = re.compile(r"^([^.\[\]\s]+)\.([^.\[\]\s]+)(?:\[(\d+)\])?$")
+_log = logging.getLogger("hybridsim")
+
+
+def _positive_number(v):
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0
+
+
+def _has_nan(v):
+    if isinstance(v, float):
+        return math.isnan(v)
+    if isinstance(v, (list, tuple)):
+        return any(_has_nan(x) for x in v)
+    if isinstance(v, dict):
+        return any(_has_nan(x) for x in v.values())
+    return False
+
+
 def _plain(v):
     """Strip the line-tracking types (for deep copies and user-facing values)."""
     if isinstance(v, dict):
@@ -215,7 +344,8 @@ class DiagramFile:
 
     def __init__(self, path, overrides=None):
         self.path = Path(path)
-        data = _read(self.path)
+        self.files = []  # this file and every file it extends, resolved
+        data = _read(self.path, files=self.files)
         self.data = data
         for key in data:
             if key not in TOP_KEYS:
@@ -267,6 +397,8 @@ class DiagramFile:
                 blocks = self.data["blocks"]
                 if bname not in blocks or len(parts) > (3 if parts[0] == "blocks" else 2):
                     self._fail(f"--set {key}: no block {bname!r}{closest(bname, blocks)}")
+                if not isinstance(blocks[bname], dict) or not pname:
+                    self._fail(f"--set {key}: block {bname!r} has no parameters to set")
                 blocks[bname][pname] = value
                 blocks[bname].lines[pname] = None
                 blocks[bname].locs[pname] = f"--set {key}"
@@ -283,6 +415,9 @@ class DiagramFile:
                            spec.lines[n])
             if not isinstance(spec[n], list) or not spec[n]:
                 self._fail(f"variant {n!r} must be a non-empty list of values", spec.lines[n])
+        count = math.prod(len(spec[n]) for n in names)
+        if count > limits.MAX_RUNS:
+            self._fail(f"'variants' makes {count} runs; at most {limits.MAX_RUNS}", spec.line)
         out = []
         for combo in itertools.product(*(spec[n] for n in names)):
             label = ", ".join(f"{n}={v}" for n, v in zip(names, combo))
@@ -353,6 +488,11 @@ class DiagramFile:
                 except LoaderError as exc:
                     problems.append(str(exc))
                     bad = True
+                    continue
+                if _has_nan(kwargs[pname]):
+                    problems.append(f"{spec.locs[pname]}: block {bname!r} ({tname}): parameter "
+                                    f"{pname!r} is not a number (NaN)")
+                    bad = True
             for r in required:
                 if r not in kwargs and not bad:
                     problems.append(f"{here}: block {bname!r} ({tname}) needs parameter {r!r}")
@@ -362,8 +502,11 @@ class DiagramFile:
             try:
                 diagram.add(cls(name=bname, **kwargs))
             except RateError as exc:
-                problems.append(f"{here}: block {bname!r} ({tname}): bad rate: {exc}")
-            except (ValueError, TypeError) as exc:
+                where = next((spec.locs[k] for k in ("rate", "period") if k in spec), here)
+                problems.append(f"{where}: block {bname!r} ({tname}): bad rate: {exc}")
+            except ParameterError as exc:
+                problems.append(f"{spec.locs.get(exc.param, here)}: block {bname!r} ({tname}): {exc}")
+            except (ValueError, TypeError, ArithmeticError) as exc:
                 problems.append(f"{here}: block {bname!r} ({tname}): {exc}")
         wires = self.data.get("wires") or []
         for k, w in enumerate(wires):
@@ -384,7 +527,56 @@ class DiagramFile:
             raise DiagramError(problems, str(self.path))
         diagram.problems = []
         settings = self._settings(params)
+        widths = self._check_refs(diagram, settings)
+        self._check_size(diagram, settings, widths)
         return diagram, settings
+
+    def _check_refs(self, diagram, settings):
+        """Every log entry and signal names an output (and an element in range).
+
+        Returns the total logged width (for the size check)."""
+        log = self.data.get("log") or _List()
+        signals = self.data.get("signals") or _Dict()
+        items = [(ref, (log.locs[k] if getattr(log, "locs", None) else str(self.path)), "log entry")
+                 for k, ref in enumerate(settings["log"])]
+        items += [(ref, f"{self.path}:{settings['signal_lines'].get(role)}", f"signal {role!r}")
+                  for role, ref in settings["signals"].items()]
+        problems, logged = [], {}
+        for ref, where, what in items:
+            m = _REF.match(ref)
+            if not m:
+                problems.append(f"{where}: {what} {ref!r} is not of the form block.port or block.port[i]")
+                continue
+            bname, pname, idx = m.group(1), m.group(2), m.group(3)
+            block = diagram.blocks.get(bname)
+            if block is None:
+                problems.append(f"{where}: {what} {ref!r}: no block {bname!r}{closest(bname, diagram.blocks)}")
+                continue
+            port = next((p for p in block.outputs if p.name == pname), None)
+            if port is None:
+                names = [p.name for p in block.outputs]
+                problems.append(f"{where}: {what} {ref!r}: block {bname!r} has no output {pname!r}"
+                                f"{closest(pname, names)}; its outputs: {', '.join(names) or 'none'}")
+                continue
+            if idx is not None and not 0 <= int(idx) < port.width:
+                problems.append(f"{where}: {what} {ref!r}: index {idx} is out of range; "
+                                f"{bname}.{pname} has {port.width} element(s), 0..{port.width - 1}")
+                continue
+            logged[f"{bname}.{pname}"] = port.width
+        if problems:
+            raise DiagramError(problems, str(self.path))
+        return sum(logged.values())
+
+    def _check_size(self, diagram, settings, log_width):
+        """Refuse a run too large for memory or time before it starts (see :mod:`limits`)."""
+        sim = settings["simulation"]
+        step = sim.get("step", 1e-4) if sim["solver"] == "rk4" else sim.get("max_step")
+        periods = [float(b.period) for b in diagram.blocks.values() if b.period]
+        why = limits.run_size_problems(float(sim["t_end"]), periods, float(sim.get("log_period", 0.0005)),
+                                       None if step is None else float(step), log_width, sim["solver"])
+        if why:
+            lines = getattr(self.data.get("simulation"), "lines", None) or {}
+            raise LoaderError("; ".join(why), self.path, lines.get("t_end"))
 
     def _settings(self, params):
         data = self.data
@@ -397,15 +589,27 @@ class DiagramFile:
         simr = {k: self._resolve(v, locs.get(k, str(self.path)), params) for k, v in sim.items()}
         simr.setdefault("t_end", 1.0)
         simr.setdefault("solver", "rk4")
-        for key in ("t_end", "step", "rtol", "max_step", "log_period", "max_state"):
+        for key in ("t_end", "step", "rtol", "max_step", "log_period", "max_state", "atol"):
             if key in simr:
                 v = simr[key]
-                if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
-                    self._fail(f"simulation setting {key!r} must be a positive number, got {v!r}",
+                if key == "max_step" and v == math.inf:
+                    continue
+                vals = v if key == "atol" and isinstance(v, list) and v else [v]
+                if not all(_positive_number(x) for x in vals):
+                    self._fail(f"simulation setting {key!r} must be a positive, finite number, got {v!r}",
                                lines.get(key))
-        if str(simr["solver"]).lower() not in SOLVERS:
+        for key in ("fused", "compiled"):
+            if key in simr and not isinstance(simr[key], bool):
+                self._fail(f"simulation setting {key!r} must be true or false, got {simr[key]!r}",
+                           lines.get(key))
+        if not isinstance(simr["solver"], str) or simr["solver"].lower() not in SOLVERS:
             self._fail(f"unknown solver {simr['solver']!r}{closest(str(simr['solver']).lower(), SOLVERS)}; "
                        f"solvers: {', '.join(SOLVERS)}", lines.get("solver"))
+        simr["solver"] = simr["solver"].lower()
+        step = simr.get("step") if simr["solver"] == "rk4" else None
+        if step is not None and step > simr["t_end"]:
+            _log.warning("%s: the step %g s is longer than t_end %g s: RK4 takes one step of %g s",
+                         self.path, step, simr["t_end"], simr["t_end"])
         signals = data.get("signals") or _Dict()
         for role in signals:
             if role not in SIGNAL_ROLES:

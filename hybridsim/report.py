@@ -52,7 +52,7 @@ def pole_map(models):
     for label, cl in models:
         p = cl.poles
         ax.plot(p.real, p.imag, "x", ms=8, mew=1.5, label=f"{label} (max |z| {cl.growth:.3f})")
-    lim = max(1.15, max(np.max(np.abs(cl.poles)) for _, cl in models) * 1.05)
+    lim = max(1.15, max((float(np.max(np.abs(cl.poles))) for _, cl in models if len(cl.poles)), default=0.0) * 1.05)
     ax.set_xlim(-lim, lim)
     ax.set_ylim(-lim, lim)
     ax.legend(fontsize=7, loc="lower left")

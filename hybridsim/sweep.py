@@ -23,8 +23,13 @@ parallel on all local cores, or on a Dask cluster (``--dask ADDRESS``).
 Resuming: each finished point is appended as one JSON line to
 ``points.jsonl`` in the output folder, keyed by a hash of its overrides; a
 second run of the same sweep skips the points already there, so an
-interrupted sweep loses and duplicates nothing. A point whose run diverges is
-recorded as failed, with the message, and the sweep carries on.
+interrupted sweep loses and duplicates nothing. The folder's
+``sweep-manifest.json`` holds a fingerprint of everything else a point's
+numbers depend on (the diagram and every file it extends, ``set``, ``stability``,
+the hybridsim version): a different sweep into the same folder is refused, or
+with ``force`` starts afresh (the old points kept as ``points.jsonl.old``).
+A point whose run diverges is recorded as failed, with the message, and the
+sweep carries on. Every point's parameters are checked before any runs.
 """
 import hashlib
 import itertools
@@ -34,11 +39,11 @@ import time
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from .errors import HybridsimError, LoaderError
-from .files import atomic_file
-from .loader import NumberLoader
+from . import limits
+from .errors import HybridsimError, InputError, LoaderError
+from .files import atomic_file, make_output_dir
+from .loader import parse_file
 
 SWEEP_KEYS = {"diagram", "set", "grid", "scale", "random", "traces", "stability"}
 
@@ -48,27 +53,58 @@ class Sweep:
 
     def __init__(self, path):
         self.path = Path(path)
-        try:
-            data = yaml.load(self.path.read_text(), Loader=NumberLoader)
-        except FileNotFoundError:
-            raise LoaderError("no such file", self.path) from None
-        except yaml.YAMLError as exc:
-            mark = getattr(exc, "problem_mark", None)
-            raise LoaderError(f"YAML syntax error: {getattr(exc, 'problem', exc)}", self.path,
-                              mark.line + 1 if mark else None) from None
-        if not isinstance(data, dict) or "diagram" not in data:
-            raise LoaderError("a sweep file is a mapping with at least 'diagram'", self.path)
-        unknown = set(data) - SWEEP_KEYS
-        if unknown:
-            raise LoaderError(f"unknown sweep keys {sorted(unknown)}; keys: {sorted(SWEEP_KEYS)}", self.path)
+        data, _ = parse_file(self.path, what="a sweep file is a mapping with at least 'diagram'")
+        if "diagram" not in data:
+            raise LoaderError("a sweep file is a mapping with at least 'diagram'", self.path, 1)
+        lines = data.lines
+        for key in data:
+            if key not in SWEEP_KEYS:
+                raise LoaderError(f"unknown sweep key {key!r}; keys: {', '.join(sorted(SWEEP_KEYS))}",
+                                  self.path, lines[key])
+        if not isinstance(data["diagram"], str) or not data["diagram"]:
+            raise LoaderError(f"'diagram' must be a file name, got {data['diagram']!r}", self.path,
+                              lines["diagram"])
         self.diagram = (self.path.parent / data["diagram"]).resolve()
-        self.fixed = dict(data.get("set") or {})
+        for key in ("set", "grid", "scale", "random"):
+            if data.get(key) is not None and not isinstance(data[key], dict):
+                raise LoaderError(f"'{key}' must be a mapping", self.path, lines[key])
+        for key in ("traces", "stability"):
+            if key in data and not isinstance(data[key], bool):
+                raise LoaderError(f"'{key}' must be true or false, got {data[key]!r}", self.path, lines[key])
+        self.fixed = {str(k): v for k, v in (data.get("set") or {}).items()}
         self.grid = dict(data.get("grid") or {})
         self.scale = dict(data.get("scale") or {})
+        for key, axes in (("grid", self.grid), ("scale", self.scale)):
+            for name, values in axes.items():
+                if not isinstance(values, list) or not values:
+                    raise LoaderError(f"{key} {name!r}: give a non-empty list of values", self.path,
+                                      data[key].lines[name])
+                if key == "scale" and not all(_number(v) for v in values):
+                    raise LoaderError(f"scale {name!r}: factors must be finite numbers, got {values!r}",
+                                      self.path, data[key].lines[name])
         self.random = data.get("random")
+        if self.random is not None:
+            self._check_random(self.random, lines["random"])
         self.traces = bool(data.get("traces", False))
         self.stability = bool(data.get("stability", False))
         self._base = None
+
+    def _check_random(self, spec, line):
+        bad = set(spec) - {"n", "seed", "ranges"}
+        if bad:
+            raise LoaderError(f"random: unknown keys {sorted(bad)}; keys: n, seed, ranges", self.path, line)
+        n, seed, ranges = spec.get("n", 10), spec.get("seed", 0), spec.get("ranges")
+        if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= limits.MAX_RUNS:
+            raise LoaderError(f"random: n must be a whole number from 1 to {limits.MAX_RUNS}, got {n!r}",
+                              self.path, line)
+        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+            raise LoaderError(f"random: seed must be a whole number >= 0, got {seed!r}", self.path, line)
+        if not isinstance(ranges, dict) or not ranges:
+            raise LoaderError("random: give 'ranges' as {parameter: [low, high]}", self.path, line)
+        for k, v in ranges.items():
+            if not (isinstance(v, list) and len(v) == 2 and all(_number(x) for x in v) and v[0] <= v[1]):
+                raise LoaderError(f"random: range of {k!r} must be [low, high] with finite low <= high, "
+                                  f"got {v!r}", self.path, ranges.lines[k])
 
     def _base_value(self, ref):
         """Value of a parameter or block parameter in the diagram (for scaling)."""
@@ -80,17 +116,21 @@ class Sweep:
         f = self._base
         if "." not in ref:
             if ref not in f.params:
-                raise HybridsimError(f"sweep: no parameter {ref!r} in {self.diagram.name}")
+                raise InputError(f"{self.path}: sweep: no parameter {ref!r} in {self.diagram.name}")
             return np.asarray(f.params[ref], float)
         try:
             return param_value(f, ref)
-        except (KeyError, ValueError) as exc:
-            raise HybridsimError(f"sweep: cannot scale {ref!r}: {exc}") from None
+        except (KeyError, ValueError, TypeError) as exc:
+            raise InputError(f"{self.path}: sweep: cannot scale {ref!r}: {exc}") from None
 
     def points(self):
         """List of dicts: 'params' (what the table shows) and 'overrides' (what runs)."""
         pts = []
         axes = [(k, v, False) for k, v in self.grid.items()] + [(k, v, True) for k, v in self.scale.items()]
+        total = (int(np.prod([len(v) for _, v, _ in axes])) if axes else 0) + \
+            (int(self.random.get("n", 10)) if self.random else 0)
+        if total > limits.MAX_RUNS:
+            raise InputError(f"{self.path}: the sweep has {total} points; at most {limits.MAX_RUNS}")
         if axes:
             for combo in itertools.product(*(v for _, v, _ in axes)):
                 params, ov = {}, {}
@@ -108,10 +148,54 @@ class Sweep:
                 params = {k: float(rng.uniform(lo, hi)) for k, (lo, hi) in self.random["ranges"].items()}
                 pts.append({"params": params, "overrides": dict(params)})
         if not pts:
-            raise HybridsimError(f"{self.path}: the sweep has no points (give grid, scale or random)")
+            raise InputError(f"{self.path}: the sweep has no points (give grid, scale or random)")
         for p in pts:
             p["key"] = point_key(p["overrides"])
         return pts
+
+
+    def validate(self):
+        """Check the diagram, ``set`` and every swept value before any point runs.
+
+        Each grid value, each scale factor and both ends of each random range
+        are checked as one run would be (:func:`hybridsim.api.check`), so a
+        sweep naming an unknown parameter or a bad value stops here with exit 2.
+        """
+        from .api import check, load
+
+        base = load(self.diagram, **self.fixed)
+        check(base)
+        seen = set()
+        tries = [(k, v) for k, vals in self.grid.items() for v in vals]
+        tries += [(k, (self._base_value(k) * float(v)).tolist()) for k, vals in self.scale.items() for v in vals]
+        if self.random:
+            tries += [(k, float(v)) for k, rng in self.random["ranges"].items() for v in rng]
+        for key, value in tries:
+            tag = json.dumps([key, value], sort_keys=True, default=str)
+            if tag in seen:
+                continue
+            seen.add(tag)
+            try:
+                check(load(self.diagram, **{**self.fixed, key: value}))
+            except InputError as exc:
+                raise InputError(f"{self.path}: swept value {key} = {value!r}: {exc}") from None
+
+    def fingerprint(self):
+        """A hash of everything a point's numbers depend on besides its own overrides."""
+        from . import __version__
+        from .api import load
+
+        f = load(self.diagram, **self.fixed)
+        h = hashlib.sha256()
+        for p in f.files:
+            h.update(Path(p).read_bytes())
+        h.update(json.dumps({"set": self.fixed, "stability": self.stability, "version": __version__},
+                            sort_keys=True, default=str).encode())
+        return h.hexdigest()[:24]
+
+
+def _number(v):
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and bool(np.isfinite(v))
 
 
 def point_key(overrides):
@@ -189,19 +273,75 @@ def _jsonable(v):
     return str(v)
 
 
-def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False):
+def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False, force=False):
     """Run (or resume) a sweep; returns the table as a list of row dicts.
 
     ``compiled``: run every point on the compiled path (as ``simulation.compiled:
     true`` in ``set``); the same numbers, so finished points are reused either way.
+    ``force``: start afresh when ``outdir`` holds points of a different sweep
+    (otherwise that is an :class:`~hybridsim.errors.InputError`).
+    Raises InputError before anything runs for a bad sweep file, diagram,
+    parameter or value, or a Dask address that does not answer.
     """
     sw = Sweep(path)
+    if jobs is not None and (isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1):
+        raise InputError(f"jobs must be a whole number >= 1, got {jobs!r}")
+    pts = sw.points()
+    sw.validate()
     if compiled:
         sw.fixed["simulation.compiled"] = True
-    outdir = Path(outdir)
-    outdir.mkdir(parents=True, exist_ok=True)
-    jsonl = outdir / "points.jsonl"
-    pts = sw.points()
+    fixed_run = dict(sw.fixed)
+    sw.fixed.pop("simulation.compiled", None)  # the same numbers either way: not in the fingerprint
+    fp = sw.fingerprint()
+    sw.fixed = fixed_run
+    client = _dask_client(dask) if isinstance(dask, str) else dask
+    try:
+        outdir = make_output_dir(outdir)
+        jsonl = outdir / "points.jsonl"
+        _claim(outdir, jsonl, fp, sw, force)
+        return _run(sw, pts, outdir, jsonl, jobs, client, progress)
+    finally:
+        if client is not None and isinstance(dask, str):
+            client.close()
+
+
+def _dask_client(address):
+    """A Dask client for ``address``, or InputError when nothing answers there (10 s)."""
+    from distributed import Client
+
+    try:
+        return Client(address, timeout="10s")
+    except (OSError, TimeoutError, ValueError, TypeError) as exc:
+        raise InputError(f"cannot reach a Dask scheduler at {address!r} within 10 s "
+                         f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else 'no answer'}); "
+                         "is the scheduler running and the address right (tcp://HOST:8786)?") from None
+
+
+def _claim(outdir, jsonl, fp, sw, force):
+    """Make ``outdir`` this sweep's: refuse points of another sweep unless ``force``."""
+    manifest = outdir / "sweep-manifest.json"
+    old = None
+    if manifest.exists():
+        try:
+            old = json.loads(manifest.read_text()).get("fingerprint")
+        except (OSError, ValueError, AttributeError):
+            old = "unreadable"
+    has_points = jsonl.exists() and jsonl.stat().st_size > 0
+    if has_points and old != fp:
+        why = ("no sweep-manifest.json says which sweep they belong to" if old is None else
+               "the diagram (or a file it extends), 'set', 'stability' or the hybridsim version changed")
+        if not force:
+            raise InputError(f"{outdir} holds points of a different sweep ({why}); they would "
+                             "not match this one. Use another -o, or --force to start afresh "
+                             "(the old points are kept as points.jsonl.old)")
+        os.replace(jsonl, jsonl.with_name("points.jsonl.old"))
+    if old != fp or not manifest.exists():
+        with atomic_file(manifest) as fh:
+            json.dump({"fingerprint": fp, "sweep": str(sw.path), "diagram": str(sw.diagram)}, fh, indent=1)
+
+
+def _run(sw, pts, outdir, jsonl, jobs, dask, progress):
+    """Run the points of ``pts`` not yet in ``jsonl``; write the table and heat map."""
     done = _load_done(jsonl)
     todo = [p for p in pts if p["key"] not in done]
     traces = None
@@ -234,16 +374,11 @@ def _execute(todo, args, traces, jobs, dask):
     """Yield (key, rows) as points finish: serially, on local processes, or on Dask."""
     diagram, fixed, stability = args
     if dask:
-        from distributed import Client, as_completed
+        from distributed import as_completed
 
-        client = dask if not isinstance(dask, str) else Client(dask)
-        try:
-            futs = {client.submit(run_point, diagram, fixed, p, traces, stability, pure=False): p["key"] for p in todo}
-            for fut in as_completed(futs):
-                yield futs[fut], fut.result()
-        finally:
-            if isinstance(dask, str):
-                client.close()
+        futs = {dask.submit(run_point, diagram, fixed, p, traces, stability, pure=False): p["key"] for p in todo}
+        for fut in as_completed(futs):
+            yield futs[fut], fut.result()
         return
     jobs = jobs or os.cpu_count() or 1
     if jobs <= 1 or len(todo) <= 1:

@@ -75,7 +75,7 @@ def test_missing_blocks_and_unknown_section(tmp_path):
 def test_bad_solver_and_t_end(tmp_path):
     with pytest.raises(LoaderError, match="unknown solver 'radua'"):
         DiagramFile(write(tmp_path, GOOD.replace("t_end: 0.2", "t_end: 0.2, solver: radua"))).build()
-    with pytest.raises(LoaderError, match="'t_end' must be a positive number"):
+    with pytest.raises(LoaderError, match="'t_end' must be a positive, finite number"):
         DiagramFile(write(tmp_path, GOOD.replace("t_end: 0.2", "t_end: -1"))).build()
 
 
