@@ -52,9 +52,6 @@ def _overrides(items):
         except yaml.YAMLError as exc:
             raise InputError(f"--set {key}: cannot read value {val!r}: "
                              f"{getattr(exc, 'problem', None) or exc}") from None
-        if isinstance(value, dict):
-            raise InputError(f"--set {key}: the value must be a number, a list or a word, "
-                             f"got a mapping {val!r}")
         out[key.strip()] = value
     return out
 

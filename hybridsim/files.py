@@ -73,13 +73,13 @@ def check_output_dir(path):
 def check_output_file(path, formats=None):
     """Raise :class:`OutputError` unless file ``path`` can be written (and has a known suffix)."""
     path = Path(path)
+    if path.exists() and not path.is_file():
+        raise OutputError(f"{str(path)!r} exists and is not a file; hybridsim does not replace it")
     if formats is not None:
         fmt = path.suffix.lstrip(".").lower()
         if fmt not in formats:
             raise OutputError(f"{str(path)!r}: unsupported file type {path.suffix or '(none)'!r}; "
                               f"use one of {', '.join('.' + f for f in formats)}")
-    if path.exists() and not path.is_file():
-        raise OutputError(f"{str(path)!r} exists and is not a file")
     check_output_dir(path.parent if str(path.parent) else Path("."))
     return path
 

@@ -28,7 +28,8 @@ from pathlib import Path
 import numpy as np
 
 from .block import Block
-from .errors import FMUError
+from .errors import FMUError, ParameterError
+from .files import atomic_file
 from .registry import closest, register
 
 _INDEXED = re.compile(r"^(.*)\[(\d+)\]$")
@@ -71,8 +72,9 @@ class FMUBlock(Block):
         if not self.path.exists():
             raise FMUError(f"FMU {str(self.path)!r}: file not found (the plant FMU is built with "
                            "'hybridsim fmu build -o plant.fmu')")
-        if not zipfile.is_zipfile(self.path):
+        if not self.path.is_file() or not zipfile.is_zipfile(self.path):
             raise FMUError(f"FMU {str(self.path)!r}: not an FMU (not a zip archive)")
+        _check_members(self.path)
         try:
             md = read_model_description(str(self.path))
         except Exception as exc:  # noqa: BLE001 - fmpy raises many kinds
@@ -96,7 +98,13 @@ class FMUBlock(Block):
         self.model_identifier = kind.modelIdentifier
         byname = {v.name: v for v in md.modelVariables}
         self.parameters = {}
+        if parameters is not None and not isinstance(parameters, dict):
+            raise ParameterError("parameters", f"must map variable names to values, got {parameters!r}")
         for pname, value in (parameters or {}).items():
+            for v in (value if isinstance(value, (list, tuple)) else [value]):
+                if not isinstance(v, (bool, int, float)) or not np.isfinite(float(v)):
+                    raise ParameterError("parameters", f"{pname}: must be a finite number or a list of "
+                                                       f"them, got {value!r}")
             if pname not in byname and f"{pname}[1]" in byname and isinstance(value, (list, tuple)):
                 for k, v in enumerate(value, start=1):  # b: [1, 2] sets b[1] and b[2]
                     if f"{pname}[{k}]" not in byname:
@@ -158,20 +166,28 @@ class FMUBlock(Block):
         import fmpy
 
         self.close()
-        self._unzipdir = fmpy.extract(str(self.path))
+        self._unzipdir = tempfile.mkdtemp(prefix="hybridsim-fmu-")
+        try:
+            fmpy.extract(str(self.path), unzipdir=self._unzipdir)
+        except Exception as exc:  # noqa: BLE001 - zipfile and fmpy raise many kinds
+            self.close()
+            raise FMUError(f"FMU {str(self.path)!r}: cannot extract: {exc}") from None
         self._messages = []
         kw = dict(guid=self.md.guid, unzipDirectory=self._unzipdir,
                   modelIdentifier=self.model_identifier, instanceName=self.name)
-        fmu = (self._instantiate3 if self.fmi3 else self._instantiate2)(kw)
-        byname = {v.name: v for v in self.md.modelVariables}
-        for pname, value in self.parameters.items():
-            self._call(f"setting {pname}", self._set, [byname[pname].valueReference], [float(value)])
-        self._call("exitInitializationMode", fmu.exitInitializationMode)
-        if self.mode == "me":
-            self._call("updateDiscreteStates" if self.fmi3 else "newDiscreteStates",
-                       fmu.updateDiscreteStates if self.fmi3 else fmu.newDiscreteStates)
-            self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
-        self._fmu = fmu
+        try:
+            fmu = self._fmu = (self._instantiate3 if self.fmi3 else self._instantiate2)(kw)
+            byname = {v.name: v for v in self.md.modelVariables}
+            for pname, value in self.parameters.items():
+                self._call(f"setting {pname}", self._set, [byname[pname].valueReference], [float(value)])
+            self._call("exitInitializationMode", fmu.exitInitializationMode)
+            if self.mode == "me":
+                self._call("updateDiscreteStates" if self.fmi3 else "newDiscreteStates",
+                           fmu.updateDiscreteStates if self.fmi3 else fmu.newDiscreteStates)
+                self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
+        except BaseException:
+            self.close()  # terminate and free the instance, remove the extracted files
+            raise
         return fmu
 
     def _instantiate2(self, kw):
@@ -289,6 +305,20 @@ class FMUBlock(Block):
         return z
 
 
+def _check_members(path):
+    """FMUError unless every member of the zip stays inside the folder it is extracted to."""
+    try:
+        with zipfile.ZipFile(path) as z:
+            names = z.namelist()
+    except (zipfile.BadZipFile, OSError) as exc:
+        raise FMUError(f"FMU {str(path)!r}: cannot read the archive: {exc}") from None
+    for n in names:
+        parts = n.replace("\\", "/").split("/")
+        if n.startswith(("/", "\\")) or ":" in n or "\\" in n or ".." in parts:
+            raise FMUError(f"FMU {str(path)!r}: unsafe member {n!r} in the archive (an absolute path, "
+                           "'..' or a drive letter); not extracted")
+
+
 # -- building -------------------------------------------------------------------------
 
 def find_compiler():
@@ -334,13 +364,10 @@ def build_fmu(out, model_identifier, sources, model_description, headers, includ
         proc = subprocess.run(cmd, capture_output=True, text=True)
         if proc.returncode != 0:
             raise FMUError(f"compiling {model_identifier} failed:\n{proc.stderr.strip()}")
-        out.parent.mkdir(parents=True, exist_ok=True)
-        part = out.with_name(f".{out.name}.part")
-        with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
+        with atomic_file(out, "wb") as fh, zipfile.ZipFile(fh, "w", zipfile.ZIP_DEFLATED) as z:
             for f in sorted(tmp.rglob("*")):
                 if f.is_file():
                     z.write(f, f.relative_to(tmp).as_posix())
-        os.replace(part, out)
     return out
 
 

@@ -38,6 +38,7 @@ TOP_KEYS = ["extends", "name", "description", "params", "blocks", "wires", "simu
             "signals", "metrics", "variants", "plot", "analysis"]
 SIM_KEYS = ["t_end", "solver", "step", "rtol", "atol", "max_step", "log_period", "max_state", "fused", "compiled"]
 SOLVERS = ["rk4", "radau", "bdf", "lsoda", "rk45", "rk23", "dop853"]
+METRIC_KEYS = ["step_time", "ss_window", "error_window", "filter_cutoff"]
 SIGNAL_ROLES = ["force", "force_desired", "position", "position_desired", "contact",
                 "surface", "hand", "oscillation"]
 
@@ -307,8 +308,12 @@ _REF = re.compile(r"^([^.\[\]\s]+)\.([^.\[\]\s]+)(?:\[(\d+)\])?$")
 _log = logging.getLogger("hybridsim")
 
 
+def _number(v):
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
 def _positive_number(v):
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0
+    return _number(v) and v > 0
 
 
 def _has_nan(v):
@@ -531,6 +536,21 @@ class DiagramFile:
         self._check_size(diagram, settings, widths)
         return diagram, settings
 
+    def _check_metrics(self, metrics, lines):
+        """The ``metrics`` section: known keys with finite numbers (see :mod:`hybridsim.metrics`)."""
+        for key, v in metrics.items():
+            if key not in METRIC_KEYS:
+                self._fail(f"unknown metrics setting {key!r}{closest(key, METRIC_KEYS)}; "
+                           f"settings: {', '.join(METRIC_KEYS)}", lines.get(key))
+            if key == "error_window":
+                ok = (isinstance(v, list) and len(v) == 2 and all(_number(x) for x in v) and v[0] < v[1])
+                if not ok:
+                    self._fail(f"metrics setting 'error_window' must be [t0, t1] with t0 < t1 (s), "
+                               f"got {v!r}", lines.get(key))
+            elif not (_number(v) and (v >= 0 if key == "step_time" else v > 0)):
+                self._fail(f"metrics setting {key!r} must be a {'finite number >= 0' if key == 'step_time' else 'positive, finite number'}, "
+                           f"got {v!r}", lines.get(key))
+
     def _check_refs(self, diagram, settings):
         """Every log entry and signal names an output (and an element in range).
 
@@ -616,12 +636,14 @@ class DiagramFile:
                 self._fail(f"unknown signal role {role!r}{closest(role, SIGNAL_ROLES)}; "
                            f"roles: {', '.join(SIGNAL_ROLES)}", signals.lines[role])
         log = [str(x) for x in (data.get("log") or [])]
+        metrics = self._resolve(data.get("metrics") or {}, str(self.path), params)
+        self._check_metrics(metrics, getattr(data.get("metrics"), "lines", None) or {})
         return {
             "simulation": simr,
             "log": log,
             "signals": {k: str(v) for k, v in signals.items()},
             "signal_lines": dict(signals.lines or {}),
-            "metrics": self._resolve(data.get("metrics") or {}, str(self.path), params),
+            "metrics": metrics,
             "plot": _plain(data.get("plot") or {}),
             "params": _plain(params),
         }

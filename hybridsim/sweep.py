@@ -45,6 +45,8 @@ from .errors import HybridsimError, InputError, LoaderError
 from .files import atomic_file, make_output_dir
 from .loader import parse_file
 
+#: seconds to wait for a Dask scheduler to answer
+DASK_TIMEOUT_S = 10
 SWEEP_KEYS = {"diagram", "set", "grid", "scale", "random", "traces", "stability"}
 
 
@@ -306,13 +308,13 @@ def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False,
 
 
 def _dask_client(address):
-    """A Dask client for ``address``, or InputError when nothing answers there (10 s)."""
+    """A Dask client for ``address``, or InputError when nothing answers within DASK_TIMEOUT_S."""
     from distributed import Client
 
     try:
-        return Client(address, timeout="10s")
+        return Client(address, timeout=f"{DASK_TIMEOUT_S}s")
     except (OSError, TimeoutError, ValueError, TypeError) as exc:
-        raise InputError(f"cannot reach a Dask scheduler at {address!r} within 10 s "
+        raise InputError(f"cannot reach a Dask scheduler at {address!r} within {DASK_TIMEOUT_S} s "
                          f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else 'no answer'}); "
                          "is the scheduler running and the address right (tcp://HOST:8786)?") from None
 
