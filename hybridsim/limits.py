@@ -13,7 +13,7 @@ MAX_EXTENDS = 32
 #: levels of nested YAML lists and mappings
 MAX_YAML_DEPTH = 64
 #: values a YAML document stands for once its aliases are expanded
-MAX_YAML_VALUES = 200_000
+MAX_YAML_VALUES = 100_000
 #: suffixes of files ``extends`` may name
 YAML_SUFFIXES = (".yaml", ".yml")
 #: stops of one run (sample hits and log points), each a row of the hit table

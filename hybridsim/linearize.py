@@ -36,12 +36,12 @@ import control
 import numpy as np
 from scipy.linalg import expm
 
-from .errors import HybridsimError
+from .errors import InputError
 from .result import parse_signal
 
 
-class LinearizationError(HybridsimError):
-    exit_code = 2
+class LinearizationError(InputError):
+    """A diagram or analysis setting that cannot be linearized as asked (exit 2)."""
 
 
 def zoh(A, B, tau):

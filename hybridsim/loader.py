@@ -114,9 +114,14 @@ _Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_SEQUENCE_TAG, _constr
 
 
 def _compose_node(self, parent, index):
-    """The composer's recursion, with a depth limit (deep nesting is refused, not a crash)."""
+    """The composer's recursion, with limits on depth and on the number of values (refused, not a crash)."""
     self.depth = getattr(self, "depth", 0) + 1
+    self.nodes = getattr(self, "nodes", 0) + 1
     try:
+        if self.nodes > limits.MAX_YAML_VALUES:
+            mark = self.peek_event().start_mark
+            raise LoaderError(f"more than {limits.MAX_YAML_VALUES} values in one file",
+                              line=mark.line + 1)
         if self.depth > limits.MAX_YAML_DEPTH:
             mark = self.peek_event().start_mark
             raise LoaderError(f"values nested deeper than {limits.MAX_YAML_DEPTH} levels",
