@@ -12,9 +12,9 @@ from .errors import (CompiledPathError, DiagramError, FMUError, HybridsimError, 
 from .registry import register
 from . import registry
 from .simulator import Simulator
-from .solvers import RK4, ScipySolver
+from .solvers import RK4, ExplicitRK, Heun, ScipySolver
 
-__all__ = ["registry", "Block", "Diagram", "Simulator", "RK4", "ScipySolver", "register", "simulate", "load",
+__all__ = ["registry", "Block", "Diagram", "Simulator", "RK4", "Heun", "ExplicitRK", "ScipySolver", "register", "simulate", "load",
            "build", "check", "run_experiment", "write_outputs", "HybridsimError", "InputError",
            "DiagramError", "LoaderError", "RateError", "ParameterError", "OutputError",
            "CompiledPathError", "SimulationError", "FMUError"]

@@ -15,14 +15,14 @@ from . import metrics as _metrics
 from .files import atomic_dir, safe_name
 from .loader import DiagramFile
 from .simulator import Simulator
-from .solvers import RK4, ScipySolver
+from .solvers import FIXED_STEP, ScipySolver
 
 
 def make_solver(sim):
     """Solver object from a diagram's ``simulation`` settings."""
     name = str(sim.get("solver", "rk4")).lower()
-    if name == "rk4":
-        return RK4(float(sim.get("step", 1e-4)))
+    if name in FIXED_STEP:
+        return FIXED_STEP[name](float(sim.get("step", 1e-4)))
     method = {"radau": "Radau", "bdf": "BDF", "lsoda": "LSODA", "rk45": "RK45",
               "rk23": "RK23", "dop853": "DOP853"}[name]
     return ScipySolver(method, rtol=float(sim.get("rtol", 1e-8)),

@@ -2,23 +2,25 @@
 
 ``compiled: true`` (YAML ``simulation``, CLI ``--compiled``, or
 ``Simulator(compiled=True)``) generates, for one system, a Python module with
-three functions - the fused right-hand side and RK4 stepper of
-:mod:`hybridsim.fused`, and ``run``, the simulator's tick loop written out
+the fused right-hand side and the solver's stepper of :mod:`hybridsim.fused`
+(``advance``, ``observe``; from the method's tableau), and ``run``, the simulator's tick loop written out
 for this diagram: every signal element is a local float, every block a call
 of its kernel (:mod:`hybridsim.kernels`) - and compiles them with numba in
 nopython mode. The blocks' Python kernels are the very code that gets
 compiled, and the generic path stays the reference the tests compare with.
 
 Python walks the schedule first (the same walk as the generic loop: hits,
-log points, step counts) and hands it over as arrays, so the compiled loop
-does no rational arithmetic. Block parameters are arguments, not constants,
+log points, step counts, where each log point lies on the step grid and its
+dense-output weights) and hands it over as arrays, so the compiled loop does
+no rational arithmetic. Block parameters are arguments, not constants,
 so one compiled module serves every parameter value of a diagram's structure;
 modules and numba's machine code are cached on disk (``HYBRIDSIM_CACHE``,
 default ``~/.cache/hybridsim``), keyed by the generated source and the
 kernels' source text.
 
-Needs: the RK4 solver, and kernels in every block that computes something
-(FMU blocks have none). Discontinuities are stepped over, as in RK4.
+Needs: a fixed-step Runge-Kutta solver (:class:`~hybridsim.solvers.ExplicitRK`:
+RK4, Heun), and kernels in every block that computes something (FMU blocks
+have none). Discontinuities are stepped over, as on the other RK paths.
 """
 import functools
 import hashlib
@@ -34,7 +36,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import CompiledPathError, SimulationError
-from .fused import has_kernels, rk4_source, steps_between
+from .fused import has_kernels, rk_source
+from .solvers import ExplicitRK, observations, steps_between
 from .kernels import marked
 
 log = logging.getLogger(__name__)
@@ -44,11 +47,10 @@ _registered = set()  # kernels registered with numba
 
 def problems(system, solver):
     """Why ``system`` cannot run compiled with ``solver`` (empty list: it can)."""
-    from .solvers import RK4
-
     out = []
-    if type(solver) is not RK4:
-        out.append(f"the compiled path integrates with RK4; this diagram's solver is {solver!r}")
+    if not isinstance(solver, ExplicitRK):
+        out.append("the compiled path integrates with a fixed-step Runge-Kutta method (rk4, heun); "
+                   f"this diagram's solver is {solver!r}")
     missing = [f"{b.name} ({type(b).__name__})" for b in system.blocks
                if (b.outputs or b.n_continuous or b.n_discrete) and not has_kernels(b)]
     if missing:
@@ -75,9 +77,9 @@ class CompiledLoop:
             raise CompiledPathError(
                 "the compiled path needs numba: pip install -e \".[fast]\" (or run without --compiled)"
             ) from None
-        self.system, self.step = system, solver.step
+        self.system, self.solver, self.step = system, solver, solver.step
         self.log_ports, self.log_path = log_ports, log_path
-        self.source, env = _module_source(system, log_ports, log_path)
+        self.source, env = _module_source(system, solver, log_ports, log_path)
         self.run_fn = _load(self.source, env, system.name)
 
     def run(self, ctx, stops, t_end, final_record, max_state):
@@ -89,12 +91,12 @@ class CompiledLoop:
         discrete = sysm.discrete
         D = len(discrete)
         T = np.append(stops.times, t_end)
-        KIND = np.append(np.where(stops.hit, 0, 1), 1 if final_record else 2).astype(np.int64)
+        KIND = np.append(np.where(stops.hit, 0, 1), 3 if final_record else 2).astype(np.int64)
         DUE = np.vstack([stops.due, np.zeros((1, D), dtype=bool)])
         record = np.append(stops.record, final_record)
         REC = np.where(record, np.cumsum(record) - 1, -1).astype(np.int64)
         rows_t = T[record].tolist()
-        NSTEP = np.append(steps_between(T, self.step), 0)
+        NSTEP, HSTEP, OBK, OBW = self._step_plan(T, KIND)
         width = sum(sysm.blocks[i].outputs[o].width for i, o in self.log_ports)
         LOG = np.zeros((len(rows_t), width))
         Y = np.concatenate([np.asarray(v, float) for vals in ctx.y for v in vals] + [np.zeros(0)])
@@ -106,8 +108,8 @@ class CompiledLoop:
             # the results are checked bit for bit against the generic path (tests)
             warnings.simplefilter("ignore", NumbaIRAssumptionWarning)
             try:
-                X = self.run_fn(P, tuple(ctx.xc.tolist()), Y, Z, T, KIND, DUE, REC, NSTEP, LOG,
-                                float(max_state), status)
+                X = self.run_fn(P, tuple(ctx.xc.tolist()), Y, Z, T, KIND, DUE, REC, NSTEP, HSTEP,
+                                OBK, OBW, LOG, float(max_state), status)
             except NumbaError as exc:
                 raise CompiledPathError(_compile_failure(exc, sysm)) from None
         ctx.xc = np.array(X, dtype=float)
@@ -125,6 +127,31 @@ class CompiledLoop:
         hits = {sysm.blocks[i].name: int(n) for i, n in zip(discrete, DUE.sum(axis=0))}
         return rows_t, LOG, hits
 
+    def _step_plan(self, T, KIND):
+        """Steps of each interval between hits, and where each log point lies in them.
+
+        Returns ``NSTEP``, ``HSTEP`` (at hit rows: step count and size to the
+        next hit or the end) and ``OBK``, ``OBW`` (at log rows: the step
+        containing the point, ``-1 - k`` for a step point, and its dense-output
+        weights) - what :meth:`ExplicitRK.advance` computes for the generic path.
+        """
+        rows = len(T)
+        NSTEP = np.zeros(rows, dtype=np.int64)
+        HSTEP = np.zeros(rows)
+        OBK = np.zeros(rows, dtype=np.int64)
+        OBW = np.zeros((rows, len(self.solver.c)))
+        hits = np.flatnonzero(KIND == 0)
+        ends = np.append(hits[1:], rows - 1)
+        NSTEP[hits] = steps_between(np.stack([T[hits], T[ends]], axis=1).ravel(), self.step)[::2]
+        HSTEP[hits] = (T[ends] - T[hits]) / NSTEP[hits]
+        logs = np.flatnonzero(KIND == 1)
+        if logs.size:
+            owner = hits[np.searchsorted(hits, logs, side="right") - 1]
+            k, theta = observations(T[owner], HSTEP[owner], NSTEP[owner], T[logs])
+            OBK[logs] = np.where(theta == 0.0, -1 - k, k)
+            OBW[logs] = self.solver.dense_weights(theta)
+        return NSTEP, HSTEP, OBK, OBW
+
     def _diverged(self, status, T):
         t = T[status[0] - 1]
         if status[1] < 0:
@@ -139,49 +166,85 @@ class CompiledLoop:
         )
 
 
-def _module_source(system, log_ports, log_path):
+def _module_source(system, solver, log_ports, log_path):
     """Source of the generated module and the names it needs: (source, env)."""
     sysm = system
-    rk4, env, held = rk4_source(sysm, params_arg=True)
+    rk, env, held = rk_source(sysm, solver, params_arg=True)
     blocks, kind = sysm.blocks, sysm.kind
     y = lambda i, o: [f"y{i}_{o}_{j}" for j in range(blocks[i].outputs[o].width)]  # noqa: E731
     z = lambda i: [f"z{i}_{j}" for j in range(blocks[i].n_discrete)]  # noqa: E731
     tup = lambda names: "(" + "".join(n + ", " for n in names) + ")"  # noqa: E731
     due_col = {i: c for c, i in enumerate(sysm.discrete)}
 
-    def state(i):
+    def state(i, xname="X"):
         s = sysm.xslices[i]
         if s is not None:
-            return f"X[{s.start}:{s.stop}]"
+            return f"{xname}[{s.start}:{s.stop}]"
         return tup(z(i))
 
     def inputs(i):
         return tup(tup(y(a, o)) for a, o in sysm.sources[i])
 
-    def evaluate(i, indent):
+    def evaluate(i, indent, xname="X"):
         b = blocks[i]
         if not b.outputs:
             return []
         env[f"out{i}"] = b.kernels.output
         pad = " " * indent
-        lines = [f"{pad}r{i} = out{i}(P[{i}], t, {state(i)}, {inputs(i)})"]  # one name per block: one type
+        lines = [f"{pad}r{i} = out{i}(P[{i}], t, {state(i, xname)}, {inputs(i)})"]  # one name per block: one type
         for o in range(len(b.outputs)):
             lines += [f"{pad}{name} = r{i}[{o}][{j}]" for j, name in enumerate(y(i, o))]
         return lines
 
     wires = [name for i, b in enumerate(blocks) for o in range(len(b.outputs)) for name in y(i, o)]
     states = [name for i in range(len(blocks)) for name in z(i)]
-    L = ["def run(P, X, Y, Z, T, KIND, DUE, REC, NSTEP, LOG, max_state, STATUS):"]
+    held_in = tup(tup(y(a, o)) for a, o in held)
+    weights = tup(f"OBW[k, {j}]" for j in range(len(solver.c)))
+    L = ["def run(P, X, Y, Z, T, KIND, DUE, REC, NSTEP, HSTEP, OBK, OBW, LOG, max_state, STATUS):"]
     L += [f"    {name} = Y[{k}]" for k, name in enumerate(wires)]  # every signal element a local float
     L += [f"    {name} = Z[{k}]" for k, name in enumerate(states)]
-    L += ["    for k in range(T.shape[0]):", "        t = T[k]", "        if KIND[k] == 0:  # a sample hit"]
+    # the interval being integrated: from t0, steps of h, ks taken of n; Xa the state after step ks
+    L += ["    t0 = 0.0", "    h = 0.0", "    n = 0", "    ks = 0", "    Xa = X", "    after = False",
+          "    Xo = X"]
+    L += ["    for k in range(T.shape[0]):", "        t = T[k]"]
+    if sysm.n_x:
+        L += ["        if k > 0 and KIND[k] != 1:  # the interval ends: its remaining steps",
+              "            if after:",
+              "                X = Xa",
+              "                ks += 1",
+              "                after = False",
+              f"            X = advance(t0, h, ks, n, X, {held_in}, P)",
+              f"            for j in range({sysm.n_x}):",
+              "                if not abs(X[j]) <= max_state:",
+              "                    STATUS[0] = k + 1",
+              "                    STATUS[1] = j",
+              "                    break",
+              "            if STATUS[0]:",
+              "                break"]
+    L += ["        if KIND[k] == 0:  # a sample hit"]
     for i in range(len(blocks)):
         if kind[i] == "discrete":
             L.append(f"            if DUE[k, {due_col[i]}]:")
             L += evaluate(i, 16) or ["                pass"]
         else:
             L += evaluate(i, 12)
-    L.append("        elif KIND[k] == 1:  # a log point between hits")
+    L.append("        elif KIND[k] == 1:  # a log point between hits: the state from the dense output")
+    if sysm.n_x:
+        L += ["            kb = OBK[k] if OBK[k] >= 0 else -1 - OBK[k]",
+              "            if kb != ks:",
+              "                if after:",
+              "                    X = Xa",
+              "                    ks += 1",
+              "                    after = False",
+              f"                X = advance(t0, h, ks, kb, X, {held_in}, P)",
+              "                ks = kb",
+              "            if OBK[k] < 0:",
+              "                Xo = X",
+              "            else:",
+              f"                Xa, Xo = observe(t0, h, ks, X, {held_in}, {weights}, P)",
+              "                after = True"]
+    L += [line for i in log_path for line in evaluate(i, 12, "Xo")] or ["            pass"]
+    L.append("        elif KIND[k] == 3:  # the end, on the log grid")
     L += [line for i in log_path for line in evaluate(i, 12)] or ["            pass"]
     logged = [name for i, o in log_ports for name in y(i, o)]
     L.append("        if REC[k] >= 0:")
@@ -195,17 +258,9 @@ def _module_source(system, log_ports, log_path):
             L += [f"            {name} = s{i}[{j}]" for j, name in enumerate(z(i))]
             L += [f"            if not ({ok}):", "                STATUS[0] = k + 1",
                   f"                STATUS[1] = {-i - 1}", "                break"]
-    if sysm.n_x:
-        held_in = tup(tup(y(a, o)) for a, o in held)
-        L += ["        if NSTEP[k] > 0:",
-              f"            X = advance(t, T[k + 1], NSTEP[k], X, {held_in}, P)",
-              f"            for j in range({sysm.n_x}):",
-              "                if not abs(X[j]) <= max_state:",
-              "                    STATUS[0] = k + 2",
-              "                    STATUS[1] = j",
-              "                    break",
-              "            if STATUS[0]:",
-              "                break"]
+    L += ["        if KIND[k] == 0:  # the next interval starts here",
+          "            t0 = t", "            n = NSTEP[k]", "            h = HSTEP[k]", "            ks = 0",
+          "            after = False"]
     L += [f"    Y[{k}] = {name}" for k, name in enumerate(wires)]
     L += [f"    Z[{k}] = {name}" for k, name in enumerate(states)]
     L.append("    return X")
@@ -215,7 +270,7 @@ def _module_source(system, log_ports, log_path):
     names = "".join(f"#   {name} = {f.__module__}.{f.__qualname__}\n" for name, f in sorted(env.items()))
     head = (f"# generated by hybridsim.compiled for diagram {sysm.name!r}; kernels {stamp}\n{names}"
             "import math\n\nfrom numba import njit\n\n\n")
-    source = head + (_njit(rk4) + "\n\n\n" if sysm.n_x else "") + _njit(body) + "\n"
+    source = head + (_njit(rk) + "\n\n\n" if sysm.n_x else "") + _njit(body) + "\n"
     return source, env
 
 

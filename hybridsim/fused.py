@@ -1,25 +1,26 @@
-"""The fused RK4 path: one generated Python function steps the whole plant.
+"""The fused path: one generated Python function steps the whole plant.
 
 When every block the right-hand side evaluates has pure ``kernels``
-(:mod:`hybridsim.kernels`), the simulator generates (once per system) a
-function that integrates an interval between sample hits with classic RK4 on
+(:mod:`hybridsim.kernels`) and the solver is a fixed-step explicit
+Runge-Kutta method (:class:`~hybridsim.solvers.ExplicitRK`), the simulator
+generates (once per system) functions that integrate between sample hits on
 plain Python floats: kernels are called with tuples, wires are local
-variables, the RK4 stages are written out element by element, held inputs are
-tuples read once per interval. No graph walking, buffers or small numpy
-arrays on the inner loop (when the kernels themselves use none).
+variables, the method's stages are written out element by element
+(:mod:`hybridsim.rk_code`), held inputs are tuples read once per interval.
+No graph walking, buffers or small numpy arrays on the inner loop (when the
+kernels themselves use none).
 
-It performs exactly the operations of :class:`~hybridsim.solvers.RK4` in the
-same order, so both give the same numbers (a test checks it bit for bit); the
-generic path remains the reference. Discontinuities are stepped over, as in RK4.
+It performs exactly the operations of the generic path in the same order, so
+both give the same numbers (a test checks it bit for bit); the generic path
+remains the reference. Discontinuities are stepped over.
 """
-import math
+from .rk_code import unrolled_lines
+from .solvers import ExplicitRK, steps, steps_between  # noqa: F401 - steps re-exported
 
 
 def eligible(system, solver):
     """True when ``system`` can run on the fused path with ``solver``."""
-    from .solvers import RK4
-
-    if type(solver) is not RK4 or not system.n_x:
+    if not isinstance(solver, ExplicitRK) or not system.n_x:
         return False
     return all(has_kernels(system.blocks[i]) for i in set(system.rhs_path) | set(system.stateful))
 
@@ -34,22 +35,24 @@ def has_kernels(block):
             and (not block.n_discrete or k.update is not None))
 
 
-def build(system):
-    """Return ``(advance, held_ports)``.
+def build(system, method):
+    """Return ``(advance, observe, held_ports)`` for ``method`` (an ExplicitRK).
 
-    ``advance(t0, t1, n, X, H)`` integrates ``n`` equal RK4 steps from ``t0`` to
-    ``t1`` starting at state tuple ``X`` with held inputs ``H`` (tuple of
-    tuples, one per port in ``held_ports``); returns the final state tuple.
+    ``advance(t0, h, k0, k1, X, H)`` takes steps ``k0 .. k1 - 1`` of size ``h``
+    (step ``k`` starts at ``t0 + k h``) from state tuple ``X`` with held
+    inputs ``H`` (tuple of tuples, one per port in ``held_ports``) and
+    returns the state tuple; ``observe(t0, h, k, X, H, w)`` takes step ``k``
+    and returns ``(X_next, X_dense)`` (see :mod:`hybridsim.rk_code`).
     """
-    source, env, held = rk4_source(system)
+    source, env, held = rk_source(system, method)
     code = compile(source, f"<fused rhs of {system.name}>", "exec")
     exec(code, env)  # noqa: S102 - our own generated source, no user text in it
     env["advance"].source = source
-    return env["advance"], held
+    return env["advance"], env["observe"], held
 
 
-def rk4_source(system, params_arg=False):
-    """Source of ``rhs`` and ``advance`` for ``system``: ``(source, env, held_ports)``.
+def rk_source(system, method, params_arg=False):
+    """Source of ``rhs``, ``advance`` and ``observe`` for ``system``: ``(source, env, held_ports)``.
 
     ``env`` maps the names the source uses to the kernels (``out3``, ``der5``)
     and, unless ``params_arg``, to the blocks' params (``P3``). With
@@ -101,34 +104,5 @@ def rk4_source(system, params_arg=False):
         lines.append(f"    d{i} = der{i}({params(i)}, t, {state(i)}, ({''.join(x + ', ' for x in args)}))")
         parts += [f"d{i}[{j}]" for j in range(sysm.blocks[i].n_continuous)]
     lines.append(f"    return ({''.join(p + ', ' for p in parts)})")
-    comb = lambda a, c, k: "(" + "".join(f"{a}[{j}] + {c} * {k}[{j}], " for j in range(n)) + ")"  # noqa: E731
-    final = "(" + "".join(f"X[{j}] + h6 * (k1[{j}] + 2.0 * (k2[{j}] + k3[{j}]) + k4[{j}]), "
-                          for j in range(n)) + ")"
-    lines += [
-        "",
-        f"def advance(t0, t1, n, X, H{extra}):",
-        "    h = (t1 - t0) / n",
-        "    hh = 0.5 * h",
-        "    h6 = h / 6.0",
-        "    for k in range(n):",
-        "        t = t0 + k * h",
-        f"        k1 = rhs(t, X, H{extra})",
-        f"        k2 = rhs(t + hh, {comb('X', 'hh', 'k1')}, H{extra})",
-        f"        k3 = rhs(t + hh, {comb('X', 'hh', 'k2')}, H{extra})",
-        f"        k4 = rhs(t + h, {comb('X', 'h', 'k3')}, H{extra})",
-        f"        X = {final}",
-        "    return X",
-    ]
+    lines += [""] + unrolled_lines(method, n, "rhs", extra)
     return "\n".join(lines), env, held
-
-
-def steps(t0, t1, step):
-    """Number of equal RK4 steps no longer than ``step`` (as RK4 chooses it)."""
-    return max(1, math.ceil((t1 - t0) / step - 1e-9))
-
-
-def steps_between(times, step):
-    """:func:`steps` from each of ``times`` to the next (an int64 array, one shorter)."""
-    import numpy as np
-
-    return np.maximum(1, np.ceil(np.diff(times) / step - 1e-9)).astype(np.int64)

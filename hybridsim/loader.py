@@ -37,7 +37,7 @@ from . import limits
 TOP_KEYS = ["extends", "name", "description", "params", "blocks", "wires", "simulation", "log",
             "signals", "metrics", "variants", "plot", "analysis"]
 SIM_KEYS = ["t_end", "solver", "step", "rtol", "atol", "max_step", "log_period", "max_state", "fused", "compiled"]
-SOLVERS = ["rk4", "radau", "bdf", "lsoda", "rk45", "rk23", "dop853"]
+SOLVERS = ["rk4", "heun", "radau", "bdf", "lsoda", "rk45", "rk23", "dop853"]
 METRIC_KEYS = ["step_time", "ss_window", "error_window", "filter_cutoff"]
 SIGNAL_ROLES = ["force", "force_desired", "position", "position_desired", "contact",
                 "surface", "hand", "oscillation"]
@@ -595,7 +595,7 @@ class DiagramFile:
     def _check_size(self, diagram, settings, log_width):
         """Refuse a run too large for memory or time before it starts (see :mod:`limits`)."""
         sim = settings["simulation"]
-        step = sim.get("step", 1e-4) if sim["solver"] == "rk4" else sim.get("max_step")
+        step = sim.get("step", 1e-4) if sim["solver"] in ("rk4", "heun") else sim.get("max_step")
         periods = [float(b.period) for b in diagram.blocks.values() if b.period]
         why = limits.run_size_problems(float(sim["t_end"]), periods, float(sim.get("log_period", 0.0005)),
                                        None if step is None else float(step), log_width, sim["solver"])
@@ -631,10 +631,10 @@ class DiagramFile:
             self._fail(f"unknown solver {simr['solver']!r}{closest(str(simr['solver']).lower(), SOLVERS)}; "
                        f"solvers: {', '.join(SOLVERS)}", lines.get("solver"))
         simr["solver"] = simr["solver"].lower()
-        step = simr.get("step") if simr["solver"] == "rk4" else None
+        step = simr.get("step") if simr["solver"] in ("rk4", "heun") else None
         if step is not None and step > simr["t_end"]:
-            _log.warning("%s: the step %g s is longer than t_end %g s: RK4 takes one step of %g s",
-                         self.path, step, simr["t_end"], simr["t_end"])
+            _log.warning("%s: the step %g s is longer than t_end %g s: %s takes one step of %g s",
+                         self.path, step, simr["t_end"], simr["solver"], simr["t_end"])
         signals = data.get("signals") or _Dict()
         for role in signals:
             if role not in SIGNAL_ROLES:

@@ -86,7 +86,7 @@ class Simulator:
         self._compile()
         from . import fused as _fused
 
-        self._fused = _fused.build(system) if fused and _fused.eligible(system, self.solver) else None
+        self._fused = _fused.build(system, self.solver) if fused and _fused.eligible(system, self.solver) else None
         self._compiled = None
         if compiled:
             from .compiled import CompiledLoop
@@ -244,20 +244,32 @@ class Simulator:
         return Result(np.array(rows_t), signals, meta, context=ctx)
 
     def _advance_fused(self, ctx, t0, t1, x, t_out):
-        """RK4 over [t0, t1] (split at t_out) with the generated fused stepper."""
-        from .fused import steps
+        """The solver's steps over [t0, t1] with the generated fused stepper; states at t_out
+        from its dense output (the same step grid whatever is logged)."""
+        from .solvers import observation, steps
 
-        advance, held = self._fused
+        advance, observe, held = self._fused
         H = tuple(tuple(ctx.y[a][o].tolist()) for a, o in held)
         X = tuple(x.tolist())
-        h, outs = self.solver.step, []
+        n = steps(t0, t1, self.solver.step)
+        h = (t1 - t0) / n
+        outs, k, after = [], 0, None  # X: the state at the start of step k; after: at its end
         with np.errstate(over="ignore", invalid="ignore"):
             for tb in t_out:
-                X = advance(t0, tb, steps(t0, tb, h), X, H)
-                outs.append(np.array(X))
-                t0 = tb
-            if t1 > t0:
-                X = advance(t0, t1, steps(t0, t1, h), X, H)
+                kb, theta = observation(t0, h, n, tb)
+                if kb != k:
+                    if after is not None:
+                        X, k, after = after, k + 1, None
+                    X = advance(t0, h, k, kb, X, H)
+                    k = kb
+                if theta == 0.0:
+                    outs.append(np.array(X))
+                    continue
+                after, Xo = observe(t0, h, k, X, H, self.solver.dense_weights(theta))
+                outs.append(np.array(Xo))
+            if after is not None:
+                X, k = after, k + 1
+            X = advance(t0, h, k, n, X, H)
         return np.array(X), outs
 
     def _check(self, x, t):

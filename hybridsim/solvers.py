@@ -8,12 +8,14 @@ Both solvers share one method::
 ``(t0, t1)`` at which states are wanted (logging); ``events(t, x)`` returns the
 zero-crossing functions of the diagram (or is None).
 
-* :class:`RK4` - classic fixed-step Runge-Kutta. Each interval is cut into
-  equal steps no longer than ``step``. Cheap per step and, with a step well
-  below the ~3.7 ms period of the hand mode, neither damps nor amplifies it
-  noticeably (the default 1e-4 s gives < 1e-4 relative amplitude error per
-  period). Discontinuities are stepped over; their effect is checked by the
-  step-convergence tests.
+* :class:`RK4` (and :class:`Heun`, any :class:`ExplicitRK` tableau) -
+  fixed-step explicit Runge-Kutta. Each interval between sample hits is cut
+  into equal steps no longer than ``step``; log times inside a step are read
+  from the method's dense output, so logging never changes the answer. RK4 is
+  cheap per step and, with a step well below the ~3.7 ms period of the hand
+  mode, neither damps nor amplifies it noticeably (the default 1e-4 s gives
+  < 1e-4 relative amplitude error per period). Discontinuities are stepped
+  over; their effect is checked by the step-convergence tests.
 * :class:`ScipySolver` - ``scipy.integrate.solve_ivp`` with any of its
   methods (Radau, BDF, LSODA, RK45, DOP853, ...), relative and per-state
   absolute tolerances, and event location: integration stops at each zero
@@ -37,40 +39,121 @@ REARM_LEVEL = 1e-12
 MAX_REPEATS = 20
 
 
-class RK4:
-    """Fixed-step classic Runge-Kutta, step <= ``step`` seconds."""
+def steps(t0, t1, step):
+    """Number of equal steps no longer than ``step`` from ``t0`` to ``t1``."""
+    return max(1, math.ceil((t1 - t0) / step - 1e-9))
 
-    name = "rk4"
+
+def steps_between(times, step):
+    """:func:`steps` from each of ``times`` to the next (an int64 array, one shorter)."""
+    return np.maximum(1, np.ceil(np.diff(times) / step - 1e-9)).astype(np.int64)
+
+
+def observations(t0, h, n, t):
+    """Where log times ``t`` (array) in ``[t0, t0 + n h)`` lie on the step grid.
+
+    Returns ``(k, theta)``: the step containing each time (int64 array) and
+    the fraction of it in [0, 1). A time within 1e-9 steps of a step point is
+    that point (``theta = 0``), so its logged state is the integrator's own,
+    bit for bit. Every path uses this one function.
+    """
+    t = np.asarray(t, float)
+    r = (t - t0) / h
+    near = np.round(r)
+    at_point = (np.abs(r - near) <= 1e-9) & (near < n)
+    k = np.where(at_point, near, np.minimum(np.floor(r), n - 1)).astype(np.int64)
+    theta = np.where(at_point, 0.0, (t - (t0 + k * h)) / h)
+    return k, theta
+
+
+def observation(t0, h, n, t):
+    """:func:`observations` for one time: ``(k, theta)`` as Python numbers."""
+    k, theta = observations(t0, h, n, [t])
+    return int(k[0]), float(theta[0])
+
+
+class ExplicitRK:
+    """A fixed-step explicit Runge-Kutta method given by its Butcher tableau.
+
+    Each interval between stops (sample hits) is cut into equal steps no
+    longer than ``step``; the step grid depends on the stops and ``step``
+    only. States at log times inside a step come from the method's dense
+    output (``dense``: per stage, the coefficients of ``b_j(theta)`` in powers
+    ``theta, theta^2, ...``), so logging never changes the integration.
+    A subclass gives ``name``, ``c``, ``A`` (rows of the strictly lower
+    triangle), ``b`` and ``dense``; :mod:`hybridsim.rk_code` turns them into
+    the step every path runs. Discontinuities inside a step are stepped over.
+    """
+
+    name = None
+    c = A = b = dense = ()
 
     def __init__(self, step=1e-4):
         if not step > 0:
-            raise ValueError(f"RK4 step must be positive, got {step!r}")
+            raise ValueError(f"{self.name} step must be positive, got {step!r}")
         self.step = float(step)
+        from .rk_code import vector_functions
 
-    def _span(self, f, t0, t1, x):
-        n = max(1, math.ceil((t1 - t0) / self.step - 1e-9))
-        h = (t1 - t0) / n
-        for k in range(n):
-            t = t0 + k * h
-            k1 = f(t, x)
-            k2 = f(t + 0.5 * h, x + (0.5 * h) * k1)
-            k3 = f(t + 0.5 * h, x + (0.5 * h) * k2)
-            k4 = f(t + h, x + h * k3)
-            x = x + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
-        return x
+        self._step, self._dense = vector_functions(self)
+
+    def dense_weights(self, theta):
+        """Dense-output weights ``(b_1(theta), ..., b_s(theta))``; ``theta`` a number or an array
+        (then one column per stage); the same arithmetic either way."""
+        cols = []
+        for poly in self.dense:
+            power, w = theta, poly[0] * theta
+            for p in poly[1:]:
+                power = power * theta
+                w = w + p * power
+            cols.append(w)
+        if np.ndim(theta):
+            return np.stack(cols, axis=-1)
+        return tuple(float(w) for w in cols)
 
     def advance(self, f, t0, t1, x, t_out=(), events=None):
-        outs = []
-        for tb in t_out:
-            x = self._span(f, t0, tb, x)
-            outs.append(x)
-            t0 = tb
-        if t1 > t0:
-            x = self._span(f, t0, t1, x)
+        """Integrate ``x`` from ``t0`` to ``t1``; also return the states at ``t_out``."""
+        n = steps(t0, t1, self.step)
+        h = (t1 - t0) / n
+        obs = [observation(t0, h, n, tb) for tb in t_out]
+        outs, j = [], 0
+        for k in range(n):
+            t = t0 + k * h
+            while j < len(obs) and obs[j] == (k, 0.0):
+                outs.append(x)
+                j += 1
+            x_next, K = self._step(f, t, h, x)
+            while j < len(obs) and obs[j][0] == k:
+                outs.append(self._dense(x, K, h, self.dense_weights(obs[j][1])))
+                j += 1
+            x = x_next
         return x, outs
 
     def __repr__(self):
-        return f"RK4(step={self.step:g})"
+        return f"{type(self).__name__}(step={self.step:g})"
+
+
+class RK4(ExplicitRK):
+    """Classic fourth-order Runge-Kutta; dense output of order 3 (Hairer, Norsett & Wanner II.6)."""
+
+    name = "rk4"
+    c = (0.0, 0.5, 0.5, 1.0)
+    A = ((), (0.5,), (0.0, 0.5), (0.0, 0.0, 1.0))
+    b = (1 / 6, 1 / 3, 1 / 3, 1 / 6)
+    dense = ((1.0, -1.5, 2 / 3), (0.0, 1.0, -2 / 3), (0.0, 1.0, -2 / 3), (0.0, -0.5, 2 / 3))
+
+
+class Heun(ExplicitRK):
+    """Heun's method (explicit trapezoid rule), second order; dense output of order 2."""
+
+    name = "heun"
+    c = (0.0, 1.0)
+    A = ((), (1.0,))
+    b = (0.5, 0.5)
+    dense = ((1.0, -0.5), (0.0, 0.5))
+
+
+#: the fixed-step methods by name (what ``simulation.solver`` accepts)
+FIXED_STEP = {cls.name: cls for cls in (RK4, Heun)}
 
 
 class ScipySolver:

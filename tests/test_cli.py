@@ -123,7 +123,7 @@ def test_run_compiled_writes_the_same_csv(tmp_path, capsys):
     assert code == 0
     assert (tmp_path / "a" / "smooth_contact.csv").read_text() == (tmp_path / "b" / "smooth_contact.csv").read_text()
     code, _, err = run(capsys, "run", smooth, "-q", "-o", tmp_path / "c", "--compiled", "--set", "simulation.solver=radau")
-    assert code == 2 and "compiled path integrates with RK4" in err
+    assert code == 2 and "compiled path integrates with a fixed-step Runge-Kutta" in err
 
 
 def test_run_without_signal_roles_draws_a_scope(tmp_path, capsys):

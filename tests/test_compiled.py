@@ -70,7 +70,7 @@ def test_compiled_path_says_what_it_cannot_compile():
     d = integrator_without_kernels()
     with pytest.raises(CompiledPathError, match=r"no kernels .*: f \(Integrator\)"):
         hs.Simulator(d.build(), compiled=True)
-    with pytest.raises(CompiledPathError, match="RK4"):
+    with pytest.raises(CompiledPathError, match="fixed-step Runge-Kutta"):
         hs.build(SMOOTH, compiled=True, solver="radau")
 
 
