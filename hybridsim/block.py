@@ -29,6 +29,7 @@ and implements some of (or gives them as pure ``kernels``, see
 ``u`` is a list of numpy arrays in input declaration order, ``x`` a numpy
 array (a view of the diagram's state vector for continuous blocks).
 """
+import functools
 from fractions import Fraction
 
 import numpy as np
@@ -119,6 +120,21 @@ class Block:
     #: the numbers the kernels read (a tuple or namedtuple, set in __init__)
     params = ()
 
+    def __init_subclass__(cls, **kwargs):
+        """Record the arguments each block is built with, so :meth:`with_params` can rebuild it."""
+        super().__init_subclass__(**kwargs)
+        init = cls.__dict__.get("__init__")
+        if init is None:
+            return
+
+        @functools.wraps(init)
+        def recording_init(self, *args, **kw):
+            if "_init_args" not in self.__dict__:  # the outermost constructor's arguments
+                self._init_args = (args, dict(kw))
+            init(self, *args, **kw)
+
+        cls.__init__ = recording_init
+
     def __init__(self, name="block"):
         self.name = name
         self.inputs = []
@@ -168,6 +184,35 @@ class Block:
     def declare_discrete_state(self, n):
         """Declare ``n`` discrete states (needs a rate)."""
         self.n_discrete = port_width(n, "states") if n else 0
+
+    # -- parameters at run time -------------------------------------------------
+    def with_params(self, **changes):
+        """This block rebuilt with some constructor parameters changed.
+
+        The copy must keep the block's structure (ports and their widths,
+        states, rate, kernels): only its numbers (``params``, initial state)
+        may differ, so it can replace this block in a built system for one
+        run. Raises :class:`~hybridsim.errors.ParameterError` otherwise.
+        """
+        args, kwargs = self.__dict__.get("_init_args", ((), {"name": self.name}))
+        try:
+            new = type(self)(*args, **{**kwargs, **changes})
+        except TypeError as exc:
+            raise ParameterError(next(iter(changes), "?"), f"cannot be set on block {self.name!r}: {exc}") from None
+        except ValueError as exc:
+            if isinstance(exc, ParameterError):
+                raise
+            raise ParameterError(next(iter(changes), "?"), f"on block {self.name!r}: {exc}") from None
+        if new.structure() != self.structure():
+            raise ParameterError(", ".join(changes), f"would change the structure of block {self.name!r} "
+                                 "(ports, states, rate or equations); rebuild the diagram for that")
+        return new
+
+    def structure(self):
+        """What a built system depends on: type, ports, states, rate and kernels."""
+        ports = lambda ps: tuple((p.name, p.width, p.depends_on) for p in ps)  # noqa: E731
+        return (type(self), ports(self.inputs), ports(self.outputs), self.n_continuous, self.n_discrete,
+                self.period, self.time_offset, self.time_varying, self.kernels)
 
     # -- queries ------------------------------------------------------------
     @property

@@ -102,7 +102,7 @@ class CompiledLoop:
         Y = np.concatenate([np.asarray(v, float) for vals in ctx.y for v in vals] + [np.zeros(0)])
         Z = np.concatenate([np.asarray(z, float) for z in ctx.xd] + [np.zeros(0)])
         status = np.zeros(2, dtype=np.int64)  # stop index + 1 where it diverged, and what
-        P = tuple(b.params for b in sysm.blocks)
+        P = ctx.params  # the run's numbers: one compiled module serves every value
         with np.errstate(all="ignore"), warnings.catch_warnings():
             # numba's inliner trips an internal "pedantic" SSA check on some kernels;
             # the results are checked bit for bit against the generic path (tests)
@@ -200,12 +200,13 @@ def _module_source(system, solver, log_ports, log_path):
     states = [name for i in range(len(blocks)) for name in z(i)]
     held_in = tup(tup(y(a, o)) for a, o in held)
     weights = tup(f"OBW[k, {j}]" for j in range(len(solver.c)))
+    zero_w = tup("0.0" for _ in solver.c)
     L = ["def run(P, X, Y, Z, T, KIND, DUE, REC, NSTEP, HSTEP, OBK, OBW, LOG, max_state, STATUS):"]
     L += [f"    {name} = Y[{k}]" for k, name in enumerate(wires)]  # every signal element a local float
     L += [f"    {name} = Z[{k}]" for k, name in enumerate(states)]
     # the interval being integrated: from t0, steps of h, ks taken of n; Xa the state after step ks
     L += ["    t0 = 0.0", "    h = 0.0", "    n = 0", "    ks = 0", "    Xa = X", "    after = False",
-          "    Xo = X"]
+          "    Xo = X", "    Xs = X"]
     L += ["    for k in range(T.shape[0]):", "        t = T[k]"]
     if sysm.n_x:
         L += ["        if k > 0 and KIND[k] != 1:  # the interval ends: its remaining steps",
@@ -213,7 +214,7 @@ def _module_source(system, solver, log_ports, log_path):
               "                X = Xa",
               "                ks += 1",
               "                after = False",
-              f"            X = advance(t0, h, ks, n, X, {held_in}, P)",
+              f"            X, Xs, Xo = advance(t0, h, ks, n, X, {held_in}, -1, {zero_w}, P)",
               f"            for j in range({sysm.n_x}):",
               "                if not abs(X[j]) <= max_state:",
               "                    STATUS[0] = k + 1",
@@ -231,18 +232,17 @@ def _module_source(system, solver, log_ports, log_path):
     L.append("        elif KIND[k] == 1:  # a log point between hits: the state from the dense output")
     if sysm.n_x:
         L += ["            kb = OBK[k] if OBK[k] >= 0 else -1 - OBK[k]",
-              "            if kb != ks:",
-              "                if after:",
-              "                    X = Xa",
-              "                    ks += 1",
-              "                    after = False",
-              f"                X = advance(t0, h, ks, kb, X, {held_in}, P)",
-              "                ks = kb",
+              "            if after and kb != ks:",
+              "                X = Xa",
+              "                ks += 1",
+              "                after = False",
               "            if OBK[k] < 0:",
+              f"                X, Xs, Xo = advance(t0, h, ks, kb, X, {held_in}, -1, {weights}, P)",
               "                Xo = X",
               "            else:",
-              f"                Xa, Xo = observe(t0, h, ks, X, {held_in}, {weights}, P)",
-              "                after = True"]
+              f"                Xa, X, Xo = advance(t0, h, ks, kb + 1, X, {held_in}, kb, {weights}, P)",
+              "                after = True",
+              "            ks = kb"]
     L += [line for i in log_path for line in evaluate(i, 12, "Xo")] or ["            pass"]
     L.append("        elif KIND[k] == 3:  # the end, on the log grid")
     L += [line for i in log_path for line in evaluate(i, 12)] or ["            pass"]
@@ -302,8 +302,9 @@ def _stamp(functions):
 
 
 def _njit(source):
-    """Put ``@njit(cache=True)`` over every top-level def of ``source``."""
-    return "\n".join("@njit(cache=True)\n" + line if line.startswith("def ") else line
+    """Put ``@njit(cache=True, nogil=True)`` over every top-level def of ``source`` (threads
+    of a batch run side by side)."""
+    return "\n".join("@njit(cache=True, nogil=True)\n" + line if line.startswith("def ") else line
                      for line in source.split("\n"))
 
 

@@ -8,7 +8,10 @@ contexts of the same system can run side by side (blocks hold no run data).
 * ``xd[i]``: discrete state of block ``i``;
 * ``y[i][o]``: a preallocated buffer holding output ``o`` of block ``i``;
 * ``u[i]``: the list of buffers that are block ``i``'s inputs. These are the
-  very arrays of ``y`` (no copying on the way), built once.
+  very arrays of ``y`` (no copying on the way), built once;
+* ``blocks``: the blocks whose equations this run uses - the system's, or
+  copies with other parameters (:meth:`~hybridsim.block.Block.with_params`)
+  for a run with parameters given at run time; ``params`` their numbers.
 """
 import numpy as np
 
@@ -16,9 +19,11 @@ import numpy as np
 class Context:
     """Holds the state and signal values of one simulation of a system."""
 
-    def __init__(self, system):
+    def __init__(self, system, blocks=None):
         self.system = system
-        blocks = system.blocks
+        self.blocks = list(blocks) if blocks is not None else list(system.blocks)
+        self.params = tuple(b.params for b in self.blocks)
+        blocks = self.blocks
         self.t = 0.0
         self.y = [[np.zeros(p.width) for p in b.outputs] for b in blocks]
         self.u = [[self.y[a][o] for (a, o) in system.sources[i]] for i in range(len(blocks))]
@@ -29,23 +34,23 @@ class Context:
     def _initialize(self):
         sysm = self.system
         late = []
-        for i, b in enumerate(sysm.blocks):
+        for i, b in enumerate(self.blocks):
             if b.init_needs_inputs:
                 late.append(i)
                 continue
             self._set_initial(i, b.initial_state(None))
         if late:
             # provisional outputs at t = 0, then the blocks that need inputs
-            self.evaluate(range(len(sysm.blocks)), 0.0, self.xc)
+            self.evaluate(range(len(self.blocks)), 0.0, self.xc)
             for i in late:
-                self._set_initial(i, sysm.blocks[i].initial_state(self.u[i]))
+                self._set_initial(i, self.blocks[i].initial_state(self.u[i]))
 
     def _set_initial(self, i, x0):
         s = self.system.xslices[i]
         if s is not None:
             self.xc[s] = x0
-        elif self.system.blocks[i].n_discrete:
-            self.xd[i] = np.array(x0, dtype=float).reshape(self.system.blocks[i].n_discrete)
+        elif self.blocks[i].n_discrete:
+            self.xd[i] = np.array(x0, dtype=float).reshape(self.blocks[i].n_discrete)
 
     def block_state(self, i, xc):
         """The state a block's functions see: a view of ``xc`` or its discrete state."""
@@ -54,7 +59,7 @@ class Context:
 
     def evaluate(self, path, t, xc):
         """Compute the outputs of the blocks in ``path`` (in order) at (t, xc)."""
-        blocks, y, u = self.system.blocks, self.y, self.u
+        blocks, y, u = self.blocks, self.y, self.u
         for i in path:
             outs = blocks[i].output(t, self.block_state(i, xc), u[i])
             for buf, v in zip(y[i], outs):

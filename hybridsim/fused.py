@@ -36,23 +36,24 @@ def has_kernels(block):
 
 
 def build(system, method):
-    """Return ``(advance, observe, held_ports)`` for ``method`` (an ExplicitRK).
+    """Return ``(advance, held_ports)`` for ``method`` (an ExplicitRK).
 
-    ``advance(t0, h, k0, k1, X, H)`` takes steps ``k0 .. k1 - 1`` of size ``h``
-    (step ``k`` starts at ``t0 + k h``) from state tuple ``X`` with held
-    inputs ``H`` (tuple of tuples, one per port in ``held_ports``) and
-    returns the state tuple; ``observe(t0, h, k, X, H, w)`` takes step ``k``
-    and returns ``(X_next, X_dense)`` (see :mod:`hybridsim.rk_code`).
+    ``advance(t0, h, k0, k1, X, H, kobs, w, P)`` takes steps ``k0 .. k1 - 1``
+    of size ``h`` (step ``k`` starts at ``t0 + k h``) from state tuple ``X``
+    with held inputs ``H`` (tuple of tuples, one per port in ``held_ports``)
+    and the blocks' params ``P`` (one per block: the run's, so parameters can
+    change between runs); returns ``(X_end, X_obs, X_dense)`` (see
+    :func:`hybridsim.rk_code.unrolled_lines`).
     """
-    source, env, held = rk_source(system, method)
+    source, env, held = rk_source(system, method, params_arg=True)
     code = compile(source, f"<fused rhs of {system.name}>", "exec")
     exec(code, env)  # noqa: S102 - our own generated source, no user text in it
     env["advance"].source = source
-    return env["advance"], env["observe"], held
+    return env["advance"], held
 
 
 def rk_source(system, method, params_arg=False):
-    """Source of ``rhs``, ``advance`` and ``observe`` for ``system``: ``(source, env, held_ports)``.
+    """Source of ``rhs`` and ``advance`` for ``system``: ``(source, env, held_ports)``.
 
     ``env`` maps the names the source uses to the kernels (``out3``, ``der5``)
     and, unless ``params_arg``, to the blocks' params (``P3``). With

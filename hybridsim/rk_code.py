@@ -7,8 +7,8 @@ floating-point operations in the same order:
 * :func:`vector_functions` - ``step(f, t, h, X)`` and ``dense(X, K, h, w)`` on
   numpy vectors, for the generic path;
 * :func:`unrolled_lines` - the same expressions written out element by
-  element on tuples of floats, for the fused (Python) and compiled (numba)
-  paths.
+  element on tuples of floats (``advance``), for the fused (Python) and
+  compiled (numba) paths.
 
 A stage's state is ``X + h * (a1 * k1 + a2 * k2 + ...)`` over the stage's
 non-zero coefficients (a coefficient 1 is left out: ``k2`` rather than
@@ -62,13 +62,15 @@ def vector_functions(method):
 
 
 def unrolled_lines(method, n, rhs, extra=""):
-    """Source lines of ``advance`` and ``observe`` on tuples of ``n`` floats.
+    """Source lines of ``advance`` on tuples of ``n`` floats.
 
     ``rhs`` is the name of the right-hand side ``rhs(t, X, H{extra})``.
-    ``advance(t0, h, k0, k1, X, H{extra})`` takes steps ``k0 .. k1 - 1`` of
-    size ``h`` from ``t0`` (step ``k`` starts at ``t0 + k * h``);
-    ``observe(t0, h, k, X, H, w{extra})`` takes step ``k`` and returns
-    ``(X_next, X_dense)``, the state at ``theta`` given by weights ``w``.
+    ``advance(t0, h, k0, k1, X, H, kobs, w{extra})`` takes steps
+    ``k0 .. k1 - 1`` of size ``h`` from ``t0`` (step ``k`` starts at
+    ``t0 + k * h``) and returns ``(X_end, X_obs, X_dense)``: the final state,
+    and for step ``kobs`` (``-1``: none) the state at its start and at the
+    fraction given by the dense-output weights ``w`` inside it. One function
+    (one copy of the stages) for plain stepping and for log points.
     """
     def tup(expr):
         return "(" + "".join(expr(f"[{j}]") + ", " for j in range(n)) + ")"
@@ -81,13 +83,15 @@ def unrolled_lines(method, n, rhs, extra=""):
     final = tup(lambda e: _combo(_terms(method.b), e))
     used = _dense_terms(method)
     dense = tup(lambda e: f"X{e} + h * (" + " + ".join(f"w[{j}] * k{j + 1}{e}" for j in used) + ")")
-    lines = [f"def advance(t0, h, k0, k1, X, H{extra}):",
+    lines = [f"def advance(t0, h, k0, k1, X, H, kobs, w{extra}):",
+             "    Xs = X",
+             "    Xo = X",
              "    for k in range(k0, k1):",
              "        t = t0 + k * h"]
     lines += ["        " + b for b in body]
-    lines += [f"        X = {final}", "    return X", "",
-              f"def observe(t0, h, k, X, H, w{extra}):",
-              "    t = t0 + k * h"]
-    lines += ["    " + b for b in body]
-    lines += [f"    return {final}, {dense}"]
+    lines += ["        if k == kobs:",
+              "            Xs = X",
+              f"            Xo = {dense}",
+              f"        X = {final}",
+              "    return X, Xs, Xo"]
     return lines

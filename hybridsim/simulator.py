@@ -19,7 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .errors import DiagramError, SimulationError
+from .errors import DiagramError, InputError, SimulationError
 from .result import Result, parse_signal
 from .schedule import Schedule
 from .solvers import RK4
@@ -83,7 +83,6 @@ class Simulator:
         self.log_refs = refs
         self._log_ports = [system.port_ref(r) for r in refs]
         self.log_path = system.evaluation_path({i for i, _ in self._log_ports})
-        self._compile()
         from . import fused as _fused
 
         self._fused = _fused.build(system, self.solver) if fused and _fused.eligible(system, self.solver) else None
@@ -93,18 +92,13 @@ class Simulator:
 
             self._compiled = CompiledLoop(system, self.solver, self._log_ports, self.log_path)
 
-    # -- the fused right-hand side --------------------------------------------
-    def _compile(self):
-        sysm = self.system
-        self._steps = [(sysm.blocks[i].output, sysm.xslices[i], i) for i in sysm.rhs_path]
-        self._ders = [(sysm.blocks[i].derivatives, sysm.xslices[i], i) for i in sysm.stateful]
-        self._event_blocks = [(sysm.blocks[i].zero_crossings, sysm.xslices[i], i) for i in sysm.events]
-
+    # -- the right-hand side ----------------------------------------------------
     def _bind(self, ctx):
-        """Build rhs(t, x) and events(t, x) closures over one context."""
-        y, u, xd, n_x = ctx.y, ctx.u, ctx.xd, self.system.n_x
-        steps = [(out, s, u[i], y[i], xd[i]) for out, s, i in self._steps]
-        ders = [(der, s, u[i]) for der, s, i in self._ders]
+        """Build rhs(t, x) and events(t, x) closures over one context (and its blocks)."""
+        sysm, blocks = self.system, ctx.blocks
+        y, u, xd, n_x = ctx.y, ctx.u, ctx.xd, sysm.n_x
+        steps = [(blocks[i].output, sysm.xslices[i], u[i], y[i], xd[i]) for i in sysm.rhs_path]
+        ders = [(blocks[i].derivatives, sysm.xslices[i], u[i]) for i in sysm.stateful]
 
         def rhs(t, x):
             for out, s, ui, yi, xdi in steps:
@@ -116,7 +110,7 @@ class Simulator:
                 dx[s] = der(t, x[s], ui)
             return dx
 
-        evs = [(zc, s, u[i], xd[i]) for zc, s, i in self._event_blocks]
+        evs = [(blocks[i].zero_crossings, sysm.xslices[i], u[i], xd[i]) for i in sysm.events]
 
         def events(t, x):
             rhs(t, x)
@@ -127,30 +121,77 @@ class Simulator:
         return rhs, (events if evs else None)
 
     # -- the run ------------------------------------------------------------------
-    def run(self, t_end, context=None):
+    def run(self, t_end, context=None, params=None):
         """Simulate from t = 0 to ``t_end`` s; return a :class:`Result`.
 
-        The result's context holds the state at ``t_end``, the held outputs of
-        discrete blocks and every other output evaluated at ``t_end``.
+        ``params``: ``{"block.param": value}`` for this run only, without
+        rebuilding the system (or the compiled module): the blocks named are
+        rebuilt with :meth:`~hybridsim.block.Block.with_params`, which refuses
+        a change of structure (a width, a rate). The result's context holds the
+        state at ``t_end``, the held outputs of discrete blocks and every other
+        output evaluated at ``t_end``.
         """
-        sysm = self.system
+        t_end = self._check_t_end(t_end)
+        if context is not None and params:
+            raise InputError("give run-time params or a context, not both (the context holds its blocks)")
+        ctx = context or self.system.create_context(params)
+        return self._run(ctx, self._stops(t_end), t_end)
+
+    def run_batch(self, t_end, param_sets, workers=None):
+        """Run once per entry of ``param_sets`` (each ``{"block.param": value}``); a list of Results.
+
+        One built system for every run: on the compiled path the runs share
+        one compiled module and run on ``workers`` threads (default: one per
+        core; the compiled loop releases the GIL), with no process started per
+        run. Elsewhere they run one after the other. A run that diverges gives
+        its :class:`~hybridsim.errors.SimulationError` in place of a Result.
+        """
+        import os
+        from concurrent.futures import ThreadPoolExecutor
+
+        t_end = self._check_t_end(t_end)
+        stops = self._stops(t_end)
+        contexts = [self.system.create_context(p) for p in param_sets]  # bad params: raise here
+
+        def one(ctx):
+            try:
+                return self._run(ctx, stops, t_end, progress=False)
+            except SimulationError as exc:
+                return exc
+
+        workers = workers or os.cpu_count() or 1
+        if self._compiled is None or workers == 1 or len(contexts) < 2:
+            return [one(c) for c in contexts]
+        with ThreadPoolExecutor(workers) as pool:
+            return list(pool.map(one, contexts))
+
+    def _check_t_end(self, t_end):
         t_end = float(t_end)
-        if not t_end > 0:
-            raise SimulationError(f"end time must be positive, got {t_end!r}")
-        ctx = context or sysm.create_context()
-        rhs, events = self._bind(ctx)
+        if not (t_end > 0 and np.isfinite(t_end)):
+            raise InputError(f"end time must be positive and finite, got {t_end!r}")
+        return t_end
+
+    def _stops(self, t_end):
+        sysm = self.system
         blocks, discrete = sysm.blocks, sysm.discrete
         sched = Schedule(
             [(blocks[i].period, blocks[i].time_offset) for i in discrete] + [(self.log_period, 0)],
             [blocks[i].name for i in discrete] + ["log"],
         )
-        stops = _stops(sched, t_end, len(discrete))
-        bar = _progress(t_end) if self.progress else None
+        return _stops(sched, t_end, len(discrete))
+
+    def _run(self, ctx, stops, t_end, progress=None):
+        """One run from ``ctx`` over ``stops`` (see :meth:`run`)."""
+        sysm, blocks = self.system, ctx.blocks
+        rhs, events = self._bind(ctx)
+        progress = self.progress if progress is None else progress
+        bar = _progress(t_end) if progress else None
         wall0 = _time.perf_counter()
         try:
             if self._compiled is not None:
                 rows_t, rows, hits = self._compiled.run(ctx, stops, t_end, self._final_record(t_end),
                                                         self.max_state)
+                hits = dict(hits)
             else:
                 rows_t, rows, hits = self._loop(ctx, self._walk(stops, t_end), rhs, events, bar, t_end)
             # the context ends consistent: every output not held, evaluated at t_end
@@ -181,7 +222,7 @@ class Simulator:
     def _loop(self, ctx, walk, rhs, events, bar, t_end):
         """The tick loop of :meth:`run`; returns (times, rows, hits per block)."""
         sysm = self.system
-        blocks, kind, discrete = sysm.blocks, sysm.kind, sysm.discrete
+        blocks, kind, discrete = ctx.blocks, sysm.kind, sysm.discrete
         rows_t, rows = [], []
         hits = {blocks[i].name: 0 for i in discrete}
 
@@ -248,8 +289,9 @@ class Simulator:
         from its dense output (the same step grid whatever is logged)."""
         from .solvers import observation, steps
 
-        advance, observe, held = self._fused
+        advance, held = self._fused
         H = tuple(tuple(ctx.y[a][o].tolist()) for a, o in held)
+        P = ctx.params
         X = tuple(x.tolist())
         n = steps(t0, t1, self.solver.step)
         h = (t1 - t0) / n
@@ -257,19 +299,19 @@ class Simulator:
         with np.errstate(over="ignore", invalid="ignore"):
             for tb in t_out:
                 kb, theta = observation(t0, h, n, tb)
-                if kb != k:
-                    if after is not None:
-                        X, k, after = after, k + 1, None
-                    X = advance(t0, h, k, kb, X, H)
-                    k = kb
+                if after is not None and kb != k:
+                    X, k, after = after, k + 1, None
                 if theta == 0.0:
+                    X = advance(t0, h, k, kb, X, H, -1, (), P)[0]
+                    k = kb
                     outs.append(np.array(X))
                     continue
-                after, Xo = observe(t0, h, k, X, H, self.solver.dense_weights(theta))
+                after, X, Xo = advance(t0, h, k, kb + 1, X, H, kb, self.solver.dense_weights(theta), P)
+                k = kb
                 outs.append(np.array(Xo))
             if after is not None:
                 X, k = after, k + 1
-            X = advance(t0, h, k, n, X, H)
+            X = advance(t0, h, k, n, X, H, -1, (), P)[0]
         return np.array(X), outs
 
     def _check(self, x, t):

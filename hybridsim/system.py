@@ -130,7 +130,30 @@ class System:
         held = lambda j: self.kind[j] in ("discrete", "constant")  # noqa: E731
         return sorted(needed_blocks(wanted, self.blocks, self.sources, held))
 
-    def create_context(self):
-        """A fresh :class:`Context` with every block's initial state."""
-        return Context(self)
+    def create_context(self, params=None):
+        """A fresh :class:`Context` with every block's initial state.
+
+        ``params``: ``{"block.param": value}`` for this context only (the
+        blocks named are rebuilt with :meth:`~hybridsim.block.Block.with_params`;
+        their structure must not change).
+        """
+        return Context(self, self.blocks_with(params) if params else None)
+
+    def blocks_with(self, params):
+        """The system's blocks, those named in ``{"block.param": value}`` rebuilt with the values."""
+        from .errors import InputError
+        from .registry import closest
+
+        changes = {}
+        for key, value in params.items():
+            bname, _, pname = str(key).partition(".")
+            if bname not in self.index or not pname or "." in pname:
+                raise InputError(f"run-time parameter {key!r}: give it as 'block.param' with a block of "
+                                 f"this diagram{closest(bname, self.index)}")
+            changes.setdefault(bname, {})[pname] = value
+        blocks = list(self.blocks)
+        for bname, kw in changes.items():
+            i = self.index[bname]
+            blocks[i] = self.blocks[i].with_params(**kw)
+        return blocks
 
