@@ -52,11 +52,13 @@ def load(path, **overrides):
     return DiagramFile(path, ov)
 
 
-def build(path_or_file, variant=None, check_only=False, **overrides):
+def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
     """(system, simulator, settings) for one variant of a diagram file.
 
     ``check_only``: do not generate the compiled module (only check that the
     compiled path can take the diagram), as ``hybridsim check`` does.
+    ``log``: the signals to record, instead of the file's ``log`` and
+    ``signals`` (e.g. only the signals metrics need).
     """
     f = path_or_file if isinstance(path_or_file, DiagramFile) else load(path_or_file, **overrides)
     diagram, settings = f.build(variant)
@@ -65,7 +67,8 @@ def build(path_or_file, variant=None, check_only=False, **overrides):
     solver = make_solver(sim)
     if isinstance(solver, ScipySolver):
         solver.atol = _atol_vector(system, sim)
-    log = list(settings["log"]) + list(settings["signals"].values())
+    if log is None:
+        log = list(settings["log"]) + list(settings["signals"].values())
     compiled = bool(sim.get("compiled", False))
     if compiled and check_only:
         from .compiled import problems

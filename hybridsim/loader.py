@@ -313,6 +313,17 @@ _REF = re.compile(r"^([^.\[\]\s]+)\.([^.\[\]\s]+)(?:\[(\d+)\])?$")
 _log = logging.getLogger("hybridsim")
 
 
+def _references(value):
+    """The '$name' references anywhere in ``value``."""
+    if isinstance(value, str):
+        return {value[1:]} if value.startswith("$") else set()
+    if isinstance(value, dict):
+        return set().union(*(_references(v) for v in value.values())) if value else set()
+    if isinstance(value, list):
+        return set().union(*(_references(v) for v in value)) if value else set()
+    return set()
+
+
 def _number(v):
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
@@ -449,6 +460,51 @@ class DiagramFile:
             locs = getattr(value, "locs", None) or [loc] * len(value)
             return [self._resolve(v, ln, params) for v, ln in zip(value, locs)]
         return value
+
+    def runtime_params(self, overrides, variant=None):
+        """``overrides`` (as :meth:`apply` takes them) as run-time block parameters.
+
+        Returns ``{"block.param": value}`` for :meth:`Simulator.run
+        <hybridsim.simulator.Simulator.run>`: a name in ``params`` becomes every
+        block parameter that refers to it (resolved again), ``block.param``
+        stays itself. Raises :class:`LoaderError` when an override cannot be
+        given at run time: a simulation setting, a swept variant, or a name
+        that the simulation, log, signals or metrics sections use.
+        """
+        params = {**self.params, **(variant or {})}
+        named = {}
+        out = {}
+        for key, value in overrides.items():
+            parts = str(key).split(".")
+            if parts[0] == "params":
+                parts = parts[1:]
+            if len(parts) == 1:
+                if parts[0] not in self.params:
+                    self._fail(f"no parameter {parts[0]!r} in 'params'{closest(parts[0], self.params)}")
+                if parts[0] in (self.data.get("variants") or {}):
+                    self._fail(f"{parts[0]!r} is swept by 'variants': not a run-time parameter")
+                named[parts[0]] = value
+            elif parts[0] == "simulation":
+                self._fail(f"{key!r} is a simulation setting: not a run-time parameter")
+            else:
+                bname, pname = (parts[1], parts[2]) if parts[0] == "blocks" and len(parts) == 3 else parts[:2]
+                if len(parts) != (3 if parts[0] == "blocks" else 2) or bname not in self.data["blocks"]:
+                    self._fail(f"{key!r}: no block {bname!r}{closest(bname, self.data['blocks'])}")
+                out[f"{bname}.{pname}"] = value
+        if not named:
+            return out
+        for section in ("simulation", "log", "signals", "metrics"):
+            used = _references(self.data.get(section)) & set(named)
+            if used:
+                self._fail(f"{sorted(used)} used by '{section}': not a run-time parameter")
+        params.update(named)
+        for bname, spec in self.data["blocks"].items():
+            if not isinstance(spec, dict):
+                continue
+            for pname, raw in spec.items():
+                if pname != "type" and _references(raw) & set(named) and f"{bname}.{pname}" not in out:
+                    out[f"{bname}.{pname}"] = self._resolve(raw, spec.locs[pname], params)
+        return out
 
     # -- building ---------------------------------------------------------------
     def build(self, overrides=None):

@@ -5,8 +5,17 @@ metrics are computed on the force as logged ("raw", it carries the ~272 Hz hand
 oscillation) and after the paper's 12 Hz display filter ("filtered"): a causal
 2nd-order Butterworth low-pass, started in steady state at the first sample.
 """
+import functools
+
 import numpy as np
 from scipy import signal as _sig
+
+
+@functools.lru_cache(maxsize=64)
+def _butter2(wn):
+    """Coefficients and unit initial state of the 2nd-order Butterworth low-pass (sweeps reuse them)."""
+    b, a = _sig.butter(2, wn)
+    return b, a, _sig.lfilter_zi(b, a)
 
 
 def display_filter(t, y, cutoff=12.0):
@@ -16,8 +25,8 @@ def display_filter(t, y, cutoff=12.0):
         return y.copy()
     dt = float(np.median(np.diff(t)))
     wn = min(0.99, 2.0 * cutoff * dt)  # normalised to Nyquist
-    b, a = _sig.butter(2, wn)
-    zi = _sig.lfilter_zi(b, a) * y[0]
+    b, a, zi = _butter2(wn)
+    zi = zi * y[0]
     out, _ = _sig.lfilter(b, a, y, zi=zi)
     return out
 

@@ -255,13 +255,19 @@ def _load_done(jsonl):
 
 
 def _append(jsonl, key, rows):
-    line = json.dumps({"key": key, "rows": rows}, default=_jsonable) + "\n"
+    _append_many(jsonl, {key: rows})
+
+
+def _append_many(jsonl, finished):
+    """Append one JSON line per finished point ``{key: rows}``, in one write."""
+    line = "".join(json.dumps({"key": key, "rows": rows}, default=_jsonable) + "\n"
+                   for key, rows in finished.items())
     if jsonl.exists() and jsonl.stat().st_size:
         with open(jsonl, "rb") as fh:
             fh.seek(-1, os.SEEK_END)
             if fh.read(1) != b"\n":  # a line cut by a crash: start ours on a fresh line
                 line = "\n" + line
-    with open(jsonl, "a") as fh:  # one write of one line: appended whole
+    with open(jsonl, "a") as fh:  # one write of whole lines
         fh.write(line)
         fh.flush()
         os.fsync(fh.fileno())
@@ -275,13 +281,17 @@ def _jsonable(v):
     return str(v)
 
 
-def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False, force=False):
+def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False, force=False, batch=True):
     """Run (or resume) a sweep; returns the table as a list of row dicts.
 
     ``compiled``: run every point on the compiled path (as ``simulation.compiled:
     true`` in ``set``); the same numbers, so finished points are reused either way.
     ``force``: start afresh when ``outdir`` holds points of a different sweep
     (otherwise that is an :class:`~hybridsim.errors.InputError`).
+    On the compiled path, points that differ only in run-time parameters run
+    as batches of one built diagram on threads (:meth:`Simulator.run_batch`),
+    logging only what the metrics read; ``batch=False`` runs each point on
+    its own instead (the same table).
     Raises InputError before anything runs for a bad sweep file, diagram,
     parameter or value, or a Dask address that does not answer.
     """
@@ -301,7 +311,7 @@ def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False,
         outdir = make_output_dir(outdir)
         jsonl = outdir / "points.jsonl"
         _claim(outdir, jsonl, fp, sw, force)
-        return _run(sw, pts, outdir, jsonl, jobs, client, progress)
+        return _run(sw, pts, outdir, jsonl, jobs, client, progress, batch)
     finally:
         if client is not None and isinstance(dask, str):
             client.close()
@@ -342,7 +352,7 @@ def _claim(outdir, jsonl, fp, sw, force):
             json.dump({"fingerprint": fp, "sweep": str(sw.path), "diagram": str(sw.diagram)}, fh, indent=1)
 
 
-def _run(sw, pts, outdir, jsonl, jobs, dask, progress):
+def _run(sw, pts, outdir, jsonl, jobs, dask, progress, use_batch=True):
     """Run the points of ``pts`` not yet in ``jsonl``; write the table and heat map."""
     done = _load_done(jsonl)
     todo = [p for p in pts if p["key"] not in done]
@@ -357,12 +367,22 @@ def _run(sw, pts, outdir, jsonl, jobs, dask, progress):
         bar = tqdm(total=len(pts), initial=len(pts) - len(todo), unit="run", smoothing=0.1,
                    desc=sw.path.stem)
     args = (str(sw.diagram), sw.fixed, sw.stability)
+    batch = None
+    if use_batch and sw.fixed.get("simulation.compiled") and not dask and not sw.stability and todo:
+        batch = _batch_plan(sw, todo)
     try:
-        for key, rows in _execute(todo, args, traces, jobs, dask):
-            _append(jsonl, key, rows)
-            done[key] = rows
-            if bar is not None:
-                bar.update(1)
+        if batch:
+            for finished in _execute_batch(batch, todo, traces, jobs):
+                _append_many(jsonl, finished)  # one write and one fsync per chunk
+                done.update(finished)
+                if bar is not None:
+                    bar.update(len(finished))
+        else:
+            for key, rows in _execute(todo, args, traces, jobs, dask):
+                _append(jsonl, key, rows)
+                done[key] = rows
+                if bar is not None:
+                    bar.update(1)
     finally:
         if bar is not None:
             bar.close()
@@ -370,6 +390,67 @@ def _run(sw, pts, outdir, jsonl, jobs, dask, progress):
     write_table(table, outdir)
     heatmaps(table, sw, outdir)
     return table
+
+
+#: points run together by one batch call (and then appended to points.jsonl)
+BATCH_CHUNK = 64
+
+
+def _batch_plan(sw, todo):
+    """Every point as run-time parameters of one built diagram per variant, or None.
+
+    None when some point changes what a run-time parameter cannot (a rate, a
+    width, a simulation setting, a swept variant): then every point runs on
+    its own, as without ``compiled``.
+    """
+    from .api import build, load
+
+    try:
+        f = load(sw.diagram, **{k: v for k, v in sw.fixed.items()})
+        plans = []
+        for label, variant in f.variants():
+            _, settings = f.build(variant)
+            log = None if sw.traces else list(settings["signals"].values())  # what the metrics read
+            system, sim, settings = build(f, variant, log=log)
+            sets = [f.runtime_params(p["overrides"], variant) for p in todo]
+            for params in sets:
+                system.blocks_with(params)  # a change of structure raises here, before anything runs
+            plans.append((label, sim, settings, dict(zip((p["key"] for p in todo), sets))))
+        return plans
+    except (HybridsimError, ValueError, TypeError):
+        return None
+
+
+def _execute_batch(plans, todo, traces, jobs):
+    """Yield ``{key: rows}`` for ``todo``, chunk by chunk, each variant one :meth:`Simulator.run_batch`."""
+    from . import metrics as _metrics
+
+    for c in range(0, len(todo), BATCH_CHUNK):
+        chunk = todo[c:c + BATCH_CHUNK]
+        per_variant = []
+        for label, sim, settings, sets in plans:
+            results = sim.run_batch(settings["simulation"]["t_end"], [sets[p["key"]] for p in chunk],
+                                    workers=jobs)
+            per_variant.append((label, settings, results))
+        finished = {}
+        for k, p in enumerate(chunk):
+            rows = []
+            for label, settings, results in per_variant:
+                r = results[k]
+                if isinstance(r, Exception):
+                    rows = [{"key": p["key"], **p["params"], "variant": "", "status": "failed",
+                             "message": str(r).splitlines()[0], "wall_time_s": 0.0}]
+                    break
+                m = _metrics.compute(r, settings["signals"], settings["metrics"])
+                m["wall_time_s"] = r.meta["wall_time_s"]
+                m = {k2: (None if isinstance(v, float) and not np.isfinite(v) else v) for k2, v in m.items()
+                     if not isinstance(v, (list, dict))}
+                rows.append({"key": p["key"], **p["params"], "variant": label, "status": "ok",
+                             "message": "", **m})
+                if traces:
+                    r.to_csv(Path(traces) / f"{p['key']}{('_' + label) if label else ''}.csv")
+            finished[p["key"]] = rows
+        yield finished
 
 
 def _execute(todo, args, traces, jobs, dask):
