@@ -116,7 +116,7 @@ class CompiledLoop:
             ctx.xd[i] = Z[k:k + z.size].copy()
             k += z.size
         if status[0]:
-            self._diverged(status, T)
+            self._diverged(status, T, ctx, max_state)
         hits = {sysm.blocks[i].name: int(n) for i, n in zip(discrete, DUE.sum(axis=0))}
         return rows_t, LOG, hits
 
@@ -162,18 +162,15 @@ class CompiledLoop:
             OBW[logs] = self.solver.dense_weights(theta)
         return NSTEP, HSTEP, OBK, OBW
 
-    def _diverged(self, status, T):
+    def _diverged(self, status, T, ctx, max_state):
+        """The plan's divergence error for what the compiled loop stopped on."""
         t = T[status[0] - 1]
+        plan = self.system.plan
         if status[1] < 0:
-            name = self.system.blocks[-status[1] - 1].name
-            raise SimulationError(f"simulation diverged at t={t:.6g} s: discrete state of block "
-                                  f"{name!r} is not finite")
-        name, j = self.system.state_owner(int(status[1]))
-        raise SimulationError(
-            f"simulation diverged at t={t:.6g} s: state {j} of block {name!r} left the limit "
-            "(not finite or too large). The closed loop may be unstable at these gains and "
-            "rates, or the solver step too large."
-        )
+            i = -status[1] - 1
+            plan.check_discrete(i, ctx.xd[i], t)
+        plan.check_continuous(ctx.xc, t, max_state)
+        raise SimulationError(f"simulation diverged at t={t:.6g} s")  # pragma: no cover
 
 
 def _module_source(system, solver, log_ports, log_path):
@@ -232,9 +229,9 @@ def _module_source(system, solver, log_ports, log_path):
               "                    break",
               "            if STATUS[0]:",
               "                break"]
-    L += ["        if KIND[k] == 0:  # a sample hit"]
-    for i in range(len(blocks)):
-        if kind[i] == "discrete":
+    L += ["        if KIND[k] == 0:  # a sample hit: outputs (plan.hit_sequence)"]
+    for i, disc in sysm.plan.hit_sequence():
+        if disc:
             L.append(f"            if DUE[k, {due_col[i]}]:")
             L += evaluate(i, 16) or ["                pass"]
         else:
@@ -259,7 +256,7 @@ def _module_source(system, solver, log_ports, log_path):
     logged = [name for i, o in log_ports for name in y(i, o)]
     L.append("        if REC[k] >= 0:")
     L += [f"            LOG[REC[k], {c}] = {name}" for c, name in enumerate(logged)] or ["            pass"]
-    for i in sysm.discrete:  # updates, after every output of the hit
+    for i in sysm.plan.update_order(sysm.discrete):  # updates, after every output of the hit
         if blocks[i].n_discrete:
             env[f"upd{i}"] = blocks[i].kernels.update
             ok = " and ".join(f"math.isfinite({name})" for name in z(i))

@@ -64,7 +64,8 @@ def rk_source(system, method, params_arg=False):
     path = sorted(set(sysm.rhs_path))
     stateful = sysm.stateful
     on_path = set(path)
-    held, held_index = [], {}
+    held = sysm.plan.held_ports()
+    held_index = {port: k for k, port in enumerate(held)}
     env = {}
     extra = ", P" if params_arg else ""
     lines = [f"def rhs(t, X, H{extra}):"]
@@ -81,10 +82,7 @@ def rk_source(system, method, params_arg=False):
         if a in on_path:  # produced later: this output does not depend on it
             width = sysm.blocks[i].inputs[k].width
             return repr((0.0,) * width)
-        if (a, o) not in held_index:
-            held_index[(a, o)] = len(held)
-            held.append((a, o))
-        return f"H[{held_index[(a, o)]}]"
+        return f"H[{held_index[(a, o)]}]"  # a held port (plan.held_ports)
 
     def state(i):
         s = sysm.xslices[i]

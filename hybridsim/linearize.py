@@ -98,13 +98,7 @@ class Linearization:
         self.disc = sysm.discrete
         self.xd_sizes = [sysm.blocks[i].n_discrete for i in self.disc]
         self.yd_ports = [(i, o) for i in self.disc for o in range(len(sysm.blocks[i].outputs))]
-        consumers = set(sysm.rhs_path) | set(sysm.stateful)
-        held = []
-        for i in sorted(consumers):
-            for (a, o) in sysm.sources[i]:
-                if sysm.kind[a] in ("discrete", "constant") and (a, o) not in held:
-                    held.append((a, o))
-        self.h_ports = held
+        self.h_ports = sysm.plan.held_ports()
         self.fd_error = 0.0
         self._save()
 
@@ -230,25 +224,20 @@ class Linearization:
         xc, xd, yd = s[:nx], s[nx:nx + nd], s[nx + nd:]
         self._set_xd(xd)
         self._write(self.yd_ports, yd)
-        y_meas = None
-        for i, blk in enumerate(sysm.blocks):
-            if sysm.kind[i] == "discrete" and i not in due:
-                continue
-            outs = blk.output(t, ctx.block_state(i, xc), ctx.u[i])
-            for buf, val in zip(ctx.y[i], outs):
-                buf[:] = val
+        y_meas = []
+
+        def after(i):  # the plan's hit, with the loop opened at one signal
             if measure is not None and i == measure[0]:
-                y_meas = np.array([ctx.y[i][measure[1]][measure[2]]])
+                y_meas.append(np.array([ctx.y[i][measure[1]][measure[2]]]))
             if inject is not None and i == inject[0]:
                 buf = ctx.y[i][inject[1]]
                 buf[inject[2]] = v[0] if inject[3] == "replace" else buf[inject[2]] + v[0]
+
+        sysm.plan.outputs(ctx, t, xc, due, after)
+        y_meas = y_meas[0] if y_meas else None
         h = self._read(self.h_ports)
-        xd_new = []
-        for i, n in zip(self.disc, self.xd_sizes):
-            if i in due:
-                xd_new.append(np.asarray(sysm.blocks[i].update(t, ctx.xd[i], ctx.u[i]), float).reshape(n))
-            else:
-                xd_new.append(ctx.xd[i].copy())
+        updated = dict(sysm.plan.updates(ctx, t, due))
+        xd_new = [updated[i] if i in updated else ctx.xd[i].copy() for i in self.disc]
         xd_new = np.concatenate(xd_new) if xd_new else np.zeros(0)
         yd_new = self._read(self.yd_ports)
         return h, xd_new, yd_new, y_meas

@@ -221,8 +221,8 @@ class Simulator:
 
     def _loop(self, ctx, walk, rhs, events, bar, t_end):
         """The tick loop of :meth:`run`; returns (times, rows, hits per block)."""
-        sysm = self.system
-        blocks, kind, discrete = ctx.blocks, sysm.kind, sysm.discrete
+        sysm, plan = self.system, self.system.plan
+        blocks, discrete = ctx.blocks, sysm.discrete
         rows_t, rows = [], []
         hits = {blocks[i].name: 0 for i in discrete}
 
@@ -231,30 +231,22 @@ class Simulator:
             rows.append(np.concatenate([ctx.y[i][o] for i, o in self._log_ports])
                         if self._log_ports else np.zeros(0))
 
-        passes = {}  # due set -> blocks to evaluate at such a hit, in order
         xc = ctx.xc
         with np.errstate(over="ignore", invalid="ignore"):
             for t, due, log_here, t_out, t_next in walk:
-                if due not in passes:
-                    passes[due] = [i for i in range(len(blocks)) if kind[i] != "discrete" or i in due]
-                ctx.evaluate(passes[due], t, xc)
+                plan.outputs(ctx, t, xc, due)
                 if log_here:
                     record(t)
-                for i in sorted(due):
-                    blk = blocks[i]
-                    ctx.xd[i] = np.array(blk.update(t, ctx.xd[i], ctx.u[i]), float)  # a copy: never a wire's buffer
-                    hits[blk.name] += 1
-                    if not np.all(np.isfinite(ctx.xd[i])):
-                        raise SimulationError(
-                            f"simulation diverged at t={t:.6g} s: discrete state of block "
-                            f"{blk.name!r} is not finite"
-                        )
+                for i, x in plan.updates(ctx, t, due):
+                    ctx.xd[i] = x  # a copy: never a wire's buffer
+                    hits[blocks[i].name] += 1
+                    plan.check_discrete(i, x, t)
                 if sysm.n_x:
                     if self._fused is not None:
                         xc, xs = self._advance_fused(ctx, t, t_next, xc, t_out)
                     else:
                         xc, xs = self.solver.advance(rhs, t, t_next, xc, t_out, events)
-                    self._check(xc, t_next)
+                    plan.check_continuous(xc, t_next, self.max_state)
                 else:
                     xs = [xc] * len(t_out)
                 for tb, xb in zip(t_out, xs):
@@ -313,17 +305,6 @@ class Simulator:
                 X, k = after, k + 1
             X = advance(t0, h, k, n, X, H, -1, (), P)[0]
         return np.array(X), outs
-
-    def _check(self, x, t):
-        bad = ~np.isfinite(x) | (np.abs(x) > self.max_state)
-        if bad.any():
-            k = int(np.argmax(bad))
-            name, j = self.system.state_owner(k)
-            raise SimulationError(
-                f"simulation diverged at t={t:.6g} s: state {j} of block {name!r} "
-                f"is {x[k]:.3g} (limit {self.max_state:g}). The closed loop may be "
-                "unstable at these gains and rates, or the solver step too large."
-            )
 
 
 class Stops(NamedTuple):

@@ -73,6 +73,9 @@ class System:
         inputs_of |= {self.sources[i][k][0] for i in self.events for k in range(len(self.blocks[i].inputs))}
         self.rhs_path = sorted(needed_blocks(inputs_of, self.blocks, self.sources, held))
         self.stateful = stateful
+        from .plan import Plan
+
+        self.plan = Plan(self)
 
     def _classify(self):
         kind = []
