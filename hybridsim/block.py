@@ -23,7 +23,13 @@ and implements some of (or gives them as pure ``kernels``, see
   sets ``init_needs_inputs = True`` (e.g. a pre-loaded spring whose direction
   depends on another block's state);
 * ``zero_crossings(t, x, u)`` -> array whose sign changes mark
-  discontinuities (friction stick/slip, contact make/break);
+  discontinuities (friction stick/slip, contact make/break), with
+  ``event_directions`` (per function: +1 fires rising, -1 falling, 0 both);
+* ``event_action(t, x, u, fired)`` -> the block's state right after its
+  events ``fired`` (a state event with a reset, x+ = h(x-, u): a bounce, a
+  latch); every solver locates such events and restarts after the reset;
+* ``next_event_time(t, x)`` -> the next time after ``t`` at which the block
+  needs a stop (a time event; ``event_action`` then runs with ``fired = ()``);
 * ``release()``: free outside resources when a run ends (FMU instances).
 
 ``u`` is a list of numpy arrays in input declaration order, ``x`` a numpy
@@ -251,8 +257,38 @@ class Block:
     def initial_state(self, u=None):
         return np.zeros(self.n_continuous or self.n_discrete)
 
+    #: per zero-crossing function: +1 fires when it rises through 0, -1 when it falls, 0 both
+    event_directions = None
+
     def zero_crossings(self, t, x, u):
-        return None
+        k = self.kernels
+        return k.zero_crossings(self.params, t, x, u) if k is not None and k.zero_crossings else None
+
+    def event_action(self, t, x, u, fired):
+        """The state right after the events ``fired`` (None: no reset, only a restart)."""
+        k = self.kernels
+        return k.event_action(self.params, t, x, u, fired) if k is not None and k.event_action else None
+
+    def next_event_time(self, t, x):
+        """The next time after ``t`` (s) at which this block needs a stop; inf for none."""
+        return float("inf")
+
+    @property
+    def has_zero_crossings(self):
+        """True when the block gives event functions (a method or a kernel)."""
+        k = self.kernels
+        return type(self).zero_crossings is not Block.zero_crossings or (k is not None and k.zero_crossings is not None)
+
+    @property
+    def has_event_action(self):
+        """True when the block resets its state at its events."""
+        k = self.kernels
+        return type(self).event_action is not Block.event_action or (k is not None and k.event_action is not None)
+
+    @property
+    def has_time_events(self):
+        """True when the block asks for stops at times of its own."""
+        return type(self).next_event_time is not Block.next_event_time
 
     def release(self):
         """Free outside resources (an FMU instance, files) when a run ends."""

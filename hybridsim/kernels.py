@@ -23,11 +23,18 @@ _MARKED = []  # every function marked @kernel (numba may compile any of them)
 
 
 class Kernels(NamedTuple):
-    """The pure functions of a block; a missing one means the block has none."""
+    """The pure functions of a block; a missing one means the block has none.
+
+    ``zero_crossings(p, t, x, u)`` returns the block's event functions (a
+    sequence of floats); ``event_action(p, t, x, u, fired)`` the state after
+    the events ``fired`` (a tuple of bools, one per event function).
+    """
 
     output: Optional[Callable] = None
     derivatives: Optional[Callable] = None
     update: Optional[Callable] = None
+    zero_crossings: Optional[Callable] = None
+    event_action: Optional[Callable] = None
 
 
 def kernel(fn):

@@ -19,6 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import events as _events
 from .errors import DiagramError, InputError, SimulationError
 from .result import Result, parse_signal
 from .schedule import Schedule
@@ -94,23 +95,37 @@ class Simulator:
 
     # -- the right-hand side ----------------------------------------------------
     def _bind(self, ctx):
-        """Build rhs(t, x) and events(t, x) closures over one context (and its blocks)."""
+        """Build rhs(t, x) and events(t, x) closures over one context (and its blocks).
+
+        ``events`` holds the zero crossings that only restart a solver (blocks
+        without actions); ``ctx.events`` (an :class:`~hybridsim.events.EventSet`,
+        or None) the events with resets and the time events.
+        """
         sysm, blocks = self.system, ctx.blocks
         y, u, xd, n_x = ctx.y, ctx.u, ctx.xd, sysm.n_x
         steps = [(blocks[i].output, sysm.xslices[i], u[i], y[i], xd[i]) for i in sysm.rhs_path]
         ders = [(blocks[i].derivatives, sysm.xslices[i], u[i]) for i in sysm.stateful]
 
-        def rhs(t, x):
+        def outputs(t, x):
             for out, s, ui, yi, xdi in steps:
                 vals = out(t, x[s] if s is not None else xdi, ui)
                 for buf, v in zip(yi, vals):
                     buf[:] = v
+
+        def rhs(t, x):
+            outputs(t, x)
             dx = np.empty(n_x)
             for der, s, ui in ders:
                 dx[s] = der(t, x[s], ui)
             return dx
 
-        evs = [(blocks[i].zero_crossings, sysm.xslices[i], u[i], xd[i]) for i in sysm.events]
+        evs = [(blocks[i].zero_crossings, sysm.xslices[i], u[i], xd[i]) for i in sysm.events
+               if i not in sysm.action_events]
+        ctx.events = None
+        if sysm.action_events or sysm.time_events:
+            from .events import EventSet
+
+            ctx.events = EventSet(sysm, ctx, outputs)
 
         def events(t, x):
             rhs(t, x)
@@ -242,7 +257,9 @@ class Simulator:
                     hits[blocks[i].name] += 1
                     plan.check_discrete(i, x, t)
                 if sysm.n_x:
-                    if self._fused is not None:
+                    if ctx.events is not None:
+                        xc, xs = _events.integrate(self.solver, rhs, ctx.events, t, t_next, xc, t_out, events)
+                    elif self._fused is not None:
                         xc, xs = self._advance_fused(ctx, t, t_next, xc, t_out)
                     else:
                         xc, xs = self.solver.advance(rhs, t, t_next, xc, t_out, events)
@@ -273,7 +290,8 @@ class Simulator:
             signals[ref] = data[:, col:col + w] if data.size else np.zeros((0, w))
             col += w
         meta = {"diagram": self.system.name, "solver": repr(self.solver), "t_end": t_end,
-                "wall_time_s": wall, "hits": hits}
+                "wall_time_s": wall, "hits": hits,
+                "events": list(ctx.events.log) if getattr(ctx, "events", None) is not None else []}
         return Result(np.array(rows_t), signals, meta, context=ctx)
 
     def _advance_fused(self, ctx, t0, t1, x, t_out):

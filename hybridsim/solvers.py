@@ -128,6 +128,58 @@ class ExplicitRK:
             x = x_next
         return x, outs
 
+    def advance_to_event(self, f, t0, t1, x, t_out, g, directions):
+        """Like :meth:`advance`, stopping at the first located event of ``g``.
+
+        Returns ``(t_stop, x_stop, fired, outs)``: ``fired`` (a mask over the
+        functions of ``g``) is None when no event occurred and ``t_stop`` is
+        ``t1``. Without an event the steps are exactly those of :meth:`advance`.
+        """
+        from .events import crossed
+
+        n = steps(t0, t1, self.step)
+        h = (t1 - t0) / n
+        ks, thetas = observations(t0, h, n, t_out)
+        obs = list(zip(ks.tolist(), thetas.tolist()))
+        outs, j = [], 0
+        g_k = g(t0, x) if g is not None else None
+        for k in range(n):
+            t = t0 + k * h
+            while j < len(obs) and obs[j] == (k, 0.0):
+                outs.append(x)
+                j += 1
+            x_next, K = self._step(f, t, h, x)
+            event = None
+            if g is not None:
+                g_next = g(t0 + (k + 1) * h, x_next)
+                if crossed(g_k, g_next, directions).any():
+                    event = self._locate(g, directions, t, h, x, K, g_k, x_next, g_next)
+                g_k = g_next
+            theta_stop = event[0] if event else 1.0
+            while j < len(obs) and obs[j][0] == k and obs[j][1] < theta_stop:
+                outs.append(self._dense(x, K, h, self.dense_weights(obs[j][1])))
+                j += 1
+            if event:
+                theta, x_ev, fired = event
+                return (t + theta * h if theta < 1.0 else t0 + (k + 1) * h), x_ev, fired, outs
+            x = x_next
+        return t1, x, None, outs
+
+    def _locate(self, g, directions, t, h, x, K, g_lo, x_hi, g_hi):
+        """Bisect the step's dense output for the first crossing: ``(theta, x there, fired)``."""
+        from .events import TIME_TOL, crossed
+
+        lo, hi = 0.0, 1.0
+        while (hi - lo) * h > TIME_TOL:
+            mid = 0.5 * (lo + hi)
+            xm = self._dense(x, K, h, self.dense_weights(mid))
+            gm = g(t + mid * h, xm)
+            if crossed(g_lo, gm, directions).any():
+                hi, x_hi, g_hi = mid, xm, gm
+            else:
+                lo, g_lo = mid, gm
+        return hi, x_hi, crossed(g_lo, g_hi, directions)
+
     def __repr__(self):
         return f"{type(self).__name__}(step={self.step:g})"
 
@@ -165,20 +217,31 @@ class ScipySolver:
         self.name = method.lower()
 
     def advance(self, f, t0, t1, x, t_out=(), events=None):
+        """Integrate from ``t0`` to ``t1`` restarting at every zero crossing of ``events``;
+        returns ``(x, states at t_out)``."""
+        return self.advance_to_event(f, t0, t1, x, t_out, None, None, events)[1::2]
+
+    def advance_to_event(self, f, t0, t1, x, t_out, g, directions, events=None):
+        """Like :meth:`advance`, stopping at the first event of ``g`` (located by solve_ivp).
+
+        Returns ``(t_stop, x_stop, fired, outs)`` as :meth:`ExplicitRK.advance_to_event`;
+        ``events`` (restart-only zero crossings) restart the solver without stopping.
+        """
         pending = sorted(t for t in t_out if t0 < t < t1)
         outs = []
+        actions = _action_functions(g, directions) if g is not None else []
         skip = None  # the event just located is not armed again at its own root
         stretch = REARM * (t1 - t0)
         hits, muted = {}, set()  # a switch that fires over and over (sliding along it) is muted
         for _ in range(MAX_RESTARTS):
             off = muted | ({skip} if skip is not None else set())
-            funs = _event_functions(events, t0, x, off) if events is not None else None
+            funs = (_event_functions(events, t0, x, off) if events is not None else []) + actions
             # the event just located stays disarmed only until its function has left
             # zero, so a quick second crossing of the same switch is not stepped over
             t_end = t1 if skip is None else min(t1, t0 + stretch)
             sol = solve_ivp(
                 f, (t0, t_end), x, method=self.method, rtol=self.rtol, atol=self.atol,
-                max_step=self.max_step, dense_output=bool(pending), events=funs,
+                max_step=self.max_step, dense_output=bool(pending), events=funs or None,
             )
             if sol.status == -1:
                 raise SimulationError(
@@ -187,6 +250,12 @@ class ScipySolver:
             if sol.status == 1:  # stopped at a zero crossing
                 k = next(k for k, te in enumerate(sol.t_events) if len(te))
                 t_stop, x_stop = sol.t_events[k][0], sol.y_events[k][0]
+                if hasattr(funs[k], "a"):  # an event with an action: the caller takes over here
+                    while pending and pending[0] <= t_stop:
+                        outs.append(sol.sol(pending.pop(0)))
+                    fired = np.zeros(len(actions), dtype=bool)
+                    fired[funs[k].a] = True
+                    return t_stop, x_stop, fired, outs
                 skip, stretch = funs[k].j, REARM * (t1 - t0)
                 hits[skip] = hits.get(skip, 0) + 1
                 if hits[skip] > MAX_REPEATS:
@@ -200,7 +269,7 @@ class ScipySolver:
             while pending and pending[0] <= t_stop:
                 outs.append(sol.sol(pending.pop(0)))
             if t_stop >= t1:
-                return x_stop, outs
+                return t1, x_stop, None, outs
             t0, x = t_stop, x_stop
         raise SimulationError(
             f"more than {MAX_RESTARTS} zero crossings before t={t1:.6g} s "
@@ -209,6 +278,26 @@ class ScipySolver:
 
     def __repr__(self):
         return f"ScipySolver({self.method}, rtol={self.rtol:g})"
+
+
+def _action_functions(g, directions):
+    """One terminal scipy event function, with its direction, per function of ``g``."""
+    cache = {}
+
+    def values(t, x):
+        key = (t, x.tobytes())
+        if cache.get("key") != key:
+            cache["key"], cache["val"] = key, np.asarray(g(t, x), float)
+        return cache["val"]
+
+    funs = []
+    for a, d in enumerate(directions):
+        def fun(t, x, a=a):
+            return values(t, x)[a]
+
+        fun.terminal, fun.direction, fun.a = True, float(d), a
+        funs.append(fun)
+    return funs
 
 
 def _event_functions(events, t0, x0, off):

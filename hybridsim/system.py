@@ -66,10 +66,15 @@ class System:
         held = lambda j: self.kind[j] in ("discrete", "constant")  # noqa: E731
         stateful = [i for i, k in enumerate(self.kind) if k == "continuous"]
         inputs_of = {self.sources[i][k][0] for i in stateful for k in range(len(self.blocks[i].inputs))}
-        self.events = [
-            i for i, b in enumerate(self.blocks)
-            if self.kind[i] != "discrete" and type(b).zero_crossings is not Block.zero_crossings
-        ]
+        self.events = [i for i, b in enumerate(self.blocks) if self.kind[i] != "discrete" and b.has_zero_crossings]
+        #: blocks whose events reset their state: every solver locates these
+        self.action_events = [i for i in self.events if self.blocks[i].has_event_action]
+        #: blocks that ask for stops at times of their own
+        self.time_events = [i for i, b in enumerate(self.blocks) if b.has_time_events]
+        for i in self.action_events + self.time_events:
+            if self.kind[i] != "continuous":
+                raise DiagramError([f"block {self.blocks[i].name!r}: events with a reset or time events need "
+                                    "a block with continuous state"], diagram.source)
         inputs_of |= {self.sources[i][k][0] for i in self.events for k in range(len(self.blocks[i].inputs))}
         self.rhs_path = sorted(needed_blocks(inputs_of, self.blocks, self.sources, held))
         self.stateful = stateful

@@ -1,0 +1,158 @@
+"""State events with resets and time events, between two sample hits.
+
+A block with ``event_action`` (see :mod:`hybridsim.block`) has its events
+located by every solver, to :data:`TIME_TOL`: the fixed-step methods check the
+sign of the event functions after each step of their grid and bisect the
+step's dense output; the scipy solvers use ``solve_ivp``'s event location. At
+the event the actions run (x+ = h(x-, u)), then again while an action makes
+another event function cross (event iteration, at most
+:data:`MAX_ITERATIONS` times at one instant), and the integration restarts
+there on a fresh step grid. A block's time events (``next_event_time``) are
+stops like sample hits, hit exactly. More than :data:`MAX_EVENTS` events
+between two hits, or an iteration that does not settle, is Zeno or
+chattering behaviour: a :class:`~hybridsim.errors.SimulationError` that names
+the blocks.
+
+A function fires *falling* (direction -1) when it goes from >= 0 to < 0 and
+*rising* (+1) from <= 0 to > 0; direction 0 fires on either.
+"""
+import numpy as np
+
+from .errors import SimulationError
+
+#: events are located to this many seconds
+TIME_TOL = 1e-12
+#: actions at one instant before the iteration counts as chattering
+MAX_ITERATIONS = 100
+#: events between two sample hits before the run counts as Zeno
+MAX_EVENTS = 100_000
+#: events in a row, each within 10 TIME_TOL of the one before, before the run counts as Zeno
+MAX_STALLS = 50
+
+
+def crossed(g0, g1, directions):
+    """Boolean mask: which functions crossed zero from ``g0`` to ``g1`` in their direction."""
+    g0, g1 = np.asarray(g0, float), np.asarray(g1, float)
+    rising = (g0 <= 0) & (g1 > 0)
+    falling = (g0 >= 0) & (g1 < 0)
+    return np.where(directions > 0, rising, np.where(directions < 0, falling, rising | falling))
+
+
+class EventSet:
+    """The action events and time events of one context: their functions and actions.
+
+    ``g(t, x)`` evaluates every action block's event functions (after the
+    outputs at (t, x)); ``act(t, x, fired)`` applies the actions of the
+    blocks whose functions ``fired`` (mask) or, with ``fired=None``, the time
+    events due at ``t``; ``next_time(t, x)`` the earliest time event after t.
+    """
+
+    def __init__(self, system, ctx, outputs):
+        self.system, self.ctx, self.outputs = system, ctx, outputs
+        self.blocks = [(i, system.xslices[i]) for i in system.action_events]
+        self.timed = [(i, system.xslices[i]) for i in system.time_events]
+        sizes, dirs = [], []
+        for i, s in self.blocks:
+            b = ctx.blocks[i]
+            n = len(np.atleast_1d(b.zero_crossings(0.0, ctx.xc[s], ctx.u[i])))
+            d = b.event_directions if b.event_directions is not None else (0,) * n
+            sizes.append(n)
+            dirs += list(d)
+        self.cuts = np.cumsum([0] + sizes)
+        self.directions = np.array(dirs, float)
+        self.log = []  # (t, block names) of every event, in order
+
+    def g(self, t, x):
+        """Every action block's event functions at (t, x)."""
+        self.outputs(t, x)
+        blocks, u = self.ctx.blocks, self.ctx.u
+        vals = [np.atleast_1d(np.asarray(blocks[i].zero_crossings(t, x[s], u[i]), float)) for i, s in self.blocks]
+        return np.concatenate(vals) if vals else np.zeros(0)
+
+    def next_time(self, t, x):
+        """The earliest time event after ``t`` (inf: none)."""
+        blocks = self.ctx.blocks
+        return min((float(blocks[i].next_event_time(t, x[s])) for i, s in self.timed), default=np.inf)
+
+    def act(self, t, x, fired):
+        """The state after the actions at ``t``: of the blocks whose functions ``fired``, or
+        (``fired`` None) of the blocks whose time event is due at ``t``."""
+        self.outputs(t, x)
+        x = x.copy()
+        blocks, u = self.ctx.blocks, self.ctx.u
+        if fired is None:
+            for i, s in self.timed:
+                if abs(float(blocks[i].next_event_time(t - 2 * TIME_TOL, x[s])) - t) <= TIME_TOL:
+                    new = blocks[i].event_action(t, x[s].copy(), u[i], ())
+                    if new is not None:
+                        x[s] = new
+            return x
+        for k, (i, s) in enumerate(self.blocks):
+            mine = fired[self.cuts[k]:self.cuts[k + 1]]
+            if mine.any():
+                new = blocks[i].event_action(t, x[s].copy(), u[i], tuple(bool(f) for f in mine))
+                if new is not None:
+                    x[s] = new
+        return x
+
+    def names(self, fired):
+        """The blocks whose functions ``fired``."""
+        return sorted({self.system.blocks[i].name for k, (i, _) in enumerate(self.blocks)
+                       if fired[self.cuts[k]:self.cuts[k + 1]].any()})
+
+    def settle(self, t, x_minus, g_minus, fired):
+        """Apply the actions of ``fired`` at ``t`` and iterate while actions trigger events."""
+        self.log.append((t, tuple(self.names(fired))))
+        x = x_minus
+        for _ in range(MAX_ITERATIONS):
+            x = self.act(t, x, fired)
+            g_plus = self.g(t, x)
+            fired = crossed(g_minus, g_plus, self.directions)
+            if not fired.any():
+                return x
+            g_minus = g_plus
+        raise SimulationError(f"event iteration at t={t:.9g} s does not settle after {MAX_ITERATIONS} "
+                              f"actions (chattering) in block(s) {', '.join(self.names(fired))}")
+
+
+def integrate(solver, f, events, t0, t1, x, t_out, restarts=None):
+    """Integrate from hit ``t0`` to hit ``t1`` stopping at time events and located state events.
+
+    ``solver`` gives ``advance_to_event(f, t0, t1, x, t_out, g, directions)``
+    returning ``(t_stop, x_stop, fired, outs)``; ``fired`` None means it
+    reached ``t1``. ``restarts``: zero crossings without actions (the scipy
+    solvers restart at them). Returns ``(x, outs)`` like ``solver.advance``.
+    """
+    outs, pending = [], list(t_out)
+    count = stalls = 0
+    while True:
+        te = events.next_time(t0, x)
+        stop = min(t1, te) if te > t0 + TIME_TOL else t1
+        here = [tb for tb in pending if tb < stop]
+        g = events.g if events.blocks else None
+        extra = {"events": restarts} if restarts is not None and not hasattr(solver, "dense") else {}
+        t_stop, x_stop, fired, got = solver.advance_to_event(f, t0, stop, x, here, g, events.directions, **extra)
+        outs += got
+        pending = pending[len(got):]
+        if fired is not None:
+            count += 1
+            stalls = stalls + 1 if t_stop - t0 <= 10 * TIME_TOL else 0
+            if count > MAX_EVENTS or stalls > MAX_STALLS:
+                raise SimulationError(
+                    f"events accumulate at t={t_stop:.9g} s in block(s) {', '.join(events.names(fired))}: "
+                    f"{'more than %d events before the next hit' % MAX_EVENTS if count > MAX_EVENTS else '%d events within %g s of each other' % (stalls, 10 * TIME_TOL)} "
+                    "(Zeno behaviour, e.g. a bouncing ball coming to rest); stop the run before "
+                    "that time or give the model a resting state")
+            x = events.settle(t_stop, x_stop, events.g(t_stop, x_stop), fired)
+        elif stop < t1:
+            events.log.append((stop, ("time event",)))
+            x = events.act(stop, x_stop, None)
+            count += 1
+        else:
+            return x_stop, outs
+        t0 = t_stop
+        if t1 - t0 <= TIME_TOL:  # an event at the hit itself
+            while pending:
+                outs.append(x)
+                pending.pop(0)
+            return x, outs
