@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import CompiledPathError, SimulationError
-from .fused import has_kernels, rk_source
+from .fused import event_kernels, event_sizes, has_kernels, rk_source
 from .solvers import ExplicitRK, observations, steps_between
 from .kernels import marked
 
@@ -55,6 +55,13 @@ def problems(system, solver):
                if (b.outputs or b.n_continuous or b.n_discrete) and not has_kernels(b)]
     if missing:
         out.append("these blocks have no kernels (hybridsim.kernels) to compile: " + ", ".join(missing))
+    timed = [system.blocks[i].name for i in system.time_events]
+    if timed:
+        out.append("time events (next_event_time) are not on the compiled path yet: " + ", ".join(timed))
+    no_events = [system.blocks[i].name for i in system.action_events if not event_kernels(system.blocks[i])]
+    if no_events:
+        out.append("these blocks give their events as methods, not kernels (zero_crossings, "
+                   "event_action): " + ", ".join(no_events))
     return out
 
 
@@ -89,12 +96,16 @@ class CompiledLoop:
 
         sysm = self.system
         discrete = sysm.discrete
-        T, KIND, DUE, REC, rows_t, NSTEP, HSTEP, OBK, OBW = self._arrays(stops, t_end, final_record)
+        T, KIND, DUE, REC, rows_t, NSTEP, HSTEP, OBK, OBW, NEXT = self._arrays(stops, t_end, final_record)
         width = sum(sysm.blocks[i].outputs[o].width for i, o in self.log_ports)
         LOG = np.zeros((len(rows_t), width))
         Y = np.concatenate([np.asarray(v, float) for vals in ctx.y for v in vals] + [np.zeros(0)])
         Z = np.concatenate([np.asarray(z, float) for z in ctx.xd] + [np.zeros(0)])
         status = np.zeros(2, dtype=np.int64)  # stop index + 1 where it diverged, and what
+        XO = np.zeros((len(T), sysm.n_x)) if sysm.action_events else np.zeros((0, 0))
+        EV = np.zeros(self.max_log)  # event times (compiled events)
+        EVF = np.zeros(self.max_log, dtype=np.int64)  # and which functions fired, as bits
+        NEV = np.zeros(1, dtype=np.int64)
         P = ctx.params  # the run's numbers: one compiled module serves every value
         with np.errstate(all="ignore"), warnings.catch_warnings():
             # numba's inliner trips an internal "pedantic" SSA check on some kernels;
@@ -102,7 +113,8 @@ class CompiledLoop:
             warnings.simplefilter("ignore", NumbaIRAssumptionWarning)
             try:
                 X = self.run_fn(P, tuple(ctx.xc.tolist()), Y, Z, T, KIND, DUE, REC, NSTEP, HSTEP,
-                                OBK, OBW, LOG, float(max_state), status)
+                                OBK, OBW, LOG, float(max_state), status, XO, NEXT, float(self.step),
+                                EV, EVF, NEV)
             except NumbaError as exc:
                 raise CompiledPathError(_compile_failure(exc, sysm)) from None
         ctx.xc = np.array(X, dtype=float)
@@ -115,8 +127,11 @@ class CompiledLoop:
         for i, z in enumerate(ctx.xd):
             ctx.xd[i] = Z[k:k + z.size].copy()
             k += z.size
+        events = self._event_log(EV, EVF, int(NEV[0])) if sysm.action_events else []
+        if getattr(ctx, "events", None) is not None:
+            ctx.events.log = events
         if status[0]:
-            self._diverged(status, T, ctx, max_state)
+            self._diverged(status, T, ctx, max_state, events)
         hits = {sysm.blocks[i].name: int(n) for i, n in zip(discrete, DUE.sum(axis=0))}
         return rows_t, LOG, hits
 
@@ -133,7 +148,10 @@ class CompiledLoop:
         record = np.append(stops.record, final_record)
         REC = np.where(record, np.cumsum(record) - 1, -1).astype(np.int64)
         rows_t = T[record].tolist()
-        arrays = (T, KIND, DUE, REC, rows_t) + self._step_plan(T, KIND)
+        hits = np.flatnonzero(KIND == 0)
+        NEXT = np.zeros(len(T), dtype=np.int64)  # at a hit row: the row of the next hit or the end
+        NEXT[hits] = np.append(hits[1:], len(T) - 1)
+        arrays = (T, KIND, DUE, REC, rows_t) + self._step_plan(T, KIND) + (NEXT,)
         self._cache = (stops, key, arrays)
         return arrays
 
@@ -162,15 +180,42 @@ class CompiledLoop:
             OBW[logs] = self.solver.dense_weights(theta)
         return NSTEP, HSTEP, OBK, OBW
 
-    def _diverged(self, status, T, ctx, max_state):
+    #: event times kept for the result's meta (and the Zeno check's count)
+    max_log = 200_000
+
+    def _event_log(self, EV, EVF, n):
+        """[(t, block names)] of the events the compiled loop located."""
+        sysm = self.system
+        sizes = event_sizes(sysm)
+        cuts = np.cumsum([0] + sizes)
+        out = []
+        for t, bits in zip(EV[:min(n, self.max_log)].tolist(), EVF[:min(n, self.max_log)].tolist()):
+            names = tuple(sorted({sysm.blocks[i].name for k, i in enumerate(sysm.action_events)
+                                  if any(bits >> j & 1 for j in range(cuts[k], cuts[k + 1]))}))
+            out.append((t, names))
+        return out
+
+    def _diverged(self, status, T, ctx, max_state, events):
         """The plan's divergence error for what the compiled loop stopped on."""
+        from .events import chatter_error, zeno_error
+
         t = T[status[0] - 1]
         plan = self.system.plan
+        if status[1] <= -EVENT_CODE:  # events: Zeno or chattering, at the last event's time
+            t_ev, names = events[-1] if events else (t, ())
+            code = -status[1] // EVENT_CODE
+            if code == 3:
+                raise chatter_error(t_ev, list(names))
+            raise zeno_error(t_ev, list(names), code == 1, -status[1] % EVENT_CODE)
         if status[1] < 0:
             i = -status[1] - 1
             plan.check_discrete(i, ctx.xd[i], t)
         plan.check_continuous(ctx.xc, t, max_state)
         raise SimulationError(f"simulation diverged at t={t:.6g} s")  # pragma: no cover
+
+
+#: status codes of the compiled event loop: -code * EVENT_CODE - detail
+EVENT_CODE = 10**9
 
 
 def _module_source(system, solver, log_ports, log_path):
@@ -208,14 +253,16 @@ def _module_source(system, solver, log_ports, log_path):
     held_in = tup(tup(y(a, o)) for a, o in held)
     weights = tup(f"OBW[k, {j}]" for j in range(len(solver.c)))
     zero_w = tup("0.0" for _ in solver.c)
-    L = ["def run(P, X, Y, Z, T, KIND, DUE, REC, NSTEP, HSTEP, OBK, OBW, LOG, max_state, STATUS):"]
+    events = bool(sysm.action_events) and sysm.n_x > 0
+    L = ["def run(P, X, Y, Z, T, KIND, DUE, REC, NSTEP, HSTEP, OBK, OBW, LOG, max_state, STATUS, XO, NEXT, "
+         "step, EV, EVF, NEV):"]
     L += [f"    {name} = Y[{k}]" for k, name in enumerate(wires)]  # every signal element a local float
     L += [f"    {name} = Z[{k}]" for k, name in enumerate(states)]
     # the interval being integrated: from t0, steps of h, ks taken of n; Xa the state after step ks
     L += ["    t0 = 0.0", "    h = 0.0", "    n = 0", "    ks = 0", "    Xa = X", "    after = False",
           "    Xo = X", "    Xs = X"]
     L += ["    for k in range(T.shape[0]):", "        t = T[k]"]
-    if sysm.n_x:
+    if sysm.n_x and not events:
         L += ["        if k > 0 and KIND[k] != 1:  # the interval ends: its remaining steps",
               "            if after:",
               "                X = Xa",
@@ -237,7 +284,9 @@ def _module_source(system, solver, log_ports, log_path):
         else:
             L += evaluate(i, 12)
     L.append("        elif KIND[k] == 1:  # a log point between hits: the state from the dense output")
-    if sysm.n_x:
+    if events:
+        L.append("            Xo = " + tup(f"XO[k, {j}]" for j in range(sysm.n_x)))
+    elif sysm.n_x:
         L += ["            kb = OBK[k] if OBK[k] >= 0 else -1 - OBK[k]",
               "            if after and kb != ks:",
               "                X = Xa",
@@ -265,9 +314,25 @@ def _module_source(system, solver, log_ports, log_path):
             L += [f"            {name} = s{i}[{j}]" for j, name in enumerate(z(i))]
             L += [f"            if not ({ok}):", "                STATUS[0] = k + 1",
                   f"                STATUS[1] = {-i - 1}", "                break"]
-    L += ["        if KIND[k] == 0:  # the next interval starts here",
-          "            t0 = t", "            n = NSTEP[k]", "            h = HSTEP[k]", "            ks = 0",
-          "            after = False"]
+    if events:  # the whole interval at once, events located and acted on (interval())
+        L += ["        if KIND[k] == 0:",
+              f"            X, code = interval(t, T[NEXT[k]], X, {held_in}, P, step, T, XO, k + 1, NEXT[k], "
+              "EV, EVF, NEV)",
+              "            if code != 0:",
+              "                STATUS[0] = NEXT[k] + 1",
+              "                STATUS[1] = code",
+              "                break",
+              f"            for j in range({sysm.n_x}):",
+              "                if not abs(X[j]) <= max_state:",
+              "                    STATUS[0] = NEXT[k] + 1",
+              "                    STATUS[1] = j",
+              "                    break",
+              "            if STATUS[0]:",
+              "                break"]
+    else:
+        L += ["        if KIND[k] == 0:  # the next interval starts here",
+              "            t0 = t", "            n = NSTEP[k]", "            h = HSTEP[k]", "            ks = 0",
+              "            after = False"]
     L += [f"    Y[{k}] = {name}" for k, name in enumerate(wires)]
     L += [f"    Z[{k}] = {name}" for k, name in enumerate(states)]
     L.append("    return X")
@@ -276,9 +341,133 @@ def _module_source(system, solver, log_ports, log_path):
     # which kernel each name is: part of the source, so of the cache key
     names = "".join(f"#   {name} = {f.__module__}.{f.__qualname__}\n" for name, f in sorted(env.items()))
     head = (f"# generated by hybridsim.compiled for diagram {sysm.name!r}; kernels {stamp}\n{names}"
-            "import math\n\nfrom numba import njit\n\n\n")
-    source = head + (_njit(rk) + "\n\n\n" if sysm.n_x else "") + _njit(body) + "\n"
+            "import math\n\nimport numpy as np\nfrom numba import njit\n\n\n")
+    extra = _njit(_interval_source(sysm, solver)) + "\n\n\n" if events else ""
+    source = head + (_njit(rk) + "\n\n\n" if sysm.n_x else "") + extra + _njit(body) + "\n"
     return source, env
+
+
+def _interval_source(sysm, solver):
+    """Source of ``interval``: one interval between hits with located events, as
+    :func:`hybridsim.events.integrate` and :meth:`ExplicitRK.advance_to_event` do it
+    (the same arithmetic, so the same numbers), and its helpers."""
+    from .events import MAX_EVENTS, MAX_ITERATIONS, MAX_STALLS, TIME_TOL
+
+    n = sysm.n_x
+    dirs = []
+    for i, m in zip(sysm.action_events, event_sizes(sysm)):
+        d = sysm.blocks[i].event_directions
+        dirs += list(d) if d is not None else [0] * m
+    tup = lambda items: "(" + "".join(f"{x}, " for x in items) + ")"  # noqa: E731
+
+    def cross(j, d):
+        rising, falling = f"(a[{j}] <= 0.0 and b[{j}] > 0.0)", f"(a[{j}] >= 0.0 and b[{j}] < 0.0)"
+        return rising if d > 0 else falling if d < 0 else f"({rising} or {falling})"
+
+    L = ["def crossed(a, b):", f"    return {tup(cross(j, d) for j, d in enumerate(dirs))}", "",
+         "def anyc(f):", "    return " + " or ".join(f"f[{j}]" for j in range(len(dirs))), "",
+         "def bits(f):", "    return " + " + ".join(f"(1 << {j} if f[{j}] else 0)" for j in range(len(dirs))), "",
+         "def dense_w(theta):"]
+    for j, poly in enumerate(solver.dense):  # as ExplicitRK.dense_weights
+        L += ["    q = theta", f"    w{j} = {poly[0]!r} * theta"]
+        for p in poly[1:]:
+            L += ["    q = q * theta", f"    w{j} = w{j} + {p!r} * q"]
+    L += [f"    return {tup(f'w{j}' for j in range(len(solver.dense)))}", "",
+          "def obs_point(t0, h, n, tb):  # as solvers.observations",
+          "    r = (tb - t0) / h",
+          "    near = np.rint(r)",
+          "    if abs(r - near) <= 1e-9 and near < n:",
+          "        return int(near), 0.0",
+          "    k = int(min(math.floor(r), n - 1))",
+          "    return k, (tb - (t0 + k * h)) / h", ""]
+    store = lambda x: [f"            XO[j, {c}] = {x}[{c}]" for c in range(n)]  # noqa: E731
+    zero_w = tup("0.0" for _ in solver.c)
+    L += ["def interval(t0, t1, X, H, P, step, LT, XO, j, j1, EV, EVF, NEV):",
+          "    stalls = 0",
+          "    count = 0",
+          "    while True:",
+          "        n = max(1, math.ceil((t1 - t0) / step - 1e-9))",
+          "        h = (t1 - t0) / n",
+          "        g_k = zc(t0, X, H, P)",
+          "        ev = False",
+          "        hi = 1.0",
+          "        k = 0",
+          "        x_hi = X",
+          "        g_lo = g_k",
+          "        g_hi = g_k",
+          "        for k in range(n):",
+          "            while j < j1:",
+          "                kb, th = obs_point(t0, h, n, LT[j])",
+          "                if kb != k or th != 0.0:",
+          "                    break"] + ["    " + line for line in store("X")] + [
+          "                j += 1",
+          f"            Xn = advance(t0, h, k, k + 1, X, H, -1, {zero_w}, P)[0]",
+          "            g_n = zc(t0 + (k + 1) * h, Xn, H, P)",
+          "            if anyc(crossed(g_k, g_n)):",
+          "                lo = 0.0",
+          "                hi = 1.0",
+          "                g_lo = g_k",
+          "                g_hi = g_n",
+          "                x_hi = Xn",
+          "                t = t0 + k * h",
+          f"                while (hi - lo) * h > {TIME_TOL!r}:",
+          "                    mid = 0.5 * (lo + hi)",
+          "                    xm = advance(t0, h, k, k + 1, X, H, k, dense_w(mid), P)[2]",
+          "                    gm = zc(t + mid * h, xm, H, P)",
+          "                    if anyc(crossed(g_lo, gm)):",
+          "                        hi = mid",
+          "                        x_hi = xm",
+          "                        g_hi = gm",
+          "                    else:",
+          "                        lo = mid",
+          "                        g_lo = gm",
+          "                ev = True",
+          "            g_k = g_n",
+          "            th_stop = hi if ev else 1.0",
+          "            while j < j1:",
+          "                kb, th = obs_point(t0, h, n, LT[j])",
+          "                if kb != k or not th < th_stop:",
+          "                    break",
+          "                xo = advance(t0, h, k, k + 1, X, H, k, dense_w(th), P)[2]"] + [
+          "    " + line for line in store("xo")] + [
+          "                j += 1",
+          "            if ev:",
+          "                break",
+          "            X = Xn",
+          "        if not ev:",
+          "            return X, 0",
+          "        t_stop = t0 + k * h + hi * h if hi < 1.0 else t0 + (k + 1) * h",
+          "        fired = crossed(g_lo, g_hi)",
+          "        count += 1",
+          f"        stalls = stalls + 1 if t_stop - t0 <= {10 * TIME_TOL!r} else 0",
+          "        if NEV[0] < EV.shape[0]:",
+          "            EV[NEV[0]] = t_stop",
+          "            EVF[NEV[0]] = bits(fired)",
+          "        NEV[0] += 1",
+          f"        if count > {MAX_EVENTS}:",
+          f"            return X, -{EVENT_CODE}",
+          f"        if stalls > {MAX_STALLS}:",
+          f"            return X, -2 * {EVENT_CODE} - stalls",
+          "        g_m = zc(t_stop, x_hi, H, P)",
+          "        x = x_hi",
+          "        settled = False",
+          f"        for it in range({MAX_ITERATIONS}):",
+          "            x = act(t_stop, x, H, fired, P)",
+          "            g_p = zc(t_stop, x, H, P)",
+          "            fired = crossed(g_m, g_p)",
+          "            if not anyc(fired):",
+          "                settled = True",
+          "                break",
+          "            g_m = g_p",
+          "        if not settled:",
+          f"            return x, -3 * {EVENT_CODE}",
+          "        X = x",
+          "        t0 = t_stop",
+          f"        if t1 - t0 <= {TIME_TOL!r}:",
+          "            while j < j1:"] + ["    " + line for line in store("X")] + [
+          "                j += 1",
+          "            return X, 0"]
+    return "\n".join(L)
 
 
 def _compile_failure(exc, system):

@@ -70,9 +70,12 @@ class EventSet:
         return np.concatenate(vals) if vals else np.zeros(0)
 
     def next_time(self, t, x):
-        """The earliest time event after ``t`` (inf: none)."""
+        """The earliest time event after ``t`` (inf: none); remembers which blocks ask for it."""
         blocks = self.ctx.blocks
-        return min((float(blocks[i].next_event_time(t, x[s])) for i, s in self.timed), default=np.inf)
+        times = [(float(blocks[i].next_event_time(t, x[s])), i, s) for i, s in self.timed]
+        te = min((tt for tt, _, _ in times), default=np.inf)
+        self.due = [(i, s) for tt, i, s in times if tt == te]
+        return te
 
     def act(self, t, x, fired):
         """The state after the actions at ``t``: of the blocks whose functions ``fired``, or
@@ -81,11 +84,10 @@ class EventSet:
         x = x.copy()
         blocks, u = self.ctx.blocks, self.ctx.u
         if fired is None:
-            for i, s in self.timed:
-                if abs(float(blocks[i].next_event_time(t - 2 * TIME_TOL, x[s])) - t) <= TIME_TOL:
-                    new = blocks[i].event_action(t, x[s].copy(), u[i], ())
-                    if new is not None:
-                        x[s] = new
+            for i, s in self.due:  # the blocks whose time event next_time found
+                new = blocks[i].event_action(t, x[s].copy(), u[i], ())
+                if new is not None:
+                    x[s] = new
             return x
         for k, (i, s) in enumerate(self.blocks):
             mine = fired[self.cuts[k]:self.cuts[k + 1]]
@@ -111,8 +113,22 @@ class EventSet:
             if not fired.any():
                 return x
             g_minus = g_plus
-        raise SimulationError(f"event iteration at t={t:.9g} s does not settle after {MAX_ITERATIONS} "
-                              f"actions (chattering) in block(s) {', '.join(self.names(fired))}")
+        raise chatter_error(t, self.names(fired))
+
+
+def zeno_error(t, names, too_many, stalls):
+    """The error for events that accumulate (every path raises this one)."""
+    what = (f"more than {MAX_EVENTS} events before the next hit" if too_many else
+            f"{stalls} events within {10 * TIME_TOL:g} s of each other")
+    return SimulationError(f"events accumulate at t={t:.9g} s in block(s) {', '.join(names)}: {what} "
+                           "(Zeno behaviour, e.g. a bouncing ball coming to rest); stop the run before "
+                           "that time or give the model a resting state")
+
+
+def chatter_error(t, names):
+    """The error for an event iteration that does not settle (every path raises this one)."""
+    return SimulationError(f"event iteration at t={t:.9g} s does not settle after {MAX_ITERATIONS} "
+                           f"actions (chattering) in block(s) {', '.join(names)}")
 
 
 def integrate(solver, f, events, t0, t1, x, t_out, restarts=None):
@@ -138,14 +154,10 @@ def integrate(solver, f, events, t0, t1, x, t_out, restarts=None):
             count += 1
             stalls = stalls + 1 if t_stop - t0 <= 10 * TIME_TOL else 0
             if count > MAX_EVENTS or stalls > MAX_STALLS:
-                raise SimulationError(
-                    f"events accumulate at t={t_stop:.9g} s in block(s) {', '.join(events.names(fired))}: "
-                    f"{'more than %d events before the next hit' % MAX_EVENTS if count > MAX_EVENTS else '%d events within %g s of each other' % (stalls, 10 * TIME_TOL)} "
-                    "(Zeno behaviour, e.g. a bouncing ball coming to rest); stop the run before "
-                    "that time or give the model a resting state")
+                raise zeno_error(t_stop, events.names(fired), count > MAX_EVENTS, stalls)
             x = events.settle(t_stop, x_stop, events.g(t_stop, x_stop), fired)
         elif stop < t1:
-            events.log.append((stop, ("time event",)))
+            events.log.append((stop, tuple(sorted(events.system.blocks[i].name for i, _ in events.due))))
             x = events.act(stop, x_stop, None)
             count += 1
         else:

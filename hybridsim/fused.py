@@ -104,4 +104,114 @@ def rk_source(system, method, params_arg=False):
         parts += [f"d{i}[{j}]" for j in range(sysm.blocks[i].n_continuous)]
     lines.append(f"    return ({''.join(p + ', ' for p in parts)})")
     lines += [""] + unrolled_lines(method, n, "rhs", extra)
+    if sysm.action_events and all(event_kernels(sysm.blocks[i]) for i in sysm.action_events):
+        outputs = [line for line in lines[1:] if line.startswith("    o")]
+        lines += [""] + _event_lines(sysm, outputs, params, arg, state, env, extra)
     return "\n".join(lines), env, held
+
+
+def event_kernels(block):
+    """True when ``block`` gives its events as kernels (``zero_crossings``, ``event_action``)."""
+    k = block.kernels
+    return k is not None and k.zero_crossings is not None and k.event_action is not None
+
+
+def event_sizes(system):
+    """The number of event functions of each action block (evaluated once at the initial state)."""
+    ctx = system.create_context()
+    return [len(system.blocks[i].zero_crossings(0.0, ctx.xc[system.xslices[i]], ctx.u[i]))
+            for i in system.action_events]
+
+
+def _event_lines(sysm, outputs, params, arg, state, env, extra):
+    """Source of ``zc(t, X, H{extra})`` (every action block's event functions, one flat
+    tuple) and ``act(t, X, H, F{extra})`` (the state after the events ``F``, a tuple of bools)."""
+    sizes = event_sizes(sysm)
+    on_path = set(sysm.rhs_path)
+    lines = [f"def zc(t, X, H{extra}):"] + outputs
+    parts = []
+    for i, m in zip(sysm.action_events, sizes):
+        env[f"zcf{i}"] = sysm.blocks[i].kernels.zero_crossings
+        args = [arg(i, a, o, k, on_path) for k, (a, o) in enumerate(sysm.sources[i])]
+        lines.append(f"    z{i} = zcf{i}({params(i)}, t, {state(i)}, ({''.join(x + ', ' for x in args)}))")
+        parts += [f"z{i}[{j}]" for j in range(m)]
+    lines.append(f"    return ({''.join(p + ', ' for p in parts)})")
+    lines += ["", f"def act(t, X, H, F{extra}):"] + outputs
+    new = [f"X[{j}]" for j in range(sysm.n_x)]
+    c = 0
+    for i, m in zip(sysm.action_events, sizes):
+        env[f"actf{i}"] = sysm.blocks[i].kernels.event_action
+        args = [arg(i, a, o, k, on_path) for k, (a, o) in enumerate(sysm.sources[i])]
+        fired = "(" + "".join(f"F[{c + j}], " for j in range(m)) + ")"
+        s = sysm.xslices[i]
+        lines += [f"    if {' or '.join(f'F[{c + j}]' for j in range(m))}:",
+                  f"        a{i} = actf{i}({params(i)}, t, {state(i)}, ({''.join(x + ', ' for x in args)}), {fired})",
+                  "    else:",
+                  f"        a{i} = {state(i)}"]
+        for j in range(s.start, s.stop):
+            new[j] = f"a{i}[{j - s.start}]"
+        c += m
+    lines.append(f"    return ({''.join(x + ', ' for x in new)})")
+    return lines
+
+
+class FusedStepper:
+    """The generated ``advance`` behind the solver interface the event loop uses.
+
+    :func:`hybridsim.events.integrate` calls ``advance_to_event`` as it does on
+    an :class:`~hybridsim.solvers.ExplicitRK`: the same steps, dense outputs
+    and bisection, the numbers bit for bit those of the generic path; the
+    event functions and actions are the blocks' own (evaluated as on the
+    generic path).
+    """
+
+    def __init__(self, method, advance, H, P):
+        self.method, self.advance, self.H, self.P = method, advance, H, P
+
+    def _step(self, t0, h, k, X, kobs=-1, w=()):
+        return self.advance(t0, h, k, k + 1, X, self.H, kobs, w, self.P)
+
+    def advance_to_event(self, f, t0, t1, x, t_out, g, directions):
+        """See :meth:`hybridsim.solvers.ExplicitRK.advance_to_event` (``f`` is not used)."""
+        import numpy as np
+
+        from .events import TIME_TOL, crossed
+        from .solvers import observations
+
+        m = self.method
+        n = steps(t0, t1, m.step)
+        h = (t1 - t0) / n
+        ks, thetas = observations(t0, h, n, t_out)
+        obs = list(zip(ks.tolist(), thetas.tolist()))
+        outs, j, X = [], 0, tuple(np.asarray(x, float).tolist())
+        g_k = g(t0, np.array(X)) if g is not None else None
+        for k in range(n):
+            while j < len(obs) and obs[j] == (k, 0.0):
+                outs.append(np.array(X))
+                j += 1
+            X_next = self._step(t0, h, k, X)[0]
+            event = None
+            if g is not None:
+                g_next = g(t0 + (k + 1) * h, np.array(X_next))
+                if crossed(g_k, g_next, directions).any():
+                    lo, hi, g_lo, g_hi, x_hi = 0.0, 1.0, g_k, g_next, np.array(X_next)
+                    t = t0 + k * h
+                    while (hi - lo) * h > TIME_TOL:
+                        mid = 0.5 * (lo + hi)
+                        xm = np.array(self._step(t0, h, k, X, k, m.dense_weights(mid))[2])
+                        gm = g(t + mid * h, xm)
+                        if crossed(g_lo, gm, directions).any():
+                            hi, x_hi, g_hi = mid, xm, gm
+                        else:
+                            lo, g_lo = mid, gm
+                    event = (hi, x_hi, crossed(g_lo, g_hi, directions))
+                g_k = g_next
+            theta_stop = event[0] if event else 1.0
+            while j < len(obs) and obs[j][0] == k and obs[j][1] < theta_stop:
+                outs.append(np.array(self._step(t0, h, k, X, k, m.dense_weights(obs[j][1]))[2]))
+                j += 1
+            if event:
+                theta, x_ev, fired = event
+                return (t0 + k * h + theta * h if theta < 1.0 else t0 + (k + 1) * h), x_ev, fired, outs
+            X = X_next
+        return t1, np.array(X), None, outs

@@ -258,7 +258,8 @@ class Simulator:
                     plan.check_discrete(i, x, t)
                 if sysm.n_x:
                     if ctx.events is not None:
-                        xc, xs = _events.integrate(self.solver, rhs, ctx.events, t, t_next, xc, t_out, events)
+                        xc, xs = _events.integrate(self._stepper(ctx), rhs, ctx.events, t, t_next, xc, t_out,
+                                                   events)
                     elif self._fused is not None:
                         xc, xs = self._advance_fused(ctx, t, t_next, xc, t_out)
                     else:
@@ -293,6 +294,15 @@ class Simulator:
                 "wall_time_s": wall, "hits": hits,
                 "events": list(ctx.events.log) if getattr(ctx, "events", None) is not None else []}
         return Result(np.array(rows_t), signals, meta, context=ctx)
+
+    def _stepper(self, ctx):
+        """What the event loop steps with: the solver, or the fused path's generated steps."""
+        if self._fused is None:
+            return self.solver
+        from .fused import FusedStepper
+
+        advance, held = self._fused
+        return FusedStepper(self.solver, advance, tuple(tuple(ctx.y[a][o].tolist()) for a, o in held), ctx.params)
 
     def _advance_fused(self, ctx, t0, t1, x, t_out):
         """The solver's steps over [t0, t1] with the generated fused stepper; states at t_out

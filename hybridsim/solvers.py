@@ -227,8 +227,11 @@ class ScipySolver:
         Returns ``(t_stop, x_stop, fired, outs)`` as :meth:`ExplicitRK.advance_to_event`;
         ``events`` (restart-only zero crossings) restart the solver without stopping.
         """
-        pending = sorted(t for t in t_out if t0 < t < t1)
+        pending = sorted(t_out)
         outs = []
+        while pending and pending[0] <= t0:  # a log time at the start (after an event): its state
+            pending.pop(0)
+            outs.append(np.array(x, float))
         actions = _action_functions(g, directions) if g is not None else []
         skip = None  # the event just located is not armed again at its own root
         stretch = REARM * (t1 - t0)

@@ -1,0 +1,141 @@
+"""State events with resets, time events, event iteration, Zeno: on every solver and path."""
+import math
+
+import numpy as np
+import pytest
+
+import hybridsim as hs
+from hybridsim.block import Block
+from hybridsim.errors import CompiledPathError, SimulationError
+from hybridsim.registry import lookup
+
+G, E, H0 = 9.81, 0.8, 1.0
+T1 = math.sqrt(2 * H0 / G)
+BOUNCES = [T1 + sum(2 * E ** k * G * T1 / G for k in range(1, m + 1)) for m in range(10)]
+ZENO = T1 * (1 + E) / (1 - E)  # 4.0637 s
+
+PATHS = {
+    "rk4-generic": (lambda: hs.RK4(1e-3), {"fused": False}),
+    "rk4-fused": (lambda: hs.RK4(1e-3), {}),
+    "rk4-compiled": (lambda: hs.RK4(1e-3), {"compiled": True}),
+    "heun-generic": (lambda: hs.Heun(1e-4), {"fused": False}),
+    "heun-compiled": (lambda: hs.Heun(1e-4), {"compiled": True}),
+    **{m.lower(): (lambda m=m: hs.ScipySolver(m, rtol=1e-10, atol=1e-12), {})
+       for m in ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")},
+}
+
+
+def ball(solver, log_period=0.01, **kw):
+    d = hs.Diagram("ball")
+    d.add(lookup("bouncing_ball")("ball", g=G, e=E, h0=H0))
+    return hs.Simulator(d.build(), solver, log=["ball.h", "ball.v"], log_period=log_period, **kw)
+
+
+@pytest.mark.parametrize("name", list(PATHS))
+def test_bouncing_ball_hits_the_closed_form_bounce_times(name):
+    make, kw = PATHS[name]
+    res = ball(make(), **kw).run(3.9)
+    times = [t for t, _ in res.meta["events"]][:10]
+    assert np.max(np.abs(np.array(times) - BOUNCES)) < 1e-9
+    assert all(names == ("ball",) for _, names in res.meta["events"])
+    assert res["ball.h"].min() > -1e-9  # never through the floor
+
+
+@pytest.mark.parametrize("name", ["rk4-generic", "rk4-fused", "rk4-compiled", "radau"])
+def test_a_zeno_ball_stops_with_a_clear_message(name):
+    make, kw = PATHS[name]
+    with pytest.raises(SimulationError, match=r"events accumulate at t=4\.0637\d* s in block\(s\) ball: .*Zeno"):
+        ball(make(), **kw).run(5.0)
+
+
+def test_the_fixed_step_paths_agree_bit_for_bit_with_events():
+    runs = [ball(hs.RK4(1e-3), **kw).run(3.9) for kw in ({"fused": False}, {}, {"compiled": True})]
+    for r in runs[1:]:
+        assert np.array_equal(runs[0].table(), r.table())
+        assert runs[0].meta["events"] == r.meta["events"]
+
+
+def test_logging_does_not_move_events():
+    runs = [ball(hs.RK4(1e-3), log_period=p).run(3.9) for p in (0.01, 0.003, 0.0007)]
+    for r in runs[1:]:
+        assert r.meta["events"] == runs[0].meta["events"]
+        assert np.array_equal(r.context.xc, runs[0].context.xc)
+
+
+class Sawtooth(Block):
+    """x' = 1, reset to 0 at every multiple of ``period`` (a time event)."""
+
+    def __init__(self, name="saw", period=0.3):
+        super().__init__(name)
+        self.period = None
+        self.every = period
+        self.declare_output("y", 1, depends_on=())
+        self.declare_continuous_state(1)
+
+    def output(self, t, x, u):
+        return (x,)
+
+    def derivatives(self, t, x, u):
+        return np.ones(1)
+
+    def next_event_time(self, t, x):
+        return (math.floor(t / self.every + 1e-9) + 1) * self.every
+
+    def event_action(self, t, x, u, fired):
+        return np.zeros(1)
+
+
+@pytest.mark.parametrize("solver", [hs.RK4(1e-3), hs.ScipySolver("RK45", rtol=1e-10, atol=1e-12)],
+                         ids=["rk4", "rk45"])
+def test_time_events_are_hit_exactly(solver):
+    d = hs.Diagram("saw")
+    d.add(Sawtooth())
+    res = hs.Simulator(d.build(), solver, log=["saw.y"], log_period=0.05).run(1.0)
+    times = [t for t, _ in res.meta["events"]]
+    assert times == pytest.approx([0.3, 0.6, 0.9], abs=1e-15)
+    # just before and after a reset: 0.25 s ramps to 0.25; at 0.35 s it restarted at 0.3
+    y = dict(zip(np.round(res.t, 6), res["saw.y[0]"]))
+    assert y[0.25] == pytest.approx(0.25, abs=1e-12) and y[0.35] == pytest.approx(0.05, abs=1e-12)
+    with pytest.raises(CompiledPathError, match="time events"):
+        hs.Simulator(d.build(), hs.RK4(1e-3), compiled=True)
+
+
+class Flipper(Block):
+    """x' = -1; at x = 0 the action flips the sign of x, which crosses zero again: chattering."""
+
+    event_directions = (0,)
+
+    def __init__(self, name="flip"):
+        super().__init__(name)
+        self.declare_output("y", 1, depends_on=())
+        self.declare_continuous_state(1)
+
+    def initial_state(self, u=None):
+        return np.ones(1)
+
+    def output(self, t, x, u):
+        return (x,)
+
+    def derivatives(self, t, x, u):
+        return -np.ones(1)
+
+    def zero_crossings(self, t, x, u):
+        return np.array([x[0]])
+
+    def event_action(self, t, x, u, fired):
+        return -x
+
+
+def test_an_event_iteration_that_never_settles_is_chattering():
+    d = hs.Diagram("flip")
+    d.add(Flipper())
+    with pytest.raises(SimulationError, match=r"event iteration at t=1 s does not settle .*chattering.*flip"):
+        hs.Simulator(d.build(), hs.RK4(1e-2), log=["flip.y"]).run(2.0)
+
+
+def test_the_ball_runs_from_yaml(tmp_path):
+    p = tmp_path / "b.yaml"
+    p.write_text("blocks:\n  ball: {type: bouncing_ball, e: 0.8, h0: 1.0}\n"
+                 "simulation: {t_end: 3.5, step: 1.0e-3}\nlog: [ball.h]\n")
+    res = hs.simulate(p)
+    assert [t for t, _ in res.meta["events"]] == pytest.approx(BOUNCES[:9], abs=1e-9)
