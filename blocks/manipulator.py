@@ -88,11 +88,6 @@ class Manipulator(Block):
         """I1(q2), kg m^2."""
         return inertia(self.params.I1, q2)
 
-    def zero_crossings(self, t, x, u):
-        if not self.params.friction:
-            return np.zeros(0)
-        return np.abs(x[2:4]) - self.params.eps  # slide <-> stick
-
 
 class ArmParams(NamedTuple):
     I1: tuple        # a0, a1, a2 of I1(q2), kg m^2
@@ -139,4 +134,12 @@ def arm_derivatives(p, t, x, u):
     return (v1, v2, F1 / I1, F2 / m2)
 
 
-Manipulator.kernels = Kernels(output=arm_output, derivatives=arm_derivatives)
+@kernel
+def arm_switches(p, t, x, u):
+    """Slide <-> stick of each joint: |q_i'| - stick_band (constant 1 without friction)."""
+    if not p.friction:
+        return (1.0, 1.0)
+    return (abs(x[2]) - p.eps, abs(x[3]) - p.eps)
+
+
+Manipulator.kernels = Kernels(output=arm_output, derivatives=arm_derivatives, zero_crossings=arm_switches)

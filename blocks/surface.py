@@ -36,13 +36,9 @@ class Surface(Block):
         if self.moving:
             self.declare_input("xs", 1)
             self.declare_input("vs", 1)
-            self.kernels = Kernels(output=moving_surface_output)
+            self.kernels = Kernels(output=moving_surface_output, zero_crossings=moving_surface_contact)
         self.declare_output("fx", 1)
         self.declare_output("contact", 1)
-
-    def zero_crossings(self, t, x, u):
-        p = u[0][0] - (u[2][0] if self.moving else self.params.xs)
-        return np.array([p])  # contact make / break
 
 
 class SurfaceParams(NamedTuple):
@@ -73,4 +69,15 @@ def moving_surface_output(p, t, x, u):
     return contact_force(p, u[0][0] - u[2][0], u[1][0] - u[3][0])
 
 
-Surface.kernels = Kernels(output=surface_output)
+@kernel
+def surface_contact(p, t, x, u):
+    """Contact make / break: the penetration X_hand - X_s (m)."""
+    return (u[0][0] - p[2],)
+
+
+@kernel
+def moving_surface_contact(p, t, x, u):
+    return (u[0][0] - u[2][0],)
+
+
+Surface.kernels = Kernels(output=surface_output, zero_crossings=surface_contact)

@@ -39,7 +39,8 @@ def _atol_vector(system, sim):
     return a
 
 
-SIMULATION_KEYS = {"t_end", "solver", "step", "rtol", "atol", "max_step", "log_period", "max_state", "fused", "compiled"}
+SIMULATION_KEYS = {"t_end", "solver", "step", "rtol", "atol", "max_step", "log_period", "max_state", "fused", "compiled",
+                   "locate_switches"}
 
 
 def load(path, **overrides):
@@ -80,7 +81,8 @@ def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
     simulator = Simulator(system, solver, log=log,
                           log_period=sim.get("log_period", 0.0005),
                           max_state=sim.get("max_state", 1e6), fused=bool(sim.get("fused", True)),
-                          compiled=compiled and not check_only)
+                          compiled=compiled and not check_only,
+                          locate_switches=bool(sim.get("locate_switches", False)))
     return system, simulator, settings
 
 

@@ -45,8 +45,9 @@ _loaded = {}        # source hash -> compiled run function (this process)
 _registered = set()  # kernels registered with numba
 
 
-def problems(system, solver):
+def problems(system, solver, located=None):
     """Why ``system`` cannot run compiled with ``solver`` (empty list: it can)."""
+    located = system.action_events if located is None else located
     out = []
     if not isinstance(solver, ExplicitRK):
         out.append("the compiled path integrates with a fixed-step Runge-Kutta method (rk4, heun); "
@@ -58,7 +59,7 @@ def problems(system, solver):
     timed = [system.blocks[i].name for i in system.time_events]
     if timed:
         out.append("time events (next_event_time) are not on the compiled path yet: " + ", ".join(timed))
-    no_events = [system.blocks[i].name for i in system.action_events if not event_kernels(system.blocks[i])]
+    no_events = [system.blocks[i].name for i in located if not event_kernels(system.blocks[i])]
     if no_events:
         out.append("these blocks give their events as methods, not kernels (zero_crossings, "
                    "event_action): " + ", ".join(no_events))
@@ -74,8 +75,9 @@ def cache_dir():
 class CompiledLoop:
     """The compiled ``run`` of one system with its log layout."""
 
-    def __init__(self, system, solver, log_ports, log_path):
-        why = problems(system, solver)
+    def __init__(self, system, solver, log_ports, log_path, located=None):
+        self.located = system.action_events if located is None else located
+        why = problems(system, solver, self.located)
         if why:
             raise CompiledPathError("cannot use the compiled path: " + "; ".join(why))
         try:
@@ -86,7 +88,7 @@ class CompiledLoop:
             ) from None
         self.system, self.solver, self.step = system, solver, solver.step
         self.log_ports, self.log_path = log_ports, log_path
-        self.source, env = _module_source(system, solver, log_ports, log_path)
+        self.source, env = _module_source(system, solver, log_ports, log_path, self.located)
         self.run_fn = _load(self.source, env, system.name)
 
     def run(self, ctx, stops, t_end, final_record, max_state):
@@ -102,7 +104,7 @@ class CompiledLoop:
         Y = np.concatenate([np.asarray(v, float) for vals in ctx.y for v in vals] + [np.zeros(0)])
         Z = np.concatenate([np.asarray(z, float) for z in ctx.xd] + [np.zeros(0)])
         status = np.zeros(2, dtype=np.int64)  # stop index + 1 where it diverged, and what
-        XO = np.zeros((len(T), sysm.n_x)) if sysm.action_events else np.zeros((0, 0))
+        XO = np.zeros((len(T), sysm.n_x)) if self.located else np.zeros((0, 0))
         EV = np.zeros(self.max_log)  # event times (compiled events)
         EVF = np.zeros(self.max_log, dtype=np.int64)  # and which functions fired, as bits
         NEV = np.zeros(1, dtype=np.int64)
@@ -127,7 +129,7 @@ class CompiledLoop:
         for i, z in enumerate(ctx.xd):
             ctx.xd[i] = Z[k:k + z.size].copy()
             k += z.size
-        events = self._event_log(EV, EVF, int(NEV[0])) if sysm.action_events else []
+        events = self._event_log(EV, EVF, int(NEV[0])) if self.located else []
         if getattr(ctx, "events", None) is not None:
             ctx.events.log = events
         if status[0]:
@@ -186,11 +188,11 @@ class CompiledLoop:
     def _event_log(self, EV, EVF, n):
         """[(t, block names)] of the events the compiled loop located."""
         sysm = self.system
-        sizes = event_sizes(sysm)
+        sizes = event_sizes(sysm, self.located)
         cuts = np.cumsum([0] + sizes)
         out = []
         for t, bits in zip(EV[:min(n, self.max_log)].tolist(), EVF[:min(n, self.max_log)].tolist()):
-            names = tuple(sorted({sysm.blocks[i].name for k, i in enumerate(sysm.action_events)
+            names = tuple(sorted({sysm.blocks[i].name for k, i in enumerate(self.located)
                                   if any(bits >> j & 1 for j in range(cuts[k], cuts[k + 1]))}))
             out.append((t, names))
         return out
@@ -218,10 +220,10 @@ class CompiledLoop:
 EVENT_CODE = 10**9
 
 
-def _module_source(system, solver, log_ports, log_path):
+def _module_source(system, solver, log_ports, log_path, located):
     """Source of the generated module and the names it needs: (source, env)."""
     sysm = system
-    rk, env, held = rk_source(sysm, solver, params_arg=True)
+    rk, env, held = rk_source(sysm, solver, params_arg=True, located=located)
     blocks, kind = sysm.blocks, sysm.kind
     y = lambda i, o: [f"y{i}_{o}_{j}" for j in range(blocks[i].outputs[o].width)]  # noqa: E731
     z = lambda i: [f"z{i}_{j}" for j in range(blocks[i].n_discrete)]  # noqa: E731
@@ -253,7 +255,7 @@ def _module_source(system, solver, log_ports, log_path):
     held_in = tup(tup(y(a, o)) for a, o in held)
     weights = tup(f"OBW[k, {j}]" for j in range(len(solver.c)))
     zero_w = tup("0.0" for _ in solver.c)
-    events = bool(sysm.action_events) and sysm.n_x > 0
+    events = bool(located) and sysm.n_x > 0
     L = ["def run(P, X, Y, Z, T, KIND, DUE, REC, NSTEP, HSTEP, OBK, OBW, LOG, max_state, STATUS, XO, NEXT, "
          "step, EV, EVF, NEV):"]
     L += [f"    {name} = Y[{k}]" for k, name in enumerate(wires)]  # every signal element a local float
@@ -342,12 +344,12 @@ def _module_source(system, solver, log_ports, log_path):
     names = "".join(f"#   {name} = {f.__module__}.{f.__qualname__}\n" for name, f in sorted(env.items()))
     head = (f"# generated by hybridsim.compiled for diagram {sysm.name!r}; kernels {stamp}\n{names}"
             "import math\n\nimport numpy as np\nfrom numba import njit\n\n\n")
-    extra = _njit(_interval_source(sysm, solver)) + "\n\n\n" if events else ""
+    extra = _njit(_interval_source(sysm, solver, located)) + "\n\n\n" if events else ""
     source = head + (_njit(rk) + "\n\n\n" if sysm.n_x else "") + extra + _njit(body) + "\n"
     return source, env
 
 
-def _interval_source(sysm, solver):
+def _interval_source(sysm, solver, located):
     """Source of ``interval``: one interval between hits with located events, as
     :func:`hybridsim.events.integrate` and :meth:`ExplicitRK.advance_to_event` do it
     (the same arithmetic, so the same numbers), and its helpers."""
@@ -355,7 +357,7 @@ def _interval_source(sysm, solver):
 
     n = sysm.n_x
     dirs = []
-    for i, m in zip(sysm.action_events, event_sizes(sysm)):
+    for i, m in zip(located, event_sizes(sysm, located)):
         d = sysm.blocks[i].event_directions
         dirs += list(d) if d is not None else [0] * m
     tup = lambda items: "(" + "".join(f"{x}, " for x in items) + ")"  # noqa: E731

@@ -39,7 +39,10 @@ def crossed(g0, g1, directions):
 
 
 class EventSet:
-    """The action events and time events of one context: their functions and actions.
+    """The located events and time events of one context: their functions and actions.
+
+    Located: the blocks with actions, and with ``locate_switches`` every block
+    with zero crossings (an event without an action only restarts the step grid).
 
     ``g(t, x)`` evaluates every action block's event functions (after the
     outputs at (t, x)); ``act(t, x, fired)`` applies the actions of the
@@ -47,9 +50,10 @@ class EventSet:
     events due at ``t``; ``next_time(t, x)`` the earliest time event after t.
     """
 
-    def __init__(self, system, ctx, outputs):
+    def __init__(self, system, ctx, outputs, located=None):
         self.system, self.ctx, self.outputs = system, ctx, outputs
-        self.blocks = [(i, system.xslices[i]) for i in system.action_events]
+        located = system.action_events if located is None else located
+        self.blocks = [(i, system.xslices[i]) for i in located]
         self.timed = [(i, system.xslices[i]) for i in system.time_events]
         sizes, dirs = [], []
         for i, s in self.blocks:

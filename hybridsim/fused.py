@@ -35,7 +35,7 @@ def has_kernels(block):
             and (not block.n_discrete or k.update is not None))
 
 
-def build(system, method):
+def build(system, method, located=None):
     """Return ``(advance, held_ports)`` for ``method`` (an ExplicitRK).
 
     ``advance(t0, h, k0, k1, X, H, kobs, w, P)`` takes steps ``k0 .. k1 - 1``
@@ -45,14 +45,14 @@ def build(system, method):
     change between runs); returns ``(X_end, X_obs, X_dense)`` (see
     :func:`hybridsim.rk_code.unrolled_lines`).
     """
-    source, env, held = rk_source(system, method, params_arg=True)
+    source, env, held = rk_source(system, method, params_arg=True, located=located)
     code = compile(source, f"<fused rhs of {system.name}>", "exec")
     exec(code, env)  # noqa: S102 - our own generated source, no user text in it
     env["advance"].source = source
     return env["advance"], held
 
 
-def rk_source(system, method, params_arg=False):
+def rk_source(system, method, params_arg=False, located=None):
     """Source of ``rhs`` and ``advance`` for ``system``: ``(source, env, held_ports)``.
 
     ``env`` maps the names the source uses to the kernels (``out3``, ``der5``)
@@ -104,33 +104,36 @@ def rk_source(system, method, params_arg=False):
         parts += [f"d{i}[{j}]" for j in range(sysm.blocks[i].n_continuous)]
     lines.append(f"    return ({''.join(p + ', ' for p in parts)})")
     lines += [""] + unrolled_lines(method, n, "rhs", extra)
-    if sysm.action_events and all(event_kernels(sysm.blocks[i]) for i in sysm.action_events):
+    located = sysm.action_events if located is None else located
+    if located and all(event_kernels(sysm.blocks[i]) for i in located):
         outputs = [line for line in lines[1:] if line.startswith("    o")]
-        lines += [""] + _event_lines(sysm, outputs, params, arg, state, env, extra)
+        lines += [""] + _event_lines(sysm, located, outputs, params, arg, state, env, extra)
     return "\n".join(lines), env, held
 
 
 def event_kernels(block):
-    """True when ``block`` gives its events as kernels (``zero_crossings``, ``event_action``)."""
+    """True when ``block`` gives its events as kernels: ``zero_crossings``, and
+    ``event_action`` when it resets its state."""
     k = block.kernels
-    return k is not None and k.zero_crossings is not None and k.event_action is not None
+    return (k is not None and k.zero_crossings is not None
+            and (k.event_action is not None or not block.has_event_action))
 
 
-def event_sizes(system):
-    """The number of event functions of each action block (evaluated once at the initial state)."""
+def event_sizes(system, located=None):
+    """The number of event functions of each located block (evaluated once at the initial state)."""
     ctx = system.create_context()
-    return [len(system.blocks[i].zero_crossings(0.0, ctx.xc[system.xslices[i]], ctx.u[i]))
-            for i in system.action_events]
+    located = system.action_events if located is None else located
+    return [len(system.blocks[i].zero_crossings(0.0, ctx.xc[system.xslices[i]], ctx.u[i])) for i in located]
 
 
-def _event_lines(sysm, outputs, params, arg, state, env, extra):
+def _event_lines(sysm, located, outputs, params, arg, state, env, extra):
     """Source of ``zc(t, X, H{extra})`` (every action block's event functions, one flat
     tuple) and ``act(t, X, H, F{extra})`` (the state after the events ``F``, a tuple of bools)."""
-    sizes = event_sizes(sysm)
+    sizes = event_sizes(sysm, located)
     on_path = set(sysm.rhs_path)
     lines = [f"def zc(t, X, H{extra}):"] + outputs
     parts = []
-    for i, m in zip(sysm.action_events, sizes):
+    for i, m in zip(located, sizes):
         env[f"zcf{i}"] = sysm.blocks[i].kernels.zero_crossings
         args = [arg(i, a, o, k, on_path) for k, (a, o) in enumerate(sysm.sources[i])]
         lines.append(f"    z{i} = zcf{i}({params(i)}, t, {state(i)}, ({''.join(x + ', ' for x in args)}))")
@@ -139,11 +142,14 @@ def _event_lines(sysm, outputs, params, arg, state, env, extra):
     lines += ["", f"def act(t, X, H, F{extra}):"] + outputs
     new = [f"X[{j}]" for j in range(sysm.n_x)]
     c = 0
-    for i, m in zip(sysm.action_events, sizes):
+    for i, m in zip(located, sizes):
+        s = sysm.xslices[i]
+        if sysm.blocks[i].kernels.event_action is None:  # a switch without a reset
+            c += m
+            continue
         env[f"actf{i}"] = sysm.blocks[i].kernels.event_action
         args = [arg(i, a, o, k, on_path) for k, (a, o) in enumerate(sysm.sources[i])]
         fired = "(" + "".join(f"F[{c + j}], " for j in range(m)) + ")"
-        s = sysm.xslices[i]
         lines += [f"    if {' or '.join(f'F[{c + j}]' for j in range(m))}:",
                   f"        a{i} = actf{i}({params(i)}, t, {state(i)}, ({''.join(x + ', ' for x in args)}), {fired})",
                   "    else:",

@@ -36,7 +36,8 @@ from . import limits
 
 TOP_KEYS = ["extends", "name", "description", "params", "blocks", "wires", "simulation", "log",
             "signals", "metrics", "variants", "plot", "analysis"]
-SIM_KEYS = ["t_end", "solver", "step", "rtol", "atol", "max_step", "log_period", "max_state", "fused", "compiled"]
+SIM_KEYS = ["t_end", "solver", "step", "rtol", "atol", "max_step", "log_period", "max_state", "fused", "compiled",
+            "locate_switches"]
 SOLVERS = ["rk4", "heun", "radau", "bdf", "lsoda", "rk45", "rk23", "dop853"]
 METRIC_KEYS = ["step_time", "ss_window", "error_window", "filter_cutoff"]
 SIGNAL_ROLES = ["force", "force_desired", "position", "position_desired", "contact",
@@ -679,7 +680,7 @@ class DiagramFile:
                 if not all(_positive_number(x) for x in vals):
                     self._fail(f"simulation setting {key!r} must be a positive, finite number, got {v!r}",
                                lines.get(key))
-        for key in ("fused", "compiled"):
+        for key in ("fused", "compiled", "locate_switches"):
             if key in simr and not isinstance(simr[key], bool):
                 self._fail(f"simulation setting {key!r} must be true or false, got {simr[key]!r}",
                            lines.get(key))

@@ -49,6 +49,11 @@ class Simulator:
         With RK4 and kernels in every block on the right-hand side, integrate with
         one generated function (:mod:`hybridsim.fused`): same numbers, several
         times faster. ``False`` forces the generic path.
+    locate_switches : bool
+        With a fixed-step method, also locate every zero crossing without a
+        reset (stick/slip, contact make/break) and restart the step grid
+        there, as events with resets always are (default False: stepped over;
+        the scipy solvers always restart at them).
     compiled : bool
         Run the whole loop compiled with numba (:mod:`hybridsim.compiled`):
         RK4 only, every block with kernels; raises
@@ -57,7 +62,7 @@ class Simulator:
     """
 
     def __init__(self, system, solver=None, log=(), log_period=0.0005,
-                 max_state=1e6, progress=False, fused=True, compiled=False):
+                 max_state=1e6, progress=False, fused=True, compiled=False, locate_switches=False):
         from .block import to_period
 
         self.system = system
@@ -85,13 +90,20 @@ class Simulator:
         self._log_ports = [system.port_ref(r) for r in refs]
         self.log_path = system.evaluation_path({i for i, _ in self._log_ports})
         from . import fused as _fused
+        from .solvers import ExplicitRK
 
-        self._fused = _fused.build(system, self.solver) if fused and _fused.eligible(system, self.solver) else None
+        # events a fixed-step method locates: those with resets, and with locate_switches every switch
+        self.located = list(system.action_events)
+        if locate_switches and isinstance(self.solver, ExplicitRK):
+            self.located += [i for i in system.events if i not in self.located]
+
+        self._fused = (_fused.build(system, self.solver, self.located)
+                       if fused and _fused.eligible(system, self.solver) else None)
         self._compiled = None
         if compiled:
             from .compiled import CompiledLoop
 
-            self._compiled = CompiledLoop(system, self.solver, self._log_ports, self.log_path)
+            self._compiled = CompiledLoop(system, self.solver, self._log_ports, self.log_path, self.located)
 
     # -- the right-hand side ----------------------------------------------------
     def _bind(self, ctx):
@@ -120,12 +132,12 @@ class Simulator:
             return dx
 
         evs = [(blocks[i].zero_crossings, sysm.xslices[i], u[i], xd[i]) for i in sysm.events
-               if i not in sysm.action_events]
+               if i not in self.located]
         ctx.events = None
-        if sysm.action_events or sysm.time_events:
+        if self.located or sysm.time_events:
             from .events import EventSet
 
-            ctx.events = EventSet(sysm, ctx, outputs)
+            ctx.events = EventSet(sysm, ctx, outputs, self.located)
 
         def events(t, x):
             rhs(t, x)
