@@ -105,8 +105,9 @@ class CompiledLoop:
         Z = np.concatenate([np.asarray(z, float) for z in ctx.xd] + [np.zeros(0)])
         status = np.zeros(2, dtype=np.int64)  # stop index + 1 where it diverged, and what
         XO = np.zeros((len(T), sysm.n_x)) if self.located else np.zeros((0, 0))
-        EV = np.zeros(self.max_log)  # event times (compiled events)
-        EVF = np.zeros(self.max_log, dtype=np.int64)  # and which functions fired, as bits
+        room = self.max_log if self.located else 0
+        EV = np.zeros(room)  # event times (compiled events)
+        EVF = np.zeros(room, dtype=np.int64)  # and which functions fired, as bits
         NEV = np.zeros(1, dtype=np.int64)
         P = ctx.params  # the run's numbers: one compiled module serves every value
         with np.errstate(all="ignore"), warnings.catch_warnings():
@@ -254,7 +255,6 @@ def _module_source(system, solver, log_ports, log_path, located):
     states = [name for i in range(len(blocks)) for name in z(i)]
     held_in = tup(tup(y(a, o)) for a, o in held)
     weights = tup(f"OBW[k, {j}]" for j in range(len(solver.c)))
-    zero_w = tup("0.0" for _ in solver.c)
     events = bool(located) and sysm.n_x > 0
     L = ["def run(P, X, Y, Z, T, KIND, DUE, REC, NSTEP, HSTEP, OBK, OBW, LOG, max_state, STATUS, XO, NEXT, "
          "step, EV, EVF, NEV):"]
@@ -270,7 +270,7 @@ def _module_source(system, solver, log_ports, log_path, located):
               "                X = Xa",
               "                ks += 1",
               "                after = False",
-              f"            X, Xs, Xo = advance(t0, h, ks, n, X, {held_in}, -1, {zero_w}, P)",
+              f"            X = advance(t0, h, ks, n, X, {held_in}, P)",
               f"            for j in range({sysm.n_x}):",
               "                if not abs(X[j]) <= max_state:",
               "                    STATUS[0] = k + 1",
@@ -295,10 +295,10 @@ def _module_source(system, solver, log_ports, log_path, located):
               "                ks += 1",
               "                after = False",
               "            if OBK[k] < 0:",
-              f"                X, Xs, Xo = advance(t0, h, ks, kb, X, {held_in}, -1, {weights}, P)",
+              f"                X = advance(t0, h, ks, kb, X, {held_in}, P)",
               "                Xo = X",
               "            else:",
-              f"                Xa, X, Xo = advance(t0, h, ks, kb + 1, X, {held_in}, kb, {weights}, P)",
+              f"                Xa, X, Xo = advance_obs(t0, h, ks, kb + 1, X, {held_in}, kb, {weights}, P)",
               "                after = True",
               "            ks = kb"]
     L += [line for i in log_path for line in evaluate(i, 12, "Xo")] or ["            pass"]
@@ -383,7 +383,6 @@ def _interval_source(sysm, solver, located):
           "    k = int(min(math.floor(r), n - 1))",
           "    return k, (tb - (t0 + k * h)) / h", ""]
     store = lambda x: [f"            XO[j, {c}] = {x}[{c}]" for c in range(n)]  # noqa: E731
-    zero_w = tup("0.0" for _ in solver.c)
     L += ["def interval(t0, t1, X, H, P, step, LT, XO, j, j1, EV, EVF, NEV):",
           "    stalls = 0",
           "    count = 0",
@@ -403,7 +402,7 @@ def _interval_source(sysm, solver, located):
           "                if kb != k or th != 0.0:",
           "                    break"] + ["    " + line for line in store("X")] + [
           "                j += 1",
-          f"            Xn = advance(t0, h, k, k + 1, X, H, -1, {zero_w}, P)[0]",
+          "            Xn = advance(t0, h, k, k + 1, X, H, P)",
           "            g_n = zc(t0 + (k + 1) * h, Xn, H, P)",
           "            if anyc(crossed(g_k, g_n)):",
           "                lo = 0.0",
@@ -414,7 +413,7 @@ def _interval_source(sysm, solver, located):
           "                t = t0 + k * h",
           f"                while (hi - lo) * h > {TIME_TOL!r}:",
           "                    mid = 0.5 * (lo + hi)",
-          "                    xm = advance(t0, h, k, k + 1, X, H, k, dense_w(mid), P)[2]",
+          "                    xm = advance_obs(t0, h, k, k + 1, X, H, k, dense_w(mid), P)[2]",
           "                    gm = zc(t + mid * h, xm, H, P)",
           "                    if anyc(crossed(g_lo, gm)):",
           "                        hi = mid",
@@ -430,7 +429,7 @@ def _interval_source(sysm, solver, located):
           "                kb, th = obs_point(t0, h, n, LT[j])",
           "                if kb != k or not th < th_stop:",
           "                    break",
-          "                xo = advance(t0, h, k, k + 1, X, H, k, dense_w(th), P)[2]"] + [
+          "                xo = advance_obs(t0, h, k, k + 1, X, H, k, dense_w(th), P)[2]"] + [
           "    " + line for line in store("xo")] + [
           "                j += 1",
           "            if ev:",

@@ -36,20 +36,20 @@ def has_kernels(block):
 
 
 def build(system, method, located=None):
-    """Return ``(advance, held_ports)`` for ``method`` (an ExplicitRK).
+    """Return ``((advance, advance_obs), held_ports)`` for ``method`` (an ExplicitRK).
 
-    ``advance(t0, h, k0, k1, X, H, kobs, w, P)`` takes steps ``k0 .. k1 - 1``
-    of size ``h`` (step ``k`` starts at ``t0 + k h``) from state tuple ``X``
-    with held inputs ``H`` (tuple of tuples, one per port in ``held_ports``)
-    and the blocks' params ``P`` (one per block: the run's, so parameters can
-    change between runs); returns ``(X_end, X_obs, X_dense)`` (see
+    ``advance(t0, h, ka, kb, X, H, P)`` takes steps ``ka .. kb - 1`` of size
+    ``h`` (step ``k`` starts at ``t0 + k h``) from state tuple ``X`` with held
+    inputs ``H`` (tuple of tuples, one per port in ``held_ports``) and the
+    blocks' params ``P`` (one per block: the run's, so parameters can change
+    between runs); ``advance_obs`` also returns a state inside a step (see
     :func:`hybridsim.rk_code.unrolled_lines`).
     """
     source, env, held = rk_source(system, method, params_arg=True, located=located)
     code = compile(source, f"<fused rhs of {system.name}>", "exec")
     exec(code, env)  # noqa: S102 - our own generated source, no user text in it
     env["advance"].source = source
-    return env["advance"], held
+    return (env["advance"], env["advance_obs"]), held
 
 
 def rk_source(system, method, params_arg=False, located=None):
@@ -172,10 +172,12 @@ class FusedStepper:
     """
 
     def __init__(self, method, advance, H, P):
-        self.method, self.advance, self.H, self.P = method, advance, H, P
+        self.method, (self.advance, self.advance_obs), self.H, self.P = method, advance, H, P
 
     def _step(self, t0, h, k, X, kobs=-1, w=()):
-        return self.advance(t0, h, k, k + 1, X, self.H, kobs, w, self.P)
+        if kobs < 0:
+            return (self.advance(t0, h, k, k + 1, X, self.H, self.P),)
+        return self.advance_obs(t0, h, k, k + 1, X, self.H, kobs, w, self.P)
 
     def advance_to_event(self, f, t0, t1, x, t_out, g, directions):
         """See :meth:`hybridsim.solvers.ExplicitRK.advance_to_event` (``f`` is not used)."""

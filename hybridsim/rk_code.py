@@ -10,9 +10,9 @@ floating-point operations in the same order:
   element on tuples of floats (``advance``), for the fused (Python) and
   compiled (numba) paths.
 
-A stage's state is ``X + h * (a1 * k1 + a2 * k2 + ...)`` over the stage's
-non-zero coefficients (a coefficient 1 is left out: ``k2`` rather than
-``1.0 * k2``); the step's result ``X + h * (b1 * k1 + ...)``; dense output at
+A stage's state is ``X + (h_a1 * k1 + h_a2 * k2 + ...)`` over the stage's
+non-zero coefficients, each coefficient times ``h`` computed once per call
+(``h_0 = 0.5 * h``); the step's result ``X + (h_b1 * k1 + ...)``; dense output at
 ``theta`` in [0, 1) of the step ``X + h * (w1 * k1 + ...)`` with the weights
 ``w = method.dense_weights(theta)`` computed once by the caller.
 """
@@ -22,18 +22,52 @@ def _terms(coefs):
     return [(c, j) for j, c in enumerate(coefs) if c != 0.0]
 
 
-def _sum(terms, k, elem=""):
-    return " + ".join((f"{k}{j + 1}{elem}" if c == 1.0 else f"{c!r} * {k}{j + 1}{elem}") for c, j in terms)
+def _factored(b):
+    """``(f, multiples)`` when the weights ``b`` are whole multiples of their smallest, else None
+    (RK4: 1/6 x (1, 2, 2, 1): the result is ``X + h_f * (k1 + 2.0 * k2 + 2.0 * k3 + k4)``)."""
+    f = min(abs(c) for c in b if c != 0.0)
+    multiples = [c / f for c in b]
+    if all(abs(m - round(m)) < 1e-12 for m in multiples):
+        return f, [float(round(m)) for m in multiples]
+    return None
 
 
-def _combo(terms, elem=""):
+def _scaled(method):
+    """``{coefficient: local name}``: each distinct coefficient of the tableau times h, computed
+    once per call (``h_0 = 0.5 * h``); 1 is ``h`` itself."""
+    fac = _factored(method.b)
+    weights = {fac[0]} if fac else set(method.b)
+    values = sorted({c for row in method.A for c in row if c not in (0.0, 1.0)}
+                    | {c for c in weights if c not in (0.0, 1.0)} | {c for c in method.c if c not in (0.0, 1.0)})
+    names = {c: f"h_{k}" for k, c in enumerate(values)}
+    names[1.0] = "h"
+    return names
+
+
+def _scaled_lines(method, indent):
+    return [f"{indent}{name} = {c!r} * h" for c, name in _scaled(method).items() if name != "h"]
+
+
+def _combo(method, terms, elem=""):
     if not terms:
         return f"X{elem}"
-    return f"X{elem} + h * ({_sum(terms, 'k', elem)})"
+    names = _scaled(method)
+    return f"X{elem} + (" + " + ".join(f"{names[c]} * k{j + 1}{elem}" for c, j in terms) + ")"
 
 
-def _time(c):
-    return "t" if c == 0.0 else ("t + h" if c == 1.0 else f"t + {c!r} * h")
+def _result(method, elem=""):
+    """The step's result, factored when the weights allow it (fewer products per state)."""
+    fac = _factored(method.b)
+    if fac is None:
+        return _combo(method, _terms(method.b), elem)
+    f, multiples = fac
+    terms = " + ".join(f"k{j + 1}{elem}" if m == 1.0 else f"{m!r} * k{j + 1}{elem}"
+                       for j, m in enumerate(multiples) if m != 0.0)
+    return f"X{elem} + {_scaled(method)[f]} * ({terms})"
+
+
+def _time(method, c):
+    return "t" if c == 0.0 else f"t + {_scaled(method)[c]}"
 
 
 def _dense_terms(method):
@@ -48,11 +82,11 @@ def vector_functions(method):
     derivatives; ``dense(X, K, h, w)`` the state inside the step for weights
     ``w = method.dense_weights(theta)``.
     """
-    lines = ["def step(f, t, h, X):"]
+    lines = ["def step(f, t, h, X):"] + _scaled_lines(method, "    ")
     for i, (c, row) in enumerate(zip(method.c, method.A)):
-        lines.append(f"    k{i + 1} = f({_time(c)}, {_combo(_terms(row))})")
+        lines.append(f"    k{i + 1} = f({_time(method, c)}, {_combo(method, _terms(row))})")
     ks = ", ".join(f"k{i + 1}" for i in range(len(method.c)))
-    lines.append(f"    return {_combo(_terms(method.b))}, ({ks},)")
+    lines.append(f"    return {_result(method)}, ({ks},)")
     used = _dense_terms(method)
     lines += ["", "def dense(X, K, h, w):",
               "    return X + h * (" + " + ".join(f"w[{j}] * K[{j}]" for j in used) + ")"]
@@ -62,15 +96,15 @@ def vector_functions(method):
 
 
 def unrolled_lines(method, n, rhs, extra=""):
-    """Source lines of ``advance`` on tuples of ``n`` floats.
+    """Source lines of ``advance`` and ``advance_obs`` on tuples of ``n`` floats.
 
     ``rhs`` is the name of the right-hand side ``rhs(t, X, H{extra})``.
-    ``advance(t0, h, k0, k1, X, H, kobs, w{extra})`` takes steps
-    ``k0 .. k1 - 1`` of size ``h`` from ``t0`` (step ``k`` starts at
-    ``t0 + k * h``) and returns ``(X_end, X_obs, X_dense)``: the final state,
-    and for step ``kobs`` (``-1``: none) the state at its start and at the
-    fraction given by the dense-output weights ``w`` inside it. One function
-    (one copy of the stages) for plain stepping and for log points.
+    ``advance(t0, h, ka, kb, X, H{extra})`` takes steps ``ka .. kb - 1`` of
+    size ``h`` from ``t0`` (step ``k`` starts at ``t0 + k * h``) and returns
+    the final state; ``advance_obs(t0, h, ka, kb, X, H, kobs, w{extra})``
+    takes the same steps and returns ``(X_end, X_obs, X_dense)``: for step
+    ``kobs`` also the state at its start and at the fraction given by the
+    dense-output weights ``w`` inside it (one call per log point).
     """
     def tup(expr):
         return "(" + "".join(expr(f"[{j}]") + ", " for j in range(n)) + ")"
@@ -78,16 +112,22 @@ def unrolled_lines(method, n, rhs, extra=""):
     body = []
     for i, (c, row) in enumerate(zip(method.c, method.A)):
         terms = _terms(row)
-        state = "X" if not terms else tup(lambda e, terms=terms: _combo(terms, e))
-        body.append(f"k{i + 1} = {rhs}({_time(c)}, {state}, H{extra})")
-    final = tup(lambda e: _combo(_terms(method.b), e))
+        state = "X" if not terms else tup(lambda e, terms=terms: _combo(method, terms, e))
+        body.append(f"k{i + 1} = {rhs}({_time(method, c)}, {state}, H{extra})")
+    final = tup(lambda e: _result(method, e))
     used = _dense_terms(method)
     dense = tup(lambda e: f"X{e} + h * (" + " + ".join(f"w[{j}] * k{j + 1}{e}" for j in used) + ")")
-    lines = [f"def advance(t0, h, k0, k1, X, H, kobs, w{extra}):",
-             "    Xs = X",
-             "    Xo = X",
-             "    for k in range(k0, k1):",
+    scaled = _scaled_lines(method, "    ")
+    lines = [f"def advance(t0, h, ka, kb, X, H{extra}):"] + scaled + [
+             "    for k in range(ka, kb):",
              "        t = t0 + k * h"]
+    lines += ["        " + b for b in body]
+    lines += [f"        X = {final}", "    return X", ""]
+    lines += [f"def advance_obs(t0, h, ka, kb, X, H, kobs, w{extra}):"] + scaled + [
+              "    Xs = X",
+              "    Xo = X",
+              "    for k in range(ka, kb):",
+              "        t = t0 + k * h"]
     lines += ["        " + b for b in body]
     lines += ["        if k == kobs:",
               "            Xs = X",

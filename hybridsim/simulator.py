@@ -321,7 +321,7 @@ class Simulator:
         from its dense output (the same step grid whatever is logged)."""
         from .solvers import observation, steps
 
-        advance, held = self._fused
+        (advance, advance_obs), held = self._fused
         H = tuple(tuple(ctx.y[a][o].tolist()) for a, o in held)
         P = ctx.params
         X = tuple(x.tolist())
@@ -334,16 +334,16 @@ class Simulator:
                 if after is not None and kb != k:
                     X, k, after = after, k + 1, None
                 if theta == 0.0:
-                    X = advance(t0, h, k, kb, X, H, -1, (), P)[0]
+                    X = advance(t0, h, k, kb, X, H, P)
                     k = kb
                     outs.append(np.array(X))
                     continue
-                after, X, Xo = advance(t0, h, k, kb + 1, X, H, kb, self.solver.dense_weights(theta), P)
+                after, X, Xo = advance_obs(t0, h, k, kb + 1, X, H, kb, self.solver.dense_weights(theta), P)
                 k = kb
                 outs.append(np.array(Xo))
             if after is not None:
                 X, k = after, k + 1
-            X = advance(t0, h, k, n, X, H, -1, (), P)[0]
+            X = advance(t0, h, k, n, X, H, P)
         return np.array(X), outs
 
 
