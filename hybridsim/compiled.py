@@ -24,6 +24,7 @@ have none). Discontinuities are stepped over, as on the other RK paths.
 """
 import functools
 import hashlib
+import math
 import importlib.util
 import inspect
 import logging
@@ -75,7 +76,7 @@ def cache_dir():
 class CompiledLoop:
     """The compiled ``run`` of one system with its log layout."""
 
-    def __init__(self, system, solver, log_ports, log_path, located=None):
+    def __init__(self, system, solver, log_ports, log_path, located=None, log_period=None):
         self.located = system.action_events if located is None else located
         why = problems(system, solver, self.located)
         if why:
@@ -88,7 +89,8 @@ class CompiledLoop:
             ) from None
         self.system, self.solver, self.step = system, solver, solver.step
         self.log_ports, self.log_path = log_ports, log_path
-        self.source, env = _module_source(system, solver, log_ports, log_path, self.located)
+        dense_logs = log_period is None or _logs_between_hits(system, log_period)
+        self.source, env = _module_source(system, solver, log_ports, log_path, self.located, dense_logs)
         self.run_fn = _load(self.source, env, system.name)
 
     def run(self, ctx, stops, t_end, final_record, max_state):
@@ -221,7 +223,28 @@ class CompiledLoop:
 EVENT_CODE = 10**9
 
 
-def _module_source(system, solver, log_ports, log_path, located):
+def _logs_between_hits(system, log_period):
+    """True when some log point of ``log_period`` falls between sample hits (then the
+    module needs the dense-output step, which costs 1.5-2 s of compiling)."""
+    from .block import to_period
+    from .schedule import Schedule
+
+    blocks = system.blocks
+    timings = [(blocks[i].period, blocks[i].time_offset) for i in system.discrete]
+    sched = Schedule(timings + [(to_period(log_period, "log period"), 0)])
+    horizon = 1
+    for p, o in sched.ticks:
+        horizon = horizon * p // math.gcd(horizon, p)
+        if horizon > 10**6:
+            return True
+    horizon += max((o for _, o in sched.ticks), default=0)
+    _, due = sched.hits(horizon)
+    hit = due[:, :-1].any(axis=1)
+    hit[0] = True
+    return bool((due[:, -1] & ~hit).any())
+
+
+def _module_source(system, solver, log_ports, log_path, located, dense_logs=True):
     """Source of the generated module and the names it needs: (source, env)."""
     sysm = system
     rk, env, held = rk_source(sysm, solver, params_arg=True, located=located)
@@ -288,7 +311,7 @@ def _module_source(system, solver, log_ports, log_path, located):
     L.append("        elif KIND[k] == 1:  # a log point between hits: the state from the dense output")
     if events:
         L.append("            Xo = " + tup(f"XO[k, {j}]" for j in range(sysm.n_x)))
-    elif sysm.n_x:
+    elif sysm.n_x and dense_logs:
         L += ["            kb = OBK[k] if OBK[k] >= 0 else -1 - OBK[k]",
               "            if after and kb != ks:",
               "                X = Xa",

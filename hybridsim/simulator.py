@@ -103,7 +103,8 @@ class Simulator:
         if compiled:
             from .compiled import CompiledLoop
 
-            self._compiled = CompiledLoop(system, self.solver, self._log_ports, self.log_path, self.located)
+            self._compiled = CompiledLoop(system, self.solver, self._log_ports, self.log_path, self.located,
+                                          self.log_period)
 
     # -- the right-hand side ----------------------------------------------------
     def _bind(self, ctx):
