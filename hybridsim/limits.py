@@ -22,7 +22,9 @@ MAX_STOPS = 20_000_000
 MAX_STEPS = 1_000_000_000
 #: bytes of the log of one run
 MAX_LOG_BYTES = 2 * 2**30
-#: variants of a diagram, points of a sweep
+#: variants of one diagram file (each is built and checked by ``check``)
+MAX_VARIANTS = 1_000
+#: points of a sweep
 MAX_RUNS = 100_000
 
 

@@ -438,8 +438,9 @@ class DiagramFile:
             if not isinstance(spec[n], list) or not spec[n]:
                 self._fail(f"variant {n!r} must be a non-empty list of values", spec.lines[n])
         count = math.prod(len(spec[n]) for n in names)
-        if count > limits.MAX_RUNS:
-            self._fail(f"'variants' makes {count} runs; at most {limits.MAX_RUNS}", spec.line)
+        if count > limits.MAX_VARIANTS:
+            self._fail(f"'variants' makes {count} runs; at most {limits.MAX_VARIANTS} (use a sweep file "
+                       "for more points)", spec.line)
         out = []
         for combo in itertools.product(*(spec[n] for n in names)):
             label = ", ".join(f"{n}={v}" for n, v in zip(names, combo))
