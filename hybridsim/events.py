@@ -135,13 +135,17 @@ def chatter_error(t, names):
                            f"actions (chattering) in block(s) {', '.join(names)}")
 
 
-def integrate(solver, f, events, t0, t1, x, t_out, restarts=None):
+def integrate(solver, f, events, t0, t1, x, t_out, restarts=None, observe=None):
     """Integrate from hit ``t0`` to hit ``t1`` stopping at time events and located state events.
 
     ``solver`` gives ``advance_to_event(f, t0, t1, x, t_out, g, directions)``
     returning ``(t_stop, x_stop, fired, outs)``; ``fired`` None means it
     reached ``t1``. ``restarts``: zero crossings without actions (the scipy
-    solvers restart at them). Returns ``(x, outs)`` like ``solver.advance``.
+    solvers restart at them). ``observe(t, x)``: called for each log time as
+    soon as its segment is integrated, before the next event's actions (a
+    block with hidden discrete state, an FMU, then shows the value of that
+    time); without it the states come back in ``outs``. Returns ``(x, outs)``
+    like ``solver.advance``.
     """
     outs, pending = [], list(t_out)
     count = stalls = 0
@@ -152,7 +156,11 @@ def integrate(solver, f, events, t0, t1, x, t_out, restarts=None):
         g = events.g if events.blocks else None
         extra = {"events": restarts} if restarts is not None and not hasattr(solver, "dense") else {}
         t_stop, x_stop, fired, got = solver.advance_to_event(f, t0, stop, x, here, g, events.directions, **extra)
-        outs += got
+        if observe is not None:
+            for tb, xb in zip(pending, got):
+                observe(tb, xb)
+        else:
+            outs += got
         pending = pending[len(got):]
         if fired is not None:
             count += 1
@@ -169,6 +177,6 @@ def integrate(solver, f, events, t0, t1, x, t_out, restarts=None):
         t0 = t_stop
         if t1 - t0 <= TIME_TOL:  # an event at the hit itself
             while pending:
-                outs.append(x)
-                pending.pop(0)
+                tb = pending.pop(0)
+                observe(tb, x) if observe is not None else outs.append(x)
             return x, outs

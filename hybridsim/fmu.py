@@ -182,8 +182,7 @@ class FMUBlock(Block):
                 self._call(f"setting {pname}", self._set, [byname[pname].valueReference], [float(value)])
             self._call("exitInitializationMode", fmu.exitInitializationMode)
             if self.mode == "me":
-                self._call("updateDiscreteStates" if self.fmi3 else "newDiscreteStates",
-                           fmu.updateDiscreteStates if self.fmi3 else fmu.newDiscreteStates)
+                self._event_update(0.0)  # the event iteration after initialization
                 self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
         except BaseException:
             self.close()  # terminate and free the instance, remove the extracted files
@@ -295,6 +294,53 @@ class FMUBlock(Block):
         dx = np.zeros(self.nx)
         self._call("get derivatives", self._get_der, dx.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
         return dx
+
+    # -- Model Exchange events (FMI 2.0 and 3.0) -----------------------------------
+    @property
+    def has_event_action(self):
+        """A Model Exchange FMU with event indicators: its events go through event mode."""
+        return self.mode == "me" and self.nz > 0
+
+    @property
+    def has_time_events(self):
+        return self.mode == "me"
+
+    def _event_update(self, t):
+        """The newDiscreteStates / updateDiscreteStates loop of event mode; returns whether the
+        continuous states changed. Remembers the next time event."""
+        update = self._fmu.updateDiscreteStates if self.fmi3 else self._fmu.newDiscreteStates
+        changed = False
+        for _ in range(100):
+            need, terminate, _nominals, values, time_defined, t_next = self._call(
+                f"{'updateDiscreteStates' if self.fmi3 else 'newDiscreteStates'} at t={t:.9g}", update)
+            changed |= bool(values)
+            self._next_event = float(t_next) if time_defined else np.inf
+            if terminate:
+                raise FMUError(f"FMU block {self.name!r} asks to terminate the simulation at "
+                               f"t={t:.9g} s (terminateSimulation)")
+            if not need:
+                return changed
+        raise FMUError(f"FMU block {self.name!r}: the event iteration at t={t:.9g} s does not settle "
+                       "(newDiscreteStatesNeeded after 100 updates)")
+
+    def next_event_time(self, t, x):
+        """The FMU's next time event (nextEventTime), or inf."""
+        return getattr(self, "_next_event", np.inf)
+
+    def event_action(self, t, x, u, fired):
+        """Event mode at a state or time event: update the discrete states, read back the
+        continuous ones if the FMU changed them, back to continuous-time mode."""
+        self._me_set(t, x, u)
+        fmu = self._fmu
+        self._call(f"enterEventMode at t={t:.9g}", fmu.enterEventMode)
+        changed = self._event_update(t)
+        self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
+        if not changed:
+            return None
+        x_new = np.zeros(self.nx)
+        self._call("getContinuousStates", fmu.getContinuousStates,
+                   x_new.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
+        return x_new
 
     def zero_crossings(self, t, x, u):
         if self.mode != "me" or not self.nz:

@@ -271,8 +271,13 @@ class Simulator:
                     plan.check_discrete(i, x, t)
                 if sysm.n_x:
                     if ctx.events is not None:
-                        xc, xs = _events.integrate(self._stepper(ctx), rhs, ctx.events, t, t_next, xc, t_out,
-                                                   events)
+                        def observe(tb, xb):  # recorded in order, before the next event's actions
+                            ctx.evaluate(self.log_path, tb, xb)
+                            record(tb)
+
+                        xc, _ = _events.integrate(self._stepper(ctx), rhs, ctx.events, t, t_next, xc, t_out,
+                                                  events, observe)
+                        xs, t_out = [], ()
                     elif self._fused is not None:
                         xc, xs = self._advance_fused(ctx, t, t_next, xc, t_out)
                     else:

@@ -232,6 +232,12 @@ class ScipySolver:
         while pending and pending[0] <= t0:  # a log time at the start (after an event): its state
             pending.pop(0)
             outs.append(np.array(x, float))
+        if g is not None:
+            g0 = np.asarray(g(t0, x), float)
+            if (np.abs(g0) <= REARM_LEVEL).any():  # a function on its surface (just reset to 0)
+                got = self._leave_surface(f, t0, t1, x, pending, outs, g, g0, directions)
+                if got is not None:
+                    return got
         actions = _action_functions(g, directions) if g is not None else []
         skip = None  # the event just located is not armed again at its own root
         stretch = REARM * (t1 - t0)
@@ -278,6 +284,39 @@ class ScipySolver:
             f"more than {MAX_RESTARTS} zero crossings before t={t1:.6g} s "
             "(a switch is chattering)"
         )
+
+    def _leave_surface(self, f, t0, t1, x, pending, outs, g, g0, directions):
+        """The first stretch after a start on an event surface, as a fixed-step method sees it.
+
+        solve_ivp would find a root at ``t0`` itself and stop there for ever; instead the
+        solver runs a short stretch without events, compares the functions' signs at its
+        ends (as :func:`~hybridsim.events.crossed` defines a crossing) and bisects its
+        dense output for the first. Returns ``(t_stop, x_stop, fired, outs)`` for an
+        event in the stretch, else None (then ``x``/``t0`` are not advanced: the caller
+        integrates from the start, the function now armed once it has left zero).
+        """
+        from .events import TIME_TOL, crossed
+
+        t_s = min(t1, t0 + REARM * (t1 - t0))
+        sol = solve_ivp(f, (t0, t_s), x, method=self.method, rtol=self.rtol, atol=self.atol,
+                        max_step=self.max_step, dense_output=True)
+        if sol.status == -1:
+            raise SimulationError(f"solver {self.method} failed at t={sol.t[-1]:.6g} s: {sol.message}")
+        g_s = np.asarray(g(t_s, sol.y[:, -1]), float)
+        if not crossed(g0, g_s, directions).any():
+            return None
+        lo, hi, g_lo, g_hi, x_hi = t0, t_s, g0, g_s, sol.y[:, -1]
+        while hi - lo > TIME_TOL:
+            mid = 0.5 * (lo + hi)
+            xm = sol.sol(mid)
+            gm = np.asarray(g(mid, xm), float)
+            if crossed(g_lo, gm, directions).any():
+                hi, x_hi, g_hi = mid, xm, gm
+            else:
+                lo, g_lo = mid, gm
+        while pending and pending[0] < hi:
+            outs.append(sol.sol(pending.pop(0)))
+        return hi, x_hi, crossed(g_lo, g_hi, directions), outs
 
     def __repr__(self):
         return f"ScipySolver({self.method}, rtol={self.rtol:g})"

@@ -57,20 +57,24 @@ def test_xml_and_c_table_come_from_one_source():
                          ids=["friction-on", "friction-off-damped"])
 def test_fmu_plant_matches_python_plant_fig9(plant, extra):
     common = dict(rate=60, t_end=0.18, log_period=1 / 60, **extra)  # before the printed model loses contact
-    ref = hs.simulate(DIAGRAMS / "fig9_force_and_position.yaml", **common)
     for mode in ("cs", "me"):
+        # an ME FMU's event indicators go through event mode, located: compare with the
+        # Python plant locating the same switches (a CS FMU steps over them inside doStep)
+        ref = hs.simulate(DIAGRAMS / "fig9_force_and_position.yaml", locate_switches=mode == "me", **common)
         res = hs.simulate(DIAGRAMS / f"fig9_fmu_{mode}.yaml", fmu=str(plant), **common)
-        # measured: 7.5e-15 N (CS), 0 (ME)
-        assert np.max(np.abs(res["ft.CF[0]"] - ref["ft.CF[0]"])) < 1e-9, mode
-        assert np.max(np.abs(res["fk.X[1]"] - ref["fk.X[1]"])) < 1e-12, mode
+        # measured: 7.5e-15 N (CS), 0 (ME); friction off, the FMU still reports its stick-band
+        # indicators, whose (empty) events restart the step grid: 5.2e-8 N (ME)
+        tol = 1e-6 if mode == "me" and extra else 1e-9
+        assert np.max(np.abs(res["ft.CF[0]"] - ref["ft.CF[0]"])) < tol, mode
+        assert np.max(np.abs(res["fk.X[1]"] - ref["fk.X[1]"])) < tol * 1e-3, mode
 
 
 def test_fmu_plant_matches_python_plant_fig7(plant):
     ov = {"rate": 60, "force0": 0.0, "endpoint0": [0.5, 0.0], "force_cmd.initial": [0.0, 0.0],
           "force_cmd.final": [5.0, 0.0], "force_cmd.time": 0.5, "pos_cmd.amplitude": [0.0, 0.0],
           "pos_cmd.offset": [0.5, 0.0], "t_end": 2.0, "log_period": 1 / 60}
-    ref = hs.simulate(DIAGRAMS / "fig9_force_and_position.yaml", **ov)
     for mode, tol in (("cs", 1e-5), ("me", 1e-9)):
+        ref = hs.simulate(DIAGRAMS / "fig9_force_and_position.yaml", locate_switches=mode == "me", **ov)
         res = hs.simulate(DIAGRAMS / f"fig9_fmu_{mode}.yaml", fmu=str(plant), **ov)
         # a CS FMU's outputs are samples held until its next hit, so the row at t_end
         # shows the last hit's value; before it, measured 1.6e-7 N (CS) and 0 (ME)
