@@ -141,7 +141,7 @@ def run_experiment(path_or_file, progress=False, jobs=None, **overrides):
         if progress:
             from tqdm import tqdm
 
-            bar = tqdm(total=len(variants), unit="run", delay=1.0, leave=False)
+            bar = tqdm(total=len(variants), unit="run", delay=1.0, leave=False, disable=not _tty())
         with ProcessPoolExecutor(jobs) as pool:
             futures = [pool.submit(_run_variant, f, label, v) for label, v in variants]
             out = []
@@ -180,3 +180,10 @@ def write_outputs(f, runs, settings, outdir):
 
 def _slug(label):
     return safe_name("".join(c if c.isalnum() or c in "-." else "-" for c in label.replace("=", "")), "run")
+
+
+def _tty():
+    """Progress bars only on a terminal: a log file gets no carriage-return frames."""
+    import sys
+
+    return bool(getattr(sys.stderr, "isatty", lambda: False)())
