@@ -111,21 +111,9 @@ class ExplicitRK:
         return tuple(float(w) for w in cols)
 
     def advance(self, f, t0, t1, x, t_out=(), events=None):
-        """Integrate ``x`` from ``t0`` to ``t1``; also return the states at ``t_out``."""
-        n = steps(t0, t1, self.step)
-        h = (t1 - t0) / n
-        obs = [observation(t0, h, n, tb) for tb in t_out]
-        outs, j = [], 0
-        for k in range(n):
-            t = t0 + k * h
-            while j < len(obs) and obs[j] == (k, 0.0):
-                outs.append(x)
-                j += 1
-            x_next, K = self._step(f, t, h, x)
-            while j < len(obs) and obs[j][0] == k:
-                outs.append(self._dense(x, K, h, self.dense_weights(obs[j][1])))
-                j += 1
-            x = x_next
+        """Integrate ``x`` from ``t0`` to ``t1``; also return the states at ``t_out``
+        (``events``, zero crossings without resets, are stepped over)."""
+        _, x, _, outs = self.advance_to_event(f, t0, t1, x, t_out, None, None)
         return x, outs
 
     def advance_to_event(self, f, t0, t1, x, t_out, g, directions):
@@ -322,16 +310,23 @@ class ScipySolver:
         return f"ScipySolver({self.method}, rtol={self.rtol:g})"
 
 
-def _action_functions(g, directions):
-    """One terminal scipy event function, with its direction, per function of ``g``."""
+def _last_value(fun):
+    """``fun(t, x)`` as a float array, remembered for the last (t, x): scipy asks every event
+    function at the same point, and one evaluation serves them all."""
     cache = {}
 
     def values(t, x):
         key = (t, x.tobytes())
         if cache.get("key") != key:
-            cache["key"], cache["val"] = key, np.asarray(g(t, x), float)
+            cache["key"], cache["val"] = key, np.asarray(fun(t, x), float)
         return cache["val"]
 
+    return values
+
+
+def _action_functions(g, directions):
+    """One terminal scipy event function, with its direction, per function of ``g``."""
+    values = _last_value(g)
     funs = []
     for a, d in enumerate(directions):
         def fun(t, x, a=a):
@@ -344,14 +339,7 @@ def _action_functions(g, directions):
 
 def _event_functions(events, t0, x0, off):
     """One terminal scipy event function per zero-crossing component not in ``off``."""
-    cache = {}
-
-    def values(t, x):
-        key = (t, x.tobytes())
-        if cache.get("key") != key:
-            cache["key"], cache["val"] = key, np.asarray(events(t, x), float)
-        return cache["val"]
-
+    values = _last_value(events)
     m = values(t0, x0).size
     funs = []
     for j in range(m):
@@ -365,4 +353,3 @@ def _event_functions(events, t0, x0, off):
         g.j = j
         funs.append(g)
     return funs
-
