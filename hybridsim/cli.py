@@ -92,6 +92,10 @@ def cmd_run(args):
                          else "contact kept")
         parts.append(f"{m['wall_time_s']:.2f} s wall")
         print(f"  {head}: " + ", ".join(parts))
+        stopped = r["result"].meta.get("stopped")
+        if stopped:
+            print(f"  {head}: note: block {stopped['block']!r} ended the run at t={stopped['t']:.6g} s "
+                  f"({stopped['reason']}); the results go up to then")
     print(f"wrote {outdir}/ (CSV, {safe_name(f.name)}.png/.svg, metrics.json)")
     return 0
 

@@ -70,6 +70,15 @@ class CompiledPathError(InputError):
     """The compiled path was asked for but cannot run this diagram (or numba is missing)."""
 
 
+class StopRequest(Exception):
+    """A block asks the run to end at ``t`` (an FMU's terminateSimulation). Not an error:
+    the simulator ends there cleanly, with every result so far and ``meta["stopped"]``."""
+
+    def __init__(self, t, block, reason, x=None):
+        self.t, self.block, self.reason, self.x = float(t), block, reason, x
+        super().__init__(f"block {block!r} stopped the run at t={t:.9g} s ({reason})")
+
+
 class SimulationError(HybridsimError):
     """A run that diverged or whose solver failed (exit 3)."""
 

@@ -18,7 +18,7 @@ A function fires *falling* (direction -1) when it goes from >= 0 to < 0 and
 """
 import numpy as np
 
-from .errors import SimulationError
+from .errors import SimulationError, StopRequest
 
 #: events are located to this many seconds
 TIME_TOL = 1e-12
@@ -83,7 +83,15 @@ class EventSet:
 
     def act(self, t, x, fired):
         """The state after the actions at ``t``: of the blocks whose functions ``fired``, or
-        (``fired`` None) of the blocks whose time event is due at ``t``."""
+        (``fired`` None) of the blocks whose time event is due at ``t``. A block's
+        :class:`~hybridsim.errors.StopRequest` leaves with the state at ``t``."""
+        try:
+            return self._act(t, x, fired)
+        except StopRequest as stop:
+            stop.x = x
+            raise
+
+    def _act(self, t, x, fired):
         self.outputs(t, x)
         x = x.copy()
         blocks, u = self.ctx.blocks, self.ctx.u

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from .block import Block
-from .errors import FMUError, ParameterError
+from .errors import FMUError, ParameterError, StopRequest
 from .files import atomic_file
 from .registry import closest, register
 
@@ -182,7 +182,11 @@ class FMUBlock(Block):
                 self._call(f"setting {pname}", self._set, [byname[pname].valueReference], [float(value)])
             self._call("exitInitializationMode", fmu.exitInitializationMode)
             if self.mode == "me":
-                self._event_update(0.0)  # the event iteration after initialization
+                try:
+                    self._event_update(0.0)  # the event iteration after initialization
+                except StopRequest:
+                    raise FMUError(f"FMU block {self.name!r} asks to terminate the simulation during "
+                                   "its initialization (terminateSimulation at t = 0)") from None
                 self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
         except BaseException:
             self.close()  # terminate and free the instance, remove the extracted files
@@ -316,8 +320,7 @@ class FMUBlock(Block):
             changed |= bool(values)
             self._next_event = float(t_next) if time_defined else np.inf
             if terminate:
-                raise FMUError(f"FMU block {self.name!r} asks to terminate the simulation at "
-                               f"t={t:.9g} s (terminateSimulation)")
+                raise StopRequest(t, self.name, "terminateSimulation")
             if not need:
                 return changed
         raise FMUError(f"FMU block {self.name!r}: the event iteration at t={t:.9g} s does not settle "

@@ -20,7 +20,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import events as _events
-from .errors import DiagramError, InputError, SimulationError
+from .errors import DiagramError, InputError, SimulationError, StopRequest
 from .result import Result, parse_signal
 from .schedule import Schedule
 from .solvers import RK4
@@ -222,8 +222,11 @@ class Simulator:
                 hits = dict(hits)
             else:
                 rows_t, rows, hits = self._loop(ctx, self._walk(stops, t_end), rhs, events, bar, t_end)
-            # the context ends consistent: every output not held, evaluated at t_end
-            ctx.evaluate([i for i in range(len(blocks)) if sysm.kind[i] != "discrete"], t_end, ctx.xc)
+            stopped = getattr(ctx, "stopped", None)
+            if stopped is not None:  # a block ended the run: the results so far
+                t_end = stopped.t
+            else:  # the context ends consistent: every output not held, evaluated at t_end
+                ctx.evaluate([i for i in range(len(blocks)) if sysm.kind[i] != "discrete"], t_end, ctx.xc)
         finally:
             if bar is not None:
                 bar.close()
@@ -259,6 +262,17 @@ class Simulator:
             rows.append(np.concatenate([ctx.y[i][o] for i, o in self._log_ports])
                         if self._log_ports else np.zeros(0))
 
+        try:
+            self._hits(ctx, walk, rhs, events, bar, t_end, plan, blocks, hits, record)
+        except StopRequest as stop:
+            ctx.stopped = stop
+            if stop.x is not None:
+                ctx.xc = np.asarray(stop.x, float)
+        return rows_t, rows, hits
+
+    def _hits(self, ctx, walk, rhs, events, bar, t_end, plan, blocks, hits, record):
+        """The hits of :meth:`_loop` in order (a :class:`StopRequest` ends them)."""
+        sysm = self.system
         xc = ctx.xc
         with np.errstate(over="ignore", invalid="ignore"):
             for t, due, log_here, t_out, t_next in walk:
@@ -294,7 +308,6 @@ class Simulator:
             if self._final_record(t_end):
                 ctx.evaluate(self.log_path, t_end, xc)
                 record(t_end)
-        return rows_t, rows, hits
 
     def _final_record(self, t_end):
         """A row at t_end when it lies on the log grid (the hits stop before it)."""
@@ -308,7 +321,10 @@ class Simulator:
             w = blocks[i].outputs[o].width
             signals[ref] = data[:, col:col + w] if data.size else np.zeros((0, w))
             col += w
+        stopped = getattr(ctx, "stopped", None)
         meta = {"diagram": self.system.name, "solver": repr(self.solver), "t_end": t_end,
+                "stopped": None if stopped is None else
+                {"t": stopped.t, "block": stopped.block, "reason": stopped.reason},
                 "wall_time_s": wall, "hits": hits,
                 "events": list(ctx.events.log) if getattr(ctx, "events", None) is not None else []}
         return Result(np.array(rows_t), signals, meta, context=ctx)

@@ -83,3 +83,22 @@ def test_me_fmu_matches_fmpy(ball_fmu):
 def test_a_zeno_fmu_is_stopped_with_a_clear_message(ball_fmu):
     with pytest.raises(hs.SimulationError, match=r"events accumulate at t=2\.558.*ball.*Zeno"):
         run(ball_fmu, SOLVERS["rk4"](), t_end=3.0)
+
+
+def test_terminate_simulation_ends_the_run_cleanly_with_the_results_so_far(ball_fmu, tmp_path, capsys):
+    from hybridsim.cli import main
+
+    d = hs.Diagram("ball")
+    d.add(FMUBlock("ball", path=str(ball_fmu), mode="me", parameters={"t_stop": 1.5}))
+    res = hs.Simulator(d.build(), hs.RK4(1e-3), log=["ball.height"], log_period=0.01).run(2.4)
+    assert res.meta["stopped"] == {"t": 1.5, "block": "ball", "reason": "terminateSimulation"}
+    assert res.meta["t_end"] == 1.5 and res.t[-1] < 1.5 and res.t[-1] == pytest.approx(1.49)
+    assert state_events(res)[:2] == pytest.approx(BOUNCES[:2], abs=1e-9)  # the third would be at 1.526 s
+    assert res.meta["events"][-1][0] == 1.5
+    diagram = tmp_path / "b.yaml"
+    diagram.write_text(f"blocks:\n  ball: {{type: fmu, path: {ball_fmu}, mode: me, parameters: {{t_stop: 1.5}}}}\n"
+                       "simulation: {t_end: 2.4, step: 1.0e-3}\nlog: [ball.height]\n")
+    code = main(["run", str(diagram), "-q", "-o", str(tmp_path / "o")])
+    out = capsys.readouterr().out
+    assert code == 0 and "ended the run at t=1.5 s (terminateSimulation)" in out
+    assert (tmp_path / "o" / "b.csv").read_text().count("\n") == 3001  # header + rows 0 .. 1.4995 s

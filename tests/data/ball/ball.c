@@ -1,12 +1,14 @@
 /* A bouncing ball with a stair counter, as an FMI 2.0 Model Exchange FMU: a state event with a
  * reset (h falls through 0: v <- -e v) and time events (count steps up at t = 1, 2, 3, ... s).
  * Written for hybridsim's tests of the FMI event protocol.
- * Variables: 0 h, 1 der(h), 2 v, 3 der(v), 4 e, 5 g, 6 height (output = h), 7 count (output). */
+ * At t_stop (a parameter) it asks to terminate the simulation (terminateSimulation).
+ * Variables: 0 h, 1 der(h), 2 v, 3 der(v), 4 e, 5 g, 6 height (output = h), 7 count (output),
+ * 8 t_stop. */
 #include <math.h>
 #include <string.h>
 #include "fmi2Functions.h"
 
-typedef struct { double r[8]; double t, next; fmi2CallbackFunctions cb; } Ball;
+typedef struct { double r[9]; double t, next; fmi2CallbackFunctions cb; } Ball;
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
 const char *fmi2GetVersion(void) { return fmi2Version; }
@@ -15,7 +17,7 @@ fmi2Component fmi2Instantiate(fmi2String n, fmi2Type t, fmi2String g, fmi2String
     Ball *m = (Ball *)cb->allocateMemory(1, sizeof(Ball));
     (void)n; (void)t; (void)g; (void)r; (void)v; (void)l;
     m->cb = *cb;
-    m->r[0] = 1.0; m->r[2] = 0.0; m->r[4] = 0.7; m->r[5] = 9.81; m->r[7] = 0.0;
+    m->r[0] = 1.0; m->r[2] = 0.0; m->r[4] = 0.7; m->r[5] = 9.81; m->r[7] = 0.0; m->r[8] = 1e30;
     m->t = 0.0; m->next = 1.0;
     return m;
 }
@@ -24,12 +26,12 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
     Ball *m = (Ball *)c;
     size_t i;
     m->r[1] = m->r[2]; m->r[3] = -m->r[5]; m->r[6] = m->r[0];
-    for (i = 0; i < n; i++) { if (vr[i] > 7) return fmi2Error; v[i] = m->r[vr[i]]; }
+    for (i = 0; i < n; i++) { if (vr[i] > 8) return fmi2Error; v[i] = m->r[vr[i]]; }
     return fmi2OK;
 }
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real v[]) {
     size_t i;
-    for (i = 0; i < n; i++) { if (vr[i] > 7) return fmi2Error; ((Ball *)c)->r[vr[i]] = v[i]; }
+    for (i = 0; i < n; i++) { if (vr[i] > 8) return fmi2Error; ((Ball *)c)->r[vr[i]] = v[i]; }
     return fmi2OK;
 }
 fmi2Status fmi2SetTime(fmi2Component c, fmi2Real t) { ((Ball *)c)->t = t; return fmi2OK; }
@@ -71,8 +73,9 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *e) {
         m->r[7] += 1.0;
         m->next += 1.0;
     }
+    if (m->t >= m->r[8] - 1e-12) e->terminateSimulation = fmi2True;
     e->nextEventTimeDefined = fmi2True;
-    e->nextEventTime = m->next;
+    e->nextEventTime = m->next < m->r[8] ? m->next : m->r[8];
     return fmi2OK;
 }
 fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean s, fmi2Boolean *e, fmi2Boolean *t) {
