@@ -49,6 +49,15 @@ def _group(variables):
     return out
 
 
+def _nominal(variable):
+    """A state variable's nominal value (1 when it gives none or a bad one)."""
+    try:
+        n = abs(float(getattr(variable, "nominal", None) or 1.0))
+    except (TypeError, ValueError):
+        return 1.0
+    return n if np.isfinite(n) and n > 0 else 1.0
+
+
 @register("fmu")
 class FMUBlock(Block):
     """Any FMI 2.0 or 3.0 FMU as a block (Float64 inputs and outputs).
@@ -114,6 +123,11 @@ class FMUBlock(Block):
             if pname not in byname:
                 raise FMUError(f"FMU {str(self.path)!r} has no variable {pname!r}{closest(pname, byname)}")
             self.parameters[pname] = value
+        unsupported = [f"{v.name} ({v.type}, {v.causality})" for v in md.modelVariables
+                       if v.causality in ("input", "output") and v.type not in ("Real", "Float64")]
+        if unsupported:
+            raise FMUError(f"FMU {str(self.path)!r}: only Real / Float64 inputs and outputs can be ports "
+                           f"so far; this FMU has {', '.join(unsupported)}")
         self.in_ports = _group([v for v in md.modelVariables if v.causality == "input"])
         self.out_ports = _group([v for v in md.modelVariables if v.causality == "output"])
         for pname, vs in self.in_ports:
@@ -148,7 +162,10 @@ class FMUBlock(Block):
         else:
             self.nx = md.numberOfContinuousStates
             self.nz = md.numberOfEventIndicators
-            self.declare_continuous_state(self.nx, atol=1e-12)
+            # absolute tolerances from the states' nominal values (1e-12 of each; nominal 1 when none)
+            nominals = [_nominal(d.variable.derivative) for d in md.derivatives][:self.nx]
+            nominals += [1.0] * (self.nx - len(nominals))
+            self.declare_continuous_state(self.nx, atol=[1e-12 * n for n in nominals] or None)
         self._fmu = None
         self._unzipdir = None
         self._messages = []
@@ -289,8 +306,9 @@ class FMUBlock(Block):
 
     def _me_set(self, t, x, u):
         fmu = self._fmu
-        fmu.setTime(t)
-        fmu.setContinuousStates(np.ascontiguousarray(x).ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
+        self._call(f"setTime({t:.9g})", fmu.setTime, t)
+        self._call(f"setContinuousStates at t={t:.9g}", fmu.setContinuousStates,
+                   np.ascontiguousarray(x, dtype=float).ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
         self._set_inputs(u)
 
     def derivatives(self, t, x, u):

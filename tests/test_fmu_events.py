@@ -102,3 +102,40 @@ def test_terminate_simulation_ends_the_run_cleanly_with_the_results_so_far(ball_
     out = capsys.readouterr().out
     assert code == 0 and "ended the run at t=1.5 s (terminateSimulation)" in out
     assert (tmp_path / "o" / "b.csv").read_text().count("\n") == 3001  # header + rows 0 .. 1.4995 s
+
+
+def test_unsupported_port_types_are_refused_by_check(ball_fmu, tmp_path, capsys):
+    import zipfile
+
+    from hybridsim.cli import main
+
+    bad = tmp_path / "int.fmu"  # the ball with its count output declared Integer
+    with zipfile.ZipFile(ball_fmu) as src, zipfile.ZipFile(bad, "w") as dst:
+        for n in src.namelist():
+            data = src.read(n)
+            if n == "modelDescription.xml":
+                data = data.replace(b'name="count" valueReference="7" causality="output" variability="discrete" '
+                                    b'initial="exact"><Real start="0"/>',
+                                    b'name="count" valueReference="7" causality="output" variability="discrete" '
+                                    b'initial="exact"><Integer start="0"/>')
+            dst.writestr(n, data)
+    diagram = tmp_path / "b.yaml"
+    diagram.write_text(f"blocks:\n  ball: {{type: fmu, path: {bad}, mode: me}}\nsimulation: {{t_end: 1}}\n")
+    code = main(["check", str(diagram)])
+    err = capsys.readouterr().err
+    assert code == 4 and "count (Integer, output)" in err and "Traceback" not in err
+
+
+def test_state_tolerances_follow_the_nominals(ball_fmu, tmp_path):
+    import zipfile
+
+    blk = FMUBlock("ball", path=str(ball_fmu), mode="me")
+    assert list(blk.atol) == [1e-12, 1e-12]  # no nominal given: 1
+    scaled = tmp_path / "nominal.fmu"
+    with zipfile.ZipFile(ball_fmu) as src, zipfile.ZipFile(scaled, "w") as dst:
+        for n in src.namelist():
+            data = src.read(n)
+            if n == "modelDescription.xml":
+                data = data.replace(b'<Real start="1"/>', b'<Real start="1" nominal="1000"/>', 1)
+            dst.writestr(n, data)
+    assert list(FMUBlock("ball", path=str(scaled), mode="me").atol) == pytest.approx([1e-9, 1e-12])
