@@ -1,0 +1,121 @@
+/* The bouncing ball with a stair counter (see ../ball/ball.c) as an FMI 3.0 Model Exchange
+ * FMU: a state event with a reset, time events at t = 1, 2, ... s, terminateSimulation at
+ * t_stop. The functions it does not implement are in ../vdp3/stubs.c.
+ * Value references: 0 h, 1 der(h), 2 v, 3 der(v), 4 e, 5 g, 6 height, 7 count, 8 t_stop, 9 time. */
+#include <stdlib.h>
+#include "fmi3Functions.h"
+
+typedef struct { double r[9]; double t, next; } Ball;
+
+static fmi3Instance make(void) {
+    Ball *m = (Ball *)calloc(1, sizeof(Ball));
+    if (m) { m->r[0] = 1.0; m->r[4] = 0.7; m->r[5] = 9.81; m->r[8] = 1e30; m->next = 1.0; }
+    return m;
+}
+
+fmi3Instance fmi3InstantiateModelExchange(fmi3String n, fmi3String tok, fmi3String res, fmi3Boolean vis,
+                                          fmi3Boolean log, fmi3InstanceEnvironment env,
+                                          fmi3LogMessageCallback cb) {
+    (void)n; (void)tok; (void)res; (void)vis; (void)log; (void)env; (void)cb;
+    return make();
+}
+fmi3Instance fmi3InstantiateCoSimulation(fmi3String n, fmi3String tok, fmi3String res, fmi3Boolean vis,
+                                         fmi3Boolean log, fmi3Boolean evm, fmi3Boolean early,
+                                         const fmi3ValueReference req[], size_t nreq,
+                                         fmi3InstanceEnvironment env, fmi3LogMessageCallback cb,
+                                         fmi3IntermediateUpdateCallback up) {
+    (void)n; (void)tok; (void)res; (void)vis; (void)log; (void)evm; (void)early; (void)req; (void)nreq;
+    (void)env; (void)cb; (void)up;
+    return NULL;  /* Model Exchange only */
+}
+void fmi3FreeInstance(fmi3Instance c) { free(c); }
+fmi3Status fmi3EnterInitializationMode(fmi3Instance c, fmi3Boolean a, fmi3Float64 b, fmi3Float64 t0,
+                                       fmi3Boolean d, fmi3Float64 e) {
+    (void)a; (void)b; (void)d; (void)e;
+    ((Ball *)c)->t = t0;
+    return fmi3OK;
+}
+fmi3Status fmi3ExitInitializationMode(fmi3Instance c) { (void)c; return fmi3OK; }
+fmi3Status fmi3Terminate(fmi3Instance c) { (void)c; return fmi3OK; }
+fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, fmi3Float64 v[], size_t nv) {
+    Ball *m = (Ball *)c;
+    size_t i;
+    (void)nv;
+    m->r[1] = m->r[2]; m->r[3] = -m->r[5]; m->r[6] = m->r[0];
+    for (i = 0; i < n; i++) {
+        if (vr[i] > 9) return fmi3Error;
+        v[i] = vr[i] == 9 ? m->t : m->r[vr[i]];
+    }
+    return fmi3OK;
+}
+fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const fmi3Float64 v[], size_t nv) {
+    size_t i;
+    (void)nv;
+    for (i = 0; i < n; i++) { if (vr[i] > 8) return fmi3Error; ((Ball *)c)->r[vr[i]] = v[i]; }
+    return fmi3OK;
+}
+fmi3Status fmi3UpdateDiscreteStates(fmi3Instance c, fmi3Boolean *need, fmi3Boolean *term, fmi3Boolean *nom,
+                                    fmi3Boolean *values, fmi3Boolean *defined, fmi3Float64 *next) {
+    Ball *m = (Ball *)c;
+    *need = *term = *nom = *values = fmi3False;
+    if (m->r[0] <= 0.0 && m->r[2] < 0.0) {  /* the bounce */
+        m->r[0] = 0.0;
+        m->r[2] = -m->r[4] * m->r[2];
+        *values = fmi3True;
+    }
+    if (m->t >= m->next - 1e-12) { m->r[7] += 1.0; m->next += 1.0; }  /* a step of the stairs */
+    if (m->t >= m->r[8] - 1e-12) *term = fmi3True;
+    *defined = fmi3True;
+    *next = m->next < m->r[8] ? m->next : m->r[8];
+    return fmi3OK;
+}
+fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance c) { (void)c; return fmi3OK; }
+fmi3Status fmi3EnterStepMode(fmi3Instance c) { (void)c; return fmi3Error; }
+fmi3Status fmi3SetTime(fmi3Instance c, fmi3Float64 t) { ((Ball *)c)->t = t; return fmi3OK; }
+fmi3Status fmi3SetContinuousStates(fmi3Instance c, const fmi3Float64 x[], size_t n) {
+    Ball *m = (Ball *)c;
+    if (n != 2) return fmi3Error;
+    m->r[0] = x[0]; m->r[2] = x[1];
+    return fmi3OK;
+}
+fmi3Status fmi3GetContinuousStates(fmi3Instance c, fmi3Float64 x[], size_t n) {
+    Ball *m = (Ball *)c;
+    if (n != 2) return fmi3Error;
+    x[0] = m->r[0]; x[1] = m->r[2];
+    return fmi3OK;
+}
+fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance c, fmi3Float64 d[], size_t n) {
+    Ball *m = (Ball *)c;
+    if (n != 2) return fmi3Error;
+    d[0] = m->r[2]; d[1] = -m->r[5];
+    return fmi3OK;
+}
+fmi3Status fmi3GetEventIndicators(fmi3Instance c, fmi3Float64 z[], size_t n) {
+    if (n != 1) return fmi3Error;
+    z[0] = ((Ball *)c)->r[0];
+    return fmi3OK;
+}
+fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 t, fmi3Float64 h, fmi3Boolean p, fmi3Boolean *ev,
+                      fmi3Boolean *term, fmi3Boolean *early, fmi3Float64 *last) {
+    (void)c; (void)t; (void)h; (void)p; (void)ev; (void)term; (void)early; (void)last;
+    return fmi3Error;
+}
+fmi3Status fmi3CompletedIntegratorStep(fmi3Instance c, fmi3Boolean nos, fmi3Boolean *enter, fmi3Boolean *term) {
+    (void)c; (void)nos;
+    *enter = *term = fmi3False;
+    return fmi3OK;
+}
+fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance c, size_t *n) { (void)c; *n = 2; return fmi3OK; }
+fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance c, size_t *n) { (void)c; *n = 1; return fmi3OK; }
+fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance c, fmi3Float64 x[], size_t n) {
+    (void)c;
+    if (n != 2) return fmi3Error;
+    x[0] = x[1] = 1.0;
+    return fmi3OK;
+}
+fmi3Status fmi3EnterEventMode(fmi3Instance c) { (void)c; return fmi3OK; }
+fmi3Status fmi3SetDebugLogging(fmi3Instance c, fmi3Boolean on, size_t n, const fmi3String cat[]) {
+    (void)c; (void)on; (void)n; (void)cat;
+    return fmi3OK;
+}
+const char *fmi3GetVersion(void) { return fmi3Version; }
