@@ -49,6 +49,10 @@ def _group(variables):
     return out
 
 
+def _raise(exc):
+    raise exc
+
+
 def _nominal(variable):
     """A state variable's nominal value (1 when it gives none or a bad one)."""
     try:
@@ -300,8 +304,22 @@ class FMUBlock(Block):
         return self._outputs()
 
     def update(self, t, x, u):
+        """One Co-Simulation step from ``t``. A step the FMU discards (FMI 2.0) or ends with
+        terminateSimulation / earlyReturn (FMI 3.0) ends the run cleanly at ``t``: a
+        :class:`~hybridsim.errors.StopRequest` (hybridsim has no step-size control to retry,
+        nor Co-Simulation event mode)."""
         self._set_inputs(u)
-        self._call(f"doStep at t={t:.6g}", self._fmu.doStep, t, self.T)
+        try:
+            res = self._fmu.doStep(t, self.T)
+        except Exception as exc:  # noqa: BLE001 - fmpy raises its own exception per status
+            if getattr(exc, "status", None) == 2:  # fmi2Discard
+                raise StopRequest(t, self.name, "doStep discarded the step (fmi2Discard)") from None
+            self._call(f"doStep at t={t:.6g}", _raise, exc)
+        if self.fmi3 and res:
+            _event, terminate, early, _last = res
+            if terminate or early:
+                raise StopRequest(t, self.name, "terminateSimulation" if terminate else
+                                  "earlyReturn (Co-Simulation event mode is not supported)")
         return x
 
     def _me_set(self, t, x, u):

@@ -213,3 +213,12 @@ def test_model_structure_feeds_the_algebraic_loop_check(plant):
     with pytest.raises(hs.DiagramError, match="algebraic loop"):
         d.build()
     assert FMUBlock("p", path=str(plant), mode="me").outputs[0].depends_on == ()  # q: states only
+
+
+def test_a_co_simulation_stop_request_ends_the_run_cleanly(vdp):
+    d = hs.Diagram("vdp")
+    d.add(FMUBlock("osc", path=str(vdp), mode="cs", rate=100, parameters={"mu": 1.5, "t_stop": 1.0}))
+    res = hs.Simulator(d.build(), hs.RK4(1e-3), log=["osc.y"], log_period=0.01).run(3.0)
+    assert res.meta["stopped"]["block"] == "osc" and res.meta["stopped"]["t"] == pytest.approx(1.0)
+    assert res.meta["stopped"]["reason"] in ("terminateSimulation", "doStep discarded the step (fmi2Discard)")
+    assert res.t[-1] == pytest.approx(1.0) and len(res.t) == 101  # every row up to the stop

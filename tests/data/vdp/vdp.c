@@ -1,12 +1,13 @@
 /* Van der Pol oscillator, x'' - mu (1 - x^2) x' + x = 0, as an FMI 2.0 FMU
  * (ME and CS). Written apart from the hybridsim plant to test importing a
- * foreign FMU. Variables: 0 x, 1 der(x), 2 v, 3 der(v), 4 mu, 5 y (output = x). */
+ * foreign FMU. Variables: 0 x, 1 der(x), 2 v, 3 der(v), 4 mu, 5 y (output = x), 6 t_stop (a
+ * Co-Simulation step past it is discarded: the FMU asks to stop). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include "fmi2Functions.h"
 
-typedef struct { double r[6]; double t; fmi2CallbackFunctions cb; } VdP;
+typedef struct { double r[7]; double t; fmi2CallbackFunctions cb; } VdP;
 
 static void rhs(const double *r, double x, double v, double *dx, double *dv) {
     *dx = v;
@@ -20,7 +21,7 @@ fmi2Component fmi2Instantiate(fmi2String n, fmi2Type t, fmi2String g, fmi2String
     VdP *m = (VdP *)cb->allocateMemory(1, sizeof(VdP));
     (void)n; (void)t; (void)g; (void)r; (void)v; (void)l;
     m->cb = *cb;
-    m->r[0] = 2.0; m->r[2] = 0.0; m->r[4] = 1.0;
+    m->r[0] = 2.0; m->r[2] = 0.0; m->r[4] = 1.0; m->r[6] = 1e30;
     return m;
 }
 void fmi2FreeInstance(fmi2Component c) { ((VdP *)c)->cb.freeMemory(c); }
@@ -29,12 +30,12 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
     size_t i;
     rhs(m->r, m->r[0], m->r[2], &m->r[1], &m->r[3]);
     m->r[5] = m->r[0];
-    for (i = 0; i < n; i++) { if (vr[i] > 5) return fmi2Error; v[i] = m->r[vr[i]]; }
+    for (i = 0; i < n; i++) { if (vr[i] > 6) return fmi2Error; v[i] = m->r[vr[i]]; }
     return fmi2OK;
 }
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real v[]) {
     size_t i;
-    for (i = 0; i < n; i++) { if (vr[i] > 5) return fmi2Error; ((VdP *)c)->r[vr[i]] = v[i]; }
+    for (i = 0; i < n; i++) { if (vr[i] > 6) return fmi2Error; ((VdP *)c)->r[vr[i]] = v[i]; }
     return fmi2OK;
 }
 fmi2Status fmi2SetTime(fmi2Component c, fmi2Real t) { ((VdP *)c)->t = t; return fmi2OK; }
@@ -70,6 +71,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean p) {
     int k, n = (int)ceil(h / 1e-3);
     double dt = h / n, x, v, a1, b1, a2, b2, a3, b3, a4, b4;
     (void)p;
+    if (t + h > m->r[6] + 1e-12) return fmi2Discard;  /* asks the importer to stop */
     for (k = 0; k < n; k++) { /* classic RK4 */
         x = m->r[0]; v = m->r[2];
         rhs(m->r, x, v, &a1, &b1);

@@ -1,13 +1,14 @@
 /* Van der Pol oscillator as an FMI 3.0 FMU (ME and CS), written apart from the
  * hybridsim plant to test importing FMI 3.0. Only the functions an importer
  * calls for these interfaces are defined. Value references: 0 x, 1 der(x),
- * 2 v, 3 der(v), 4 mu, 5 y (output = x), 6 time. */
+ * 2 v, 3 der(v), 4 mu, 5 y (output = x), 6 time, 7 t_stop (a Co-Simulation step past
+ * it ends with terminateSimulation). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include "fmi3Functions.h"
 
-typedef struct { double r[6]; double t; } VdP;
+typedef struct { double r[8]; double t; } VdP;
 
 static void rhs(const double *r, double x, double v, double *dx, double *dv) {
     *dx = v;
@@ -16,7 +17,7 @@ static void rhs(const double *r, double x, double v, double *dx, double *dv) {
 
 static fmi3Instance make(void) {
     VdP *m = (VdP *)calloc(1, sizeof(VdP));
-    if (m) { m->r[0] = 2.0; m->r[4] = 1.0; }
+    if (m) { m->r[0] = 2.0; m->r[4] = 1.0; m->r[7] = 1e30; }
     return m;
 }
 
@@ -51,7 +52,7 @@ fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
     rhs(m->r, m->r[0], m->r[2], &m->r[1], &m->r[3]);
     m->r[5] = m->r[0];
     for (i = 0; i < n; i++) {
-        if (vr[i] > 6) return fmi3Error;
+        if (vr[i] > 7) return fmi3Error;
         v[i] = vr[i] == 6 ? m->t : m->r[vr[i]];
     }
     return fmi3OK;
@@ -59,7 +60,7 @@ fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
 fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const fmi3Float64 v[], size_t nv) {
     size_t i;
     (void)nv;
-    for (i = 0; i < n; i++) { if (vr[i] > 5) return fmi3Error; ((VdP *)c)->r[vr[i]] = v[i]; }
+    for (i = 0; i < n; i++) { if (vr[i] > 7 || vr[i] == 6) return fmi3Error; ((VdP *)c)->r[vr[i]] = v[i]; }
     return fmi3OK;
 }
 fmi3Status fmi3UpdateDiscreteStates(fmi3Instance c, fmi3Boolean *a, fmi3Boolean *b, fmi3Boolean *d,
@@ -97,6 +98,12 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 t, fmi3Float64 h, fmi3Boolean 
     int k, n = (int)ceil(h / 1e-3);
     double dt = h / n, x, v, a1, b1, a2, b2, a3, b3, a4, b4;
     (void)p;
+    *ev = *early = fmi3False;
+    if (t + h > m->r[7] + 1e-12) {  /* asks the importer to stop, having done nothing */
+        *term = fmi3True;
+        *last = t;
+        return fmi3OK;
+    }
     for (k = 0; k < n; k++) { /* classic RK4 */
         x = m->r[0]; v = m->r[2];
         rhs(m->r, x, v, &a1, &b1);
