@@ -133,9 +133,8 @@ def test_an_event_iteration_that_never_settles_is_chattering():
         hs.Simulator(d.build(), hs.RK4(1e-2), log=["flip.y"]).run(2.0)
 
 
-def test_the_ball_runs_from_yaml(tmp_path):
-    p = tmp_path / "b.yaml"
-    p.write_text("blocks:\n  ball: {type: bouncing_ball, e: 0.8, h0: 1.0}\n"
-                 "simulation: {t_end: 3.5, step: 1.0e-3}\nlog: [ball.h]\n")
-    res = hs.simulate(p)
+def test_the_shipped_ball_diagram_runs():
+    from conftest import DIAGRAMS
+
+    res = hs.simulate(DIAGRAMS / "bouncing_ball.yaml")
     assert [t for t, _ in res.meta["events"]] == pytest.approx(BOUNCES[:9], abs=1e-9)
