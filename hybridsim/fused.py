@@ -212,6 +212,10 @@ class FusedStepper:
                             hi, x_hi, g_hi = mid, xm, gm
                         else:
                             lo, g_lo = mid, gm
+                    if hi < 1.0:  # re-stepped if past the surface too, as ExplicitRK._locate does
+                        x_re = np.array(self.advance(t, hi * h, 0, 1, X, self.H, self.P))
+                        if crossed(g_lo, g(t + hi * h, x_re), directions).any():
+                            x_hi = x_re
                     event = (hi, x_hi, crossed(g_lo, g_hi, directions))
                 g_k = g_next
             theta_stop = event[0] if event else 1.0

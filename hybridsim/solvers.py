@@ -141,7 +141,7 @@ class ExplicitRK:
             if g is not None:
                 g_next = g(t0 + (k + 1) * h, x_next)
                 if crossed(g_k, g_next, directions).any():
-                    event = self._locate(g, directions, t, h, x, K, g_k, x_next, g_next)
+                    event = self._locate(f, g, directions, t, h, x, K, g_k, x_next, g_next)
                 g_k = g_next
             theta_stop = event[0] if event else 1.0
             while j < len(obs) and obs[j][0] == k and obs[j][1] < theta_stop:
@@ -153,8 +153,10 @@ class ExplicitRK:
             x = x_next
         return t1, x, None, outs
 
-    def _locate(self, g, directions, t, h, x, K, g_lo, x_hi, g_hi):
-        """Bisect the step's dense output for the first crossing: ``(theta, x there, fired)``."""
+    def _locate(self, f, g, directions, t, h, x, K, g_lo, x_hi, g_hi):
+        """Bisect the step's dense output for the first crossing: ``(theta, x there, fired)``;
+        the state there comes from re-stepping to it (one step of ``theta h``: the method's
+        order, not the dense output's)."""
         from .events import TIME_TOL, crossed
 
         lo, hi = 0.0, 1.0
@@ -166,6 +168,10 @@ class ExplicitRK:
                 hi, x_hi, g_hi = mid, xm, gm
             else:
                 lo, g_lo = mid, gm
+        if hi < 1.0:  # re-stepped, if that state is past the surface too (else the dense one)
+            x_re = self._step(f, t, hi * h, x)[0]
+            if crossed(g_lo, g(t + hi * h, x_re), directions).any():
+                x_hi = x_re
         return hi, x_hi, crossed(g_lo, g_hi, directions)
 
     def __repr__(self):

@@ -138,3 +138,14 @@ def test_the_shipped_ball_diagram_runs():
 
     res = hs.simulate(DIAGRAMS / "bouncing_ball.yaml")
     assert [t for t, _ in res.meta["events"]] == pytest.approx(BOUNCES[:9], abs=1e-9)
+
+
+def test_located_switches_run_bit_for_bit_on_every_path():
+    from conftest import DIAGRAMS
+
+    runs = [hs.simulate(DIAGRAMS / "fig9_force_and_position.yaml", rate=60, t_end=0.3, locate_switches=True, **kw)
+            for kw in ({"fused": False}, {}, {"compiled": True})]
+    assert len(runs[0].meta["events"]) >= 5  # stick/slip switches, located
+    for r in runs[1:]:
+        assert np.array_equal(runs[0].table(), r.table())
+        assert runs[0].meta["events"] == r.meta["events"]
