@@ -57,13 +57,15 @@ def port_width(width, param="width"):
 
 
 class Port:
-    """A named, fixed-width input or output of a block."""
+    """A named, fixed-width input or output of a block (an input may have a ``default``:
+    the value it takes when no wire drives it)."""
 
-    __slots__ = ("block", "name", "width", "index", "depends_on")
+    __slots__ = ("block", "name", "width", "index", "depends_on", "default")
 
-    def __init__(self, block, name, width, index, depends_on=None):
+    def __init__(self, block, name, width, index, depends_on=None, default=None):
         self.block, self.name, self.width, self.index = block, name, width, index
         self.depends_on = depends_on
+        self.default = default
 
     def __repr__(self):
         return f"{self.block.name}.{self.name}"
@@ -152,9 +154,16 @@ class Block:
         self.time_offset = Fraction(0)
 
     # -- declarations ---------------------------------------------------
-    def declare_input(self, name, width):
-        """Add an input port of ``width`` elements; returns its index."""
-        self.inputs.append(Port(self, name, port_width(width), len(self.inputs)))
+    def declare_input(self, name, width, default=None):
+        """Add an input port of ``width`` elements; returns its index.
+
+        ``default``: the values the input takes when no wire drives it (an FMU
+        input's start values); without one an unwired input is an error.
+        """
+        width = port_width(width)
+        if default is not None:
+            default = tuple(float(v) for v in np.broadcast_to(np.asarray(default, float), (width,)))
+        self.inputs.append(Port(self, name, width, len(self.inputs), default=default))
         return len(self.inputs) - 1
 
     def declare_output(self, name, width, depends_on=None):

@@ -8,7 +8,9 @@
 ``build`` returns a :class:`~hybridsim.system.System`, the checked, sorted,
 ready-to-run form.
 """
+from .block import Block
 from .errors import DiagramError
+from .kernels import Kernels, kernel
 from .registry import closest
 
 
@@ -104,17 +106,53 @@ class Diagram:
                 driven[key] = w
         for block in self.blocks.values():
             for p in block.inputs:
-                if (block.name, p.name) not in driven:
+                if (block.name, p.name) not in driven and p.default is None:
                     problems.append(
                         f"input {block.name}.{p.name} ({p.width} wide) is not connected"
                     )
         return problems
 
+    def unwired_defaults(self):
+        """``[(block, port)]`` of the inputs no wire drives that take their default value."""
+        driven = {tuple(w.dst.split(".", 1)) for w in self.wires}
+        return [(b.name, p.name) for b in self.blocks.values() for p in b.inputs
+                if p.default is not None and (b.name, p.name) not in driven]
+
     def build(self):
-        """Check the diagram and return its runnable :class:`System`."""
+        """Check the diagram and return its runnable :class:`System`.
+
+        An input that no wire drives and that has a default is fed by a
+        :class:`DefaultValue` block added for it (named ``block:port=default``).
+        """
         from .system import System
 
         problems = self.check()
         if problems:
             raise DiagramError(problems, self.source)
-        return System(self)
+        unwired = self.unwired_defaults()
+        if not unwired:
+            return System(self)
+        full = Diagram(self.name, self.source)
+        full.blocks, full.wires = dict(self.blocks), list(self.wires)
+        for bname, pname in unwired:
+            port = self.blocks[bname].input_port(pname)
+            src = full.add(DefaultValue(f"{bname}:{pname}=default", port.default))
+            full.connect(f"{src.name}.y", f"{bname}.{pname}")
+        return System(full)
+
+
+class DefaultValue(Block):
+    """The constant value of an input that no wire drives (its port's ``default``)."""
+
+    def __init__(self, name, value):
+        super().__init__(name)
+        self.params = (tuple(float(v) for v in value),)
+        self.declare_output("y", len(self.params[0]))
+
+
+@kernel
+def default_value_output(p, t, x, u):
+    return (p[0],)
+
+
+DefaultValue.kernels = Kernels(output=default_value_output)

@@ -49,6 +49,14 @@ def _group(variables):
     return out
 
 
+def _start(variable):
+    """A variable's start value as a float, or None."""
+    try:
+        return None if variable.start is None else float(variable.start)
+    except (TypeError, ValueError):
+        return None
+
+
 def _raise(exc):
     raise exc
 
@@ -134,8 +142,9 @@ class FMUBlock(Block):
                            f"so far; this FMU has {', '.join(unsupported)}")
         self.in_ports = _group([v for v in md.modelVariables if v.causality == "input"])
         self.out_ports = _group([v for v in md.modelVariables if v.causality == "output"])
-        for pname, vs in self.in_ports:
-            self.declare_input(pname, len(vs))
+        for pname, vs in self.in_ports:  # an input whose variables all have start values may stay unwired
+            starts = [_start(v) for v in vs]
+            self.declare_input(pname, len(vs), default=None if None in starts else starts)
         in_index = {v.valueReference: pname for pname, vs in self.in_ports for v in vs}
         deps = {}
         for u in md.outputs:

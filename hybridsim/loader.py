@@ -312,6 +312,7 @@ def _drop_wires(data, bname):
 
 _REF = re.compile(r"^([^.\[\]\s]+)\.([^.\[\]\s]+)(?:\[(\d+)\])?$")
 _log = logging.getLogger("hybridsim")
+_SAID = set()  # notes already given in this process
 
 
 def _references(value):
@@ -594,6 +595,11 @@ class DiagramFile:
         if problems:
             raise DiagramError(problems, str(self.path))
         diagram.problems = []
+        for bname, pname in diagram.unwired_defaults():
+            if (str(self.path), bname, pname) not in _SAID:  # once per process
+                _SAID.add((str(self.path), bname, pname))
+                _log.info("%s: input %s.%s is not wired: it takes its default %s", self.path, bname, pname,
+                          list(diagram.blocks[bname].input_port(pname).default))
         settings = self._settings(params)
         widths = self._check_refs(diagram, settings)
         self._check_size(diagram, settings, widths)

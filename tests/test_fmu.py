@@ -222,3 +222,16 @@ def test_a_co_simulation_stop_request_ends_the_run_cleanly(vdp):
     assert res.meta["stopped"]["block"] == "osc" and res.meta["stopped"]["t"] == pytest.approx(1.0)
     assert res.meta["stopped"]["reason"] in ("terminateSimulation", "doStep discarded the step (fmi2Discard)")
     assert res.t[-1] == pytest.approx(1.0) and len(res.t) == 101  # every row up to the stop
+
+
+def test_unwired_inputs_take_their_start_values_and_check_says_so(plant, tmp_path, capsys):
+    from hybridsim.cli import main
+
+    diagram = tmp_path / "alone.yaml"
+    diagram.write_text(f"blocks:\n  plant: {{type: fmu, path: {plant}, mode: cs, rate: 100}}\n"
+                       "simulation: {t_end: 0.05}\nlog: [plant.F]\n")
+    assert main(["check", str(diagram)]) == 0
+    err = capsys.readouterr().err
+    assert "input plant.x_surface is not wired: it takes its default [0.5]" in err
+    res = hs.simulate(diagram)
+    assert np.all(np.isfinite(res["plant.F"]))
