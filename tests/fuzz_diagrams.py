@@ -43,7 +43,8 @@ metrics: {step_time: 0.01, ss_window: 0.01}
 """
 
 BASES = [yaml.load(SMALL, Loader=NumberLoader),
-         yaml.load((ROOT / "diagrams" / "hybrid_controller.yaml").read_text(), Loader=NumberLoader)]
+         yaml.load((ROOT / "diagrams" / "hybrid_controller.yaml").read_text(), Loader=NumberLoader),
+         yaml.load((ROOT / "diagrams" / "bouncing_ball.yaml").read_text(), Loader=NumberLoader)]
 BASES[1]["simulation"]["t_end"] = 0.05
 
 NUMBERS = [2.5, 1, 3, 1e-3, 1e3, 0, -1, 1e12, -1e-15, float("nan"), float("inf"), 1e308]
