@@ -49,10 +49,59 @@ def _group(variables):
     return out
 
 
+#: FMI types an input or output port may have (values cross the diagram as floats)
+PORT_TYPES = {"Real", "Integer", "Enumeration", "Boolean", "Float32", "Float64", "Int8", "UInt8", "Int16",
+              "UInt16", "Int32", "UInt32", "Int64", "UInt64"}
+_INT_RANGE = {"Int8": 8, "Int16": 16, "Int32": 32, "Int64": 64, "Integer": 32, "Enumeration": 32}
+_UINT_RANGE = {"UInt8": 8, "UInt16": 16, "UInt32": 32, "UInt64": 64}
+
+
+def _by_type(variables):
+    """``{type: (positions, value references)}`` of ``variables`` in order."""
+    out = {}
+    for k, v in enumerate(variables):
+        pos, vrs = out.setdefault(v.type, ([], []))
+        pos.append(k)
+        vrs.append(v.valueReference)
+    return out
+
+
+def _access(typ, fmi3, verb):
+    """The fmpy method that gets or sets variables of FMI type ``typ``."""
+    if fmi3:
+        return verb + ("Int64" if typ == "Enumeration" else typ)
+    return verb + {"Real": "Real", "Integer": "Integer", "Enumeration": "Integer", "Boolean": "Boolean"}[typ]
+
+
+def to_fmi(typ, value, name):
+    """A diagram value (float) as the FMI type ``typ``.
+
+    Integers are rounded to the nearest (halves to even, as Python's ``round``)
+    and must fit the type's range; a Boolean is true when the value is not 0;
+    anything not finite is an error. Raises :class:`FMUError` naming the variable.
+    """
+    value = float(value)
+    if not np.isfinite(value):
+        raise FMUError(f"input {name!r} ({typ}) got {value!r}: not a finite number")
+    if typ == "Boolean":
+        return value != 0.0
+    if typ in ("Real", "Float64", "Float32"):
+        return value
+    n = round(value)
+    bits = _INT_RANGE.get(typ)
+    lo, hi = (-(2 ** (bits - 1)), 2 ** (bits - 1) - 1) if bits else (0, 2 ** _UINT_RANGE[typ] - 1)
+    if not lo <= n <= hi:
+        raise FMUError(f"input {name!r} ({typ}) got {value!r}: outside {lo} .. {hi}")
+    return n
+
+
 def _start(variable):
     """A variable's start value as a float, or None."""
+    start = variable.start
+    if isinstance(start, str) and start.strip().lower() in ("true", "false"):
+        return 1.0 if start.strip().lower() == "true" else 0.0
     try:
-        return None if variable.start is None else float(variable.start)
+        return None if start is None else float(start)
     except (TypeError, ValueError):
         return None
 
@@ -136,10 +185,10 @@ class FMUBlock(Block):
                 raise FMUError(f"FMU {str(self.path)!r} has no variable {pname!r}{closest(pname, byname)}")
             self.parameters[pname] = value
         unsupported = [f"{v.name} ({v.type}, {v.causality})" for v in md.modelVariables
-                       if v.causality in ("input", "output") and v.type not in ("Real", "Float64")]
+                       if v.causality in ("input", "output") and v.type not in PORT_TYPES]
         if unsupported:
-            raise FMUError(f"FMU {str(self.path)!r}: only Real / Float64 inputs and outputs can be ports "
-                           f"so far; this FMU has {', '.join(unsupported)}")
+            raise FMUError(f"FMU {str(self.path)!r}: these inputs/outputs cannot be ports (numbers and "
+                           f"Booleans can: {', '.join(sorted(PORT_TYPES))}): {', '.join(unsupported)}")
         self.in_ports = _group([v for v in md.modelVariables if v.causality == "input"])
         self.out_ports = _group([v for v in md.modelVariables if v.causality == "output"])
         for pname, vs in self.in_ports:  # an input whose variables all have start values may stay unwired
@@ -167,6 +216,10 @@ class FMUBlock(Block):
         self.out_flat = [vr for vrs in self.out_vrs for vr in vrs]
         self.cuts = np.cumsum([0] + [len(v) for v in self.out_vrs])
         self.in_flat = [vr for vrs in self.in_vrs for vr in vrs]
+        # values cross the diagram as floats; each type is read and written with its own call
+        self.out_types = _by_type([v for _, vs in self.out_ports for v in vs])
+        self.in_vars = [v for _, vs in self.in_ports for v in vs]
+        self.in_types = _by_type(self.in_vars)
         if self.mode == "cs":
             if (rate is None) == (period is None):
                 raise ValueError("a Co-Simulation FMU needs exactly one of rate (Hz) or period (s)")
@@ -288,13 +341,19 @@ class FMUBlock(Block):
         return state
 
     def _outputs(self):
-        vals = np.asarray(self._call("get outputs", self._get, self.out_flat), float)
+        vals = np.zeros(len(self.out_flat))
+        for typ, (positions, vrs) in self.out_types.items():
+            got = self._call(f"get {typ} outputs", getattr(self._fmu, _access(typ, self.fmi3, "get")), vrs)
+            vals[positions] = np.asarray(got, float)
         return tuple(vals[a:b] for a, b in zip(self.cuts[:-1], self.cuts[1:]))
 
     def _set_inputs(self, u):
-        if self.in_flat:
-            self._call("set inputs", self._set, self.in_flat,
-                       [float(x) for x in np.concatenate(u)])
+        if not self.in_flat:
+            return
+        values = np.concatenate(u)
+        for typ, (positions, vrs) in self.in_types.items():
+            conv = [to_fmi(typ, values[k], self.in_vars[k].name) for k in positions]
+            self._call(f"set {typ} inputs", getattr(self._fmu, _access(typ, self.fmi3, "set")), vrs, conv)
 
     # -- block API ----------------------------------------------------------------
     def initial_state(self, u=None):

@@ -107,12 +107,39 @@ def test_terminate_simulation_ends_the_run_cleanly_with_the_results_so_far(ball_
     assert (tmp_path / "o" / "b.csv").read_text().count("\n") == 3001  # header + rows 0 .. 1.4995 s
 
 
+def test_integer_and_boolean_ports_cross_as_numbers(ball_fmu):
+    if "ball3" in str(ball_fmu):
+        pytest.skip("the FMI 3.0 ball has Float64 ports only (Int/Bool FMI 3.0 ports: not tested yet)")
+    from hybridsim.fmu import to_fmi
+
+    d = hs.Diagram("ball")
+    d.add(FMUBlock("ball", path=str(ball_fmu), mode="me"))
+    d.add(hs.registry.lookup("constant")("k", value=41.6))
+    d.add(hs.registry.lookup("constant")("f", value=1.0))
+    d.connect("k.y", "ball.k_in")
+    d.connect("f.y", "ball.flag_in")
+    res = hs.Simulator(d.build(), hs.RK4(1e-3), log=["ball.bounces", "ball.up", "ball.k_out", "ball.flag_out"],
+                       log_period=0.01).run(2.4)
+    assert res["ball.k_out[0]"][-1] == 43.0  # 41.6 rounds to 42; the FMU adds 1
+    assert res["ball.flag_out[0]"][-1] == 0.0  # 1.0 is true; the FMU negates it
+    assert res["ball.bounces[0]"][-1] == len(state_events(res))  # an Integer output counting the bounces
+    up = dict(zip(np.round(res.t, 6), res["ball.up[0]"]))
+    assert (up[0.3], up[0.6]) == (0.0, 1.0)  # falling, then rising after the first bounce
+    assert to_fmi("Int8", 127.4, "x") == 127 and to_fmi("Boolean", -2.0, "x") is True
+    with pytest.raises(FMUError, match=r"'x' \(Int8\) got 128.0: outside -128 .. 127"):
+        to_fmi("Int8", 128.0, "x")
+    with pytest.raises(FMUError, match="not a finite number"):
+        to_fmi("UInt16", float("nan"), "x")
+
+
 def test_unsupported_port_types_are_refused_by_check(ball_fmu, tmp_path, capsys):
     import zipfile
 
     from hybridsim.cli import main
 
-    bad = tmp_path / "int.fmu"  # the ball with its count output declared Integer
+    if "ball3" in str(ball_fmu):
+        pytest.skip("an FMI 3.0 String port needs another XML form; tested on FMI 2.0")
+    bad = tmp_path / "str.fmu"  # the ball with its count output declared String
     with zipfile.ZipFile(ball_fmu) as src, zipfile.ZipFile(bad, "w") as dst:
         for n in src.namelist():
             data = src.read(n)
@@ -120,14 +147,13 @@ def test_unsupported_port_types_are_refused_by_check(ball_fmu, tmp_path, capsys)
                 data = data.replace(b'name="count" valueReference="7" causality="output" variability="discrete" '
                                     b'initial="exact"><Real start="0"/>',
                                     b'name="count" valueReference="7" causality="output" variability="discrete" '
-                                    b'initial="exact"><Integer start="0"/>')  # FMI 2.0
-                data = data.replace(b'<Float64 name="count"', b'<Int32 name="count"')  # FMI 3.0
+                                    b'initial="exact"><String start="0"/>')
             dst.writestr(n, data)
     diagram = tmp_path / "b.yaml"
     diagram.write_text(f"blocks:\n  ball: {{type: fmu, path: {bad}, mode: me}}\nsimulation: {{t_end: 1}}\n")
     code = main(["check", str(diagram)])
     err = capsys.readouterr().err
-    assert code == 4 and ("count (Integer, output)" in err or "count (Int32, output)" in err)
+    assert code == 4 and "count (String, output)" in err
     assert "Traceback" not in err
 
 

@@ -3,12 +3,13 @@
  * Written for hybridsim's tests of the FMI event protocol.
  * At t_stop (a parameter) it asks to terminate the simulation (terminateSimulation).
  * Variables: 0 h, 1 der(h), 2 v, 3 der(v), 4 e, 5 g, 6 height (output = h), 7 count (output),
- * 8 t_stop. */
+ * 8 t_stop; Integer 9 bounces, 11 k_in (input), 12 k_out = k_in + 1; Boolean 10 up (v > 0),
+ * 13 flag_in (input), 14 flag_out = !flag_in: ports of other types than Real. */
 #include <math.h>
 #include <string.h>
 #include "fmi2Functions.h"
 
-typedef struct { double r[9]; double t, next; fmi2CallbackFunctions cb; } Ball;
+typedef struct { double r[9]; double t, next; int bounces, k_in, flag_in; fmi2CallbackFunctions cb; } Ball;
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
 const char *fmi2GetVersion(void) { return fmi2Version; }
@@ -18,7 +19,7 @@ fmi2Component fmi2Instantiate(fmi2String n, fmi2Type t, fmi2String g, fmi2String
     (void)n; (void)t; (void)g; (void)r; (void)v; (void)l;
     m->cb = *cb;
     m->r[0] = 1.0; m->r[2] = 0.0; m->r[4] = 0.7; m->r[5] = 9.81; m->r[7] = 0.0; m->r[8] = 1e30;
-    m->t = 0.0; m->next = 1.0;
+    m->t = 0.0; m->next = 1.0; m->bounces = 0; m->k_in = 0; m->flag_in = 0;
     return m;
 }
 void fmi2FreeInstance(fmi2Component c) { ((Ball *)c)->cb.freeMemory(c); }
@@ -67,6 +68,7 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *e) {
     if (m->r[0] <= 0.0 && m->r[2] < 0.0) {  /* the bounce */
         m->r[0] = 0.0;
         m->r[2] = -m->r[4] * m->r[2];
+        m->bounces += 1;
         e->valuesOfContinuousStatesChanged = fmi2True;
     }
     if (m->t >= m->next - 1e-12) {  /* a step of the stairs */
@@ -76,6 +78,38 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *e) {
     if (m->t >= m->r[8] - 1e-12) e->terminateSimulation = fmi2True;
     e->nextEventTimeDefined = fmi2True;
     e->nextEventTime = m->next < m->r[8] ? m->next : m->r[8];
+    return fmi2OK;
+}
+fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer v[]) {
+    Ball *m = (Ball *)c;
+    size_t i;
+    for (i = 0; i < n; i++) {
+        if (vr[i] == 9) v[i] = m->bounces;
+        else if (vr[i] == 11) v[i] = m->k_in;
+        else if (vr[i] == 12) v[i] = m->k_in + 1;
+        else return fmi2Error;
+    }
+    return fmi2OK;
+}
+fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer v[]) {
+    size_t i;
+    for (i = 0; i < n; i++) { if (vr[i] != 11) return fmi2Error; ((Ball *)c)->k_in = v[i]; }
+    return fmi2OK;
+}
+fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[]) {
+    Ball *m = (Ball *)c;
+    size_t i;
+    for (i = 0; i < n; i++) {
+        if (vr[i] == 10) v[i] = m->r[2] > 0.0;
+        else if (vr[i] == 13) v[i] = m->flag_in;
+        else if (vr[i] == 14) v[i] = !m->flag_in;
+        else return fmi2Error;
+    }
+    return fmi2OK;
+}
+fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Boolean v[]) {
+    size_t i;
+    for (i = 0; i < n; i++) { if (vr[i] != 13) return fmi2Error; ((Ball *)c)->flag_in = v[i] != 0; }
     return fmi2OK;
 }
 fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean s, fmi2Boolean *e, fmi2Boolean *t) {
@@ -93,11 +127,7 @@ OK_STUB(fmi2Reset, fmi2Component c)
 OK_STUB(fmi2EnterEventMode, fmi2Component c)
 OK_STUB(fmi2EnterContinuousTimeMode, fmi2Component c)
 ERR_STUB(fmi2DoStep, fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean p)
-ERR_STUB(fmi2GetInteger, fmi2Component c, const fmi2ValueReference r[], size_t n, fmi2Integer v[])
-ERR_STUB(fmi2GetBoolean, fmi2Component c, const fmi2ValueReference r[], size_t n, fmi2Boolean v[])
 ERR_STUB(fmi2GetString, fmi2Component c, const fmi2ValueReference r[], size_t n, fmi2String v[])
-ERR_STUB(fmi2SetInteger, fmi2Component c, const fmi2ValueReference r[], size_t n, const fmi2Integer v[])
-ERR_STUB(fmi2SetBoolean, fmi2Component c, const fmi2ValueReference r[], size_t n, const fmi2Boolean v[])
 ERR_STUB(fmi2SetString, fmi2Component c, const fmi2ValueReference r[], size_t n, const fmi2String v[])
 ERR_STUB(fmi2GetFMUstate, fmi2Component c, fmi2FMUstate *s)
 ERR_STUB(fmi2SetFMUstate, fmi2Component c, fmi2FMUstate s)
