@@ -1,11 +1,13 @@
 /* The bouncing ball with a stair counter (see ../ball/ball.c) as an FMI 3.0 Model Exchange
  * FMU: a state event with a reset, time events at t = 1, 2, ... s, terminateSimulation at
- * t_stop. The functions it does not implement are in ../vdp3/stubs.c.
- * Value references: 0 h, 1 der(h), 2 v, 3 der(v), 4 e, 5 g, 6 height, 7 count, 8 t_stop, 9 time. */
+ * t_stop, and Int32/Boolean ports. The functions it does not implement are in stubs.c.
+ * Value references: 0 h, 1 der(h), 2 v, 3 der(v), 4 e, 5 g, 6 height, 7 count, 8 t_stop, 9 time;
+ * Int32 10 bounces, 11 k_in (input), 12 k_out = k_in + 1; Boolean 13 flag_in (input),
+ * 14 flag_out = !flag_in. */
 #include <stdlib.h>
 #include "fmi3Functions.h"
 
-typedef struct { double r[9]; double t, next; } Ball;
+typedef struct { double r[9]; double t, next; int bounces, k_in, flag_in; } Ball;
 
 static fmi3Instance make(void) {
     Ball *m = (Ball *)calloc(1, sizeof(Ball));
@@ -54,6 +56,41 @@ fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
     for (i = 0; i < n; i++) { if (vr[i] > 8) return fmi3Error; ((Ball *)c)->r[vr[i]] = v[i]; }
     return fmi3OK;
 }
+fmi3Status fmi3GetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t n, fmi3Int32 v[], size_t nv) {
+    Ball *m = (Ball *)c;
+    size_t i;
+    (void)nv;
+    for (i = 0; i < n; i++) {
+        if (vr[i] == 10) v[i] = m->bounces;
+        else if (vr[i] == 11) v[i] = m->k_in;
+        else if (vr[i] == 12) v[i] = m->k_in + 1;
+        else return fmi3Error;
+    }
+    return fmi3OK;
+}
+fmi3Status fmi3SetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const fmi3Int32 v[], size_t nv) {
+    size_t i;
+    (void)nv;
+    for (i = 0; i < n; i++) { if (vr[i] != 11) return fmi3Error; ((Ball *)c)->k_in = v[i]; }
+    return fmi3OK;
+}
+fmi3Status fmi3GetBoolean(fmi3Instance c, const fmi3ValueReference vr[], size_t n, fmi3Boolean v[], size_t nv) {
+    Ball *m = (Ball *)c;
+    size_t i;
+    (void)nv;
+    for (i = 0; i < n; i++) {
+        if (vr[i] == 13) v[i] = m->flag_in;
+        else if (vr[i] == 14) v[i] = !m->flag_in;
+        else return fmi3Error;
+    }
+    return fmi3OK;
+}
+fmi3Status fmi3SetBoolean(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const fmi3Boolean v[], size_t nv) {
+    size_t i;
+    (void)nv;
+    for (i = 0; i < n; i++) { if (vr[i] != 13) return fmi3Error; ((Ball *)c)->flag_in = v[i] != 0; }
+    return fmi3OK;
+}
 fmi3Status fmi3UpdateDiscreteStates(fmi3Instance c, fmi3Boolean *need, fmi3Boolean *term, fmi3Boolean *nom,
                                     fmi3Boolean *values, fmi3Boolean *defined, fmi3Float64 *next) {
     Ball *m = (Ball *)c;
@@ -61,6 +98,7 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance c, fmi3Boolean *need, fmi3Boole
     if (m->r[0] <= 0.0 && m->r[2] < 0.0) {  /* the bounce */
         m->r[0] = 0.0;
         m->r[2] = -m->r[4] * m->r[2];
+        m->bounces += 1;
         *values = fmi3True;
     }
     if (m->t >= m->next - 1e-12) { m->r[7] += 1.0; m->next += 1.0; }  /* a step of the stairs */
