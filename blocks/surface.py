@@ -1,8 +1,6 @@
 """The reaction surface (eq 9), unilateral: it can push, never pull."""
 from typing import NamedTuple
 
-import numpy as np
-
 from hybridsim.block import Block
 from hybridsim.kernels import Kernels, kernel
 from hybridsim.registry import register

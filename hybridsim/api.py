@@ -14,7 +14,7 @@ from pathlib import Path
 from . import metrics as _metrics
 from .files import atomic_dir, safe_name
 from .loader import DiagramFile
-from .simulator import Simulator
+from .simulator import Simulator, on_terminal
 from .solvers import FIXED_STEP, ScipySolver
 
 
@@ -141,7 +141,7 @@ def run_experiment(path_or_file, progress=False, jobs=None, **overrides):
         if progress:
             from tqdm import tqdm
 
-            bar = tqdm(total=len(variants), unit="run", delay=1.0, leave=False, disable=not _tty())
+            bar = tqdm(total=len(variants), unit="run", delay=1.0, leave=False, disable=not on_terminal())
         with ProcessPoolExecutor(jobs) as pool:
             futures = [pool.submit(_run_variant, f, label, v) for label, v in variants]
             out = []
@@ -180,10 +180,3 @@ def write_outputs(f, runs, settings, outdir):
 
 def _slug(label):
     return safe_name("".join(c if c.isalnum() or c in "-." else "-" for c in label.replace("=", "")), "run")
-
-
-def _tty():
-    """Progress bars only on a terminal: a log file gets no carriage-return frames."""
-    import sys
-
-    return bool(getattr(sys.stderr, "isatty", lambda: False)())

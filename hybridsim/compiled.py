@@ -248,7 +248,7 @@ def _module_source(system, solver, log_ports, log_path, located, dense_logs=True
     """Source of the generated module and the names it needs: (source, env)."""
     sysm = system
     rk, env, held = rk_source(sysm, solver, params_arg=True, located=located)
-    blocks, kind = sysm.blocks, sysm.kind
+    blocks = sysm.blocks
     y = lambda i, o: [f"y{i}_{o}_{j}" for j in range(blocks[i].outputs[o].width)]  # noqa: E731
     z = lambda i: [f"z{i}_{j}" for j in range(blocks[i].n_discrete)]  # noqa: E731
     tup = lambda names: "(" + "".join(n + ", " for n in names) + ")"  # noqa: E731

@@ -32,7 +32,6 @@ class Context:
         self._initialize()
 
     def _initialize(self):
-        sysm = self.system
         late = []
         for i, b in enumerate(self.blocks):
             if b.init_needs_inputs:

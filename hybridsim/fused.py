@@ -15,7 +15,7 @@ both give the same numbers (a test checks it bit for bit); the generic path
 remains the reference. Discontinuities are stepped over.
 """
 from .rk_code import unrolled_lines
-from .solvers import ExplicitRK, steps, steps_between  # noqa: F401 - steps re-exported
+from .solvers import ExplicitRK, steps
 
 
 def eligible(system, solver):

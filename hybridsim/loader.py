@@ -625,7 +625,6 @@ class DiagramFile:
 
         Returns the total logged width (for the size check)."""
         log = self.data.get("log") or _List()
-        signals = self.data.get("signals") or _Dict()
         items = [(ref, (log.locs[k] if getattr(log, "locs", None) else str(self.path)), "log entry")
                  for k, ref in enumerate(settings["log"])]
         items += [(ref, f"{self.path}:{settings['signal_lines'].get(role)}", f"signal {role!r}")

@@ -397,12 +397,13 @@ def _progress(total):
         from tqdm import tqdm
     except ImportError:  # pragma: no cover
         return None
-    return tqdm(total=total, unit="s sim", delay=1.0, leave=False, disable=not _tty(),
+    return tqdm(total=total, unit="s sim", delay=1.0, leave=False, disable=not on_terminal(),
                 bar_format="{l_bar}{bar}| {n:.2f}/{total:.2f} s [{elapsed}<{remaining}]")
 
 
-def _tty():
-    """Progress bars only on a terminal: a log file gets no carriage-return frames."""
+def on_terminal():
+    """True when stderr is a terminal: progress bars only there (a log file gets no
+    carriage-return frames)."""
     import sys
 
     return bool(getattr(sys.stderr, "isatty", lambda: False)())

@@ -364,7 +364,9 @@ def _run(sw, pts, outdir, jsonl, jobs, dask, progress, use_batch=True):
     if progress:
         from tqdm import tqdm
 
-        bar = tqdm(total=len(pts), initial=len(pts) - len(todo), unit="run", smoothing=0.1, disable=not _tty(),
+        from .simulator import on_terminal
+
+        bar = tqdm(total=len(pts), initial=len(pts) - len(todo), unit="run", smoothing=0.1, disable=not on_terminal(),
                    desc=sw.path.stem)
     args = (str(sw.diagram), sw.fixed, sw.stability)
     batch = None
@@ -533,10 +535,3 @@ def _index_of_one(values, axis):
         if abs(float(v) - 1.0) < 1e-12:
             return k
     return None
-
-
-def _tty():
-    """Progress bars only on a terminal: a log file gets no carriage-return frames."""
-    import sys
-
-    return bool(getattr(sys.stderr, "isatty", lambda: False)())

@@ -16,7 +16,6 @@ inner loop never walks the graph.
 """
 import numpy as np
 
-from .block import Block
 from .context import Context
 from .errors import DiagramError
 from .graph import needed_blocks, sort_blocks
