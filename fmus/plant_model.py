@@ -108,6 +108,10 @@ def vars_header():
     return "\n".join(lines)
 
 
+#: the C files in sources/ an importer compiles to rebuild the binary (fmpy does, on any platform)
+SOURCE_FILES = '    <SourceFiles><File name="plant.c"/></SourceFiles>'
+
+
 def model_description():
     """modelDescription.xml (FMI 2.0, Co-Simulation and Model Exchange)."""
     from xml.sax.saxutils import escape
@@ -120,9 +124,13 @@ def model_description():
            '  description="%s" generationTool="hybridsim" variableNamingConvention="structured"'
            % escape(DESCRIPTION),
            f'  numberOfEventIndicators="{N_EVENT_INDICATORS}">',
-           f'  <ModelExchange modelIdentifier="{MODEL_NAME}" canGetAndSetFMUstate="true"/>',
+           f'  <ModelExchange modelIdentifier="{MODEL_NAME}" canGetAndSetFMUstate="true">',
+           SOURCE_FILES,
+           "  </ModelExchange>",
            f'  <CoSimulation modelIdentifier="{MODEL_NAME}" canHandleVariableCommunicationStepSize="true"'
-           ' canGetAndSetFMUstate="true"/>',
+           ' canGetAndSetFMUstate="true">',
+           SOURCE_FILES,
+           "  </CoSimulation>",
            "  <UnitDefinitions>"]
     out += [f'    <Unit name="{escape(u)}"/>' for u in units]
     out += ["  </UnitDefinitions>", '  <DefaultExperiment startTime="0" stopTime="4" stepSize="0.016666666666666666"/>',

@@ -235,3 +235,22 @@ def test_unwired_inputs_take_their_start_values_and_check_says_so(plant, tmp_pat
     assert "input plant.x_surface is not wired: it takes its default [0.5]" in err
     res = hs.simulate(diagram)
     assert np.all(np.isfinite(res["plant.F"]))
+
+
+def test_fmpy_rebuilds_the_plant_from_its_sources(plant, tmp_path):
+    import fmpy
+
+    if shutil.which("cmake") is None:
+        pytest.skip("fmpy rebuilds binaries with cmake")
+    from fmpy.build import build_platform_binary
+
+    bare = tmp_path / "bare.fmu"  # the FMU as another platform sees it: sources, no binary it can load
+    with zipfile.ZipFile(plant) as z, zipfile.ZipFile(bare, "w") as out:
+        for n in z.namelist():
+            if not n.startswith("binaries/"):
+                out.writestr(n, z.read(n))
+    unzipped = fmpy.extract(str(bare), unzipdir=tmp_path / "x")
+    build_platform_binary(unzipped)  # reads <SourceFiles> (it was an IndexError without them)
+    ref = fmpy.simulate_fmu(str(plant), stop_time=0.05, fmi_type="CoSimulation", output=["F[1]"])
+    got = fmpy.simulate_fmu(str(unzipped), stop_time=0.05, fmi_type="CoSimulation", output=["F[1]"])
+    assert np.array_equal(ref["F[1]"], got["F[1]"])
