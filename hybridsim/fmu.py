@@ -21,6 +21,7 @@ import os
 import re
 import shutil
 import subprocess
+import sys
 import tempfile
 import zipfile
 from pathlib import Path
@@ -511,7 +512,7 @@ def build_fmu(out, model_identifier, sources, model_description, headers, includ
             for h in Path(d).glob("*.h"):
                 shutil.copy(h, src / h.name)
         (tmp / "modelDescription.xml").write_text(model_description)
-        lib = binary / f"{model_identifier}.so"
+        lib = binary / (model_identifier + {"darwin": ".dylib", "win32": ".dll"}.get(sys.platform, ".so"))
         cmd = [cc, "-std=c99", "-O2", "-fPIC", "-shared", "-Wall", "-I", str(src), "-o", str(lib)]
         cmd += [str(src / Path(f).name) for f in sources] + ["-lm"]
         proc = subprocess.run(cmd, capture_output=True, text=True)
