@@ -216,6 +216,7 @@ fmi2Status fmi2Reset(fmi2Component c) {
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real value[]) {
     Plant *p = (Plant *)c;
     size_t i;
+    if (p->mode == MODE_INIT) initial_state(p); /* the initial state of the parameters as set so far */
     if (p->mode != MODE_INSTANTIATED) outputs(p);
     for (i = 0; i < n; i++) {
         if (vr[i] >= N_VARS) {
@@ -233,6 +234,10 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
     for (i = 0; i < n; i++) {
         if (vr[i] >= N_VARS) {
             say(p, fmi2Error, "logStatusError", "fmi2SetReal: unknown value reference");
+            return fmi2Error;
+        }
+        if (FIXED[vr[i]] && p->mode != MODE_INSTANTIATED && p->mode != MODE_INIT) {
+            say(p, fmi2Error, "logStatusError", "fmi2SetReal: a fixed parameter cannot change after initialization");
             return fmi2Error;
         }
         p->r[vr[i]] = value[i];

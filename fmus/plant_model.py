@@ -104,7 +104,10 @@ def vars_header():
     lines.append(f"#define VR_STATE0 {c_name(STATE_NAMES[0])}")
     lines.append(f"#define VR_DER0 {c_name(DERIVATIVES[0])}")
     starts = ", ".join(repr(float(v[3])) if v[3] is not None else "0.0" for v in vs)
-    lines += ["", f"static const double START_VALUES[N_VARS] = {{{starts}}};", "", "#endif", ""]
+    fixed = ", ".join("1" if v[2] == "fixed" else "0" for v in vs)
+    lines += ["", f"static const double START_VALUES[N_VARS] = {{{starts}}};",
+              f"static const int FIXED[N_VARS] = {{{fixed}}};  /* set only before initialization ends */",
+              "", "#endif", ""]
     return "\n".join(lines)
 
 

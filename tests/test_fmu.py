@@ -254,3 +254,25 @@ def test_fmpy_rebuilds_the_plant_from_its_sources(plant, tmp_path):
     ref = fmpy.simulate_fmu(str(plant), stop_time=0.05, fmi_type="CoSimulation", output=["F[1]"])
     got = fmpy.simulate_fmu(str(unzipped), stop_time=0.05, fmi_type="CoSimulation", output=["F[1]"])
     assert np.array_equal(ref["F[1]"], got["F[1]"])
+
+
+def test_plant_fmu_answers_in_initialization_mode_and_keeps_fixed_parameters(plant):
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    md = read_model_description(str(plant))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(plant)), modelIdentifier=md.coSimulation.modelIdentifier)
+    fmu.instantiate()
+    try:
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        q2 = fmu.getReal([vr["q[2]"]])[0]
+        # q2 = sqrt(X^2 + Y^2 - l^2) of the start endpoint (0.50002361111, 0), l = 0.153 m: not 0 any more
+        assert q2 == pytest.approx(np.sqrt(0.50002361111 ** 2 - 0.153 ** 2), rel=1e-12)
+        fmu.exitInitializationMode()
+        with pytest.raises(Exception, match="status 3"):
+            fmu.setReal([vr["Kw"]], [1.0e5])  # fixed: refused after initialization
+    finally:
+        fmu.terminate()
+        fmu.freeInstance()
