@@ -250,8 +250,18 @@ fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
     return n == 0 ? fmi2OK : fmi2Error;
 }
 fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[]) {
-    (void)c; (void)vr; (void)v;
-    return n == 0 ? fmi2OK : fmi2Error;
+    Plant *p = (Plant *)c;
+    size_t i;
+    if (p->mode == MODE_INIT) initial_state(p);
+    if (p->mode != MODE_INSTANTIATED) outputs(p);
+    for (i = 0; i < n; i++) {
+        if (vr[i] >= N_VARS || !BOOLEAN[vr[i]]) {
+            say(p, fmi2Error, "logStatusError", "fmi2GetBoolean: not a Boolean variable");
+            return fmi2Error;
+        }
+        v[i] = p->r[vr[i]] != 0.0;
+    }
+    return fmi2OK;
 }
 fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String v[]) {
     (void)c; (void)vr; (void)v;
@@ -262,8 +272,20 @@ fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
     return n == 0 ? fmi2OK : fmi2Error;
 }
 fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Boolean v[]) {
-    (void)c; (void)vr; (void)v;
-    return n == 0 ? fmi2OK : fmi2Error;
+    Plant *p = (Plant *)c;
+    size_t i;
+    for (i = 0; i < n; i++) {
+        if (vr[i] >= N_VARS || !BOOLEAN[vr[i]] || vr[i] == VR_CONTACT) {
+            say(p, fmi2Error, "logStatusError", "fmi2SetBoolean: not a Boolean parameter");
+            return fmi2Error;
+        }
+        if (FIXED[vr[i]] && p->mode != MODE_INSTANTIATED && p->mode != MODE_INIT) {
+            say(p, fmi2Error, "logStatusError", "fmi2SetBoolean: a fixed parameter cannot change after initialization");
+            return fmi2Error;
+        }
+        p->r[vr[i]] = v[i] ? 1.0 : 0.0;
+    }
+    return fmi2OK;
 }
 fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2String v[]) {
     (void)c; (void)vr; (void)v;

@@ -30,7 +30,7 @@ VARIABLES = [
     ("x_hand[1]", O, "continuous", None, "m", "hand position C-X"),
     ("x_hand[2]", O, "continuous", None, "m", "hand position C-Y"),
     ("fx", O, "continuous", None, "N", "contact force of the surface"),
-    ("contact", O, "continuous", None, "1", "1 in contact, else 0"),
+    ("contact", O, "discrete", None, "1", "true in contact"),
     # parameters
     ("Kw", P, "fixed", 8.0e5, "N/m", "wrist stiffness"),
     ("Kr", P, "fixed", 9.0e5, "N/m", "surface stiffness"),
@@ -44,14 +44,14 @@ VARIABLES = [
     ("tau_c[2]", P, "fixed", 3.5, "N", "Coulomb friction joint 2"),
     ("tau_s[1]", P, "fixed", 5.75, "N.m", "static friction joint 1"),
     ("tau_s[2]", P, "fixed", 4.6, "N", "static friction joint 2"),
-    ("friction", P, "fixed", 1.0, "1", "1 friction on, 0 off"),
+    ("friction", P, "fixed", 1.0, "1", "stick-slip friction on"),
     ("stick_band", P, "fixed", 1e-4, "1", "Karnopp capture band on joint speeds (rad/s, m/s)"),
     ("stick_time", P, "fixed", 1e-3, "s", "time constant bringing a stuck joint to rest"),
     ("b[1]", P, "fixed", 0.0, "N.m.s/rad", "joint 1 viscous damping"),
     ("b[2]", P, "fixed", 0.0, "N.s/m", "joint 2 viscous damping"),
     ("bw", P, "fixed", 0.0, "N.s/m", "wrist damping"),
     ("br", P, "fixed", 0.0, "N.s/m", "surface contact damping"),
-    ("unilateral", P, "fixed", 1.0, "1", "1: the surface only pushes"),
+    ("unilateral", P, "fixed", 1.0, "1", "the surface only pushes"),
     ("endpoint0[1]", P, "fixed", 0.50002361111, "m", "initial arm endpoint C-X (inverse kinematics)"),
     ("endpoint0[2]", P, "fixed", 0.0, "m", "initial arm endpoint C-Y"),
     ("preload", P, "fixed", 10.0, "N", "initial contact force the hand balances along C-X"),
@@ -70,6 +70,8 @@ N_STATES = 8
 STATE_NAMES = [v[0] for v in VARIABLES if v[0].startswith("s.")]
 DERIVATIVES = [f"der({n})" for n in STATE_NAMES]
 N_EVENT_INDICATORS = 3  # |q1'| - band, |q2'| - band, penetration
+#: the variables that are Boolean (stored as 0/1 in the C array like the others)
+BOOLEANS = {"friction", "unilateral", "contact"}
 
 
 def all_variables():
@@ -105,8 +107,10 @@ def vars_header():
     lines.append(f"#define VR_DER0 {c_name(DERIVATIVES[0])}")
     starts = ", ".join(repr(float(v[3])) if v[3] is not None else "0.0" for v in vs)
     fixed = ", ".join("1" if v[2] == "fixed" else "0" for v in vs)
+    boolean = ", ".join("1" if v[0] in BOOLEANS else "0" for v in vs)
     lines += ["", f"static const double START_VALUES[N_VARS] = {{{starts}}};",
               f"static const int FIXED[N_VARS] = {{{fixed}}};  /* set only before initialization ends */",
+              f"static const int BOOLEAN[N_VARS] = {{{boolean}}};  /* fmi2Get/SetBoolean, not Real */",
               "", "#endif", ""]
     return "\n".join(lines)
 
@@ -147,6 +151,10 @@ def model_description():
             attrs += ' initial="calculated"'
         elif caus == "local":
             attrs += ' initial="calculated"' if name.startswith("s.") or name.startswith("der(") else ""
+        if name in BOOLEANS:
+            b = f' start="{"true" if start else "false"}"' if start is not None and caus == "parameter" else ""
+            out.append(f"    <ScalarVariable {attrs}><Boolean{b}/></ScalarVariable>")
+            continue
         if start is not None and caus in ("input", "parameter"):
             real += f' start="{start!r}"'
         out.append(f"    <ScalarVariable {attrs}><Real {real.strip()}/></ScalarVariable>")

@@ -263,7 +263,12 @@ class FMUBlock(Block):
             fmu = self._fmu = (self._instantiate3 if self.fmi3 else self._instantiate2)(kw)
             byname = {v.name: v for v in self.md.modelVariables}
             for pname, value in self.parameters.items():
-                self._call(f"setting {pname}", self._set, [byname[pname].valueReference], [float(value)])
+                var = byname[pname]
+                setter = getattr(fmu, _access(var.type, self.fmi3, "set"), None)
+                if var.type not in PORT_TYPES or setter is None:
+                    raise FMUError(f"FMU block {self.name!r}: parameter {pname!r} is a {var.type}; "
+                                   "numeric and Boolean parameters can be set")
+                self._call(f"setting {pname}", setter, [var.valueReference], [to_fmi(var.type, value, pname)])
             self._call("exitInitializationMode", fmu.exitInitializationMode)
             if self.mode == "me":
                 try:
@@ -298,7 +303,6 @@ class FMUBlock(Block):
         self._call("fmi2Instantiate", fmu.instantiate, False, cbs)
         self._call("setupExperiment", fmu.setupExperiment, None, 0.0)
         self._call("enterInitializationMode", fmu.enterInitializationMode)
-        self._get, self._set = fmu.getReal, fmu.setReal
         self._get_der = getattr(fmu, "getDerivatives", None)  # ME only
         return fmu
 
@@ -312,7 +316,6 @@ class FMUBlock(Block):
 
         self._call("fmi3Instantiate", fmu.instantiate, logMessage=logger)
         self._call("enterInitializationMode", fmu.enterInitializationMode, startTime=0.0)
-        self._get, self._set = fmu.getFloat64, fmu.setFloat64
         self._get_der = getattr(fmu, "getContinuousStateDerivatives", None)  # ME only
         return fmu
 
@@ -337,8 +340,7 @@ class FMUBlock(Block):
 
     def __getstate__(self):
         state = dict(self.__dict__)
-        state.update(_fmu=None, _unzipdir=None, _logger=None, _callbacks=None,
-                     _get=None, _set=None, _get_der=None)
+        state.update(_fmu=None, _unzipdir=None, _logger=None, _callbacks=None, _get_der=None)
         return state
 
     def _outputs(self):
