@@ -1,5 +1,6 @@
 """FMU export and import: a valid FMU, the same answers as the Python plant,
 a plain C host and a second importer (libcosimpy) run it, foreign FMUs import."""
+import os
 import shutil
 import subprocess
 import zipfile
@@ -276,3 +277,39 @@ def test_plant_fmu_answers_in_initialization_mode_and_keeps_fixed_parameters(pla
     finally:
         fmu.terminate()
         fmu.freeInstance()
+
+
+def _fmu_folders():
+    import tempfile
+
+    return {p for p in os.listdir(tempfile.gettempdir()) if p.startswith("hybridsim-fmu-")}
+
+
+@pytest.mark.parametrize("case", ["setup fails", "run diverges", "interrupted"])
+def test_no_instance_or_folder_is_left_after_a_failure(plant, case, monkeypatch):
+    before = _fmu_folders()
+    extra = {"rate": 60, "t_end": 0.5, "fmu": str(plant)}
+    if case == "setup fails":
+        extra["plant.parameters"] = {"max_substep": -1.0}
+        expected = hs.FMUError
+    elif case == "run diverges":  # the plant FMU reports the divergence itself: an FMU error mid-run
+        extra["fpi.Ki"] = [1e9, 1e9]
+        expected = (hs.FMUError, hs.SimulationError)
+    else:
+        from hybridsim.fmu import FMUBlock
+
+        real = FMUBlock.update
+
+        def interrupt(self, t, x, u):
+            if t > 0.1:
+                raise KeyboardInterrupt
+            return real(self, t, x, u)
+
+        monkeypatch.setattr(FMUBlock, "update", interrupt)
+        expected = KeyboardInterrupt
+    system, sim, _ = hs.build(DIAGRAMS / "fig9_fmu_cs.yaml", **extra)
+    with pytest.raises(expected):
+        sim.run(0.5)
+    blk = system.block("plant")
+    assert blk._fmu is None and blk._unzipdir is None  # terminated, freed, folder removed
+    assert _fmu_folders() <= before
