@@ -221,6 +221,10 @@ class FMUBlock(Block):
         self.out_types = _by_type([v for _, vs in self.out_ports for v in vs])
         self.in_vars = [v for _, vs in self.in_ports for v in vs]
         self.in_types = _by_type(self.in_vars)
+        # Model Exchange: discrete-time inputs may be set in event mode only (FMI 2.0 and 3.0)
+        discrete = [k for k, v in enumerate(self.in_vars) if v.variability == "discrete"]
+        self.in_discrete = discrete if self.mode == "me" else []
+        self._last_discrete = None
         if self.mode == "cs":
             if (rate is None) == (period is None):
                 raise ValueError("a Co-Simulation FMU needs exactly one of rate (Hz) or period (s)")
@@ -250,6 +254,7 @@ class FMUBlock(Block):
         import fmpy
 
         self.close()
+        self._last_discrete = None
         self._unzipdir = tempfile.mkdtemp(prefix="hybridsim-fmu-")
         try:
             fmpy.extract(str(self.path), unzipdir=self._unzipdir)
@@ -350,13 +355,33 @@ class FMUBlock(Block):
             vals[positions] = np.asarray(got, float)
         return tuple(vals[a:b] for a, b in zip(self.cuts[:-1], self.cuts[1:]))
 
-    def _set_inputs(self, u):
+    def _set_inputs(self, u, only=None):
+        """Set the inputs (``only``: those positions; default all but ME discrete-time ones)."""
         if not self.in_flat:
             return
         values = np.concatenate(u)
+        skip = set() if only is not None else set(self.in_discrete)
         for typ, (positions, vrs) in self.in_types.items():
-            conv = [to_fmi(typ, values[k], self.in_vars[k].name) for k in positions]
-            self._call(f"set {typ} inputs", getattr(self._fmu, _access(typ, self.fmi3, "set")), vrs, conv)
+            pick = [(k, vr) for k, vr in zip(positions, vrs) if k not in skip and (only is None or k in only)]
+            if not pick:
+                continue
+            conv = [to_fmi(typ, values[k], self.in_vars[k].name) for k, _ in pick]
+            self._call(f"set {typ} inputs", getattr(self._fmu, _access(typ, self.fmi3, "set")),
+                       [vr for _, vr in pick], conv)
+
+    def _discrete_inputs(self, t, x, u):
+        """Model Exchange: discrete-time inputs that changed enter the FMU through event mode."""
+        values = np.concatenate(u)[self.in_discrete]
+        if self._last_discrete is not None and np.array_equal(values, self._last_discrete):
+            return
+        self._last_discrete = values.copy()
+        fmu = self._fmu
+        self._call(f"enterEventMode at t={t:.9g}", fmu.enterEventMode)
+        self._set_inputs(u, only=set(self.in_discrete))
+        if self._event_update(t):
+            raise FMUError(f"FMU block {self.name!r} changed its continuous states at t={t:.9g} s when a "
+                           "discrete input changed; hybridsim cannot take that from an input yet")
+        self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
 
     # -- block API ----------------------------------------------------------------
     def initial_state(self, u=None):
@@ -370,6 +395,8 @@ class FMUBlock(Block):
     def output(self, t, x, u):
         if self.mode == "me":
             self._me_set(t, x, u)
+            if self.in_discrete:
+                self._discrete_inputs(t, x, u)
         else:
             self._set_inputs(u)
         return self._outputs()

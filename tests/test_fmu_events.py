@@ -108,6 +108,8 @@ def test_terminate_simulation_ends_the_run_cleanly_with_the_results_so_far(ball_
 
 
 def test_integer_and_boolean_ports_cross_as_numbers(ball_fmu):
+    """The balls' Integer/Boolean inputs are discrete-time: they accept values in event mode
+    only (the FMU returns an error otherwise), so this also checks that they are set there."""
     from hybridsim.fmu import to_fmi
 
     d = hs.Diagram("ball")

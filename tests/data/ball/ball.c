@@ -9,7 +9,7 @@
 #include <string.h>
 #include "fmi2Functions.h"
 
-typedef struct { double r[9]; double t, next; int bounces, k_in, flag_in; fmi2CallbackFunctions cb; } Ball;
+typedef struct { double r[9]; double t, next; int bounces, k_in, flag_in, event_mode; fmi2CallbackFunctions cb; } Ball;
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
 const char *fmi2GetVersion(void) { return fmi2Version; }
@@ -19,7 +19,7 @@ fmi2Component fmi2Instantiate(fmi2String n, fmi2Type t, fmi2String g, fmi2String
     (void)n; (void)t; (void)g; (void)r; (void)v; (void)l;
     m->cb = *cb;
     m->r[0] = 1.0; m->r[2] = 0.0; m->r[4] = 0.7; m->r[5] = 9.81; m->r[7] = 0.0; m->r[8] = 1e30;
-    m->t = 0.0; m->next = 1.0; m->bounces = 0; m->k_in = 0; m->flag_in = 0;
+    m->t = 0.0; m->next = 1.0; m->bounces = 0; m->k_in = 0; m->flag_in = 0; m->event_mode = 1;
     return m;
 }
 void fmi2FreeInstance(fmi2Component c) { ((Ball *)c)->cb.freeMemory(c); }
@@ -93,6 +93,7 @@ fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
 }
 fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer v[]) {
     size_t i;
+    if (!((Ball *)c)->event_mode) return fmi2Error; /* a discrete-time input: event mode only */
     for (i = 0; i < n; i++) { if (vr[i] != 11) return fmi2Error; ((Ball *)c)->k_in = v[i]; }
     return fmi2OK;
 }
@@ -109,9 +110,12 @@ fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
 }
 fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Boolean v[]) {
     size_t i;
+    if (!((Ball *)c)->event_mode) return fmi2Error; /* a discrete-time input: event mode only */
     for (i = 0; i < n; i++) { if (vr[i] != 13) return fmi2Error; ((Ball *)c)->flag_in = v[i] != 0; }
     return fmi2OK;
 }
+fmi2Status fmi2EnterEventMode(fmi2Component c) { ((Ball *)c)->event_mode = 1; return fmi2OK; }
+fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) { ((Ball *)c)->event_mode = 0; return fmi2OK; }
 fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean s, fmi2Boolean *e, fmi2Boolean *t) {
     (void)c; (void)s; *e = fmi2False; *t = fmi2False; return fmi2OK;
 }
@@ -124,8 +128,6 @@ OK_STUB(fmi2EnterInitializationMode, fmi2Component c)
 OK_STUB(fmi2ExitInitializationMode, fmi2Component c)
 OK_STUB(fmi2Terminate, fmi2Component c)
 OK_STUB(fmi2Reset, fmi2Component c)
-OK_STUB(fmi2EnterEventMode, fmi2Component c)
-OK_STUB(fmi2EnterContinuousTimeMode, fmi2Component c)
 ERR_STUB(fmi2DoStep, fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean p)
 ERR_STUB(fmi2GetString, fmi2Component c, const fmi2ValueReference r[], size_t n, fmi2String v[])
 ERR_STUB(fmi2SetString, fmi2Component c, const fmi2ValueReference r[], size_t n, const fmi2String v[])

@@ -7,11 +7,11 @@
 #include <stdlib.h>
 #include "fmi3Functions.h"
 
-typedef struct { double r[9]; double t, next; int bounces, k_in, flag_in; } Ball;
+typedef struct { double r[9]; double t, next; int bounces, k_in, flag_in, event_mode; } Ball;
 
 static fmi3Instance make(void) {
     Ball *m = (Ball *)calloc(1, sizeof(Ball));
-    if (m) { m->r[0] = 1.0; m->r[4] = 0.7; m->r[5] = 9.81; m->r[8] = 1e30; m->next = 1.0; }
+    if (m) { m->r[0] = 1.0; m->r[4] = 0.7; m->r[5] = 9.81; m->r[8] = 1e30; m->next = 1.0; m->event_mode = 1; }
     return m;
 }
 
@@ -71,6 +71,7 @@ fmi3Status fmi3GetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t n,
 fmi3Status fmi3SetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const fmi3Int32 v[], size_t nv) {
     size_t i;
     (void)nv;
+    if (!((Ball *)c)->event_mode) return fmi3Error; /* a discrete-time input: event mode only */
     for (i = 0; i < n; i++) { if (vr[i] != 11) return fmi3Error; ((Ball *)c)->k_in = v[i]; }
     return fmi3OK;
 }
@@ -88,6 +89,7 @@ fmi3Status fmi3GetBoolean(fmi3Instance c, const fmi3ValueReference vr[], size_t 
 fmi3Status fmi3SetBoolean(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const fmi3Boolean v[], size_t nv) {
     size_t i;
     (void)nv;
+    if (!((Ball *)c)->event_mode) return fmi3Error; /* a discrete-time input: event mode only */
     for (i = 0; i < n; i++) { if (vr[i] != 13) return fmi3Error; ((Ball *)c)->flag_in = v[i] != 0; }
     return fmi3OK;
 }
@@ -107,7 +109,7 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance c, fmi3Boolean *need, fmi3Boole
     *next = m->next < m->r[8] ? m->next : m->r[8];
     return fmi3OK;
 }
-fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance c) { (void)c; return fmi3OK; }
+fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance c) { ((Ball *)c)->event_mode = 0; return fmi3OK; }
 fmi3Status fmi3EnterStepMode(fmi3Instance c) { (void)c; return fmi3Error; }
 fmi3Status fmi3SetTime(fmi3Instance c, fmi3Float64 t) { ((Ball *)c)->t = t; return fmi3OK; }
 fmi3Status fmi3SetContinuousStates(fmi3Instance c, const fmi3Float64 x[], size_t n) {
@@ -151,7 +153,7 @@ fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance c, fmi3Float64 x[], si
     x[0] = x[1] = 1.0;
     return fmi3OK;
 }
-fmi3Status fmi3EnterEventMode(fmi3Instance c) { (void)c; return fmi3OK; }
+fmi3Status fmi3EnterEventMode(fmi3Instance c) { ((Ball *)c)->event_mode = 1; return fmi3OK; }
 fmi3Status fmi3SetDebugLogging(fmi3Instance c, fmi3Boolean on, size_t n, const fmi3String cat[]) {
     (void)c; (void)on; (void)n; (void)cat;
     return fmi3OK;
