@@ -88,8 +88,8 @@ def cmd_run(args):
             if v is not None:
                 parts.append(fmt.format(v * 1000 if key.endswith("_m") else v))
         if "contact_lost" in m:
-            parts.append(f"contact LOST at {m['first_loss_s']:.3f} s" if m["contact_lost"]
-                         else "contact kept")
+            parts.append(f"contact LOST at {m['first_loss_s']:.3f} s (the force metrics then describe "
+                         "a bouncing hand, not the force loop)" if m["contact_lost"] else "contact kept")
         parts.append(f"{m['wall_time_s']:.2f} s wall")
         print(f"  {head}: " + ", ".join(parts))
         stopped = r["result"].meta.get("stopped")
@@ -162,7 +162,7 @@ def cmd_report(args):
     data = write_report(f.path, out, **_overrides(args.set))
     for c in data["configurations"]:
         print(f"  {c['label'] or f.name}: largest |z| {c['growth']:.4f} "
-              f"({'stable' if c['stable'] else 'not stable'}), least damping {c['least_damping']}")
+              f"({'stable' if c['stable'] else 'not stable'}), least damping {_num(c['least_damping'])}")
     print(f"wrote {out}/report.html (+ PNG and SVG figures, analysis.json)")
     return 0
 
@@ -201,7 +201,14 @@ def cmd_sweep(args):
     return 0
 
 
+def _num(v):
+    """A number for people: 4 significant digits (or 'n/a')."""
+    return f"{v:.4g}" if isinstance(v, (int, float)) else "n/a"
+
+
 def cmd_blocks(args):
+    import inspect
+
     from .registry import lookup, parameters, types
 
     for name in types():
@@ -209,8 +216,20 @@ def cmd_blocks(args):
         req, opt = parameters(cls)
         doc = (cls.__doc__ or "").strip().splitlines()[0]
         print(f"{name:20s} {doc}")
-        if args.verbose:
-            print(f"{'':20s} parameters: {', '.join(req + opt)}")
+        if not args.verbose:
+            continue
+        sig = inspect.signature(cls.__init__).parameters
+        shown = [p if p in req else f"{p}={sig[p].default!r}" for p in req + opt]
+        print(f"{'':20s} parameters: {', '.join(shown) or 'none'}")
+        try:  # the ports of a block with its defaults (a block that needs a file has none to show)
+            blk = cls(name="b")
+        except Exception:  # noqa: BLE001 - only for showing
+            continue
+        port = lambda p: f"{p.name}[{p.width}]"  # noqa: E731
+        print(f"{'':20s} inputs: {', '.join(map(port, blk.inputs)) or 'none'}; "
+              f"outputs: {', '.join(map(port, blk.outputs)) or 'none'}"
+              + (f"; rate {float(1 / blk.period):g} Hz" if blk.period else "")
+              + (f"; {blk.n_continuous} continuous states" if blk.n_continuous else ""))
     return 0
 
 

@@ -131,3 +131,11 @@ def test_run_without_signal_roles_draws_a_scope(tmp_path, capsys):
     code, _, _ = run(capsys, "run", ROOT / "tests" / "data" / "discrete_only.yaml", "-q", "-o", tmp_path)
     assert code == 0
     assert (tmp_path / "discrete_only.png").stat().st_size > 10000
+
+
+def test_blocks_verbose_shows_defaults_and_ports(capsys):
+    code, out, _ = run(capsys, "blocks", "-v")
+    assert code == 0
+    assert "parameters: g=9.81, e=0.8, h0=1.0, v0=0.0" in out  # bouncing_ball, its defaults
+    assert "inputs: none; outputs: h[1], v[1]; 2 continuous states" in out
+    assert "inputs: tau[2], f_wrist[2]; outputs: q[2], qd[2]; 4 continuous states" in out  # the arm
