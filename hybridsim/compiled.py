@@ -133,7 +133,7 @@ class CompiledLoop:
             ctx.xd[i] = Z[k:k + z.size].copy()
             k += z.size
         events = self._event_log(EV, EVF, int(NEV[0])) if self.located else []
-        if getattr(ctx, "events", None) is not None:
+        if ctx.events is not None:
             ctx.events.log = events
         if status[0]:
             self._diverged(status, T, ctx, max_state, events)

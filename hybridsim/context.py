@@ -9,6 +9,8 @@ contexts of the same system can run side by side (blocks hold no run data).
 * ``y[i][o]``: a preallocated buffer holding output ``o`` of block ``i``;
 * ``u[i]``: the list of buffers that are block ``i``'s inputs. These are the
   very arrays of ``y`` (no copying on the way), built once;
+* ``events``, ``stopped``: the run's events and, when a block ended it early,
+  its :class:`~hybridsim.errors.StopRequest`;
 * ``blocks``: the blocks whose equations this run uses - the system's, or
   copies with other parameters (:meth:`~hybridsim.block.Block.with_params`)
   for a run with parameters given at run time; ``params`` their numbers.
@@ -29,6 +31,8 @@ class Context:
         self.u = [[self.y[a][o] for (a, o) in system.sources[i]] for i in range(len(blocks))]
         self.xc = np.zeros(system.n_x)
         self.xd = [np.zeros(b.n_discrete) for b in blocks]
+        self.events = None   # the run's located and time events (hybridsim.events.EventSet)
+        self.stopped = None  # a block's StopRequest that ended the run
         self._initialize()
 
     def _initialize(self):

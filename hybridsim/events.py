@@ -39,6 +39,31 @@ def crossed(g0, g1, directions):
     return np.where(directions > 0, rising, np.where(directions < 0, falling, rising | falling))
 
 
+def bisect(g, directions, t, h, state_at, g_lo, x_hi, g_hi, restep=None):
+    """The first crossing of ``g`` inside ``[t, t + h]``, to :data:`TIME_TOL`.
+
+    ``state_at(theta)`` is the state at ``t + theta h`` (a dense output);
+    ``g_lo`` the functions at ``t``, ``x_hi`` / ``g_hi`` the state and functions
+    at ``t + h``. With ``restep(theta h)`` the state at the crossing is taken from
+    it when that state is past the surface too (else the dense one). Returns
+    ``(theta, x there, fired)``.
+    """
+    lo, hi = 0.0, 1.0
+    while (hi - lo) * h > TIME_TOL:
+        mid = 0.5 * (lo + hi)
+        xm = state_at(mid)
+        gm = g(t + mid * h, xm)
+        if crossed(g_lo, gm, directions).any():
+            hi, x_hi, g_hi = mid, xm, gm
+        else:
+            lo, g_lo = mid, gm
+    if restep is not None and hi < 1.0:
+        x_re = restep(hi * h)
+        if crossed(g_lo, g(t + hi * h, x_re), directions).any():
+            x_hi = x_re
+    return hi, x_hi, crossed(g_lo, g_hi, directions)
+
+
 class EventSet:
     """The located events and time events of one context: their functions and actions.
 

@@ -15,7 +15,7 @@ both give the same numbers (a test checks it bit for bit); the generic path
 remains the reference. Discontinuities are stepped over.
 """
 from .rk_code import unrolled_lines
-from .solvers import ExplicitRK, steps
+from .solvers import ExplicitRK
 
 
 def eligible(system, solver):
@@ -162,68 +162,37 @@ def _event_lines(sysm, located, outputs, params, arg, state, env, extra):
 
 
 class FusedStepper:
-    """The generated ``advance`` behind the solver interface the event loop uses.
+    """The generated ``advance`` functions behind :class:`hybridsim.solvers.Steps`' interface.
 
-    :func:`hybridsim.events.integrate` calls ``advance_to_event`` as it does on
-    an :class:`~hybridsim.solvers.ExplicitRK`: the same steps, dense outputs
-    and bisection, the numbers bit for bit those of the generic path; the
-    event functions and actions are the blocks' own (evaluated as on the
-    generic path).
+    :func:`hybridsim.events.integrate` calls ``advance_to_event``, which is the
+    method's own (:meth:`~hybridsim.solvers.ExplicitRK.advance_to_event`) with
+    these steps: the same steps, dense outputs and bisection, the numbers bit for
+    bit those of the generic path. States are tuples of floats here.
     """
 
     def __init__(self, method, advance, H, P):
         self.method, (self.advance, self.advance_obs), self.H, self.P = method, advance, H, P
 
-    def _step(self, t0, h, k, X, kobs=-1, w=()):
-        if kobs < 0:
-            return (self.advance(t0, h, k, k + 1, X, self.H, self.P),)
-        return self.advance_obs(t0, h, k, k + 1, X, self.H, kobs, w, self.P)
-
     def advance_to_event(self, f, t0, t1, x, t_out, g, directions):
         """See :meth:`hybridsim.solvers.ExplicitRK.advance_to_event` (``f`` is not used)."""
+        return self.method.advance_to_event(f, t0, t1, x, t_out, g, directions, steps_with=self)
+
+    def first(self, x):
         import numpy as np
 
-        from .events import TIME_TOL, crossed
-        from .solvers import observations
+        return tuple(np.asarray(x, float).tolist())
 
-        m = self.method
-        n = steps(t0, t1, m.step)
-        h = (t1 - t0) / n
-        ks, thetas = observations(t0, h, n, t_out)
-        obs = list(zip(ks.tolist(), thetas.tolist()))
-        outs, j, X = [], 0, tuple(np.asarray(x, float).tolist())
-        g_k = g(t0, np.array(X)) if g is not None else None
-        for k in range(n):
-            while j < len(obs) and obs[j] == (k, 0.0):
-                outs.append(np.array(X))
-                j += 1
-            X_next = self._step(t0, h, k, X)[0]
-            event = None
-            if g is not None:
-                g_next = g(t0 + (k + 1) * h, np.array(X_next))
-                if crossed(g_k, g_next, directions).any():
-                    lo, hi, g_lo, g_hi, x_hi = 0.0, 1.0, g_k, g_next, np.array(X_next)
-                    t = t0 + k * h
-                    while (hi - lo) * h > TIME_TOL:
-                        mid = 0.5 * (lo + hi)
-                        xm = np.array(self._step(t0, h, k, X, k, m.dense_weights(mid))[2])
-                        gm = g(t + mid * h, xm)
-                        if crossed(g_lo, gm, directions).any():
-                            hi, x_hi, g_hi = mid, xm, gm
-                        else:
-                            lo, g_lo = mid, gm
-                    if hi < 1.0:  # re-stepped if past the surface too, as ExplicitRK._locate does
-                        x_re = np.array(self.advance(t, hi * h, 0, 1, X, self.H, self.P))
-                        if crossed(g_lo, g(t + hi * h, x_re), directions).any():
-                            x_hi = x_re
-                    event = (hi, x_hi, crossed(g_lo, g_hi, directions))
-                g_k = g_next
-            theta_stop = event[0] if event else 1.0
-            while j < len(obs) and obs[j][0] == k and obs[j][1] < theta_stop:
-                outs.append(np.array(self._step(t0, h, k, X, k, m.dense_weights(obs[j][1]))[2]))
-                j += 1
-            if event:
-                theta, x_ev, fired = event
-                return (t0 + k * h + theta * h if theta < 1.0 else t0 + (k + 1) * h), x_ev, fired, outs
-            X = X_next
-        return t1, np.array(X), None, outs
+    def array(self, X):
+        import numpy as np
+
+        return np.array(X)
+
+    def step(self, t0, h, k, X):
+        return self.advance(t0, h, k, k + 1, X, self.H, self.P), None
+
+    def dense(self, t0, h, k, X, _stages, theta):
+        w = self.method.dense_weights(theta)
+        return self.array(self.advance_obs(t0, h, k, k + 1, X, self.H, k, w, self.P)[2])
+
+    def restep(self, t, hh, X):
+        return self.advance(t, hh, 0, 1, X, self.H, self.P)

@@ -222,9 +222,8 @@ class Simulator:
                 hits = dict(hits)
             else:
                 rows_t, rows, hits = self._loop(ctx, self._walk(stops, t_end), rhs, events, bar, t_end)
-            stopped = getattr(ctx, "stopped", None)
-            if stopped is not None:  # a block ended the run: the results so far
-                t_end = stopped.t
+            if ctx.stopped is not None:  # a block ended the run: the results so far
+                t_end = ctx.stopped.t
             else:  # the context ends consistent: every output not held, evaluated at t_end
                 ctx.evaluate([i for i in range(len(blocks)) if sysm.kind[i] != "discrete"], t_end, ctx.xc)
         finally:
@@ -274,6 +273,11 @@ class Simulator:
         """The hits of :meth:`_loop` in order (a :class:`StopRequest` ends them)."""
         sysm = self.system
         xc = ctx.xc
+
+        def observe(tb, xb):  # with events: recorded in order, before the next event's actions
+            ctx.evaluate(self.log_path, tb, xb)
+            record(tb)
+
         with np.errstate(over="ignore", invalid="ignore"):
             for t, due, log_here, t_out, t_next in walk:
                 plan.outputs(ctx, t, xc, due)
@@ -285,10 +289,6 @@ class Simulator:
                     plan.check_discrete(i, x, t)
                 if sysm.n_x:
                     if ctx.events is not None:
-                        def observe(tb, xb):  # recorded in order, before the next event's actions
-                            ctx.evaluate(self.log_path, tb, xb)
-                            record(tb)
-
                         xc, _ = _events.integrate(self._stepper(ctx), rhs, ctx.events, t, t_next, xc, t_out,
                                                   events, observe)
                         xs, t_out = [], ()
@@ -321,12 +321,12 @@ class Simulator:
             w = blocks[i].outputs[o].width
             signals[ref] = data[:, col:col + w] if data.size else np.zeros((0, w))
             col += w
-        stopped = getattr(ctx, "stopped", None)
+        stopped = ctx.stopped
         meta = {"diagram": self.system.name, "solver": repr(self.solver), "t_end": t_end,
                 "stopped": None if stopped is None else
                 {"t": stopped.t, "block": stopped.block, "reason": stopped.reason},
                 "wall_time_s": wall, "hits": hits,
-                "events": list(ctx.events.log) if getattr(ctx, "events", None) is not None else []}
+                "events": list(ctx.events.log) if ctx.events is not None else []}
         return Result(np.array(rows_t), signals, meta, context=ctx)
 
     def _stepper(self, ctx):

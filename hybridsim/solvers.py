@@ -116,66 +116,80 @@ class ExplicitRK:
         _, x, _, outs = self.advance_to_event(f, t0, t1, x, t_out, None, None)
         return x, outs
 
-    def advance_to_event(self, f, t0, t1, x, t_out, g, directions):
+    def advance_to_event(self, f, t0, t1, x, t_out, g, directions, steps_with=None):
         """Like :meth:`advance`, stopping at the first located event of ``g``.
 
         Returns ``(t_stop, x_stop, fired, outs)``: ``fired`` (a mask over the
         functions of ``g``) is None when no event occurred and ``t_stop`` is
         ``t1``. Without an event the steps are exactly those of :meth:`advance`.
+        An event is located by bisecting the step's dense output, and its state
+        comes from re-stepping to it (one step of ``theta h``: the method's order)
+        when that state is past the surface too. ``steps_with``: what takes the
+        steps (:class:`Steps` by default; the fused path gives its generated ones).
         """
-        from .events import crossed
+        from .events import bisect, crossed
 
+        st = steps_with or Steps(self, f)
         n = steps(t0, t1, self.step)
         h = (t1 - t0) / n
         ks, thetas = observations(t0, h, n, t_out)
         obs = list(zip(ks.tolist(), thetas.tolist()))
-        outs, j = [], 0
-        g_k = g(t0, x) if g is not None else None
+        outs, j, X = [], 0, st.first(x)
+        g_k = g(t0, st.array(X)) if g is not None else None
         for k in range(n):
             t = t0 + k * h
             while j < len(obs) and obs[j] == (k, 0.0):
-                outs.append(x)
+                outs.append(st.array(X))
                 j += 1
-            x_next, K = self._step(f, t, h, x)
+            X_next, token = st.step(t0, h, k, X)
             event = None
             if g is not None:
-                g_next = g(t0 + (k + 1) * h, x_next)
+                g_next = g(t0 + (k + 1) * h, st.array(X_next))
                 if crossed(g_k, g_next, directions).any():
-                    event = self._locate(f, g, directions, t, h, x, K, g_k, x_next, g_next)
+                    event = bisect(g, directions, t, h, lambda th: st.dense(t0, h, k, X, token, th),
+                                   g_k, st.array(X_next), g_next,
+                                   restep=lambda hh: st.array(st.restep(t, hh, X)))
                 g_k = g_next
             theta_stop = event[0] if event else 1.0
             while j < len(obs) and obs[j][0] == k and obs[j][1] < theta_stop:
-                outs.append(self._dense(x, K, h, self.dense_weights(obs[j][1])))
+                outs.append(st.dense(t0, h, k, X, token, obs[j][1]))
                 j += 1
             if event:
                 theta, x_ev, fired = event
                 return (t + theta * h if theta < 1.0 else t0 + (k + 1) * h), x_ev, fired, outs
-            x = x_next
-        return t1, x, None, outs
-
-    def _locate(self, f, g, directions, t, h, x, K, g_lo, x_hi, g_hi):
-        """Bisect the step's dense output for the first crossing: ``(theta, x there, fired)``;
-        the state there comes from re-stepping to it (one step of ``theta h``: the method's
-        order, not the dense output's)."""
-        from .events import TIME_TOL, crossed
-
-        lo, hi = 0.0, 1.0
-        while (hi - lo) * h > TIME_TOL:
-            mid = 0.5 * (lo + hi)
-            xm = self._dense(x, K, h, self.dense_weights(mid))
-            gm = g(t + mid * h, xm)
-            if crossed(g_lo, gm, directions).any():
-                hi, x_hi, g_hi = mid, xm, gm
-            else:
-                lo, g_lo = mid, gm
-        if hi < 1.0:  # re-stepped, if that state is past the surface too (else the dense one)
-            x_re = self._step(f, t, hi * h, x)[0]
-            if crossed(g_lo, g(t + hi * h, x_re), directions).any():
-                x_hi = x_re
-        return hi, x_hi, crossed(g_lo, g_hi, directions)
+            X = X_next
+        return t1, st.array(X), None, outs
 
     def __repr__(self):
         return f"{type(self).__name__}(step={self.step:g})"
+
+
+class Steps:
+    """The steps of an :class:`ExplicitRK` on numpy vectors (the generic path), as
+    :meth:`ExplicitRK.advance_to_event` takes them; the fused path gives the same
+    interface over its generated functions (:class:`hybridsim.fused.FusedStepper`)."""
+
+    def __init__(self, method, f):
+        self.method, self.f = method, f
+
+    def first(self, x):
+        return x
+
+    def array(self, x):
+        return x
+
+    def step(self, t0, h, k, x):
+        """Step ``k`` of size ``h`` from ``t0``: ``(x_next, stages)``."""
+        return self.method._step(self.f, t0 + k * h, h, x)
+
+    def dense(self, t0, h, k, x, stages, theta):
+        """The state at ``theta`` inside step ``k`` (from its stages)."""
+        m = self.method
+        return m._dense(x, stages, h, m.dense_weights(theta))
+
+    def restep(self, t, hh, x):
+        """One step of size ``hh`` from ``(t, x)``."""
+        return self.method._step(self.f, t, hh, x)[0]
 
 
 class RK4(ExplicitRK):
@@ -289,7 +303,7 @@ class ScipySolver:
         event in the stretch, else None (then ``x``/``t0`` are not advanced: the caller
         integrates from the start, the function now armed once it has left zero).
         """
-        from .events import TIME_TOL, crossed
+        from .events import bisect, crossed
 
         t_s = min(t1, t0 + REARM * (t1 - t0))
         sol = solve_ivp(f, (t0, t_s), x, method=self.method, rtol=self.rtol, atol=self.atol,
@@ -299,18 +313,12 @@ class ScipySolver:
         g_s = np.asarray(g(t_s, sol.y[:, -1]), float)
         if not crossed(g0, g_s, directions).any():
             return None
-        lo, hi, g_lo, g_hi, x_hi = t0, t_s, g0, g_s, sol.y[:, -1]
-        while hi - lo > TIME_TOL:
-            mid = 0.5 * (lo + hi)
-            xm = sol.sol(mid)
-            gm = np.asarray(g(mid, xm), float)
-            if crossed(g_lo, gm, directions).any():
-                hi, x_hi, g_hi = mid, xm, gm
-            else:
-                lo, g_lo = mid, gm
-        while pending and pending[0] < hi:
+        h = t_s - t0
+        theta, x_ev, fired = bisect(g, directions, t0, h, lambda th: sol.sol(t0 + th * h), g0, sol.y[:, -1], g_s)
+        t_stop = t0 + theta * h
+        while pending and pending[0] < t_stop:
             outs.append(sol.sol(pending.pop(0)))
-        return hi, x_hi, crossed(g_lo, g_hi, directions), outs
+        return t_stop, x_ev, fired, outs
 
     def __repr__(self):
         return f"ScipySolver({self.method}, rtol={self.rtol:g})"
