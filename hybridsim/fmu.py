@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import fmi_log
 from .block import Block
 from .errors import FMUError, ParameterError, StopRequest
 from .files import atomic_file
@@ -288,22 +289,14 @@ class FMUBlock(Block):
         return fmu
 
     def _instantiate2(self, kw):
-        from fmpy.fmi2 import FMU2Model, FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+        from fmpy.fmi2 import FMU2Model, FMU2Slave, fmi2CallbackFunctions
         from fmpy.fmi2 import defaultCallbacks as cb2
 
         fmu = self._call("loading the binary", FMU2Slave if self.mode == "cs" else FMU2Model, **kw)
-
-        def logger(env, name, status, category, message):
-            self._messages.append(message.decode(errors="replace"))
-
-        self._logger = fmi2CallbackLoggerTYPE(logger)
         cbs = fmi2CallbackFunctions()
-        cbs.logger = self._logger
+        cbs.logger = fmi_log.logger()  # one process-wide logger: see fmi_log
+        cbs.componentEnvironment = self._log_key = fmi_log.open_sink(self._messages)
         cbs.allocateMemory, cbs.freeMemory = cb2.allocateMemory, cb2.freeMemory
-        with contextlib.suppress(Exception):
-            from fmpy.logging import addLoggerProxy  # formats the FMU's printf-style messages
-
-            addLoggerProxy(ctypes.byref(cbs))
         self._callbacks = cbs
         self._call("fmi2Instantiate", fmu.instantiate, False, cbs)
         self._call("setupExperiment", fmu.setupExperiment, None, 0.0)
@@ -332,6 +325,8 @@ class FMUBlock(Block):
             with contextlib.suppress(Exception):
                 self._fmu.freeInstance()
             self._fmu = None
+        fmi_log.close_sink(getattr(self, "_log_key", None))
+        self._log_key = None
         if self._unzipdir:
             shutil.rmtree(self._unzipdir, ignore_errors=True)
             self._unzipdir = None
@@ -345,7 +340,7 @@ class FMUBlock(Block):
 
     def __getstate__(self):
         state = dict(self.__dict__)
-        state.update(_fmu=None, _unzipdir=None, _logger=None, _callbacks=None, _get_der=None)
+        state.update(_fmu=None, _unzipdir=None, _log_key=None, _callbacks=None, _get_der=None)
         return state
 
     def _outputs(self):

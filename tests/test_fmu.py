@@ -3,6 +3,7 @@ a plain C host and a second importer (libcosimpy) run it, foreign FMUs import.""
 import os
 import shutil
 import subprocess
+import sys
 import zipfile
 
 import numpy as np
@@ -313,3 +314,38 @@ def test_no_instance_or_folder_is_left_after_a_failure(plant, case, monkeypatch)
     blk = system.block("plant")
     assert blk._fmu is None and blk._unzipdir is None  # terminated, freed, folder removed
     assert _fmu_folders() <= before
+
+
+def test_fmpy_keeps_its_own_logger_after_an_fmu_block_is_freed(plant):
+    """fmpy's message formatter forwards to one global logger; a freed FMU block must not own it.
+
+    Before the fix the formatter forwarded to the closed block's callback: the
+    message was lost, or the process crashed (a segmentation fault in CI).
+    """
+    script = f"""
+import gc
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+from hybridsim.fmu import FMUBlock
+from hybridsim.errors import FMUError
+
+b = FMUBlock("p", path={str(plant)!r}, rate=60, parameters={{"max_substep": -1.0}})
+try:
+    b._instantiate()  # the plant refuses the parameter: its message reaches the block
+except FMUError as e:
+    assert "max_substep" in str(e), e
+b.close(); del b; gc.collect()
+md = read_model_description({str(plant)!r})
+vr = {{v.name: v.valueReference for v in md.modelVariables}}
+fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract({str(plant)!r}), modelIdentifier=md.coSimulation.modelIdentifier)
+fmu.instantiate()
+fmu.setupExperiment(startTime=0.0); fmu.enterInitializationMode(); fmu.exitInitializationMode()
+try:
+    fmu.setReal([vr["Kw"]], [1.0e5])
+except Exception:
+    pass
+fmu.terminate(); fmu.freeInstance()
+"""
+    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert "[ERROR]" in r.stdout and "fixed parameter" in r.stdout  # fmpy printed the plant's message, formatted
