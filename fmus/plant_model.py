@@ -3,14 +3,15 @@
 Every real variable of the FMU, in value-reference order. The C code keeps
 all of them in one array indexed by value reference, so a variable added here
 appears in the XML and in C at the same reference; they cannot drift.
-Physical constants and defaults are MODEL.md's (Appendix A of the paper).
+Physical constants and defaults are Appendix A of the paper (docs/model.md).
+The same variables make the FMI 2.0 and the FMI 3.0 description.
 """
 import hashlib
 import uuid
 
 MODEL_NAME = "hybridsim_plant"
 DESCRIPTION = ("Raibert & Craig (1981) two-joint arm with stick-slip friction, hand on a wrist force "
-               "sensor and a unilateral reaction surface (eqs 5-11, MODEL.md)")
+               "sensor and a unilateral reaction surface (eqs 5-11, docs/model.md)")
 
 # (name, causality, variability, start, unit, description)
 P, I, O, L = "parameter", "input", "output", "local"
@@ -31,6 +32,10 @@ VARIABLES = [
     ("x_hand[2]", O, "continuous", None, "m", "hand position C-Y"),
     ("fx", O, "continuous", None, "N", "contact force of the surface"),
     ("contact", O, "discrete", None, "1", "true in contact"),
+    # event indicators (FMI 3.0 names them by variable): slide <-> stick per joint, contact
+    ("indicator[1]", L, "continuous", None, "rad/s", "|q1'| - stick_band"),
+    ("indicator[2]", L, "continuous", None, "m/s", "|q2'| - stick_band"),
+    ("indicator[3]", L, "continuous", None, "m", "penetration of the hand into the surface"),
     # parameters
     ("Kw", P, "fixed", 8.0e5, "N/m", "wrist stiffness"),
     ("Kr", P, "fixed", 9.0e5, "N/m", "surface stiffness"),
@@ -104,6 +109,7 @@ def vars_header():
     for k, v in enumerate(vs):
         lines.append(f"#define {c_name(v[0])} {k}  /* {v[0]}: {v[5]} */")
     lines.append(f"#define VR_STATE0 {c_name(STATE_NAMES[0])}")
+    lines.append(f"#define VR_TIME {len(vs)}  /* FMI 3.0: the independent variable */")
     lines.append(f"#define VR_DER0 {c_name(DERIVATIVES[0])}")
     starts = ", ".join(repr(float(v[3])) if v[3] is not None else "0.0" for v in vs)
     fixed = ", ".join("1" if v[2] == "fixed" else "0" for v in vs)
@@ -117,10 +123,15 @@ def vars_header():
 
 #: the C files in sources/ an importer compiles to rebuild the binary (fmpy does, on any platform)
 SOURCE_FILES = '    <SourceFiles><File name="plant.c"/></SourceFiles>'
+#: per FMI version: the C files compiled into the binary
+C_FILES = {2: ["plant.c"], 3: ["plant3.c", "fmi3_unsupported.c"]}
+EVENT_INDICATORS = ["indicator[1]", "indicator[2]", "indicator[3]"]
 
 
-def model_description():
-    """modelDescription.xml (FMI 2.0, Co-Simulation and Model Exchange)."""
+def model_description(fmi=2):
+    """modelDescription.xml (Co-Simulation and Model Exchange) for FMI ``fmi`` (2 or 3)."""
+    if fmi == 3:
+        return model_description3()
     from xml.sax.saxutils import escape
 
     vs = all_variables()
@@ -177,3 +188,63 @@ def model_description():
     out.append("    </InitialUnknowns>")
     out += ["  </ModelStructure>", "</fmiModelDescription>", ""]
     return "\n".join(out)
+
+
+def model_description3():
+    """modelDescription.xml for FMI 3.0 (Co-Simulation and Model Exchange, the same variables).
+
+    Its sources are listed in ``sources/buildDescription.xml`` (:func:`build_description`).
+    """
+    from xml.sax.saxutils import escape
+
+    vs = all_variables()
+    vr = {v[0]: k for k, v in enumerate(vs)}
+    units = sorted({v[4] for v in vs if v[4] and v[4] != "1"})
+    out = ['<?xml version="1.0" encoding="UTF-8"?>',
+           f'<fmiModelDescription fmiVersion="3.0" modelName="{MODEL_NAME}" instantiationToken="{guid()}"',
+           f'  description="{escape(DESCRIPTION)}" generationTool="hybridsim" variableNamingConvention="structured">',
+           f'  <ModelExchange modelIdentifier="{MODEL_NAME}" canGetAndSetFMUState="true"/>',
+           f'  <CoSimulation modelIdentifier="{MODEL_NAME}" canHandleVariableCommunicationStepSize="true"'
+           ' canGetAndSetFMUState="true" canReturnEarlyAfterIntermediateUpdate="false"/>',
+           "  <UnitDefinitions>"]
+    out += [f'    <Unit name="{escape(u)}"/>' for u in units]
+    out += ["  </UnitDefinitions>",
+            '  <DefaultExperiment startTime="0" stopTime="4" stepSize="0.016666666666666666"/>',
+            "  <ModelVariables>",
+            f'    <Float64 name="time" valueReference="{len(vs)}" causality="independent" variability="continuous"/>']
+    for k, (name, caus, var, start, unit, desc) in enumerate(vs):
+        attrs = f'name="{escape(name)}" valueReference="{k}" description="{escape(desc)}" causality="{caus}" variability="{var}"'
+        if caus == "output" or name.startswith(("s.", "der(")):
+            attrs += ' initial="calculated"'
+        if name in BOOLEANS:
+            b = f' start="{"true" if start else "false"}"' if start is not None and caus == "parameter" else ""
+            out.append(f"    <Boolean {attrs}{b}/>")
+            continue
+        if unit and unit != "1":
+            attrs += f' unit="{escape(unit)}"'
+        if name.startswith("der("):
+            attrs += f' derivative="{vr[name[4:-1]]}"'
+        if start is not None and caus in ("input", "parameter"):
+            attrs += f' start="{start!r}"'
+        out.append(f"    <Float64 {attrs}/>")
+    out += ["  </ModelVariables>", "  <ModelStructure>"]
+    states = " ".join(str(vr[n]) for n in STATE_NAMES)
+    surface = f"{vr['x_surface']} {vr['v_surface']}"
+    for v in vs:
+        if v[1] == "output":
+            deps = f"{states} {surface}" if v[0] in ("fx", "contact") else states
+            out.append(f'    <Output valueReference="{vr[v[0]]}" dependencies="{deps}"/>')
+    out += [f'    <ContinuousStateDerivative valueReference="{vr[d]}"/>' for d in DERIVATIVES]
+    initial = [v[0] for v in vs if v[1] == "output"] + STATE_NAMES + DERIVATIVES
+    out += [f'    <InitialUnknown valueReference="{vr[n]}"/>' for n in sorted(initial, key=vr.get)]
+    out += [f'    <EventIndicator valueReference="{vr[n]}"/>' for n in EVENT_INDICATORS]
+    out += ["  </ModelStructure>", "</fmiModelDescription>", ""]
+    return "\n".join(out)
+
+
+def build_description():
+    """sources/buildDescription.xml (FMI 3.0): the C files an importer compiles to rebuild the binary."""
+    files = "\n".join(f'      <SourceFile name="{f}"/>' for f in C_FILES[3])
+    return ('<?xml version="1.0" encoding="UTF-8"?>\n<fmiBuildDescription fmiVersion="3.0">\n'
+            f'  <BuildConfiguration modelIdentifier="{MODEL_NAME}">\n    <SourceFileSet language="C99">\n'
+            f"{files}\n    </SourceFileSet>\n  </BuildConfiguration>\n</fmiBuildDescription>\n")

@@ -183,8 +183,8 @@ def cmd_reproduce(args):
 def cmd_fmu_build(args):
     from .fmu import build_plant_fmu
 
-    out = build_plant_fmu(check_output_file(args.output, ["fmu"]))
-    print(f"wrote {out} (FMI 2.0, Co-Simulation and Model Exchange, sources included)")
+    out = build_plant_fmu(check_output_file(args.output, ["fmu"]), fmi=args.fmi)
+    print(f"wrote {out} (FMI {args.fmi}.0, Co-Simulation and Model Exchange, sources included)")
     return 0
 
 
@@ -340,11 +340,15 @@ def build_parser():
     rr.set_defaults(func=cmd_reproduce)
     fm = sub.add_parser("fmu", help="FMU tools: 'hybridsim fmu build' exports the plant")
     fsub = fm.add_subparsers(dest="fmu_command", metavar="FMU_COMMAND")
-    fb = fsub.add_parser("build", help="compile the plant (fmus/plant.c) into an FMI 2.0 FMU",
+    fb = fsub.add_parser("build", help="compile the plant (fmus/) into an FMI 2.0 or 3.0 FMU",
                          description="Generate modelDescription.xml and the C variable table from "
-                                     "fmus/plant_model.py, compile fmus/plant.c with the system C "
-                                     "compiler (cc or gcc, or $CC) and pack plant.fmu with its sources.")
+                                     "fmus/plant_model.py, compile the plant (fmus/plant_core.h behind "
+                                     "fmus/plant.c for FMI 2.0, fmus/plant3.c for FMI 3.0) with the "
+                                     "system C compiler (cc or gcc, or $CC) against fmpy's FMI headers, "
+                                     "and pack the FMU (Model Exchange and Co-Simulation) with its sources.")
     fb.add_argument("-o", "--output", default="plant.fmu", metavar="FILE", help="the FMU to write (default plant.fmu)")
+    fb.add_argument("--fmi", type=int, choices=(2, 3), default=2,
+                    help="FMI version: 2 (FMI 2.0, the default) or 3 (FMI 3.0)")
     fb.set_defaults(func=cmd_fmu_build)
     fm.set_defaults(func=lambda a: (fm.print_help(), 2)[1])
     sw = sub.add_parser("sweep", help="run a parameter sweep in parallel (resumable)",

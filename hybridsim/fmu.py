@@ -1,6 +1,6 @@
 """The FMU bridge: build the plant FMU, and use any FMU as a block (via fmpy).
 
-* :func:`build_fmu` compiles a C model behind the FMI 2.0 API into a ``.fmu``
+* :func:`build_fmu` compiles a C model behind the FMI 2.0 or 3.0 API into a ``.fmu``
   (``hybridsim fmu build`` builds the plant of ``fmus/``).
 * :class:`FMUBlock` (``type: fmu`` in YAML) loads an FMI 2.0 or 3.0 FMU.
   Inputs and outputs become ports; variables named ``x[1]``, ``x[2]``, ...
@@ -108,6 +108,24 @@ def _start(variable):
         return None
 
 
+def _text_parameter(var, value):
+    """A String parameter's text, or a Binary parameter's bytes from hex digits ("0a ff 10").
+
+    Raises :class:`~hybridsim.errors.ParameterError` for anything else.
+    """
+    if var.type == "String":
+        if not isinstance(value, str) or "\0" in value:
+            raise ParameterError("parameters", f"{var.name} is a String: give text, got {value!r}")
+        return value
+    if isinstance(value, (bytes, bytearray)):
+        return bytes(value)
+    try:
+        return bytes.fromhex(value.replace("0x", "")) if isinstance(value, str) else _raise(ValueError())
+    except ValueError:
+        raise ParameterError("parameters", f"{var.name} is Binary: give its bytes as hex digits, e.g. "
+                                           f"'0a ff 10', got {value!r}") from None
+
+
 def _raise(exc):
     raise exc
 
@@ -173,6 +191,10 @@ class FMUBlock(Block):
         if parameters is not None and not isinstance(parameters, dict):
             raise ParameterError("parameters", f"must map variable names to values, got {parameters!r}")
         for pname, value in (parameters or {}).items():
+            var = byname.get(pname)
+            if var is not None and var.type in ("String", "Binary"):
+                self.parameters[pname] = _text_parameter(var, value)
+                continue
             for v in (value if isinstance(value, (list, tuple)) else [value]):
                 if not isinstance(v, (bool, int, float)) or not np.isfinite(float(v)):
                     raise ParameterError("parameters", f"{pname}: must be a finite number or a list of "
@@ -270,10 +292,13 @@ class FMUBlock(Block):
             byname = {v.name: v for v in self.md.modelVariables}
             for pname, value in self.parameters.items():
                 var = byname[pname]
+                if var.type in ("String", "Binary"):
+                    self._call(f"setting {pname}", getattr(fmu, "set" + var.type), [var.valueReference], [value])
+                    continue
                 setter = getattr(fmu, _access(var.type, self.fmi3, "set"), None)
                 if var.type not in PORT_TYPES or setter is None:
                     raise FMUError(f"FMU block {self.name!r}: parameter {pname!r} is a {var.type}; "
-                                   "numeric and Boolean parameters can be set")
+                                   "numeric, Boolean, String and Binary parameters can be set")
                 self._call(f"setting {pname}", setter, [var.valueReference], [to_fmi(var.type, value, pname)])
             self._call("exitInitializationMode", fmu.exitInitializationMode)
             if self.mode == "me":
@@ -508,19 +533,55 @@ def find_compiler():
                    "(Debian/Ubuntu: sudo apt-get install gcc)")
 
 
-def build_fmu(out, model_identifier, sources, model_description, headers, include_dirs=()):
+def fmi_headers():
+    """The folder of the FMI 2.0 and 3.0 C headers that fmpy ships (``fmpy/c-code``).
+
+    Returns
+    -------
+    pathlib.Path
+        The folder with ``fmi2Functions.h``, ``fmi3Functions.h`` and their includes.
+    """
+    import fmpy
+
+    return Path(fmpy.__file__).parent / "c-code"
+
+
+def build_fmu(out, model_identifier, sources, model_description, headers, include_dirs=None,
+              extra_files=None):
     """Compile ``sources`` into a shared library and pack an FMU at ``out``.
 
     The binary goes where the model description's FMI version expects it
-    (``binaries/linux64`` for 2.0, ``binaries/x86_64-linux`` for 3.0).
+    (``binaries/linux64`` for 2.0, ``binaries/x86_64-linux`` for 3.0, and the
+    matching folder and library suffix on macOS and Windows).
 
-    ``headers``: {file name: text} of generated headers; ``include_dirs``:
-    folders with the FMI headers. Everything is packed with its sources.
+    Parameters
+    ----------
+    out : path-like
+        The ``.fmu`` file to write (atomically).
+    model_identifier : str
+        The library's name, as in the model description.
+    sources : list of path-like
+        C files, compiled and packed into ``sources/``.
+    model_description : str
+        The text of ``modelDescription.xml``.
+    headers : dict
+        {file name: text} of generated headers, packed into ``sources/``.
+    include_dirs : list of path-like, optional
+        Folders whose ``*.h`` are packed and compiled against; default: the
+        FMI headers of :func:`fmi_headers`.
+    extra_files : dict, optional
+        {path in the archive: text}, e.g. ``sources/buildDescription.xml``.
+
+    Returns
+    -------
+    pathlib.Path
+        ``out``.
     """
     import fmpy
 
     cc = find_compiler()
     out = Path(out)
+    include_dirs = [fmi_headers()] if include_dirs is None else include_dirs
     with tempfile.TemporaryDirectory(prefix="hybridsim-fmu-") as tmp:
         tmp = Path(tmp)
         src = tmp / "sources"
@@ -528,13 +589,16 @@ def build_fmu(out, model_identifier, sources, model_description, headers, includ
         binary = tmp / "binaries" / (fmpy.platform_tuple if fmi3 else fmpy.platform)
         src.mkdir(parents=True)
         binary.mkdir(parents=True)
+        for d in include_dirs:
+            for h in Path(d).glob("*.h"):
+                shutil.copy(h, src / h.name)
         for name, text in headers.items():
             (src / name).write_text(text)
         for f in sources:
             shutil.copy(f, src / Path(f).name)
-        for d in include_dirs:
-            for h in Path(d).glob("*.h"):
-                shutil.copy(h, src / h.name)
+        for name, text in (extra_files or {}).items():
+            (tmp / name).parent.mkdir(parents=True, exist_ok=True)
+            (tmp / name).write_text(text)
         (tmp / "modelDescription.xml").write_text(model_description)
         lib = binary / (model_identifier + {"darwin": ".dylib", "win32": ".dll"}.get(sys.platform, ".so"))
         cmd = [cc, "-std=c99", "-O2", "-fPIC", "-shared", "-Wall", "-I", str(src), "-o", str(lib)]
@@ -549,11 +613,28 @@ def build_fmu(out, model_identifier, sources, model_description, headers, includ
     return out
 
 
-def build_plant_fmu(out="plant.fmu"):
-    """Build the hybridsim plant FMU (Co-Simulation + Model Exchange) at ``out``."""
+def build_plant_fmu(out="plant.fmu", fmi=2):
+    """Build the hybridsim plant FMU (Co-Simulation + Model Exchange in one binary).
+
+    Parameters
+    ----------
+    out : path-like
+        The ``.fmu`` file to write.
+    fmi : {2, 3}
+        The FMI version: 2.0 or 3.0 (the same model and variables).
+
+    Returns
+    -------
+    pathlib.Path
+        ``out``.
+    """
     import fmus
     from fmus import plant_model as pm
 
+    if fmi not in (2, 3):
+        raise FMUError(f"FMI version {fmi!r}: the plant FMU is built as FMI 2 or 3")
     here = Path(fmus.__file__).parent
-    return build_fmu(out, pm.MODEL_NAME, [here / "plant.c"], pm.model_description(),
-                     {"plant_vars.h": pm.vars_header()}, [here / "include"])
+    headers = {"plant_vars.h": pm.vars_header(), "plant_core.h": (here / "plant_core.h").read_text()}
+    extra = {"sources/buildDescription.xml": pm.build_description()} if fmi == 3 else {}
+    return build_fmu(out, pm.MODEL_NAME, [here / f for f in pm.C_FILES[fmi]], pm.model_description(fmi),
+                     headers, extra_files=extra)

@@ -12,7 +12,7 @@ import pytest
 import hybridsim as hs
 from hybridsim.cli import main
 from hybridsim.errors import FMUError
-from hybridsim.fmu import FMUBlock, build_fmu, build_plant_fmu
+from hybridsim.fmu import FMUBlock, build_fmu, build_plant_fmu, fmi_headers
 
 from conftest import DIAGRAMS, ROOT
 
@@ -25,6 +25,17 @@ def plant(tmp_path_factory):
     return build_plant_fmu(tmp_path_factory.mktemp("fmu") / "plant.fmu")
 
 
+@pytest.fixture(scope="module")
+def plant3(tmp_path_factory):
+    return build_plant_fmu(tmp_path_factory.mktemp("fmu3") / "plant3.fmu", fmi=3)
+
+
+@pytest.fixture(params=[2, 3], ids=["fmi2", "fmi3"])
+def any_plant(request, plant, plant3):
+    """The plant FMU as FMI 2.0 and as FMI 3.0."""
+    return plant if request.param == 2 else plant3
+
+
 @pytest.fixture(scope="module", params=["vdp", "vdp3"], ids=["fmi2", "fmi3"])
 def vdp(request, tmp_path_factory):
     """The same Van der Pol oscillator as an FMI 2.0 and as an FMI 3.0 FMU."""
@@ -32,16 +43,30 @@ def vdp(request, tmp_path_factory):
     d = ROOT / "tests" / "data" / name
     sources = sorted(d.glob("*.c"))
     return build_fmu(tmp_path_factory.mktemp(name) / f"{name}.fmu", name, sources,
-                     (d / "modelDescription.xml").read_text(), {}, [ROOT / "fmus" / "include"])
+                     (d / "modelDescription.xml").read_text(), {})
 
 
-def test_fmpy_validation_finds_no_problem(plant):
+def test_fmpy_validation_finds_no_problem(plant, plant3):
     from fmpy.validation import validate_fmu
 
-    assert validate_fmu(str(plant)) == []
+    assert validate_fmu(str(plant)) == [] and validate_fmu(str(plant3)) == []
     names = zipfile.ZipFile(plant).namelist()
-    assert "sources/plant.c" in names and "sources/plant_vars.h" in names
+    assert "sources/plant.c" in names and "sources/plant_vars.h" in names and "sources/plant_core.h" in names
     assert any(n.startswith("binaries/linux64/") for n in names)
+    names = zipfile.ZipFile(plant3).namelist()
+    assert {"sources/plant3.c", "sources/buildDescription.xml", "sources/plant_core.h"} <= set(names)
+    assert any(n.startswith("binaries/x86_64-linux/") for n in names)
+
+
+def test_fmi2_and_fmi3_plants_give_the_same_answer_in_fmpy(plant, plant3):
+    import fmpy
+
+    for mode in ("CoSimulation", "ModelExchange"):
+        kw = dict(stop_time=0.3, fmi_type=mode, output=["F[1]", "q[2]", "contact"], output_interval=1 / 600)
+        r2, r3 = fmpy.simulate_fmu(str(plant), **kw), fmpy.simulate_fmu(str(plant3), **kw)
+        assert np.array_equal(r2["F[1]"], r3["F[1]"]) and np.array_equal(r2["contact"], r3["contact"]), mode
+        # unforced, the hand sits on the surface at the 10 N preload: F1 = 10 cos(q1) N in the hand frame
+        assert r3["F[1]"][0] == pytest.approx(10.0 * np.cos(np.arctan2(0.153, np.sqrt(0.50002361111 ** 2 - 0.153 ** 2))), rel=1e-9)
 
 
 def test_xml_and_c_table_come_from_one_source():
@@ -57,7 +82,8 @@ def test_xml_and_c_table_come_from_one_source():
 @pytest.mark.parametrize("extra", [{}, {"friction": False, "joint_damping": [100.0, 1000.0],
                                         "wrist_damping": 50.0, "surface_damping": 50.0}],
                          ids=["friction-on", "friction-off-damped"])
-def test_fmu_plant_matches_python_plant_fig9(plant, extra):
+def test_fmu_plant_matches_python_plant_fig9(any_plant, extra):
+    plant = any_plant
     common = dict(rate=60, t_end=0.18, log_period=1 / 60, **extra)  # before the printed model loses contact
     for mode in ("cs", "me"):
         # an ME FMU's event indicators go through event mode, located: compare with the
@@ -71,7 +97,8 @@ def test_fmu_plant_matches_python_plant_fig9(plant, extra):
         assert np.max(np.abs(res["fk.X[1]"] - ref["fk.X[1]"])) < tol * 1e-3, mode
 
 
-def test_fmu_plant_matches_python_plant_fig7(plant):
+def test_fmu_plant_matches_python_plant_fig7(any_plant):
+    plant = any_plant
     ov = {"rate": 60, "force0": 0.0, "endpoint0": [0.5, 0.0], "force_cmd.initial": [0.0, 0.0],
           "force_cmd.final": [5.0, 0.0], "force_cmd.time": 0.5, "pos_cmd.amplitude": [0.0, 0.0],
           "pos_cmd.offset": [0.5, 0.0], "t_end": 2.0, "log_period": 1 / 60}
@@ -124,7 +151,7 @@ def test_plain_c_host_runs_the_fmu(plant, tmp_path):
 
     cc = shutil.which("cc") or shutil.which("gcc")
     exe = tmp_path / "host"
-    subprocess.run([cc, "-std=c99", "-I", str(ROOT / "fmus" / "include"), str(ROOT / "tests" / "data" / "host.c"),
+    subprocess.run([cc, "-std=c99", "-I", str(fmi_headers()), str(ROOT / "tests" / "data" / "host.c"),
                     "-o", str(exe), "-ldl"], check=True)
     zipfile.ZipFile(plant).extractall(tmp_path / "x")
     lib = tmp_path / "x" / "binaries" / "linux64" / "hybridsim_plant.so"
@@ -199,8 +226,16 @@ def test_fmu_call_error_carries_the_fmus_message_and_cleans_up(plant, capsys):
 
 
 def test_cli_builds_the_fmu(tmp_path, capsys):
+    from fmpy import read_model_description
+
     assert main(["fmu", "build", "-o", str(tmp_path / "p.fmu")]) == 0
-    assert zipfile.is_zipfile(tmp_path / "p.fmu")
+    assert read_model_description(str(tmp_path / "p.fmu")).fmiVersion == "2.0"
+    assert main(["fmu", "build", "--fmi", "3", "-o", str(tmp_path / "p3.fmu")]) == 0
+    assert read_model_description(str(tmp_path / "p3.fmu")).fmiVersion == "3.0"
+    assert "FMI 3.0" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as e:
+        main(["fmu", "build", "--fmi", "4", "-o", str(tmp_path / "p4.fmu")])
+    assert e.value.code == 2 and not (tmp_path / "p4.fmu").exists()
 
 
 def test_model_structure_feeds_the_algebraic_loop_check(plant):
@@ -239,9 +274,10 @@ def test_unwired_inputs_take_their_start_values_and_check_says_so(plant, tmp_pat
     assert np.all(np.isfinite(res["plant.F"]))
 
 
-def test_fmpy_rebuilds_the_plant_from_its_sources(plant, tmp_path):
+def test_fmpy_rebuilds_the_plant_from_its_sources(any_plant, tmp_path):
     import fmpy
 
+    plant = any_plant
     if shutil.which("cmake") is None:
         pytest.skip("fmpy rebuilds binaries with cmake")
     from fmpy.build import build_platform_binary
@@ -252,29 +288,39 @@ def test_fmpy_rebuilds_the_plant_from_its_sources(plant, tmp_path):
             if not n.startswith("binaries/"):
                 out.writestr(n, z.read(n))
     unzipped = fmpy.extract(str(bare), unzipdir=tmp_path / "x")
-    build_platform_binary(unzipped)  # reads <SourceFiles> (it was an IndexError without them)
+    build_platform_binary(unzipped)  # reads <SourceFiles> / buildDescription.xml (an IndexError without)
     ref = fmpy.simulate_fmu(str(plant), stop_time=0.05, fmi_type="CoSimulation", output=["F[1]"])
     got = fmpy.simulate_fmu(str(unzipped), stop_time=0.05, fmi_type="CoSimulation", output=["F[1]"])
     assert np.array_equal(ref["F[1]"], got["F[1]"])
 
 
-def test_plant_fmu_answers_in_initialization_mode_and_keeps_fixed_parameters(plant):
+def test_plant_fmu_answers_in_initialization_mode_and_keeps_fixed_parameters(any_plant):
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
+    from fmpy.fmi3 import FMU3Slave
 
+    plant = any_plant
     md = read_model_description(str(plant))
     vr = {v.name: v.valueReference for v in md.modelVariables}
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(plant)), modelIdentifier=md.coSimulation.modelIdentifier)
+    fmi3 = md.fmiVersion == "3.0"
+    fmu = (FMU3Slave if fmi3 else FMU2Slave)(
+        guid=md.guid, unzipDirectory=extract(str(plant)), modelIdentifier=md.coSimulation.modelIdentifier)
+    get, set_ = (fmu.getFloat64, fmu.setFloat64) if fmi3 else (fmu.getReal, fmu.setReal)
     fmu.instantiate()
     try:
-        fmu.setupExperiment(startTime=0.0)
-        fmu.enterInitializationMode()
-        q2 = fmu.getReal([vr["q[2]"]])[0]
+        if fmi3:
+            fmu.enterInitializationMode(startTime=0.0)
+        else:
+            fmu.setupExperiment(startTime=0.0)
+            fmu.enterInitializationMode()
+        q2 = get([vr["q[2]"]])[0]
         # q2 = sqrt(X^2 + Y^2 - l^2) of the start endpoint (0.50002361111, 0), l = 0.153 m: not 0 any more
         assert q2 == pytest.approx(np.sqrt(0.50002361111 ** 2 - 0.153 ** 2), rel=1e-12)
         fmu.exitInitializationMode()
-        with pytest.raises(Exception, match="status 3"):
-            fmu.setReal([vr["Kw"]], [1.0e5])  # fixed: refused after initialization
+        with pytest.raises(Exception, match="status 3|fmi3Error|Error"):
+            set_([vr["Kw"]], [1.0e5])  # fixed: refused after initialization
+        if fmi3:
+            assert fmu.getBoolean([vr["contact"]]) == [True]  # a Boolean output, not a Real
     finally:
         fmu.terminate()
         fmu.freeInstance()

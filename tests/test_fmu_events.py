@@ -31,7 +31,7 @@ def ball_fmu(request, tmp_path_factory):
     d = ROOT / "tests" / "data" / name
     sources = sorted(d.glob("*.c"))
     return build_fmu(tmp_path_factory.mktemp(name) / f"{name}.fmu", name, sources,
-                     (d / "modelDescription.xml").read_text(), {}, [ROOT / "fmus" / "include"])
+                     (d / "modelDescription.xml").read_text(), {})
 
 
 def run(fmu, solver, t_end=2.4, log_period=1e-3):
@@ -138,17 +138,20 @@ def test_unsupported_port_types_are_refused_by_check(ball_fmu, tmp_path, capsys)
 
     from hybridsim.cli import main
 
-    if "ball3" in str(ball_fmu):
-        pytest.skip("an FMI 3.0 String port needs another XML form; tested on FMI 2.0")
+    fmi2 = (b'name="count" valueReference="7" causality="output" variability="discrete" initial="exact">'
+            b'<Real start="0"/>', b'name="count" valueReference="7" causality="output" variability="discrete" '
+            b'initial="exact"><String start="0"/>')
+    fmi3 = (b'<Float64 name="count" valueReference="7" causality="output" variability="discrete" initial="exact" '
+            b'start="0"/>', b'<String name="count" valueReference="7" causality="output" variability="discrete" '
+            b'initial="exact"><Start value="0"/></String>')
+    old, new = fmi3 if "ball3" in str(ball_fmu) else fmi2
     bad = tmp_path / "str.fmu"  # the ball with its count output declared String
     with zipfile.ZipFile(ball_fmu) as src, zipfile.ZipFile(bad, "w") as dst:
         for n in src.namelist():
             data = src.read(n)
             if n == "modelDescription.xml":
-                data = data.replace(b'name="count" valueReference="7" causality="output" variability="discrete" '
-                                    b'initial="exact"><Real start="0"/>',
-                                    b'name="count" valueReference="7" causality="output" variability="discrete" '
-                                    b'initial="exact"><String start="0"/>')
+                assert old in data
+                data = data.replace(old, new)
             dst.writestr(n, data)
     diagram = tmp_path / "b.yaml"
     diagram.write_text(f"blocks:\n  ball: {{type: fmu, path: {bad}, mode: me}}\nsimulation: {{t_end: 1}}\n")
@@ -172,3 +175,33 @@ def test_state_tolerances_follow_the_nominals(ball_fmu, tmp_path):
                 data = data.replace(b'initial="exact" start="1"/>', b'initial="exact" start="1" nominal="1000"/>', 1)
             dst.writestr(n, data)
     assert list(FMUBlock("ball", path=str(scaled), mode="me").atol) == pytest.approx([1e-9, 1e-12])
+
+
+def test_string_and_binary_parameters_reach_the_fmu(ball_fmu):
+    fmi3 = "ball3" in str(ball_fmu)
+    params = {"label": "hello"}
+    log = ["ball.label_length"]
+    if fmi3:  # FMI 3.0 has Binary variables: given as hex digits
+        params["blob"] = "0a 0b 0c"
+        log.append("ball.blob_sum")
+    d = hs.Diagram("ball")
+    d.add(FMUBlock("ball", path=str(ball_fmu), mode="me", parameters=params))
+    res = hs.Simulator(d.build(), hs.RK4(1e-3), log=log, log_period=0.1).run(0.3)
+    assert np.all(res["ball.label_length[0]"] == 5)  # strlen("hello"), computed by the FMU
+    if fmi3:
+        assert np.all(res["ball.blob_sum[0]"] == 10 + 11 + 12)
+    d = hs.Diagram("ball")  # the defaults: "ab" and bytes 01 02
+    d.add(FMUBlock("ball", path=str(ball_fmu), mode="me"))
+    assert hs.Simulator(d.build(), hs.RK4(1e-3), log=log, log_period=0.1).run(0.1)["ball.label_length[0]"][0] == 2
+
+
+@pytest.mark.parametrize("params, message", [
+    ({"label": 3.0}, "label is a String: give text, got 3.0"),
+    ({"blob": "xyz"}, "blob is Binary: give its bytes as hex digits"),
+    ({"e": "high"}, "e: must be a finite number"),
+])
+def test_bad_text_parameters_are_parameter_errors(ball_fmu, params, message):
+    if "blob" in params and "ball3" not in str(ball_fmu):
+        pytest.skip("FMI 2.0 has no Binary variables")
+    with pytest.raises(hs.ParameterError, match=message):
+        FMUBlock("ball", path=str(ball_fmu), mode="me", parameters=params)

@@ -4,12 +4,13 @@
  * At t_stop (a parameter) it asks to terminate the simulation (terminateSimulation).
  * Variables: 0 h, 1 der(h), 2 v, 3 der(v), 4 e, 5 g, 6 height (output = h), 7 count (output),
  * 8 t_stop; Integer 9 bounces, 11 k_in (input), 12 k_out = k_in + 1; Boolean 10 up (v > 0),
- * 13 flag_in (input), 14 flag_out = !flag_in: ports of other types than Real. */
+ * 13 flag_in (input), 14 flag_out = !flag_in: ports of other types than Real;
+ * String 15 label (parameter, start "ab") and Integer 16 label_length = strlen(label). */
 #include <math.h>
 #include <string.h>
 #include "fmi2Functions.h"
 
-typedef struct { double r[9]; double t, next; int bounces, k_in, flag_in, event_mode; fmi2CallbackFunctions cb; } Ball;
+typedef struct { double r[9]; double t, next; int bounces, k_in, flag_in, event_mode, label_len; fmi2CallbackFunctions cb; } Ball;
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
 const char *fmi2GetVersion(void) { return fmi2Version; }
@@ -18,7 +19,7 @@ fmi2Component fmi2Instantiate(fmi2String n, fmi2Type t, fmi2String g, fmi2String
     Ball *m = (Ball *)cb->allocateMemory(1, sizeof(Ball));
     (void)n; (void)t; (void)g; (void)r; (void)v; (void)l;
     m->cb = *cb;
-    m->r[0] = 1.0; m->r[2] = 0.0; m->r[4] = 0.7; m->r[5] = 9.81; m->r[7] = 0.0; m->r[8] = 1e30;
+    m->r[0] = 1.0; m->r[2] = 0.0; m->r[4] = 0.7; m->r[5] = 9.81; m->r[7] = 0.0; m->r[8] = 1e30; m->label_len = 2;
     m->t = 0.0; m->next = 1.0; m->bounces = 0; m->k_in = 0; m->flag_in = 0; m->event_mode = 1;
     return m;
 }
@@ -87,6 +88,7 @@ fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
         if (vr[i] == 9) v[i] = m->bounces;
         else if (vr[i] == 11) v[i] = m->k_in;
         else if (vr[i] == 12) v[i] = m->k_in + 1;
+        else if (vr[i] == 16) v[i] = m->label_len;
         else return fmi2Error;
     }
     return fmi2OK;
@@ -130,7 +132,11 @@ OK_STUB(fmi2Terminate, fmi2Component c)
 OK_STUB(fmi2Reset, fmi2Component c)
 ERR_STUB(fmi2DoStep, fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean p)
 ERR_STUB(fmi2GetString, fmi2Component c, const fmi2ValueReference r[], size_t n, fmi2String v[])
-ERR_STUB(fmi2SetString, fmi2Component c, const fmi2ValueReference r[], size_t n, const fmi2String v[])
+fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2String v[]) {
+    size_t i;
+    for (i = 0; i < n; i++) { if (vr[i] != 15 || !v[i]) return fmi2Error; ((Ball *)c)->label_len = (int)strlen(v[i]); }
+    return fmi2OK;
+}
 ERR_STUB(fmi2GetFMUstate, fmi2Component c, fmi2FMUstate *s)
 ERR_STUB(fmi2SetFMUstate, fmi2Component c, fmi2FMUstate s)
 ERR_STUB(fmi2FreeFMUstate, fmi2Component c, fmi2FMUstate *s)

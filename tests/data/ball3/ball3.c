@@ -3,15 +3,17 @@
  * t_stop, and Int32/Boolean ports. The functions it does not implement are in stubs.c.
  * Value references: 0 h, 1 der(h), 2 v, 3 der(v), 4 e, 5 g, 6 height, 7 count, 8 t_stop, 9 time;
  * Int32 10 bounces, 11 k_in (input), 12 k_out = k_in + 1; Boolean 13 flag_in (input),
- * 14 flag_out = !flag_in. */
+ * 14 flag_out = !flag_in; String 15 label (parameter), Int32 16 label_length = strlen(label),
+ * Binary 17 blob (parameter), Int32 18 blob_sum = the sum of its bytes. */
 #include <stdlib.h>
+#include <string.h>
 #include "fmi3Functions.h"
 
-typedef struct { double r[9]; double t, next; int bounces, k_in, flag_in, event_mode; } Ball;
+typedef struct { double r[9]; double t, next; int bounces, k_in, flag_in, event_mode, label_len, blob_sum; } Ball;
 
 static fmi3Instance make(void) {
     Ball *m = (Ball *)calloc(1, sizeof(Ball));
-    if (m) { m->r[0] = 1.0; m->r[4] = 0.7; m->r[5] = 9.81; m->r[8] = 1e30; m->next = 1.0; m->event_mode = 1; }
+    if (m) { m->r[0] = 1.0; m->r[4] = 0.7; m->r[5] = 9.81; m->r[8] = 1e30; m->next = 1.0; m->event_mode = 1; m->label_len = 2; m->blob_sum = 3; }
     return m;
 }
 
@@ -64,6 +66,8 @@ fmi3Status fmi3GetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t n,
         if (vr[i] == 10) v[i] = m->bounces;
         else if (vr[i] == 11) v[i] = m->k_in;
         else if (vr[i] == 12) v[i] = m->k_in + 1;
+        else if (vr[i] == 16) v[i] = m->label_len;
+        else if (vr[i] == 18) v[i] = m->blob_sum;
         else return fmi3Error;
     }
     return fmi3OK;
@@ -73,6 +77,23 @@ fmi3Status fmi3SetInt32(fmi3Instance c, const fmi3ValueReference vr[], size_t n,
     (void)nv;
     if (!((Ball *)c)->event_mode) return fmi3Error; /* a discrete-time input: event mode only */
     for (i = 0; i < n; i++) { if (vr[i] != 11) return fmi3Error; ((Ball *)c)->k_in = v[i]; }
+    return fmi3OK;
+}
+fmi3Status fmi3SetString(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const fmi3String v[], size_t nv) {
+    size_t i;
+    (void)nv;
+    for (i = 0; i < n; i++) { if (vr[i] != 15 || !v[i]) return fmi3Error; ((Ball *)c)->label_len = (int)strlen(v[i]); }
+    return fmi3OK;
+}
+fmi3Status fmi3SetBinary(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const size_t sizes[],
+                         const fmi3Binary v[], size_t nv) {
+    size_t i, k;
+    (void)nv;
+    for (i = 0; i < n; i++) {
+        if (vr[i] != 17) return fmi3Error;
+        ((Ball *)c)->blob_sum = 0;
+        for (k = 0; k < sizes[i]; k++) ((Ball *)c)->blob_sum += v[i][k];
+    }
     return fmi3OK;
 }
 fmi3Status fmi3GetBoolean(fmi3Instance c, const fmi3ValueReference vr[], size_t n, fmi3Boolean v[], size_t nv) {

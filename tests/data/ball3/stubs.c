@@ -33,7 +33,6 @@ int fmi3InstantiateScheduledExecution(void) { return 3; }
 int fmi3Reset(void) { return 3; }
 int fmi3SerializeFMUState(void) { return 3; }
 int fmi3SerializedFMUStateSize(void) { return 3; }
-int fmi3SetBinary(void) { return 3; }
 int fmi3SetClock(void) { return 3; }
 int fmi3SetFMUState(void) { return 3; }
 int fmi3SetFloat32(void) { return 3; }
@@ -44,7 +43,6 @@ int fmi3SetIntervalDecimal(void) { return 3; }
 int fmi3SetIntervalFraction(void) { return 3; }
 int fmi3SetShiftDecimal(void) { return 3; }
 int fmi3SetShiftFraction(void) { return 3; }
-int fmi3SetString(void) { return 3; }
 int fmi3SetUInt16(void) { return 3; }
 int fmi3SetUInt32(void) { return 3; }
 int fmi3SetUInt64(void) { return 3; }
