@@ -3,4 +3,5 @@
 Importing this package registers every block type with
 :mod:`hybridsim.registry`; diagrams refer to them by these names.
 """
-from . import basic, bouncing, controllers, kinematics, manipulator, sources, surface, wrist  # noqa: F401
+from . import (basic, bouncing, continuous, controllers, discrete, kinematics, manipulator, noise,  # noqa: F401
+               nonlinear, sources, surface, wrist)

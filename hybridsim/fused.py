@@ -150,12 +150,15 @@ def _event_lines(sysm, located, outputs, params, arg, state, env, extra):
         env[f"actf{i}"] = sysm.blocks[i].kernels.event_action
         args = [arg(i, a, o, k, on_path) for k, (a, o) in enumerate(sysm.sources[i])]
         fired = "(" + "".join(f"F[{c + j}], " for j in range(m)) + ")"
+        # element by element: an action may return a tuple or an array (numba unifies floats only)
+        names = [f"a{i}_{j - s.start}" for j in range(s.start, s.stop)]
         lines += [f"    if {' or '.join(f'F[{c + j}]' for j in range(m))}:",
-                  f"        a{i} = actf{i}({params(i)}, t, {state(i)}, ({''.join(x + ', ' for x in args)}), {fired})",
-                  "    else:",
-                  f"        a{i} = {state(i)}"]
-        for j in range(s.start, s.stop):
-            new[j] = f"a{i}[{j - s.start}]"
+                  f"        a{i} = actf{i}({params(i)}, t, {state(i)}, ({''.join(x + ', ' for x in args)}), {fired})"]
+        lines += [f"        {n} = a{i}[{k}]" for k, n in enumerate(names)]
+        lines.append("    else:")
+        lines += [f"        {n} = X[{j}]" for n, j in zip(names, range(s.start, s.stop))]
+        for j, n in zip(range(s.start, s.stop), names):
+            new[j] = n
         c += m
     lines.append(f"    return ({''.join(x + ', ' for x in new)})")
     return lines

@@ -19,11 +19,13 @@ SMOOTH = ROOT / "tests" / "data" / "smooth_contact.yaml"
                                                  "log_period": 0.0007}),
     (ROOT / "tests" / "data" / "every_kernel_block.yaml", {}),
     (ROOT / "tests" / "data" / "discrete_only.yaml", {}),
+    pytest.param(ROOT / "tests" / "data" / "library_blocks.yaml", {}, marks=pytest.mark.slow),
 ], ids=["fig9-friction", "fig8-moving-surface", "damped-log-at-ticks", "fig9-two-rates-odd-log",
-        "every-kernel-block", "discrete-only"])
+        "every-kernel-block", "discrete-only", "standard-library"])
 def test_compiled_equals_generic(path, extra):
     a = hs.simulate(path, compiled=True, **extra)
     b = hs.simulate(path, fused=False, **extra)
+    assert np.array_equal(hs.simulate(path, **extra).table(), b.table())  # the fused path too
     assert np.array_equal(a.t, b.t)
     assert np.array_equal(a.table(), b.table())
     assert a.meta["hits"] == b.meta["hits"]

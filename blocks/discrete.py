@@ -1,0 +1,295 @@
+"""Sampled control blocks: discrete integrator, transfer function, state space, N-sample delay, PID, rate limiter.
+
+Every block here runs at its own ``rate`` (Hz) or ``period`` (s); hit k is at
+t = k T. At a hit the output is computed from the state and the current
+input, then the state is updated (the engine's order). From zero state each
+block equals the z-domain transfer function it names, which is how the tests
+check them (against python-control).
+"""
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from hybridsim.block import Block
+from hybridsim.errors import ParameterError
+from hybridsim.kernels import Kernels, kernel
+from hybridsim.registry import register
+
+from ._util import count, finite_matrix, vector
+from .continuous import tf_to_ss
+
+
+class _Sampled(Block):
+    def __init__(self, name, rate, period):
+        super().__init__(name)
+        if (rate is None) == (period is None):
+            raise ParameterError("rate", "or period: give exactly one of rate (Hz) or period (s)")
+        self.declare_rate(period=period, rate=rate)
+        self.T = float(self.period)
+
+
+_METHODS = ("forward", "backward", "trapezoidal")
+
+
+@register("discrete_integrator")
+class DiscreteIntegrator(_Sampled):
+    """y[k] = x[k] + c K T u[k], x[k+1] = y[k] + (1 - c) K T u[k].
+
+    ``method``: forward Euler (c = 0: K T / (z - 1)), backward Euler (c = 1:
+    K T z / (z - 1), the paper's rectangle rule) or trapezoidal (c = 1/2:
+    K T (z + 1) / (2 (z - 1))). Starts at x[0] = ``initial``.
+    """
+
+    def __init__(self, name="dintegrator", K=1.0, method="forward", initial=0.0, rate=None, period=None,
+                 width=1):
+        super().__init__(name, rate, period)
+        if method not in _METHODS:
+            raise ParameterError("method", f"must be one of {', '.join(_METHODS)}; got {method!r}")
+        n = count(width, "width")
+        c = {"forward": 0.0, "backward": 1.0, "trapezoidal": 0.5}[method]
+        self.params = (vector(K, "K", n) * self.T, c)
+        self.x0 = vector(initial, "initial", n)
+        self.declare_discrete_state(n)
+        self.declare_input("u", n)
+        self.declare_output("y", n, depends_on=() if c == 0.0 else None)
+
+    def initial_state(self, u=None):
+        return self.x0.copy()
+
+
+@kernel
+def dintegrator_output(p, t, x, u):
+    KT, c = p
+    return (np.asarray(x) + c * KT * np.asarray(u[0]),)
+
+
+@kernel
+def dintegrator_update(p, t, x, u):
+    KT, c = p
+    return np.asarray(x) + KT * np.asarray(u[0])
+
+
+class _LTI(_Sampled):
+    def initial_state(self, u=None):
+        return self.x0.copy()
+
+
+@register("discrete_state_space")
+class DiscreteStateSpace(_LTI):
+    """x[k+1] = A x[k] + B u[k], y[k] = C x[k] + D u[k], sampled at ``rate``; x[0] = ``x0`` (default 0)."""
+
+    def __init__(self, name="dss", A=((0.0,),), B=((1.0,),), C=((1.0,),), D=None, x0=None, rate=None,
+                 period=None):
+        super().__init__(name, rate, period)
+        A, B, C = (finite_matrix(M, k) for M, k in ((A, "A"), (B, "B"), (C, "C")))
+        n, m, q = A.shape[0], B.shape[1], C.shape[0]
+        if A.shape != (n, n) or B.shape[0] != n or C.shape[1] != n:
+            raise ParameterError("A", f"B and C have inconsistent shapes: A {A.shape}, B {B.shape}, C {C.shape}")
+        D = np.zeros((q, m)) if D is None else finite_matrix(D, "D")
+        if D.shape != (q, m):
+            raise ParameterError("D", f"must be {q}x{m}, got {D.shape}")
+        _setup_dss(self, A, B, C, D, x0)
+
+
+def _setup_dss(block, A, B, C, D, x0=None):
+    n, m, q = A.shape[0], B.shape[1], C.shape[0]
+    block.params = tuple(np.ascontiguousarray(M, dtype=float) for M in (A, B, C, D))
+    block.x0 = np.zeros(n) if x0 is None else vector(x0, "x0", n)
+    block.declare_discrete_state(n)
+    block.declare_input("u", m)
+    block.declare_output("y", q, depends_on=None if np.any(D) else ())
+
+
+@kernel
+def dss_output(p, t, x, u):
+    A, B, C, D = p
+    return (np.dot(C, np.asarray(x)) + np.dot(D, np.asarray(u[0])),)
+
+
+@kernel
+def dss_update(p, t, x, u):
+    A, B, C, D = p
+    return np.dot(A, np.asarray(x)) + np.dot(B, np.asarray(u[0]))
+
+
+@register("discrete_transfer_function")
+class DiscreteTransferFunction(_LTI):
+    """y = num(z) / den(z) u, coefficients in descending powers of z, from rest.
+
+    Example: ``num: [0.5], den: [1, -0.5]`` at 10 Hz is y[k] = 0.5 y[k-1] +
+    0.5 u[k-1]: a unit step gives 0, 0.5, 0.75, 0.875, ...
+    """
+
+    def __init__(self, name="dtf", num=(1.0,), den=(1.0, 0.0), rate=None, period=None):
+        super().__init__(name, rate, period)
+        _setup_dss(self, *tf_to_ss(num, den))
+
+
+@register("delay_n")
+class DelayN(_Sampled):
+    """y[k] = u[k - N]: ``N`` samples of delay (the first N outputs are ``initial``)."""
+
+    def __init__(self, name="delay_n", N=1, initial=0.0, rate=None, period=None, width=1):
+        super().__init__(name, rate, period)
+        n, N = count(width, "width"), count(N, "N")
+        self.params = (n, N)
+        self.x0 = np.tile(vector(initial, "initial", n), N)
+        self.declare_discrete_state(n * N)
+        self.declare_input("u", n)
+        self.declare_output("y", n, depends_on=())
+
+    def initial_state(self, u=None):
+        return self.x0.copy()
+
+
+@kernel
+def delay_n_output(p, t, x, u):
+    return (np.asarray(x)[: p[0]],)
+
+
+@kernel
+def delay_n_update(p, t, x, u):
+    return np.concatenate((np.asarray(x)[p[0]:], np.asarray(u[0]) * 1.0))
+
+
+_ANTI_WINDUP = ("none", "clamping", "back_calculation")
+
+
+@register("discrete_pid")
+class DiscretePID(_Sampled):
+    """A sampled PID in parallel form with setpoint weights, a derivative filter and anti-windup.
+
+    u = Kp (b r - y) + I + D, output clipped to [lower, upper]:
+
+    * I[k] = I[k-1] + Ki T (r[k] - y[k])  (backward Euler: Ki T z / (z - 1));
+    * D: Kd s / (1 + s / N) on (c r - y), discretized by backward Euler:
+      D[k] = (D[k-1] + Kd N (e_d[k] - e_d[k-1])) / (1 + N T); with N = inf
+      (no filter) D[k] = Kd (e_d[k] - e_d[k-1]) / T;
+    * anti-windup: ``clamping`` stops integrating while the output is
+      saturated and the error drives it further; ``back_calculation`` feeds
+      Kb (u_sat - u) back into the integrator (Kb, 1/s, default Ki / Kp).
+
+    Ports: in ``r`` (setpoint), ``y`` (measurement); out ``u``. From rest it
+    equals python-control's C(z) = Kp + Ki T z/(z-1) + Kd N (z-1)/((1+NT) z - 1)
+    (b = c = 1, no saturation).
+    """
+
+    def __init__(self, name="pid", Kp=1.0, Ki=0.0, Kd=0.0, N=math.inf, b=1.0, c=1.0, lower=-math.inf,
+                 upper=math.inf, anti_windup="clamping", Kb=None, rate=None, period=None, width=1):
+        super().__init__(name, rate, period)
+        n = count(width, "width")
+        if anti_windup not in _ANTI_WINDUP:
+            raise ParameterError("anti_windup", f"must be one of {', '.join(_ANTI_WINDUP)}; got {anti_windup!r}")
+        Kp_, Ki_, Kd_ = vector(Kp, "Kp", n), vector(Ki, "Ki", n), vector(Kd, "Kd", n)
+        Nf = vector(N, "N", n, "positive", inf_ok=True)
+        lo, hi = vector(lower, "lower", n, inf_ok=True), vector(upper, "upper", n, inf_ok=True)
+        if np.any(lo > hi):
+            raise ParameterError("lower", f"must not exceed upper ({lower!r} > {upper!r})")
+        if Kb is None:
+            Kb_ = np.where(Kp_ != 0.0, Ki_ / np.where(Kp_ != 0.0, Kp_, 1.0), 1.0)
+        else:
+            Kb_ = vector(Kb, "Kb", n, "nonnegative")
+        self.params = PIDParams(Kp_, Ki_, Kd_, Nf, vector(b, "b", n), vector(c, "c", n), lo, hi,
+                                float(_ANTI_WINDUP.index(anti_windup)), Kb_, self.T, n)
+        self.declare_discrete_state(3 * n)  # I, D, e_d of the last hit
+        self.declare_input("r", n)
+        self.declare_input("y", n)
+        self.declare_output("u", n)
+
+    def initial_state(self, u=None):
+        return np.zeros(3 * self.params.n)
+
+
+class PIDParams(NamedTuple):
+    Kp: np.ndarray     # proportional gain
+    Ki: np.ndarray     # integral gain, 1/s
+    Kd: np.ndarray     # derivative gain, s
+    N: np.ndarray      # derivative filter bandwidth, rad/s (inf: none)
+    b: np.ndarray      # setpoint weight, proportional
+    c: np.ndarray      # setpoint weight, derivative
+    lower: np.ndarray  # output limits
+    upper: np.ndarray
+    mode: float        # anti-windup: 0 none, 1 clamping, 2 back-calculation
+    Kb: np.ndarray     # back-calculation gain, 1/s
+    T: float           # period, s
+    n: int             # width
+
+
+@kernel
+def pid_terms(p, x, u):
+    """(unclipped u, clipped u, next I, next D, e_d) of one hit."""
+    n = p.n
+    xa, r, y = np.asarray(x), np.asarray(u[0]), np.asarray(u[1])
+    i_prev, d_prev, ed_prev = xa[:n], xa[n:2 * n], xa[2 * n:]
+    e = r - y
+    ed = p.c * r - y
+    filt = np.isfinite(p.N)
+    nf = np.where(filt, p.N, 0.0)
+    d = np.where(filt, (d_prev + p.Kd * nf * (ed - ed_prev)) / (1.0 + nf * p.T), p.Kd * (ed - ed_prev) / p.T)
+    integ = i_prev + p.Ki * p.T * e
+    v = p.Kp * (p.b * r - y) + integ + d
+    sat = np.minimum(np.maximum(v, p.lower), p.upper)
+    if p.mode == 1.0:  # clamping: no integration while saturated and e pushes further out
+        hold = ((v > p.upper) & (e > 0.0)) | ((v < p.lower) & (e < 0.0))
+        integ = np.where(hold, i_prev, integ)
+        v = p.Kp * (p.b * r - y) + integ + d
+        sat = np.minimum(np.maximum(v, p.lower), p.upper)
+    elif p.mode == 2.0:  # back-calculation
+        integ = integ + p.Kb * p.T * (sat - v)
+    return v, sat, integ, d, ed
+
+
+@kernel
+def discrete_pid_output(p, t, x, u):
+    v, sat, integ, d, ed = pid_terms(p, x, u)
+    return (sat,)
+
+
+@kernel
+def discrete_pid_update(p, t, x, u):
+    v, sat, integ, d, ed = pid_terms(p, x, u)
+    return np.concatenate((integ, d, ed))
+
+
+@register("rate_limiter")
+class RateLimiter(_Sampled):
+    """y[k] = y[k-1] + clip(u[k] - y[k-1], -falling T, rising T): slew-rate limits in units/s.
+
+    Starts from y[-1] = ``initial``. Example: rising 1/s at 10 Hz, u = 1 from
+    0: y = 0.1, 0.2, ..., 1.
+    """
+
+    def __init__(self, name="rate_limiter", rising=1.0, falling=1.0, initial=0.0, rate=None, period=None,
+                 width=1):
+        super().__init__(name, rate, period)
+        n = count(width, "width")
+        self.params = (vector(rising, "rising", n, "positive", inf_ok=True) * self.T,
+                       vector(falling, "falling", n, "positive", inf_ok=True) * self.T)
+        self.x0 = vector(initial, "initial", n)
+        self.declare_discrete_state(n)
+        self.declare_input("u", n)
+        self.declare_output("y", n)
+
+    def initial_state(self, u=None):
+        return self.x0.copy()
+
+
+@kernel
+def rate_limiter_output(p, t, x, u):
+    xa = np.asarray(x)
+    return (xa + np.minimum(np.maximum(np.asarray(u[0]) - xa, -p[1]), p[0]),)
+
+
+@kernel
+def rate_limiter_update(p, t, x, u):
+    xa = np.asarray(x)
+    return xa + np.minimum(np.maximum(np.asarray(u[0]) - xa, -p[1]), p[0])
+
+
+DiscreteIntegrator.kernels = Kernels(output=dintegrator_output, update=dintegrator_update)
+DiscreteStateSpace.kernels = Kernels(output=dss_output, update=dss_update)
+DiscreteTransferFunction.kernels = Kernels(output=dss_output, update=dss_update)
+DelayN.kernels = Kernels(output=delay_n_output, update=delay_n_update)
+DiscretePID.kernels = Kernels(output=discrete_pid_output, update=discrete_pid_update)
+RateLimiter.kernels = Kernels(output=rate_limiter_output, update=rate_limiter_update)

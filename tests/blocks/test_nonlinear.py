@@ -1,0 +1,57 @@
+"""Static nonlinearities and math blocks against hand-checked numbers."""
+import math
+
+import numpy as np
+import pytest
+
+import hybridsim as hs
+from blocks.nonlinear import (FUNCTIONS, DeadZone, Lookup1D, Lookup2D, MathFunction, Product, Quantizer,
+                              Saturation, Switch)
+
+
+def out(block, *inputs):
+    return block.output(0.0, (), [np.atleast_1d(np.asarray(u, float)) for u in inputs])[0]
+
+
+def test_saturation_and_dead_zone():
+    assert list(out(Saturation(lower=-1, upper=2, width=3), [3.0, -5.0, 0.5])) == [2.0, -1.0, 0.5]
+    assert list(out(DeadZone(lower=-1, upper=1, width=3), [3.0, -5.0, 0.5])) == [2.0, -4.0, 0.0]
+    with pytest.raises(hs.ParameterError, match="lower"):
+        Saturation(lower=2, upper=1)
+
+
+def test_switch_product_quantizer():
+    assert list(out(Switch(threshold=0.5, width=2), [1.0, 2.0], [0.5, 0.4], [9.0, 8.0])) == [1.0, 8.0]
+    assert out(Product(ops="**/"), 3.0, 4.0, 2.0)[0] == 6.0
+    assert out(Product(ops="/"), 4.0)[0] == 0.25
+    assert out(Quantizer(q=0.1), 0.26)[0] == pytest.approx(0.3, abs=1e-15)
+    assert out(Quantizer(q=0.5), 0.25)[0] == 0.0  # halves to even
+
+
+@pytest.mark.parametrize("name", FUNCTIONS)
+def test_every_math_function(name):
+    ref = {"square": lambda v: v * v, "reciprocal": lambda v: 1 / v, "abs": abs,
+           "sign": lambda v: math.copysign(1.0, v), "round": lambda v: float(round(v))}
+    f = ref.get(name) or getattr(math, name)
+    v = 0.4
+    assert out(MathFunction(function=name), v)[0] == f(v)
+
+
+def test_math_function_outside_its_domain_gives_nan_not_an_exception():
+    assert math.isnan(out(MathFunction(function="sqrt"), -1.0)[0])
+    assert out(MathFunction(function="log"), 0.0)[0] == -math.inf
+    with pytest.raises(hs.ParameterError, match="must be one of"):
+        MathFunction(function="eval")
+
+
+def test_lookup_tables():
+    lut = Lookup1D(x=[0, 1, 2], y=[0, 10, 0])
+    assert out(lut, 0.5)[0] == 5.0 and out(lut, 3.0)[0] == 0.0 and out(lut, -1.0)[0] == 0.0
+    lut2 = Lookup2D(x1=[0, 2], x2=[0, 1], table=[[0, 1], [2, 4]])
+    # bilinear at (1, 0.5): (0 + 1 + 2 + 4) / 4
+    assert out(lut2, 1.0, 0.5)[0] == pytest.approx(1.75)
+    assert out(lut2, 5.0, -1.0)[0] == 2.0  # held at the corner (2, 0)
+    with pytest.raises(hs.ParameterError, match="increasing"):
+        Lookup1D(x=[0, 0], y=[1, 2])
+    with pytest.raises(hs.ParameterError, match="2x2"):
+        Lookup2D(x1=[0, 1], x2=[0, 1], table=[[1, 2, 3]])
