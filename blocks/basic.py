@@ -11,6 +11,8 @@ from hybridsim.registry import register
 from ._util import count, finite_matrix, flag, matrix, scalar, vector
 
 
+GROUP = "math"  # where `hybridsim blocks` lists this module's blocks
+
 @register("sum")
 class Sum(Block):
     """y = sum of inputs u1, u2, ... each with the sign in ``signs`` ('+-' : u1 - u2)."""
@@ -56,6 +58,8 @@ class Selection(Block):
 
     S = diag(s), s_j = 1 for force-controlled directions of {C}.
     """
+
+    group = "paper"
 
     def __init__(self, name="sel", S=(1, 0), complement=False):
         super().__init__(name)
@@ -114,6 +118,8 @@ def _widths(widths):
 class ZeroOrderHold(Block):
     """Sample u at the block's rate and hold it (a rate transition)."""
 
+    group = "control"
+
     def __init__(self, name="zoh", rate=None, period=None, width=1):
         super().__init__(name)
         self.declare_rate(period=period, rate=rate)
@@ -129,6 +135,8 @@ def zoh_output(p, t, x, u):
 @register("delay")
 class UnitDelay(Block):
     """y[k] = u[k-1]: one sample of delay; breaks algebraic loops."""
+
+    group = "control"
 
     def __init__(self, name="delay", rate=None, period=None, width=1, initial=0.0):
         super().__init__(name)
@@ -159,6 +167,8 @@ class LowPass(Block):
     y'' + sqrt(2) wc y' + wc^2 y = wc^2 u, wc = 2 pi cutoff; unity DC gain,
     starts at rest at ``initial``.
     """
+
+    group = "control"
 
     def __init__(self, name="filter", cutoff=12.0, width=1, initial=0.0):
         super().__init__(name)
@@ -191,6 +201,8 @@ def lowpass_derivatives(p, t, x, u):
 class Recorder(Block):
     """A sink whose inputs are all logged; ``inputs`` maps names to widths."""
 
+    group = "sinks"
+
     log_inputs = True
 
     def __init__(self, name="scope", inputs=None):
@@ -204,6 +216,8 @@ class Recorder(Block):
 @register("counter")
 class Counter(Block):
     """Counts its own sample hits (y = hits so far); for checking schedules."""
+
+    group = "sources"
 
     def __init__(self, name="counter", rate=None, period=None, offset=0):
         super().__init__(name)
@@ -228,6 +242,8 @@ class StateSpace(Block):
 
     ``D`` defaults to zero (then y has no direct feedthrough); ``x0`` the initial state.
     """
+
+    group = "control"
 
     def __init__(self, name="ss", A=((0.0,),), B=((1.0,),), C=((1.0,),), D=None, x0=None):
         super().__init__(name)

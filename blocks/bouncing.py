@@ -8,6 +8,8 @@ from hybridsim.registry import register
 from ._util import scalar
 
 
+GROUP = "examples"  # where `hybridsim blocks` lists this module's blocks
+
 @register("bouncing_ball")
 class BouncingBall(Block):
     """A ball under gravity with restitution at the floor h = 0.

@@ -16,6 +16,8 @@ from hybridsim.registry import register
 
 from ._util import count, flag, scalar, vector
 
+GROUP = "control"  # where `hybridsim blocks` lists this module's blocks
+
 _BIG = 1e300  # an infinite limit, kept finite so that event functions stay numbers
 
 

@@ -14,6 +14,8 @@ from hybridsim.registry import register
 from ._util import count, matrix, vector
 
 
+GROUP = "paper"  # where `hybridsim blocks` lists this module's blocks
+
 class _Sampled(Block):
     def __init__(self, name, rate, period, n):
         super().__init__(name)

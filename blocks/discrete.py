@@ -20,6 +20,8 @@ from ._util import count, finite_matrix, vector
 from .continuous import tf_to_ss
 
 
+GROUP = "control"  # where `hybridsim blocks` lists this module's blocks
+
 class _Sampled(Block):
     def __init__(self, name, rate, period):
         super().__init__(name)

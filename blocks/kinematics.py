@@ -14,6 +14,8 @@ from hybridsim.registry import register
 
 from ._util import finite_matrix, scalar, vector
 
+GROUP = "paper"  # where `hybridsim blocks` lists this module's blocks
+
 L_OFFSET = 0.153  # link offset l, m (Appendix A)
 
 

@@ -13,6 +13,8 @@ from ._util import flag, floats, scalar, vector
 from .kinematics import L_OFFSET, inverse_kinematics
 
 
+GROUP = "paper"  # where `hybridsim blocks` lists this module's blocks
+
 @register("manipulator")
 class Manipulator(Block):
     """Arm dynamics, eqs 5, 6 and 11 (MODEL.md's corrected form).

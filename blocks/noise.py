@@ -11,6 +11,8 @@ from hybridsim.registry import register
 
 from ._util import count, vector
 
+GROUP = "sources"  # where `hybridsim blocks` lists this module's blocks
+
 _MASK = 0xFFFFFFFF
 
 

@@ -16,6 +16,8 @@ from hybridsim.registry import register
 from ._util import count, vector
 
 
+GROUP = "math"  # where `hybridsim blocks` lists this module's blocks
+
 def _limits(lower, upper, n):
     lo, hi = vector(lower, "lower", n, inf_ok=True), vector(upper, "upper", n, inf_ok=True)
     if np.any(lo > hi):

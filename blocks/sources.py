@@ -15,6 +15,8 @@ from hybridsim.registry import register
 from ._util import finite_matrix, floats, scalar, vector
 
 
+GROUP = "sources"  # where `hybridsim blocks` lists this module's blocks
+
 class _Source(Block):
     time_varying = True
 

@@ -8,6 +8,8 @@ from hybridsim.registry import register
 from ._util import flag, scalar
 
 
+GROUP = "paper"  # where `hybridsim blocks` lists this module's blocks
+
 @register("surface")
 class Surface(Block):
     """Spring surface normal to C-X at X_s (a parameter or the input ``xs``).

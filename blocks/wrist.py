@@ -12,6 +12,8 @@ from ._util import scalar, vector
 from .kinematics import L_OFFSET
 
 
+GROUP = "paper"  # where `hybridsim blocks` lists this module's blocks
+
 @register("wrist")
 class Wrist(Block):
     """Hand mass M3 held by the wrist spring Kw, pushed by the surface.

@@ -9,13 +9,14 @@ from .block import Block
 from .diagram import Diagram
 from .errors import (CompiledPathError, DiagramError, FMUError, HybridsimError, InputError,
                      LoaderError, OutputError, ParameterError, RateError, SimulationError)
+from .interop import from_control
 from .registry import register
 from . import registry
 from .simulator import Simulator
 from .solvers import RK4, ExplicitRK, Heun, ScipySolver
 
 __all__ = ["registry", "Block", "Diagram", "Simulator", "RK4", "Heun", "ExplicitRK", "ScipySolver", "register", "simulate", "load",
-           "build", "check", "run_experiment", "write_outputs", "HybridsimError", "InputError",
+           "build", "check", "from_control", "run_experiment", "write_outputs", "HybridsimError", "InputError",
            "DiagramError", "LoaderError", "RateError", "ParameterError", "OutputError",
            "CompiledPathError", "SimulationError", "FMUError"]
 __version__ = "0.1.0"

@@ -207,30 +207,42 @@ def _num(v):
 
 
 def cmd_blocks(args):
+    from .registry import GROUP_ORDER, group, lookup, parameters, types
+
+    by_group = {}
+    for name in types():
+        by_group.setdefault(group(lookup(name)), []).append(name)
+    order = [g for g in GROUP_ORDER if g in by_group] + sorted(set(by_group) - set(GROUP_ORDER))
+    for g in order:
+        print(f"\n{g}:" if g != order[0] else f"{g}:")
+        for name in by_group[g]:
+            _describe(name, lookup(name), args.verbose)
+    return 0
+
+
+def _describe(name, cls, verbose):
+    """One block type's lines of `hybridsim blocks`."""
     import inspect
 
-    from .registry import lookup, parameters, types
+    from .registry import parameters
 
-    for name in types():
-        cls = lookup(name)
-        req, opt = parameters(cls)
-        doc = (cls.__doc__ or "").strip().splitlines()[0]
-        print(f"{name:20s} {doc}")
-        if not args.verbose:
-            continue
-        sig = inspect.signature(cls.__init__).parameters
-        shown = [p if p in req else f"{p}={sig[p].default!r}" for p in req + opt]
-        print(f"{'':20s} parameters: {', '.join(shown) or 'none'}")
-        try:  # the ports of a block with its defaults (a block that needs a file has none to show)
-            blk = cls(name="b")
-        except Exception:  # noqa: BLE001 - only for showing
-            continue
-        port = lambda p: f"{p.name}[{p.width}]"  # noqa: E731
-        print(f"{'':20s} inputs: {', '.join(map(port, blk.inputs)) or 'none'}; "
-              f"outputs: {', '.join(map(port, blk.outputs)) or 'none'}"
-              + (f"; rate {float(1 / blk.period):g} Hz" if blk.period else "")
-              + (f"; {blk.n_continuous} continuous states" if blk.n_continuous else ""))
-    return 0
+    req, opt = parameters(cls)
+    doc = (cls.__doc__ or "").strip().splitlines()[0]
+    print(f"  {name:26s} {doc}")
+    if not verbose:
+        return
+    sig = inspect.signature(cls.__init__).parameters
+    shown = [p if p in req else f"{p}={sig[p].default!r}" for p in req + opt]
+    print(f"  {'':26s} parameters: {', '.join(shown) or 'none'}")
+    try:  # the ports of a block with its defaults (a block that needs a file has none to show)
+        blk = cls(name="b")
+    except Exception:  # noqa: BLE001 - only for showing
+        return
+    port = lambda p: f"{p.name}[{p.width}]"  # noqa: E731
+    print(f"  {'':26s} inputs: {', '.join(map(port, blk.inputs)) or 'none'}; "
+          f"outputs: {', '.join(map(port, blk.outputs)) or 'none'}"
+          + (f"; rate {float(1 / blk.period):g} Hz" if blk.period else "")
+          + (f"; {blk.n_continuous} continuous states" if blk.n_continuous else ""))
 
 
 class _Stderr(logging.StreamHandler):

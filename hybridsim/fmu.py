@@ -34,6 +34,8 @@ from .errors import FMUError, ParameterError, StopRequest
 from .files import atomic_file
 from .registry import closest, register
 
+GROUP = "FMU"  # where `hybridsim blocks` lists this module's blocks
+
 _INDEXED = re.compile(r"^(.*)\[(\d+)\]$")
 
 
@@ -141,7 +143,7 @@ def _nominal(variable):
 
 @register("fmu")
 class FMUBlock(Block):
-    """Any FMI 2.0 or 3.0 FMU as a block (Float64 inputs and outputs).
+    """Any FMI 2.0 or 3.0 FMU as a block (numeric and Boolean inputs and outputs).
 
     Parameters
     ----------

@@ -40,6 +40,28 @@ def lookup(type_name):
     return _TYPES.get(type_name)
 
 
+#: the order `hybridsim blocks` lists groups in (others follow, sorted)
+GROUP_ORDER = ["paper", "control", "math", "sources", "sinks", "FMU", "robots", "examples"]
+
+
+def group(cls):
+    """The group a block type is listed under: the class's ``group``, else its module's ``GROUP``.
+
+    Parameters
+    ----------
+    cls : type
+        A registered block class.
+
+    Returns
+    -------
+    str
+        e.g. ``"control"``; ``"other"`` when neither says.
+    """
+    import sys
+
+    return getattr(cls, "group", None) or getattr(sys.modules.get(cls.__module__), "GROUP", "other")
+
+
 def closest(name, candidates):
     """' (did you mean X?)' for the closest candidate, or ''."""
     match = difflib.get_close_matches(str(name), list(candidates), n=1, cutoff=0.5)

@@ -139,3 +139,12 @@ def test_blocks_verbose_shows_defaults_and_ports(capsys):
     assert "parameters: g=9.81, e=0.8, h0=1.0, v0=0.0" in out  # bouncing_ball, its defaults
     assert "inputs: none; outputs: h[1], v[1]; 2 continuous states" in out
     assert "inputs: tau[2], f_wrist[2]; outputs: q[2], qd[2]; 4 continuous states" in out  # the arm
+
+
+def test_blocks_lists_the_library_by_group(capsys):
+    assert main(["blocks"]) == 0
+    out = capsys.readouterr().out
+    heads = [line[:-1] for line in out.splitlines() if line and not line.startswith(" ")]
+    assert heads[:6] == ["paper", "control", "math", "sources", "sinks", "FMU"]
+    section = out.split("\ncontrol:")[1].split("\n\n")[0]
+    assert "discrete_pid" in section and "integrator" in section and "manipulator" not in section
