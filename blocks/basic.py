@@ -5,7 +5,7 @@ import numpy as np
 
 from hybridsim.block import Block
 from hybridsim.errors import ParameterError
-from hybridsim.kernels import Kernels, kernel
+from hybridsim.kernels import Kernels, kernel, unroll
 from hybridsim.registry import register
 
 from ._util import count, finite_matrix, flag, matrix, scalar, vector
@@ -31,8 +31,11 @@ class Sum(Block):
 def sum_output(p, t, x, u):
     signs = p[0]
     y = signs[0] * np.asarray(u[0])
-    for k in range(1, len(u)):
-        y = y + signs[k] * np.asarray(u[k])
+    k = 0
+    for v in unroll(u):  # the inputs may mix arrays and tuples (compiled: unrolled)
+        if k > 0:
+            y = y + signs[k] * np.asarray(v)
+        k += 1
     return (y,)
 
 

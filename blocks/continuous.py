@@ -55,7 +55,7 @@ class Integrator(Block):
         # reset; reach upper, reach lower; leave upper, leave lower
         self.event_directions = (1,) * n + (1,) * n + (-1,) * n + (-1,) * n + (1,) * n
         self.declare_input("u", n)
-        self.declare_input("reset", n, default=[0.0] * n)
+        self.declare_input("reset", n, default=[0.0] * n, optional=True)
         self.declare_output("y", n, depends_on=())
         self.declare_continuous_state(2 * n)  # x, then the mode m
 

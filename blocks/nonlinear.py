@@ -10,7 +10,7 @@ import numpy as np
 
 from hybridsim.block import Block
 from hybridsim.errors import ParameterError
-from hybridsim.kernels import Kernels, kernel
+from hybridsim.kernels import Kernels, kernel, unroll
 from hybridsim.registry import register
 
 from ._util import count, vector
@@ -107,8 +107,11 @@ class Product(Block):
 def product_output(p, t, x, u):
     ops = p[0]
     y = np.asarray(u[0]) * 1.0 if ops[0] > 0 else 1.0 / np.asarray(u[0])
-    for k in range(1, len(u)):
-        y = y * np.asarray(u[k]) if ops[k] > 0 else y / np.asarray(u[k])
+    k = 0
+    for v in unroll(u):  # the inputs may mix arrays and tuples (compiled: unrolled)
+        if k > 0:
+            y = y * np.asarray(v) if ops[k] > 0 else y / np.asarray(v)
+        k += 1
     return (y,)
 
 

@@ -56,9 +56,13 @@ def linearization(path, at=None, **overrides):
 
 
 def param_value(f, ref):
-    """Current value of 'block.param' (from the file or the block's default)."""
-    bname, pname = ref.split(".")
-    spec = f.data["blocks"][bname]
+    """Current value of 'block.param' (from the file or the block's default); top-level blocks only."""
+    from .errors import LoaderError
+
+    bname, _, pname = ref.partition(".")
+    spec = f.data["blocks"].get(bname)
+    if not isinstance(spec, dict) or "type" not in spec or spec["type"] == "subsystem" or "." in pname:
+        raise LoaderError(f"{ref!r}: a parameter of a top-level block (block.param) is needed here", f.path)
     if pname in spec:
         val = spec[pname]
         if isinstance(val, str) and val.startswith("$"):

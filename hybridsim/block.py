@@ -60,12 +60,13 @@ class Port:
     """A named, fixed-width input or output of a block (an input may have a ``default``:
     the value it takes when no wire drives it)."""
 
-    __slots__ = ("block", "name", "width", "index", "depends_on", "default")
+    __slots__ = ("block", "name", "width", "index", "depends_on", "default", "optional")
 
-    def __init__(self, block, name, width, index, depends_on=None, default=None):
+    def __init__(self, block, name, width, index, depends_on=None, default=None, optional=False):
         self.block, self.name, self.width, self.index = block, name, width, index
         self.depends_on = depends_on
         self.default = default
+        self.optional = optional
 
     def __repr__(self):
         return f"{self.block.name}.{self.name}"
@@ -154,16 +155,18 @@ class Block:
         self.time_offset = Fraction(0)
 
     # -- declarations ---------------------------------------------------
-    def declare_input(self, name, width, default=None):
+    def declare_input(self, name, width, default=None, optional=False):
         """Add an input port of ``width`` elements; returns its index.
 
         ``default``: the values the input takes when no wire drives it (an FMU
         input's start values); without one an unwired input is an error.
+        ``optional``: leaving it unwired is the usual case (an integrator's
+        reset), so the loader says nothing about it.
         """
         width = port_width(width)
         if default is not None:
             default = tuple(float(v) for v in np.broadcast_to(np.asarray(default, float), (width,)))
-        self.inputs.append(Port(self, name, width, len(self.inputs), default=default))
+        self.inputs.append(Port(self, name, width, len(self.inputs), default=default, optional=optional))
         return len(self.inputs) - 1
 
     def declare_output(self, name, width, depends_on=None):

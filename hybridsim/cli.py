@@ -119,7 +119,7 @@ def cmd_draw(args):
     out = check_output_file(args.output or f"{safe_name(f.name)}.png", _image_formats())
     diagram, _ = f.build(f.variants()[0][1])
     system = diagram.build()
-    fig = draw_diagram(system, f.description or f.name)
+    fig = draw_diagram(system, f.description or f.name, expand=args.expand)
     with atomic_file(out, "wb") as fh:
         fig.savefig(fh, format=out.suffix.lstrip(".") or "png", dpi=120)
     print(f"wrote {out}")
@@ -323,6 +323,8 @@ def build_parser():
     d = sub.add_parser("draw", help="render the diagram as a picture (one colour per rate)")
     with_diagram(d)
     d.add_argument("-o", "--output", metavar="FILE", help="image file (.png, .svg, .pdf)")
+    d.add_argument("--expand", action="store_true",
+                   help="draw every block inside subsystems (default: a subsystem is one box)")
     d.set_defaults(func=cmd_draw)
     a = sub.add_parser("analyze", help="linearize: closed-loop poles, margins, rate and gain sweeps",
                        description="Linearize the diagram about its initial state (or the state at "

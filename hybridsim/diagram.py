@@ -27,11 +27,14 @@ class Wire:
 
 
 def split_ref(ref):
-    """'block.port' -> ('block', 'port'); raises ValueError when malformed."""
-    if not isinstance(ref, str) or ref.count(".") != 1:
+    """'block.port' -> ('block', 'port'); a block inside a subsystem is 'sub.block'.
+
+    Raises ValueError when malformed.
+    """
+    if not isinstance(ref, str) or "." not in ref:
         raise ValueError(f"{ref!r} is not of the form block.port")
-    b, p = ref.split(".")
-    if not b or not p:
+    b, p = ref.rsplit(".", 1)
+    if not p or not all(b.split(".")):
         raise ValueError(f"{ref!r} is not of the form block.port")
     return b, p
 
@@ -114,7 +117,7 @@ class Diagram:
 
     def unwired_defaults(self):
         """``[(block, port)]`` of the inputs no wire drives that take their default value."""
-        driven = {tuple(w.dst.split(".", 1)) for w in self.wires}
+        driven = {tuple(w.dst.rsplit(".", 1)) for w in self.wires}
         return [(b.name, p.name) for b in self.blocks.values() for p in b.inputs
                 if p.default is not None and (b.name, p.name) not in driven]
 

@@ -21,6 +21,13 @@ from typing import Callable, NamedTuple, Optional
 
 _MARKED = []  # every function marked @kernel (numba may compile any of them)
 
+try:  # loop over a tuple whose items differ in type (arrays and tuples of floats)
+    from numba import literal_unroll as unroll
+except ImportError:  # pragma: no cover - numba is optional; in Python the tuple itself
+    def unroll(items):
+        """``items`` itself: numba's ``literal_unroll`` outside numba."""
+        return items
+
 
 class Kernels(NamedTuple):
     """The pure functions of a block; a missing one means the block has none.

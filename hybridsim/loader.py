@@ -35,7 +35,8 @@ from .registry import closest, lookup, parameters, types
 from . import limits
 
 TOP_KEYS = ["extends", "name", "description", "params", "blocks", "wires", "simulation", "log",
-            "signals", "metrics", "variants", "plot", "analysis"]
+            "signals", "metrics", "variants", "plot", "analysis", "inputs", "outputs"]
+_BAD_NAME = re.compile(r"[.\[\]\s:=]")  # a '.' separates a subsystem's name from its blocks' names
 SIM_KEYS = ["t_end", "solver", "step", "rtol", "atol", "max_step", "log_period", "max_state", "fused", "compiled",
             "locate_switches"]
 SOLVERS = ["rk4", "heun", "radau", "bdf", "lsoda", "rk45", "rk23", "dop853"]
@@ -310,9 +311,14 @@ def _drop_wires(data, bname):
         data["log"] = new
 
 
-_REF = re.compile(r"^([^.\[\]\s]+)\.([^.\[\]\s]+)(?:\[(\d+)\])?$")
+_REF = re.compile(r"^([^\[\]\s]+)\.([^.\[\]\s]+)(?:\[(\d+)\])?$")  # block (may be sub.block).port[i]
 _log = logging.getLogger("hybridsim")
 _SAID = set()  # notes already given in this process
+
+
+def _is_subsystem(spec):
+    """Whether a block spec is ``type: subsystem`` (a diagram file used as a block)."""
+    return isinstance(spec, dict) and spec.get("type") == "subsystem"
 
 
 def _references(value):
@@ -378,7 +384,8 @@ class DiagramFile:
             self._fail("missing required section 'blocks'", 1)
         for key, kind in (("params", dict), ("blocks", dict), ("simulation", dict),
                           ("signals", dict), ("metrics", dict), ("variants", dict),
-                          ("wires", list), ("log", list), ("plot", dict), ("analysis", dict)):
+                          ("wires", list), ("log", list), ("plot", dict), ("analysis", dict),
+                          ("inputs", dict), ("outputs", dict)):
             if key in data and not isinstance(data[key], kind):
                 self._fail(f"section {key!r} must be a {'mapping' if kind is dict else 'list'}",
                            data.lines[key])
@@ -418,6 +425,13 @@ class DiagramFile:
                 bname = parts[1] if parts[0] == "blocks" else parts[0]
                 pname = parts[-1]
                 blocks = self.data["blocks"]
+                rest = parts[2:] if parts[0] == "blocks" else parts[1:]
+                if _is_subsystem(blocks.get(bname)) and len(rest) >= 1:
+                    pname = ".".join(rest)  # ctrl.pid.Kp: the subsystem passes pid.Kp on
+                    blocks[bname][pname] = value
+                    blocks[bname].lines[pname] = None
+                    blocks[bname].locs[pname] = f"--set {key}"
+                    continue
                 if bname not in blocks or len(parts) > (3 if parts[0] == "blocks" else 2):
                     self._fail(f"--set {key}: no block {bname!r}{closest(bname, blocks)}")
                 if not isinstance(blocks[bname], dict) or not pname:
@@ -490,10 +504,13 @@ class DiagramFile:
             elif parts[0] == "simulation":
                 self._fail(f"{key!r} is a simulation setting: not a run-time parameter")
             else:
-                bname, pname = (parts[1], parts[2]) if parts[0] == "blocks" and len(parts) == 3 else parts[:2]
-                if len(parts) != (3 if parts[0] == "blocks" else 2) or bname not in self.data["blocks"]:
+                if parts[0] == "blocks":
+                    parts = parts[1:]
+                bname = parts[0]
+                if bname not in self.data["blocks"] or len(parts) < 2 or (
+                        len(parts) > 2 and not _is_subsystem(self.data["blocks"][bname])):
                     self._fail(f"{key!r}: no block {bname!r}{closest(bname, self.data['blocks'])}")
-                out[f"{bname}.{pname}"] = value
+                out[".".join(parts)] = value  # ctrl.pid.Kp: the flattened block ctrl.pid
         if not named:
             return out
         for section in ("simulation", "log", "signals", "metrics"):
@@ -504,6 +521,9 @@ class DiagramFile:
         for bname, spec in self.data["blocks"].items():
             if not isinstance(spec, dict):
                 continue
+            if _is_subsystem(spec) and _references(spec) & set(named):
+                self._fail(f"{sorted(_references(spec) & set(named))} used by subsystem {bname!r}: not a "
+                           "run-time parameter (give it with --set, which rebuilds the diagram)")
             for pname, raw in spec.items():
                 if pname != "type" and _references(raw) & set(named) and f"{bname}.{pname}" not in out:
                     out[f"{bname}.{pname}"] = self._resolve(raw, spec.locs[pname], params)
@@ -523,60 +543,57 @@ class DiagramFile:
             params[k] = v
         diagram = Diagram(self.name, source=str(self.path))
         problems = diagram.problems
+        self.aliases = {}
+        self._expand(diagram, params, "", (self.path.resolve(),), "")
+        problems += [p for p in diagram.check() if p not in problems]
+        if problems:
+            raise DiagramError(problems, str(self.path))
+        diagram.problems = []
+        for bname, pname in diagram.unwired_defaults():
+            if diagram.blocks[bname].input_port(pname).optional:
+                continue
+            if (str(self.path), bname, pname) not in _SAID:  # once per process
+                _SAID.add((str(self.path), bname, pname))
+                _log.info("%s: input %s.%s is not wired: it takes its default %s", self.path, bname, pname,
+                          list(diagram.blocks[bname].input_port(pname).default))
+        settings = self._settings(params)
+        if self.aliases:  # a subsystem's output named as 'sub.port' is the inner block's output
+            settings["log"] = [self._alias(r) for r in settings["log"]]
+            settings["signals"] = {k: self._alias(v) for k, v in settings["signals"].items()}
+        widths = self._check_refs(diagram, settings)
+        self._check_size(diagram, settings, widths)
+        return diagram, settings
+
+    def _alias(self, ref):
+        """'ctrl.tau[1]' -> 'ctrl.sum.y[1]' when ctrl.tau is a subsystem's output."""
+        base, bracket, rest = str(ref).partition("[")
+        return self.aliases.get(base, base) + bracket + rest
+
+    # -- blocks, wires and subsystems ---------------------------------------------
+    def _expand(self, diagram, params, prefix, chain, context):
+        """Add this file's blocks and wires to ``diagram``, names prefixed with ``prefix``.
+
+        A block of ``type: subsystem`` adds its file's blocks as ``name.inner``,
+        recursively. Returns ``(inputs, outputs)``: the file's declared ports as
+        ``{name: [flat 'block.port', ...]}`` and ``{name: flat 'block.port'}``.
+        Problems go to ``diagram.problems``, each led by ``context`` (the path
+        through the hierarchy, with file:line at each level).
+        """
+        problems = diagram.problems
         blocks = self.data["blocks"]
+        subs = {}
         for bname, spec in blocks.items():
-            line = blocks.lines[bname]
             here = blocks.locs[bname]
-            if not isinstance(spec, dict):
-                problems.append(f"{here}: block {bname!r} must be a mapping with a 'type'")
+            if not isinstance(bname, str) or _BAD_NAME.search(bname):
+                problems.append(f"{context}{here}: block name {bname!r} may not contain '.', '[', ']', ':', "
+                                "'=' or spaces (a '.' separates a subsystem from its blocks)")
                 continue
-            if "type" not in spec:
-                problems.append(f"{here}: block {bname!r} has no 'type' (required)")
+            if _is_subsystem(spec):
+                got = self._subsystem(diagram, bname, spec, params, prefix, chain, context)
+                if got is not None:
+                    subs[bname] = got
                 continue
-            tname = spec["type"]
-            cls = lookup(str(tname))
-            if cls is None:
-                problems.append(f"{spec.locs['type']}: block {bname!r}: unknown block type "
-                                f"{tname!r}{closest(tname, types())}")
-                continue
-            required, optional = parameters(cls)
-            kwargs = {}
-            bad = False
-            for pname, pval in spec.items():
-                if pname == "type":
-                    continue
-                if pname not in required + optional:
-                    valid = required + optional
-                    problems.append(
-                        f"{spec.locs[pname]}: block {bname!r} ({tname}) has no parameter {pname!r}"
-                        f"{closest(pname, valid)}; its parameters: {', '.join(valid) or 'none'}")
-                    bad = True
-                    continue
-                try:
-                    kwargs[pname] = self._resolve(pval, spec.locs[pname], params)
-                except LoaderError as exc:
-                    problems.append(str(exc))
-                    bad = True
-                    continue
-                if _has_nan(kwargs[pname]):
-                    problems.append(f"{spec.locs[pname]}: block {bname!r} ({tname}): parameter "
-                                    f"{pname!r} is not a number (NaN)")
-                    bad = True
-            for r in required:
-                if r not in kwargs and not bad:
-                    problems.append(f"{here}: block {bname!r} ({tname}) needs parameter {r!r}")
-                    bad = True
-            if bad:
-                continue
-            try:
-                diagram.add(cls(name=bname, **kwargs))
-            except RateError as exc:
-                where = next((spec.locs[k] for k in ("rate", "period") if k in spec), here)
-                problems.append(f"{where}: block {bname!r} ({tname}): bad rate: {exc}")
-            except ParameterError as exc:
-                problems.append(f"{spec.locs.get(exc.param, here)}: block {bname!r} ({tname}): {exc}")
-            except (ValueError, TypeError, ArithmeticError) as exc:
-                problems.append(f"{here}: block {bname!r} ({tname}): {exc}")
+            self._make_block(diagram, bname, spec, params, prefix, context)
         wires = self.data.get("wires") or []
         for k, w in enumerate(wires):
             line = wires.locs[k]
@@ -585,25 +602,163 @@ class DiagramFile:
             elif isinstance(w, list) and len(w) == 2 and all(isinstance(s, str) for s in w):
                 src, dst = w
             else:
-                problems.append(f"{line}: a wire is 'a.out -> b.in' or [a.out, b.in], got {w!r}")
+                problems.append(f"{context}{line}: a wire is 'a.out -> b.in' or [a.out, b.in], got {w!r}")
                 continue
-            if src.split(".")[0] in blocks and dst.split(".")[0] in blocks:
-                if src.split(".")[0] not in diagram.blocks or dst.split(".")[0] not in diagram.blocks:
-                    continue  # the block itself already has a problem
-            diagram.connect(src, dst, line)
-        problems += [p for p in diagram.check() if p not in problems]
-        if problems:
-            raise DiagramError(problems, str(self.path))
-        diagram.problems = []
-        for bname, pname in diagram.unwired_defaults():
-            if (str(self.path), bname, pname) not in _SAID:  # once per process
-                _SAID.add((str(self.path), bname, pname))
-                _log.info("%s: input %s.%s is not wired: it takes its default %s", self.path, bname, pname,
-                          list(diagram.blocks[bname].input_port(pname).default))
-        settings = self._settings(params)
-        widths = self._check_refs(diagram, settings)
-        self._check_size(diagram, settings, widths)
-        return diagram, settings
+            srcs = self._endpoint(src, subs, prefix, 1, line, context, problems)
+            dsts = self._endpoint(dst, subs, prefix, 0, line, context, problems)
+            if srcs is None or dsts is None:
+                continue
+            sb, db = src.split(".")[0], dst.split(".")[0]
+            if (sb in blocks and prefix + sb not in diagram.blocks and sb not in subs) or \
+                    (db in blocks and prefix + db not in diagram.blocks and db not in subs):
+                continue  # the block itself already has a problem
+            for d in dsts:
+                diagram.connect(srcs[0], d, f"{context}{line}" if context else line)
+        ins, outs = {}, {}
+        for section, target in (("inputs", ins), ("outputs", outs)):
+            spec = self.data.get(section) or {}
+            for name, refs in spec.items():
+                where = f"{context}{spec.locs[name]}"
+                if not isinstance(name, str) or _BAD_NAME.search(name):
+                    problems.append(f"{where}: {section[:-1]} name {name!r} may not contain '.', '[', ']' or spaces")
+                    continue
+                refs = refs if isinstance(refs, list) and section == "inputs" else [refs]
+                flat = []
+                for ref in refs:
+                    got = self._endpoint(ref, subs, prefix, section == "outputs", spec.locs[name], context, problems)
+                    if got is not None:
+                        flat += got
+                if flat:
+                    target[name] = flat if section == "inputs" else flat[0]
+        for name, ref in outs.items():
+            self.aliases[prefix + name] = ref
+        return ins, outs
+
+    def _endpoint(self, ref, subs, prefix, output, line, context, problems):
+        """The flat 'block.port' references a wire end names (a subsystem's port maps to its inner ones)."""
+        if not isinstance(ref, str) or ref.count(".") != 1:
+            problems.append(f"{context}{line}: {ref!r} is not of the form block.port")
+            return None
+        bname, pname = ref.split(".")
+        if bname not in subs:
+            return [prefix + ref]
+        ins, outs, sub_where = subs[bname]
+        table = outs if output else ins
+        if pname not in table:
+            kind = "output" if output else "input"
+            problems.append(f"{context}{line}: subsystem {bname!r} ({sub_where}) has no {kind} {pname!r}"
+                            f"{closest(pname, table)}; its {kind}s: {', '.join(table) or 'none'}")
+            return None
+        return [table[pname]] if output else list(table[pname])
+
+    def _subsystem(self, diagram, bname, spec, params, prefix, chain, context):
+        """Expand the subsystem block ``bname``; returns (inputs, outputs, its file) or None."""
+        problems = diagram.problems
+        here = spec.locs.get("type", str(self.path))
+        rel = spec.get("file")
+        if not isinstance(rel, str) or not rel:
+            problems.append(f"{context}{here}: subsystem {bname!r} needs 'file', the diagram file it uses")
+            return None
+        shown = Path(os.path.normpath(self.path.parent / rel))  # as the user wrote it, for messages
+        path = shown.resolve()
+        where = spec.locs.get("file", here)
+        if Path(rel).suffix.lower() not in limits.YAML_SUFFIXES:
+            problems.append(f"{context}{where}: subsystem {bname!r}: {rel!r} is not a YAML file")
+            return None
+        if path in chain:
+            problems.append(f"{context}{where}: subsystem {bname!r}: {rel!r} contains itself "
+                            f"({' -> '.join(p.name for p in chain)} -> {path.name})")
+            return None
+        if len(chain) > limits.MAX_EXTENDS:
+            problems.append(f"{context}{where}: subsystems nest more than {limits.MAX_EXTENDS} deep")
+            return None
+        overrides = {}
+        try:
+            for key, value in spec.items():
+                if key not in ("type", "file"):
+                    overrides[key] = self._resolve(value, spec.locs[key], params)
+            sub = DiagramFile(shown)
+        except LoaderError as exc:
+            problems.append(f"{context}{where}: in subsystem {bname!r}: {exc}")
+            return None
+        for key in overrides:
+            first = str(key).split(".")[0]
+            if "." not in str(key) and key not in sub.params:
+                problems.append(f"{context}{spec.locs[key]}: subsystem {bname!r} ({rel}) has no parameter {key!r}"
+                                f"{closest(key, sub.params)}; its parameters: {', '.join(sub.params) or 'none'}")
+                return None
+            if "." in str(key) and first not in sub.data["blocks"]:
+                problems.append(f"{context}{spec.locs[key]}: subsystem {bname!r} ({rel}) has no block {first!r}"
+                                f"{closest(first, sub.data['blocks'])}")
+                return None
+        try:
+            sub.apply(overrides)
+        except LoaderError as exc:
+            problems.append(f"{context}{spec.locs.get(next(iter(overrides), 'type'), here)}: in subsystem {bname!r}: {exc}")
+            return None
+        sub.aliases = self.aliases
+        inner = f"{context}in subsystem {prefix}{bname} ({where}): "
+        ins, outs = sub._expand(diagram, dict(sub.params), f"{prefix}{bname}.", chain + (path,), inner)
+        if self.files is not None:
+            self.files.extend(f for f in sub.files if f not in self.files)
+        return ins, outs, where
+
+    def _make_block(self, diagram, bname, spec, params, prefix, context):
+        """Construct one block from its spec and add it as ``prefix + bname`` (problems noted)."""
+        problems = diagram.problems
+        blocks = self.data["blocks"]
+        here = f"{context}{blocks.locs[bname]}"
+        if not isinstance(spec, dict):
+            problems.append(f"{here}: block {bname!r} must be a mapping with a 'type'")
+            return
+        if "type" not in spec:
+            problems.append(f"{here}: block {bname!r} has no 'type' (required)")
+            return
+        tname = spec["type"]
+        cls = lookup(str(tname))
+        if cls is None:
+            problems.append(f"{context}{spec.locs['type']}: block {bname!r}: unknown block type "
+                            f"{tname!r}{closest(tname, types() + ['subsystem'])}")
+            return
+        required, optional = parameters(cls)
+        kwargs = {}
+        bad = False
+        for pname, pval in spec.items():
+            if pname == "type":
+                continue
+            if pname not in required + optional:
+                valid = required + optional
+                problems.append(
+                    f"{context}{spec.locs[pname]}: block {bname!r} ({tname}) has no parameter {pname!r}"
+                    f"{closest(pname, valid)}; its parameters: {', '.join(valid) or 'none'}")
+                bad = True
+                continue
+            try:
+                kwargs[pname] = self._resolve(pval, spec.locs[pname], params)
+            except LoaderError as exc:
+                problems.append(f"{context}{exc}")
+                bad = True
+                continue
+            if _has_nan(kwargs[pname]):
+                problems.append(f"{context}{spec.locs[pname]}: block {bname!r} ({tname}): parameter "
+                                f"{pname!r} is not a number (NaN)")
+                bad = True
+        for r in required:
+            if r not in kwargs and not bad:
+                problems.append(f"{here}: block {bname!r} ({tname}) needs parameter {r!r}")
+                bad = True
+        if bad:
+            return
+        try:
+            diagram.add(cls(name=prefix + bname, **kwargs))
+        except RateError as exc:
+            where = next((spec.locs[k] for k in ("rate", "period") if k in spec), blocks.locs[bname])
+            problems.append(f"{context}{where}: block {bname!r} ({tname}): bad rate: {exc}")
+        except ParameterError as exc:
+            problems.append(f"{context}{spec.locs.get(exc.param, blocks.locs[bname])}: block {bname!r} ({tname}): {exc}")
+        except (ValueError, TypeError, ArithmeticError) as exc:
+            problems.append(f"{here}: block {bname!r} ({tname}): {exc}")
+
 
     def _check_metrics(self, metrics, lines):
         """The ``metrics`` section: known keys with finite numbers (see :mod:`hybridsim.metrics`)."""

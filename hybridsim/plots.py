@@ -112,58 +112,89 @@ def _scope_figure(f, runs, most=8):
     return fig
 
 
-def draw_diagram(system, title=None):
-    """Picture of a built system: blocks in dependency layers, one colour per rate."""
+def draw_diagram(system, title=None, expand=False):
+    """Picture of a built system: blocks in dependency layers, one colour per rate.
+
+    Parameters
+    ----------
+    system : hybridsim.system.System
+        A built system.
+    title : str, optional
+        The figure's title (default the system's name).
+    expand : bool
+        Draw every block of a subsystem (``ctrl.pid``, ...); by default a
+        subsystem is one box named after it.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     from matplotlib.patches import FancyBboxPatch
 
-    blocks = system.blocks
-    n = len(blocks)
-    # layer = longest feedthrough-respecting path from a source (ignoring state edges)
-    layer = [0] * n
-    for i in range(n):
-        for (a, _) in system.sources[i]:
-            if a < i:
-                layer[i] = max(layer[i], layer[a] + 1)
+    from .diagram import DefaultValue
+
+    keep = [i for i, b in enumerate(system.blocks) if not isinstance(b, DefaultValue)]
+    key = (lambda name: name) if expand else (lambda name: name.split(".")[0])
+    nodes, members = [], {}
+    for i in keep:
+        k = key(system.blocks[i].name)
+        if k not in members:
+            nodes.append(k)
+            members[k] = []
+        members[k].append(i)
+    node_of = {i: nodes.index(key(system.blocks[i].name)) for i in keep}
+    first = [min(members[k]) for k in nodes]  # evaluation order of a node: its first block's
+    edges = sorted({(node_of[a], node_of[i]) for i in keep for (a, _) in system.sources[i]
+                    if a in node_of and node_of[a] != node_of[i]})
+    n = len(nodes)
+    layer = [0] * n  # longest forward path from a source (edges against the order are feedback)
+    for v in sorted(range(n), key=first.__getitem__):
+        for (a, b) in edges:
+            if b == v and first[a] < first[v]:
+                layer[v] = max(layer[v], layer[a] + 1)
     cols = {}
-    for i in range(n):
-        cols.setdefault(layer[i], []).append(i)
+    for v in sorted(range(n), key=first.__getitem__):
+        cols.setdefault(layer[v], []).append(v)
     pos = {}
-    for lx, members in cols.items():
-        for j, i in enumerate(members):
-            pos[i] = (lx * 3.0, -j * 1.4)
+    for lx, vs in cols.items():
+        for j, v in enumerate(vs):
+            pos[v] = (lx * 3.0, -j * 1.4)
+    blocks = system.blocks
     rates = sorted({b.period for b in blocks if b.period is not None})
     palette = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    kind_color = {"continuous": "#cfe8cf", "direct": "#eeeeee", "constant": "#f5f5dc"}
+    kind_color = {"continuous": "#cfe8cf", "direct": "#eeeeee", "constant": "#f5f5dc", "subsystem": "#dde6f5"}
     width = max(8, 2.2 * len(cols))
-    height = max(4, 1.0 * max(len(m) for m in cols.values()))
+    height = max(4, 1.0 * max((len(m) for m in cols.values()), default=1))
     fig, ax = plt.subplots(figsize=(width, height))
-    for i, b in enumerate(blocks):
-        x, y = pos[i]
-        if b.period is not None:
-            fc = palette[rates.index(b.period) % len(palette)]
+    for v, name in enumerate(nodes):
+        x, y = pos[v]
+        inside = members[name]
+        b = blocks[inside[0]]
+        if len(inside) > 1 or "." in b.name and not expand:
+            fc, label = kind_color["subsystem"], f"subsystem ({len(inside)} blocks)"
+        elif b.period is not None:
+            fc, label = palette[rates.index(b.period) % len(palette)], getattr(type(b), "type_name", type(b).__name__)
         else:
-            fc = kind_color[system.kind[i]]
+            fc, label = kind_color[system.kind[inside[0]]], getattr(type(b), "type_name", type(b).__name__)
         ax.add_patch(FancyBboxPatch((x - 1.0, y - 0.45), 2.0, 0.9, boxstyle="round,pad=0.05",
                                     fc=fc, ec="k", lw=0.8, alpha=0.85))
-        ax.text(x, y + 0.12, b.name, ha="center", va="center", fontsize=8, weight="bold")
-        ax.text(x, y - 0.2, getattr(type(b), "type_name", type(b).__name__), ha="center",
-                va="center", fontsize=6.5)
-    for i in range(n):
-        for (a, _) in system.sources[i]:
-            (x0, y0), (x1, y1) = pos[a], pos[i]
-            back = x1 <= x0
-            ax.annotate("", xy=(x1 - 1.0, y1), xytext=(x0 + 1.0, y0),
-                        arrowprops=dict(arrowstyle="->", lw=0.6, color="tab:red" if back else "0.3",
-                                        connectionstyle="arc3,rad=0.25" if back else "arc3,rad=0.0"))
+        ax.text(x, y + 0.12, name, ha="center", va="center", fontsize=8, weight="bold")
+        ax.text(x, y - 0.2, label, ha="center", va="center", fontsize=6.5)
+    for (a, b) in edges:
+        (x0, y0), (x1, y1) = pos[a], pos[b]
+        back = x1 <= x0
+        ax.annotate("", xy=(x1 - 1.0, y1), xytext=(x0 + 1.0, y0),
+                    arrowprops=dict(arrowstyle="->", lw=0.6, color="tab:red" if back else "0.3",
+                                    connectionstyle="arc3,rad=0.25" if back else "arc3,rad=0.0"))
     handles = [plt.Rectangle((0, 0), 1, 1, fc=palette[k % len(palette)]) for k in range(len(rates))]
     labels = [f"{float(1 / r):g} Hz" for r in rates]
     for kind, c in kind_color.items():
         handles.append(plt.Rectangle((0, 0), 1, 1, fc=c, ec="k"))
         labels.append({"continuous": "continuous state", "direct": "direct (no rate)",
-                       "constant": "piecewise constant"}[kind])
+                       "constant": "piecewise constant", "subsystem": "subsystem"}[kind])
     ax.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=len(labels), fontsize=7)
-    xs = [p[0] for p in pos.values()]
-    ys = [p[1] for p in pos.values()]
+    xs = [p[0] for p in pos.values()] or [0.0]
+    ys = [p[1] for p in pos.values()] or [0.0]
     ax.set_xlim(min(xs) - 1.5, max(xs) + 1.5)
     ax.set_ylim(min(ys) - 1, max(ys) + 1)
     ax.set_axis_off()

@@ -32,17 +32,19 @@ class System:
         index = {b.name: i for i, b in enumerate(blocks)}
         sources = [[None] * len(b.inputs) for b in blocks]
         for w in diagram.wires:
-            sb, sp = w.src.split(".")
-            db, dp = w.dst.split(".")
+            sb, sp = w.src.rsplit(".", 1)  # a block in a subsystem is 'sub.block'
+            db, dp = w.dst.rsplit(".", 1)
             a, b = index[sb], index[db]
             sources[b][blocks[b].input_port(dp).index] = (a, blocks[a].output_port(sp).index)
 
         order, loops = sort_blocks(blocks, sources)
         if loops:
+            where = {w.dst: w.where for w in diagram.wires if w.where}  # file:line of each wire
+            at = lambda hop: hop + (f" ({where[hop.split(' -> ')[1]]})" if hop.split(" -> ")[1] in where else "")  # noqa: E731
             raise DiagramError(
                 [
                     "algebraic loop: " + " -> ".join(h.split(" -> ")[0] for h in hops)
-                    + f" -> {hops[0].split(' -> ')[0]}\n      wires: " + "; ".join(hops)
+                    + f" -> {hops[0].split(' -> ')[0]}\n      wires: " + "; ".join(map(at, hops))
                     + "\n      every output on this cycle depends directly on its input;"
                     " insert a delay or a rate transition (a discrete block) in the loop"
                     for hops in loops
@@ -121,7 +123,7 @@ class System:
 
     def port_ref(self, ref):
         """(block index, output index) of an output reference 'block.port'."""
-        b, p = ref.split(".")
+        b, p = ref.rsplit(".", 1)
         i = self.index[b]
         return i, self.blocks[i].output_port(p).index
 
@@ -153,8 +155,8 @@ class System:
 
         changes = {}
         for key, value in params.items():
-            bname, _, pname = str(key).partition(".")
-            if bname not in self.index or not pname or "." in pname:
+            bname, _, pname = str(key).rpartition(".")  # 'ctrl.pid.Kp': block ctrl.pid
+            if bname not in self.index or not pname:
                 raise InputError(f"run-time parameter {key!r}: give it as 'block.param' with a block of "
                                  f"this diagram{closest(bname, self.index)}")
             changes.setdefault(bname, {})[pname] = value

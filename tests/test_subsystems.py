@@ -1,0 +1,133 @@
+"""Subsystems: a diagram file used as a block, nested, flattened, addressed as sub.block.param."""
+import numpy as np
+import pytest
+
+import hybridsim as hs
+from hybridsim.cli import main
+
+INNER = """params: {gain: 2.0}
+blocks:
+  g: {type: gain, K: $gain}
+  s: {type: sum, signs: "+-"}
+inputs: {a: [s.u1], b: s.u2}
+outputs: {y: g.y}
+wires: [s.y -> g.u]
+"""
+MIDDLE = """params: {k: 3.0}
+blocks:
+  in1: {type: subsystem, file: inner.yaml, gain: $k}
+  in2: {type: subsystem, file: inner.yaml}
+  lag: {type: transfer_function, num: [1.0], den: [0.1, 1.0]}
+inputs: {u: [in1.a, in2.a], v: [in1.b, in2.b]}
+outputs: {p: in1.y, q: lag.y}
+wires: [in2.y -> lag.u]
+"""
+OUTER = """params: {k: 10.0}
+blocks:
+  c1: {type: cosine, amplitude: 5.0, frequency: 2.0}
+  c2: {type: constant, value: 1.0}
+  m: {type: subsystem, file: sub/middle.yaml, k: $k, in2.g.K: 7.0}
+  hold: {type: zoh, rate: 50}
+  integ: {type: integrator}
+wires: [c1.y -> m.u, c2.y -> m.v, m.p -> hold.u, hold.y -> integ.u]
+simulation: {t_end: 0.5, step: 1.0e-3, log_period: 0.01}
+log: [m.p, m.q, integ.y]
+"""
+
+
+@pytest.fixture
+def nested(tmp_path):
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "inner.yaml").write_text(INNER)
+    (tmp_path / "sub" / "middle.yaml").write_text(MIDDLE)
+    (tmp_path / "outer.yaml").write_text(OUTER)
+    return tmp_path / "outer.yaml"
+
+
+def test_a_subsystem_two_levels_deep_is_flattened_with_dotted_names(nested):
+    system = hs.build(nested)[0]
+    names = {b.name for b in system.blocks}
+    assert {"m.in1.g", "m.in1.s", "m.in2.g", "m.in2.s", "m.lag"} <= names
+    res = hs.simulate(nested)
+    t = res.t
+    u = 5.0 * np.cos(2 * np.pi * 2.0 * t)
+    # m.p = k (u - 1) with k = 10 from the outer file through the middle one; its outputs are named
+    # by the inner ports they are
+    assert np.allclose(res["m.in1.g.y[0]"], 10.0 * (u - 1.0), atol=1e-12)
+    assert res["m.lag.y[0]"][-1] != 0.0
+
+
+def test_a_nested_subsystem_runs_identically_on_every_path(nested):
+    generic = hs.simulate(nested, fused=False)
+    fused = hs.simulate(nested)
+    compiled = hs.simulate(nested, compiled=True)
+    assert np.array_equal(generic.table(), fused.table())
+    assert np.array_equal(generic.table(), compiled.table())
+
+
+def test_inner_parameters_are_set_by_path(nested):
+    base = hs.simulate(nested)
+    res = hs.simulate(nested, **{"m.in2.g.K": 1.0})  # --set m.in2.g.K=1 (7 in the file)
+    assert not np.array_equal(res["m.lag.y[0]"], base["m.lag.y[0]"])
+    # the same value as a run-time parameter of the built system, no rebuild
+    f = hs.load(nested)
+    system, sim, _ = hs.build(f)
+    again = sim.run(0.5, params=f.runtime_params({"m.in2.g.K": 1.0}))
+    assert np.array_equal(again["m.lag.y[0]"], res["m.lag.y[0]"])
+    with pytest.raises(hs.LoaderError, match="used by subsystem 'm'"):
+        f.runtime_params({"k": 3.0})  # a name the subsystem takes: rebuild instead
+
+
+def test_check_names_the_path_with_file_and_line_at_each_level(nested, capsys):
+    mid = nested.parent / "sub" / "middle.yaml"
+    mid.write_text(MIDDLE.replace("in2.a]", "in2.x]"))
+    assert main(["check", str(nested)]) == 2
+    err = capsys.readouterr().err
+    assert "in subsystem m (" in err and "outer.yaml:5)" in err
+    assert "middle.yaml:6: subsystem 'in2' (" in err and "has no input 'x'; its inputs: a, b" in err
+
+
+def test_an_algebraic_loop_through_a_subsystem_names_each_wire(tmp_path, capsys):
+    (tmp_path / "inner.yaml").write_text(INNER)
+    (tmp_path / "alg.yaml").write_text("blocks:\n  c: {type: constant, value: 1.0}\n"
+                                       "  m: {type: subsystem, file: inner.yaml}\n"
+                                       "wires: [c.y -> m.a, m.y -> m.b]\n")
+    assert main(["check", str(tmp_path / "alg.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert "algebraic loop: m.s.y -> m.g.y -> m.s.y" in err
+    assert "m.s.y -> m.g.u (in subsystem m (" in err and "inner.yaml:7)" in err
+    assert "m.g.y -> m.s.u2 (" in err and "alg.yaml:4)" in err
+
+
+@pytest.mark.parametrize("spec, message", [
+    ("{type: subsystem, file: inner.yaml, gian: 3}", "has no parameter 'gian' (did you mean 'gain'?)"),
+    ("{type: subsystem, file: inner.yaml, q.K: 3}", "has no block 'q'"),
+    ("{type: subsystem}", "needs 'file'"),
+    ("{type: subsystem, file: nope.yaml}", "no such file"),
+    ("{type: subsystem, file: self.yaml}", "contains itself"),
+])
+def test_bad_subsystems_are_clear_errors(tmp_path, capsys, spec, message):
+    (tmp_path / "inner.yaml").write_text(INNER)
+    (tmp_path / "self.yaml").write_text(f"blocks:\n  m: {spec}\n")
+    assert main(["check", str(tmp_path / "self.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+
+
+def test_a_dot_in_a_block_name_is_refused(tmp_path, capsys):
+    (tmp_path / "d.yaml").write_text("blocks:\n  a.b: {type: constant, value: 1.0}\n")
+    assert main(["check", str(tmp_path / "d.yaml")]) == 2
+    assert "block name 'a.b' may not contain '.'" in capsys.readouterr().err
+
+
+def test_draw_shows_a_subsystem_as_one_box_or_expanded(nested, tmp_path):
+    from hybridsim.plots import draw_diagram
+
+    system = hs.build(nested)[0]
+    boxes = lambda fig: {t.get_text() for t in fig.axes[0].texts}  # noqa: E731
+    closed = boxes(draw_diagram(system))
+    assert "m" in closed and "subsystem (5 blocks)" in closed and "m.in1.g" not in closed
+    opened = boxes(draw_diagram(system, expand=True))
+    assert {"m.in1.g", "m.in2.s", "m.lag"} <= opened and "integ:reset=default" not in opened
+    assert main(["draw", str(nested), "--expand", "-o", str(tmp_path / "d.png")]) == 0
+    assert (tmp_path / "d.png").stat().st_size > 1000
