@@ -4,7 +4,7 @@ Run on demand (not part of the test suite):
 
     python benchmarks/bench_fig9.py [--repeat 5] [--t-end 4]
 
-The "plain" side is written here from MODEL.md independently of the engine and
+The "plain" side is written here from docs/model.md independently of the engine and
 the block library: a C99 loop (fig9_loop.c, compiled by this script with the
 system C compiler), a bare Python RK4 loop over floats, and one hand-fused
 numpy right-hand side and controller integrated between ticks by a numpy RK4
@@ -42,7 +42,7 @@ def _fric(v, F, m, i):
 
 
 def bare_rhs(t, x, tau):
-    """MODEL.md's plant (eqs 5-11, Karnopp friction) on floats: a tuple of derivatives."""
+    """docs/model.md's plant (eqs 5-11, Karnopp friction) on floats: a tuple of derivatives."""
     q1, q2, v1, v2, w1, w2, wd1, wd2 = x
     c, s = math.cos(q1), math.sin(q1)
     pen = q2 * c + L * s + w1 * c - w2 * s - XS
@@ -211,7 +211,7 @@ def main():
             tf, _ = timed(lambda: sims[1].run(args.t_end), args.repeat)
             tg, _ = timed(lambda: sims[2].run(args.t_end), args.repeat)
             n = int(0.25 * rate)
-            diff = np.max(np.abs(res["ft.CF[0]"][:n] - fc[:n])) if fc is not None else float("nan")
+            diff = np.max(np.abs(res["ctrl.ft.CF[0]"][:n] - fc[:n])) if fc is not None else float("nan")
             print(f"{rate:>5} {tc * 1e3:7.2f} {tb * 1e3:7.1f} {tx * 1e3:9.2f} {tf * 1e3:7.1f} {tg * 1e3:8.1f} "
                   f"{tx / tc:11.2f} {tf / tb:11.2f}   {diff:.1e} N")
         print(f"compiled path, first run of the diagram (numba compiles, cold cache): {cold:.1f} s")
@@ -227,7 +227,7 @@ def main():
             te, res = timed(lambda: sim.run(args.t_end), args.repeat)
             # engine force at the controller ticks, before contact is lost
             ticks = np.arange(int(0.25 * rate)) / rate
-            fe = res["ft.CF[0]"][: ticks.size]  # logged at the ticks
+            fe = res["ctrl.ft.CF[0]"][: ticks.size]  # logged at the ticks
             diff = np.max(np.abs(fe - fp[: ticks.size]))
             print(f"{rate:>5} {method:>8} {tp:9.3f} {te:9.3f} {te / tp:6.2f}  {diff:.2e} N")
     from hybridsim.fmu import build_plant_fmu

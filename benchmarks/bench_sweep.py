@@ -32,7 +32,7 @@ def main():
         for path, extra in ((spec, ""), (fast, ", simulation.compiled: true")):
             path.write_text(f"diagram: {ROOT / 'diagrams' / 'fig7_force_steps.yaml'}\n"
                             f"set: {{force: 5.0, rate: 60, simulation.t_end: 0.6{extra}}}\n"
-                            f"scale: {{fpi.Kp: {scales}}}\n")
+                            f"scale: {{ctrl.fpi.Kp: {scales}}}\n")
 
         def timed(label, sweep=spec, **kw):
             t0 = time.perf_counter()

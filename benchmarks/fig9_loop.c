@@ -1,6 +1,6 @@
 /* Fig 9 (eq 17) as one plain C99 loop: the practical speed limit for the benchmark.
  *
- * The same equations as bench_fig9.py's bare Python loop (MODEL.md: eqs 5-11 with
+ * The same equations as bench_fig9.py's bare Python loop (docs/model.md: eqs 5-11 with
  * Karnopp friction, the unilateral surface, the hybrid controller of eqs 12-16
  * sampled at the servo rate), RK4 with a fixed step between ticks.
  *

@@ -1,6 +1,6 @@
 """The hybrid controller's two compensators (eqs 15a, 15b), sampled.
 
-Timing (MODEL.md): the first hit is at t = 0; a hit samples its inputs with
+Timing (docs/model.md): the first hit is at t = 0; a hit samples its inputs with
 no computation delay; integrators use the rectangle rule including the
 current sample (z <- z + e T, and the new z is applied at once).
 """

@@ -1,7 +1,7 @@
 """Kinematics of the two-joint arm (revolute q1, prismatic q2) and its blocks.
 
 Eq 3a: C_X = Lambda(q); eq 12b: C_Xdot = J(q) qdot; eqs 14a-b: q_e = J^-1 X_e,
-tau_e = J^T F_e. MODEL.md gives the corrected Jacobian.
+tau_e = J^T F_e. docs/model.md gives the corrected Jacobian.
 """
 import math
 
@@ -33,7 +33,7 @@ def endpoint(q, l=L_OFFSET):
 
 @kernel
 def jacobian_rows(q, l):
-    """J(q) = d Lambda / dq (MODEL.md's corrected form) as ((J11, J12), (J21, J22))."""
+    """J(q) = d Lambda / dq (docs/model.md's corrected form) as ((J11, J12), (J21, J22))."""
     c, s = math.cos(q[0]), math.sin(q[0])
     return (-q[1] * s + l * c, c), (q[1] * c + l * s, s)
 

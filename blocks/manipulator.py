@@ -17,7 +17,7 @@ GROUP = "paper"  # where `hybridsim blocks` lists this module's blocks
 
 @register("manipulator")
 class Manipulator(Block):
-    """Arm dynamics, eqs 5, 6 and 11 (MODEL.md's corrected form).
+    """Arm dynamics, eqs 5, 6 and 11 (docs/model.md's corrected form).
 
     Eq 5:  I1(q2) q1'' = tau1 + B1 + q2 f2 + l f1 - b1 q1'
     Eq 6:  (M2 + M3) q2'' = tau2 + B2 + f1 - b2 q2'

@@ -117,7 +117,7 @@ static int initial_state(Plant *p) {
     double *x = &p->r[VR_STATE0];
     if (r2 <= 0.0) return 0;
     q2 = sqrt(r2);
-    q1 = atan2(Y, X) + atan2(l, q2); /* inverse kinematics (MODEL.md) */
+    q1 = atan2(Y, X) + atan2(l, q2); /* inverse kinematics (docs/model.md) */
     x[0] = q1;
     x[1] = q2;
     x[2] = x[3] = 0.0;

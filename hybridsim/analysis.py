@@ -4,12 +4,12 @@ Reads an optional ``analysis`` section of the diagram::
 
     analysis:
       set: {friction: false}          # the branch to linearize on (overrides)
-      points: {force: dF.y[0], position: dX.y[1]}   # loop openings
+      points: {force: ctrl.dF.y[0], position: ctrl.dX.y[1]}   # loop openings
       rate_param: rate                # the parameter that sets the servo rate
       rates: [30, 45, 60, 80, 120, 240, 480]
-      gains: {Kfp: fpi.Kp, Kfi: fpi.Ki, Kpp: pid.Kp, Kpi: pid.Ki, Kpd: pid.Kd}
+      gains: {Kfp: ctrl.fpi.Kp, Kfi: ctrl.fpi.Ki, Kpp: ctrl.pid.Kp, Kpi: ctrl.pid.Ki, Kpd: ctrl.pid.Kd}
       scales: [0.125, 0.25, 0.5, 1, 2, 4, 8]
-      cases: {limiter_saturated: {fpi.Ki: [0, 0]}}
+      cases: {limiter_saturated: {ctrl.fpi.Ki: [0, 0]}}
       hand_mode_hz: 272.5             # report the plant mode nearest this
 
 Every entry has a default; all results are plain data (numbers, lists) plus
@@ -56,13 +56,26 @@ def linearization(path, at=None, **overrides):
 
 
 def param_value(f, ref):
-    """Current value of 'block.param' (from the file or the block's default); top-level blocks only."""
+    """Current value of 'block.param' (from the file or the block's default).
+
+    ``ref`` may reach into subsystems (``ctrl.fpi.Kp``): an override the
+    subsystem block gives wins, else the subsystem's file says.
+    """
     from .errors import LoaderError
+    from .loader import DiagramFile, subsystem_path
 
     bname, _, pname = ref.partition(".")
     spec = f.data["blocks"].get(bname)
-    if not isinstance(spec, dict) or "type" not in spec or spec["type"] == "subsystem" or "." in pname:
-        raise LoaderError(f"{ref!r}: a parameter of a top-level block (block.param) is needed here", f.path)
+    if not isinstance(spec, dict) or "type" not in spec or not pname:
+        raise LoaderError(f"{ref!r}: no block {bname!r} with parameter {pname!r}", f.path)
+    if spec["type"] == "subsystem":
+        if pname in spec:  # the subsystem block sets it
+            return np.asarray(f._resolve(spec[pname], str(f.path), f.params), float)
+        sub = DiagramFile(subsystem_path(spec, "."))
+        sub.apply({k: f._resolve(v, str(f.path), f.params) for k, v in spec.items() if k not in ("type", "file")})
+        return param_value(sub, pname)
+    if "." in pname:
+        raise LoaderError(f"{ref!r}: block {bname!r} is not a subsystem", f.path)
     if pname in spec:
         val = spec[pname]
         if isinstance(val, str) and val.startswith("$"):

@@ -2,7 +2,7 @@
 
 >>> import hybridsim as hs
 >>> res = hs.simulate("diagrams/fig9_force_and_position.yaml", rate=120, t_end=1.0)
->>> res.t, res["ft.CF[0]"]
+>>> res.t, res["ctrl.ft.CF[0]"]
 
 :func:`run_experiment` runs every variant of a file and adds metrics;
 :func:`write_outputs` writes CSV, plots and ``metrics.json`` atomically.

@@ -10,6 +10,7 @@ The format (see README, "Diagram format")::
       ...
     wires:
       - fk.X -> dx.u2            # or [fk.X, dx.u2]
+      ctrl: {type: subsystem, file: sub.yaml, Kp: 2}   # a diagram file as one block
     simulation: {t_end: 4.0, solver: rk4, step: 1.0e-4, log_period: 0.0005}
     log: [ft.CF, fk.X]
     signals: {force: ft.CF[0], force_desired: fd.y[0]}   # roles for plots/metrics
@@ -316,6 +317,18 @@ _log = logging.getLogger("hybridsim")
 _SAID = set()  # notes already given in this process
 
 
+def subsystem_path(spec, fallback):
+    """The file a subsystem spec names, relative to the file that wrote its ``file:`` line.
+
+    A diagram that ``extends`` a base from another folder keeps the base's
+    subsystem paths working; a ``file`` given by ``--set`` is relative to
+    ``fallback`` (the working folder).
+    """
+    loc = (getattr(spec, "locs", None) or {}).get("file", "")
+    base = Path(loc.rsplit(":", 1)[0]).parent if loc and not loc.startswith("--set") else Path(fallback)
+    return Path(os.path.normpath(base / spec["file"]))
+
+
 def _is_subsystem(spec):
     """Whether a block spec is ``type: subsystem`` (a diagram file used as a block)."""
     return isinstance(spec, dict) and spec.get("type") == "subsystem"
@@ -546,6 +559,9 @@ class DiagramFile:
         self.aliases = {}
         self._expand(diagram, params, "", (self.path.resolve(),), "")
         problems += [p for p in diagram.check() if p not in problems]
+        if self.data.get("inputs") and any("is not connected" in p for p in problems):
+            problems.insert(0, f"{self.path} declares 'inputs': it is a subsystem, used from a diagram as "
+                               "'{type: subsystem, file: ...}'; on its own its inputs are not wired")
         if problems:
             raise DiagramError(problems, str(self.path))
         diagram.problems = []
@@ -659,7 +675,7 @@ class DiagramFile:
         if not isinstance(rel, str) or not rel:
             problems.append(f"{context}{here}: subsystem {bname!r} needs 'file', the diagram file it uses")
             return None
-        shown = Path(os.path.normpath(self.path.parent / rel))  # as the user wrote it, for messages
+        shown = subsystem_path(spec, ".")  # relative to the file that names it, for messages too
         path = shown.resolve()
         where = spec.locs.get("file", here)
         if Path(rel).suffix.lower() not in limits.YAML_SUFFIXES:

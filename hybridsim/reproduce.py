@@ -1,7 +1,7 @@
 """``hybridsim reproduce``: the paper's experiments, claim by claim.
 
 Runs Figs 7-10 and eq 18 from the shipped diagrams with the model as printed,
-checks each of the paper's measured claims (MODEL.md's table) against an
+checks each of the paper's measured claims (docs/model.md's table) against an
 explicit criterion, and, for each experiment that fails one, searches for the
 smallest mechanical damping that reproduces it: a one-parameter family for the
 joints, b = s (10 N m s/rad, 100 N s/m), and one for the wrist, bw = s 20 N s/m,
@@ -87,8 +87,8 @@ def claims_fig9(runs):
     dist = {}
     for rate, r in by_rate.items():
         res = r["result"]
-        before = _window_max(res, "fk.X[1]", "pos_cmd.y[1]", 0.5, 1.0)
-        after = _window_max(res, "fk.X[1]", "pos_cmd.y[1]", 1.0, 1.5)
+        before = _window_max(res, "ctrl.fk.X[1]", "pos_cmd.y[1]", 0.5, 1.0)
+        after = _window_max(res, "ctrl.fk.X[1]", "pos_cmd.y[1]", 1.0, 1.5)
         dist[rate] = (after - before) * 1000
     over = {k: r["metrics"]["overshoot_pct"] for k, r in by_rate.items()}
     pos = {k: r["metrics"]["max_position_error_m"] * 1000 for k, r in by_rate.items()}
@@ -390,7 +390,7 @@ def _html(report, imgs, folder):
 td,th{{border:1px solid #ccc;padding:3px 7px;font-size:13px;vertical-align:top}}th{{background:#eee}}
 figure{{display:inline-block;width:48%;margin:0.3em}}img{{width:100%}}figcaption{{font-size:12px}}</style></head><body>
 <h1>Does the model reproduce the paper?</h1>
-<p>{n_ok} of {n} claims reproduced by the model as printed (MODEL.md: no viscous damping).
+<p>{n_ok} of {n} claims reproduced by the model as printed (docs/model.md: no viscous damping).
 Every run, search and analysis on this page took {report['wall_time_s']:.0f} s in all.</p>
 <h2>Claims</h2><table><tr><th>experiment</th><th>the paper's claim</th><th>criterion</th><th>our number</th><th>verdict</th><th>why</th></tr>{rows}</table>
 <h2>Smallest damping that reproduces the failing experiments</h2>

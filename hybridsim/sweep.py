@@ -7,7 +7,7 @@ A sweep file::
     grid:                      # full factorial over values ...
       rate: [60, 120]
     scale:                     # ... and over multiples of a parameter's value
-      fpi.Kp: [0.5, 1, 2]
+      ctrl.fpi.Kp: [0.5, 1, 2]
     random:                    # or/and: seeded uniform samples
       n: 20
       seed: 1

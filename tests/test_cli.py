@@ -50,9 +50,9 @@ def test_incommensurate_rates_exit_2(tmp_path, capsys):
 
 
 def test_diverging_simulation_exit_3(tmp_path, capsys):
-    # printed gains without the limiter: Kfi T > 2 at 60 Hz, unstable (MODEL.md)
+    # printed gains without the limiter: Kfi T > 2 at 60 Hz, unstable (docs/model.md)
     code, _, err = run(capsys, "run", DIAGRAMS / "fig7_force_steps.yaml", "-q", "-o", tmp_path / "o",
-                       "--set", "force=5", "--set", "rate=60", "--set", "fpi.limit=null",
+                       "--set", "force=5", "--set", "rate=60", "--set", "ctrl.fpi.limit=null",
                        "--set", "arm.friction=false", "--set", "surface.unilateral=false",
                        "--set", "simulation.t_end=1.5")
     assert code == 3 and "diverged" in err
@@ -94,9 +94,9 @@ def test_analyze_prints_poles_margins_and_sweeps(tmp_path, capsys):
     code, out, _ = run(capsys, "analyze", DIAGRAMS / "hybrid_controller.yaml", "--set", "rate=120",
                        "-o", tmp_path)
     assert code == 0
-    assert "largest |z|" in out and "loop force (dF.y[0])" in out and "servo rate (Hz)" in out
+    assert "largest |z|" in out and "loop force (ctrl.dF.y[0])" in out and "servo rate (Hz)" in out
     doc = json.loads((tmp_path / "analysis.json").read_text())
-    assert doc["period_s"] == pytest.approx(1 / 120) and doc["loops"]["force"]["signal"] == "dF.y[0]"
+    assert doc["period_s"] == pytest.approx(1 / 120) and doc["loops"]["force"]["signal"] == "ctrl.dF.y[0]"
     assert 0.99 < doc["hand_mode_hz"] / 272.48 < 1.0
 
 

@@ -15,7 +15,7 @@ SMOOTH = ROOT / "tests" / "data" / "smooth_contact.yaml"
     (DIAGRAMS / "fig9_force_and_position.yaml", {"rate": 120, "t_end": 0.4}),
     (DIAGRAMS / "fig8_receding_surface.yaml", {"t_end": 1.2}),
     (SMOOTH, {"log_period": 1 / 120}),
-    (DIAGRAMS / "fig9_force_and_position.yaml", {"t_end": 0.3, "pid.rate": 60, "fpi.rate": 120,
+    (DIAGRAMS / "fig9_force_and_position.yaml", {"t_end": 0.3, "ctrl.pid.rate": 60, "ctrl.fpi.rate": 120,
                                                  "log_period": 0.0007}),
     (ROOT / "tests" / "data" / "every_kernel_block.yaml", {}),
     (ROOT / "tests" / "data" / "discrete_only.yaml", {}),
@@ -40,17 +40,17 @@ def test_one_compiled_module_serves_other_parameter_values():
     from hybridsim import compiled
 
     a = hs.build(SMOOTH, compiled=True)[1]._compiled
-    b = hs.build(SMOOTH, compiled=True, **{"fpi.Kp": [0.2, 0.1], "Kr": 1.0e6})[1]._compiled
+    b = hs.build(SMOOTH, compiled=True, **{"ctrl.fpi.Kp": [0.2, 0.1], "Kr": 1.0e6})[1]._compiled
     assert a.run_fn is b.run_fn  # params are arguments, not compiled-in constants
     assert a.source == b.source
     assert compiled.cache_dir().is_dir()
-    res = hs.simulate(SMOOTH, compiled=True, **{"fpi.Kp": [0.2, 0.1]})
-    ref = hs.simulate(SMOOTH, **{"fpi.Kp": [0.2, 0.1]})
+    res = hs.simulate(SMOOTH, compiled=True, **{"ctrl.fpi.Kp": [0.2, 0.1]})
+    ref = hs.simulate(SMOOTH, **{"ctrl.fpi.Kp": [0.2, 0.1]})
     assert np.array_equal(res.table(), ref.table())
 
 
 def test_divergence_is_reported_on_the_compiled_path():
-    ov = {"fpi.Kp": [400.0, 300.0], "max_state": 50.0}
+    ov = {"ctrl.fpi.Kp": [400.0, 300.0], "max_state": 50.0}
     with pytest.raises(SimulationError, match=r"diverged at t=.* block '(arm|wrist)'") as generic:
         hs.simulate(SMOOTH, **ov)
     with pytest.raises(SimulationError, match=r"diverged at t=.* block '(arm|wrist)'") as comp:

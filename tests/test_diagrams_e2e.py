@@ -36,20 +36,20 @@ def test_every_variant_builds(path, request):
 def test_initial_contact_force_is_as_documented(name, force):
     """Static balance (or first touch): the surface force at t = 0 is the preload."""
     system, _, settings = hs.build(DIAGRAMS / f"{name}.yaml", t_end=0.001)
-    res = hs.Simulator(system, log=["surface.fx", "ft.CF"]).run(0.001)
+    res = hs.Simulator(system, log=["surface.fx", "ctrl.ft.CF"]).run(0.001)
     assert res["surface.fx[0]"][0] == pytest.approx(force, abs=1e-5)
-    assert res["ft.CF[0]"][0] == pytest.approx(force, abs=1e-5)
+    assert res["ctrl.ft.CF[0]"][0] == pytest.approx(force, abs=1e-5)
 
 
 def test_engine_matches_an_independent_plain_implementation():
-    """The benchmark's hand-fused script of MODEL.md's equations vs the engine (Fig 9, 60 Hz)."""
+    """The benchmark's hand-fused script of docs/model.md's equations vs the engine (Fig 9, 60 Hz)."""
     sys.path.insert(0, str(ROOT / "benchmarks"))
     import bench_fig9 as plain
 
     forces = plain.plain_run(60, 0.25, "rk4")
     res = hs.simulate(DIAGRAMS / "fig9_force_and_position.yaml", rate=60, t_end=0.25, log_period=1 / 60)
     # measured 3.6e-6 N: the YAML gives endpoint0 to 12 digits, the script computes it
-    assert np.max(np.abs(res["ft.CF[0]"][: forces.size] - forces)) < 1e-4
+    assert np.max(np.abs(res["ctrl.ft.CF[0]"][: forces.size] - forces)) < 1e-4
 
 
 def test_fig9_cli_writes_everything(tmp_path, capsys):
@@ -66,7 +66,7 @@ def test_fig9_cli_writes_everything(tmp_path, capsys):
     for r in doc["runs"]:
         assert {"max_position_error_m", "contact_lost", "ss_force_error_filtered_N"} <= set(r["metrics"])
     header = (out / "fig9_force_and_position_rate60.csv").read_text().splitlines()[0]
-    assert header.startswith("time,") and "ft.CF[0]" in header
+    assert header.startswith("time,") and "ctrl.ft.CF[0]" in header
 
 
 def test_fig7_metrics_reported_for_every_force_and_rate():

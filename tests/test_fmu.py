@@ -93,8 +93,8 @@ def test_fmu_plant_matches_python_plant_fig9(any_plant, extra):
         # measured: 7.5e-15 N (CS), 0 (ME); friction off, the FMU still reports its stick-band
         # indicators, whose (empty) events restart the step grid: 5.2e-8 N (ME)
         tol = 1e-6 if mode == "me" and extra else 1e-9
-        assert np.max(np.abs(res["ft.CF[0]"] - ref["ft.CF[0]"])) < tol, mode
-        assert np.max(np.abs(res["fk.X[1]"] - ref["fk.X[1]"])) < tol * 1e-3, mode
+        assert np.max(np.abs(res["ctrl.ft.CF[0]"] - ref["ctrl.ft.CF[0]"])) < tol, mode
+        assert np.max(np.abs(res["ctrl.fk.X[1]"] - ref["ctrl.fk.X[1]"])) < tol * 1e-3, mode
 
 
 def test_fmu_plant_matches_python_plant_fig7(any_plant):
@@ -108,7 +108,7 @@ def test_fmu_plant_matches_python_plant_fig7(any_plant):
         # a CS FMU's outputs are samples held until its next hit, so the row at t_end
         # shows the last hit's value; before it, measured 1.6e-7 N (CS) and 0 (ME)
         before = res.t < 2.0 - 1e-9
-        assert np.max(np.abs(res["ft.CF[0]"][before] - ref["ft.CF[0]"][before])) < tol, mode
+        assert np.max(np.abs(res["ctrl.ft.CF[0]"][before] - ref["ctrl.ft.CF[0]"][before])) < tol, mode
 
 
 def test_state_save_and_restore_reproduces_a_run(plant):
@@ -340,7 +340,7 @@ def test_no_instance_or_folder_is_left_after_a_failure(plant, case, monkeypatch)
         extra["plant.parameters"] = {"max_substep": -1.0}
         expected = hs.FMUError
     elif case == "run diverges":  # the plant FMU reports the divergence itself: an FMU error mid-run
-        extra["fpi.Ki"] = [1e9, 1e9]
+        extra["ctrl.fpi.Ki"] = [1e9, 1e9]
         expected = (hs.FMUError, hs.SimulationError)
     else:
         from hybridsim.fmu import FMUBlock

@@ -273,12 +273,12 @@ def test_runs_too_large_or_ill_posed_are_refused_by_check(tmp_path, capsys, chan
     (["wrist.M3=0"], "'M3' must be positive", "wrist"),
     (["arm.I1=[0, 0, 0]"], "the inertia must be positive", "arm"),
     (["arm.stick_time=0"], "'stick_time' must be positive", "arm"),
-    (["fpi.Kp=[.nan, 1]"], "(NaN)", "fpi"),
-    (["pid.Kp=.inf"], "'Kp' must be finite", "pid"),
+    (["ctrl.fpi.Kp=[.nan, 1]"], "(NaN)", "fpi"),
+    (["ctrl.pid.Kp=.inf"], "'Kp' must be finite", "pid"),
     (["surface.Kr=0"], "'Kr' must be positive", "surface"),
     (["arm.damping=[-1, 0]"], "'damping' must not be negative", "arm"),
     (["arm.friction=yes please"], "'friction' must be true or false", "arm"),
-    (["fpi.width=2.5"], "whole number", "fpi"),
+    (["ctrl.fpi.width=2.5"], "whole number", "fpi"),
 ])
 def test_bad_block_parameters_are_named_with_their_block(tmp_path, capsys, sets, message, line):
     code, _, err = run(capsys, "check", HC, *[x for s in sets for x in ("--set", s)])

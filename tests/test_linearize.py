@@ -125,17 +125,17 @@ def test_hand_mode_in_linearized_plant():
 
 
 SMOOTH = ROOT / "tests" / "data" / "smooth_contact.yaml"
-STABLE = {"fpi.Ki": [24.0, 22.0], "force_cmd.time": 10.0}  # Kfi / 10: a stable linear loop
+STABLE = {"ctrl.fpi.Ki": [24.0, 22.0], "force_cmd.time": 10.0}  # Kfi / 10: a stable linear loop
 
 
 def test_linear_step_matches_nonlinear_simulation():
     system, _, _ = hs.build(SMOOTH, **STABLE)
-    G = Linearization(system).io("force_cmd.y[0]", "ft.CF[0]")
+    G = Linearization(system).io("force_cmd.y[0]", "ctrl.ft.CF[0]")
     n, T = 60, G.dt
     lin = 0.05 * np.ravel(control.step_response(G, T=np.arange(n) * T).outputs)
     res = hs.simulate(SMOOTH, **{**STABLE, "force_cmd.initial": [10.05, 0.0]}, t_end=n * T, log_period=T)
     # a 0.05 N step keeps tau_e inside the limiter band: measured 3.1e-7 N apart
-    assert np.max(np.abs(res["ft.CF[0]"][:n] - 10.0 - lin)) < 1e-5
+    assert np.max(np.abs(res["ctrl.ft.CF[0]"][:n] - 10.0 - lin)) < 1e-5
     assert lin[-1] == pytest.approx(0.05, abs=1e-3)
 
 
@@ -143,13 +143,13 @@ def test_predicted_gain_boundary_brackets_nonlinear_instability():
     from hybridsim.analysis import critical_scale
 
     kfp = np.array([0.4, 0.3])
-    c = critical_scale(SMOOTH, STABLE, "fpi.Kp", kfp)
+    c = critical_scale(SMOOTH, STABLE, "ctrl.fpi.Kp", kfp)
     assert 2.0 < c < 5.0  # measured x3.28 of the Appendix A Kfp
 
     def error_growth(scale):
-        ov = {**STABLE, "fpi.Kp": (kfp * scale).tolist(), "force_cmd.initial": [10.05, 0.0]}
+        ov = {**STABLE, "ctrl.fpi.Kp": (kfp * scale).tolist(), "force_cmd.initial": [10.05, 0.0]}
         r = hs.simulate(SMOOTH, **ov, t_end=2.0)
-        e = np.abs(r["ft.CF[0]"] - 10.05)
+        e = np.abs(r["ctrl.ft.CF[0]"] - 10.05)
         return e[r.t > 1.8].max() / e[r.t < 0.2].max()
 
     assert error_growth(0.9 * c) < 0.01   # decays (measured 1e-3)

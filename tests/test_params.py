@@ -15,7 +15,7 @@ SMOOTH = ROOT / "tests" / "data" / "smooth_contact.yaml"
 
 @pytest.mark.parametrize("path", [{"fused": False}, {}, {"compiled": True}], ids=["generic", "fused", "compiled"])
 def test_run_time_params_equal_a_rebuilt_diagram(path):
-    change = {"arm.stick_band": 3e-4, "fpi.Ki": [200.0, 180.0]}
+    change = {"arm.stick_band": 3e-4, "ctrl.fpi.Ki": [200.0, 180.0]}
     _, sim, _ = hs.build(FIG10, t_end=0.5, **path)
     a = sim.run(0.5, params=change)
     b = hs.simulate(FIG10, t_end=0.5, **path, **change)
@@ -26,10 +26,10 @@ def test_run_time_params_equal_a_rebuilt_diagram(path):
 
 def test_a_change_of_structure_is_refused_with_the_parameter_named():
     _, sim, _ = hs.build(FIG10)
-    with pytest.raises(ParameterError, match="'rate' would change the structure of block 'pid'"):
-        sim.run(0.1, params={"pid.rate": 120})
+    with pytest.raises(ParameterError, match="'rate' would change the structure of block 'ctrl.pid'"):
+        sim.run(0.1, params={"ctrl.pid.rate": 120})
     with pytest.raises(ParameterError, match="'width'"):
-        sim.run(0.1, params={"dF.width": 3})
+        sim.run(0.1, params={"ctrl.dF.width": 3})
     with pytest.raises(InputError, match="did you mean 'arm'"):
         sim.run(0.1, params={"amr.M2": 3.0})
     with pytest.raises(ParameterError, match="'M3' must be positive"):
@@ -38,7 +38,7 @@ def test_a_change_of_structure_is_refused_with_the_parameter_named():
 
 def test_batch_equals_single_runs_and_reports_divergence_in_place():
     _, sim, _ = hs.build(SMOOTH, t_end=0.3, compiled=True)
-    sets = [{"arm.damping": [d, 10 * d]} for d in (50.0, 100.0, 200.0)] + [{"fpi.Ki": [1e9, 1e9]}]
+    sets = [{"arm.damping": [d, 10 * d]} for d in (50.0, 100.0, 200.0)] + [{"ctrl.fpi.Ki": [1e9, 1e9]}]
     out = sim.run_batch(0.3, sets, workers=2)
     for params, r in zip(sets[:3], out[:3]):
         assert np.array_equal(r.table(), sim.run(0.3, params=params).table())
@@ -49,7 +49,7 @@ def test_batched_sweep_gives_the_point_by_point_table(tmp_path):
     spec = tmp_path / "s.yaml"
     spec.write_text(f"diagram: {DIAGRAMS / 'fig7_force_steps.yaml'}\n"
                     "set: {force: 5.0, rate: 60, simulation.t_end: 0.4}\n"
-                    "grid: {Kr: [8.0e+5, 1.0e+6]}\nscale: {fpi.Kp: [0.5, 2.0]}\n")
+                    "grid: {Kr: [8.0e+5, 1.0e+6]}\nscale: {ctrl.fpi.Kp: [0.5, 2.0]}\n")
     run_sweep(spec, tmp_path / "batch", progress=False, compiled=True, jobs=2)
     run_sweep(spec, tmp_path / "single", progress=False, compiled=True, jobs=1, batch=False)
 
@@ -61,7 +61,7 @@ def test_batched_sweep_gives_the_point_by_point_table(tmp_path):
 
 def test_runtime_params_of_a_file_follow_dollar_references():
     f = hs.load(DIAGRAMS / "fig7_force_steps.yaml", force=5.0, rate=60)
-    assert f.runtime_params({"Kr": 1e6, "fpi.Kp": [1, 2]}) == {"surface.Kr": 1e6, "fpi.Kp": [1, 2]}
+    assert f.runtime_params({"Kr": 1e6, "ctrl.fpi.Kp": [1, 2]}) == {"surface.Kr": 1e6, "ctrl.fpi.Kp": [1, 2]}
     with pytest.raises(InputError, match="simulation setting"):
         f.runtime_params({"simulation.t_end": 1})
 

@@ -22,22 +22,22 @@ def reference():
 
 def test_contact_is_kept_and_force_settles(reference):
     assert reference["surface.contact[0]"].min() == 1.0
-    assert reference["ft.CF[0]"][0] == pytest.approx(10.0, abs=1e-9)  # starts in balance
-    assert reference["ft.CF[0]"][-1] == pytest.approx(15.0, abs=0.3)  # settling towards 15 N
+    assert reference["ctrl.ft.CF[0]"][0] == pytest.approx(10.0, abs=1e-9)  # starts in balance
+    assert reference["ctrl.ft.CF[0]"][-1] == pytest.approx(15.0, abs=0.3)  # settling towards 15 N
 
 
 def test_radau_and_fine_rk4_agree(reference):
     rk4 = hs.simulate(SMOOTH, solver="rk4", step=2.5e-5)
     assert np.array_equal(rk4.t, reference.t)
     # measured: 1.4e-6 N and 8.9e-13 m
-    assert np.max(np.abs(rk4["ft.CF[0]"] - reference["ft.CF[0]"])) < 1e-5
-    assert np.max(np.abs(rk4["fk.X[1]"] - reference["fk.X[1]"])) < 1e-11
+    assert np.max(np.abs(rk4["ctrl.ft.CF[0]"] - reference["ctrl.ft.CF[0]"])) < 1e-5
+    assert np.max(np.abs(rk4["ctrl.fk.X[1]"] - reference["ctrl.fk.X[1]"])) < 1e-11
 
 
 def test_default_rk4_step_is_accurate(reference):
     rk4 = hs.simulate(SMOOTH, solver="rk4")  # step 1e-4 s: measured 1.5e-5 N, 1.1e-11 m
-    assert np.max(np.abs(rk4["ft.CF[0]"] - reference["ft.CF[0]"])) < 1e-4
-    assert np.max(np.abs(rk4["fk.X[1]"] - reference["fk.X[1]"])) < 1e-10
+    assert np.max(np.abs(rk4["ctrl.ft.CF[0]"] - reference["ctrl.ft.CF[0]"])) < 1e-4
+    assert np.max(np.abs(rk4["ctrl.fk.X[1]"] - reference["ctrl.fk.X[1]"])) < 1e-10
 
 
 def test_stiff_solvers_with_events_agree_through_stick_slip():
@@ -50,7 +50,7 @@ def test_stiff_solvers_with_events_agree_through_stick_slip():
     for solver, extra, tol in (("radau", {"rtol": 1e-9}, 0.1), ("bdf", {"rtol": 1e-6}, 0.01),
                                ("dop853", {"rtol": 1e-8}, 0.01)):
         res = hs.simulate(fig9, solver=solver, **common, **extra)
-        assert np.max(np.abs(res["ft.CF[0]"] - ref["ft.CF[0]"])) < tol, solver
+        assert np.max(np.abs(res["ctrl.ft.CF[0]"] - ref["ctrl.ft.CF[0]"])) < tol, solver
 
 
 @pytest.mark.parametrize("friction, force_tol, position_tol", [
@@ -67,6 +67,6 @@ def test_the_benchmark_step_meets_the_accuracy_targets(friction, force_tol, posi
                                 friction=friction, step=h, compiled=True)
     coarse, ref, half = run(2.78e-4), run(1e-6), run(2e-6)
     err = lambda r, sig: np.abs(r[sig] - ref[sig]).max()  # noqa: E731
-    assert err(half, "ft.CF[0]") < force_tol / 5 and err(half, "fk.X") < position_tol / 5
-    assert err(coarse, "ft.CF[0]") < force_tol
-    assert err(coarse, "fk.X") < position_tol
+    assert err(half, "ctrl.ft.CF[0]") < force_tol / 5 and err(half, "ctrl.fk.X") < position_tol / 5
+    assert err(coarse, "ctrl.ft.CF[0]") < force_tol
+    assert err(coarse, "ctrl.fk.X") < position_tol

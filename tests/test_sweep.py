@@ -15,7 +15,7 @@ set: {{force: 5.0, simulation.t_end: 0.6}}
 grid:
   rate: [60, 120]
 scale:
-  fpi.Kp: [1.0, 2.0]
+  ctrl.fpi.Kp: [1.0, 2.0]
 stability: true
 """
 
@@ -41,7 +41,7 @@ def test_serial_pool_and_dask_give_the_same_table(sweep_file, tmp_path):
         sw.run_sweep(sweep_file, tmp_path / "dask", dask=client, progress=False)
     ref = table(tmp_path / "serial" / "sweep.csv")
     assert len(ref) == 4 and (ref["status"] == "ok").all()
-    assert {"rate", "fpi.Kp*", "overshoot_pct", "linear_largest_abs_z"} <= set(ref.columns)
+    assert {"rate", "ctrl.fpi.Kp*", "overshoot_pct", "linear_largest_abs_z"} <= set(ref.columns)
     pd.testing.assert_frame_equal(ref, table(tmp_path / "pool" / "sweep.csv"))
     pd.testing.assert_frame_equal(ref, table(tmp_path / "dask" / "sweep.csv"))
     assert len(pd.read_parquet(tmp_path / "serial" / "sweep.parquet")) == 4
@@ -69,7 +69,7 @@ def test_failing_point_is_recorded_not_fatal(tmp_path, capsys):
     p = tmp_path / "f.yaml"
     p.write_text(f"""
 diagram: {DIAGRAMS / 'fig7_force_steps.yaml'}
-set: {{force: 5.0, rate: 60, friction: false, fpi.limit: null, simulation.t_end: 1.5}}
+set: {{force: 5.0, rate: 60, friction: false, ctrl.fpi.limit: null, simulation.t_end: 1.5}}
 grid:
   surface.unilateral: [true, false]
 """)
