@@ -1,9 +1,21 @@
 """hybridsim: block diagrams and FMUs for robot force control.
 
 The engine (block API, diagram, system, scheduler, solvers, simulator) knows
-no particular block; the block library lives in the top-level ``blocks``
-package. Start with :func:`simulate` or the ``hybridsim`` command.
+no particular block; the block library is :mod:`hybridsim.blocks`, the plant
+FMU's sources :mod:`hybridsim.fmus` and the shipped diagrams
+``hybridsim.diagrams`` (the repository keeps them in its top-level ``blocks/``,
+``fmus/`` and ``diagrams/`` folders). Start with :func:`simulate` or the
+``hybridsim`` command.
 """
+import os as _os
+
+# In a source checkout that is not installed, find blocks/, fmus/ and diagrams/ beside this
+# package (an install maps them into it: pyproject.toml's package-dir).
+_root = _os.path.dirname(_os.path.dirname(_os.path.abspath(__file__)))
+if _os.path.isfile(_os.path.join(_root, "pyproject.toml")) and _os.path.isdir(_os.path.join(_root, "blocks")):
+    __path__.append(_root)  # noqa: F821 - a package's __path__
+del _os, _root
+
 from .api import build, check, load, run_experiment, simulate, write_outputs
 from .block import Block
 from .diagram import Diagram

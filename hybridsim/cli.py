@@ -59,7 +59,28 @@ def _overrides(items):
 def _load(path, sets):
     from .loader import DiagramFile
 
-    return DiagramFile(path, _overrides(sets))
+    return DiagramFile(_find_diagram(path), _overrides(sets))
+
+
+def _find_diagram(path):
+    """``path``, or the shipped diagram it names when it does not exist here.
+
+    ``diagrams/fig9_force_and_position.yaml`` (or just the file name) then works
+    from any folder, as in the README, with a note saying which file ran.
+    """
+    p = Path(path)
+    if p.exists():
+        return p
+    from .examples import diagrams_folder
+
+    parts = p.parts[1:] if p.parts[:1] == ("diagrams",) else p.parts
+    if parts and not p.is_absolute() and ".." not in parts:
+        shipped = diagrams_folder().joinpath(*parts)
+        if shipped.is_file():
+            print(f"note: {path} is not here; using the shipped {shipped} "
+                  "('hybridsim examples' copies them to edit)", file=sys.stderr)
+            return shipped
+    return p
 
 
 def cmd_run(args):
@@ -171,12 +192,24 @@ def cmd_reproduce(args):
     from .reproduce import reproduce, summary_rows
 
     out = check_output_dir(Path(args.output or "out/reproduce"))
+    quick = dict(experiments=["eq 18"], grid=[16.0], bisections=1, sensitivities=[]) if args.quick else {}
     report = reproduce(out, jobs=args.jobs, progress=lambda m: print(f"  {m} ...", file=sys.stderr),
-                       compiled=args.compiled)
+                       compiled=args.compiled, **quick)
     for exp, claim, ours, ok in summary_rows(report):
         print(f"  {'✓' if ok else '✗'} {exp}: {claim} - ours: {ours}")
     print(f"wrote {out}/reproduce.html (+ figures, metrics.csv, reproduce.json) "
           f"in {report['wall_time_s']:.0f} s")
+    return 0
+
+
+def cmd_examples(args):
+    from .examples import copy_examples
+
+    written, kept = copy_examples(args.output)
+    for f in kept:
+        print(f"kept {f} (it exists; hybridsim does not replace it)")
+    print(f"wrote {len(written)} diagram file(s) into {args.output}/: try "
+          f"'hybridsim run {Path(args.output) / 'fig9_force_and_position.yaml'}'")
     return 0
 
 
@@ -192,7 +225,7 @@ def cmd_sweep(args):
     from .sweep import run_sweep
 
     out = check_output_dir(Path(args.output or Path("out") / safe_name(Path(args.sweep).stem)))
-    rows = run_sweep(args.sweep, out, jobs=args.jobs, dask=args.dask, progress=not args.quiet,
+    rows = run_sweep(_find_diagram(args.sweep), out, jobs=args.jobs, dask=args.dask, progress=not args.quiet,
                      compiled=args.compiled, force=args.force)
     failed = [r for r in rows if r["status"] != "ok"]
     print(f"{len(rows)} rows ({len(failed)} failed) -> {out}/sweep.csv, sweep.parquet, heatmap.png, points.jsonl")
@@ -351,7 +384,16 @@ def build_parser():
     rr.add_argument("--compiled", action="store_true",
                     help="every simulation on the compiled path (numba): the first time compiles "
                          "each experiment's diagram (about a minute), later runs are faster")
+    rr.add_argument("--quick", action="store_true",
+                    help="eq 18 only, one damping trial, no sensitivities: a smoke test in seconds")
     rr.set_defaults(func=cmd_reproduce)
+    ex = sub.add_parser("examples", help="copy the shipped diagrams into a folder you can edit",
+                        description="Copy every shipped diagram (the paper's figures, the Fig 6 "
+                                    "controller subsystem, the examples and the sweeps) into a folder. "
+                                    "Files that exist there are left as they are.")
+    ex.add_argument("-o", "--output", default="hybridsim-diagrams", metavar="DIR",
+                    help="the folder to copy into (default hybridsim-diagrams)")
+    ex.set_defaults(func=cmd_examples)
     fm = sub.add_parser("fmu", help="FMU tools: 'hybridsim fmu build' exports the plant")
     fsub = fm.add_subparsers(dest="fmu_command", metavar="FMU_COMMAND")
     fb = fsub.add_parser("build", help="compile the plant (fmus/) into an FMI 2.0 or 3.0 FMU",

@@ -630,8 +630,8 @@ def build_plant_fmu(out="plant.fmu", fmi=2):
     pathlib.Path
         ``out``.
     """
-    import fmus
-    from fmus import plant_model as pm
+    import hybridsim.fmus as fmus
+    from hybridsim.fmus import plant_model as pm
 
     if fmi not in (2, 3):
         raise FMUError(f"FMI version {fmi!r}: the plant FMU is built as FMI 2 or 3")

@@ -1,15 +1,16 @@
 """The table of block types that diagrams refer to by name.
 
-The engine knows no particular block: the library in the top-level ``blocks``
-package registers its classes with :func:`register`, and any user module can do
-the same. :func:`lookup` imports the library on first use.
+The engine knows no particular block: the library, :mod:`hybridsim.blocks`
+(the repository's ``blocks/`` folder), registers its classes with
+:func:`register`, and any user module can do the same. :func:`lookup` imports
+the library on first use.
 """
 import difflib
 import importlib
 import inspect
 
 _TYPES = {}
-_LIBRARIES = ["blocks", "hybridsim.fmu"]
+_LIBRARIES = ["hybridsim.blocks", "hybridsim.fmu"]
 
 
 def register(type_name):

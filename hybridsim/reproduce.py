@@ -25,10 +25,10 @@ import numpy as np
 from . import analysis as an
 from .api import run_experiment
 from .errors import SimulationError
+from .examples import diagrams_folder
 from .files import atomic_dir
 
-ROOT = Path(__file__).resolve().parents[1]
-DIAGRAMS = ROOT / "diagrams"
+DIAGRAMS = diagrams_folder()  # the shipped diagrams, installed with the package
 
 KW, KR, L = 8.0e5, 9.0e5, 0.153
 FAMILIES = {
@@ -226,7 +226,7 @@ def _stability(damping):
 
 def _explanations():
     """Mechanisms behind the failures, computed from the model's numbers."""
-    from blocks.kinematics import inverse_kinematics, jacobian
+    from hybridsim.blocks.kinematics import inverse_kinematics, jacobian
 
     q = inverse_kinematics(0.5, 0.0)
     Ji = np.linalg.inv(jacobian(q))

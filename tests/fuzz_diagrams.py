@@ -46,6 +46,8 @@ BASES = [yaml.load(SMALL, Loader=NumberLoader),
          yaml.load((ROOT / "diagrams" / "hybrid_controller.yaml").read_text(), Loader=NumberLoader),
          yaml.load((ROOT / "diagrams" / "bouncing_ball.yaml").read_text(), Loader=NumberLoader)]
 BASES[1]["simulation"]["t_end"] = 0.05
+# the copy is written to a temporary folder: point it at the shipped controller subsystem
+BASES[1]["blocks"]["ctrl"]["file"] = str(ROOT / "diagrams" / "subsystems" / "fig6_controller.yaml")
 
 NUMBERS = [2.5, 1, 3, 1e-3, 1e3, 0, -1, 1e12, -1e-15, float("nan"), float("inf"), 1e308]
 VALUES = st.one_of(

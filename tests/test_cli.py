@@ -115,6 +115,7 @@ def test_report_writes_html_and_figures(tmp_path, capsys):
     assert labels[:3] == ["as printed rate=60", "as printed rate=80", "as printed rate=120"]
 
 
+@pytest.mark.slow
 def test_run_compiled_writes_the_same_csv(tmp_path, capsys):
     smooth = ROOT / "tests" / "data" / "smooth_contact.yaml"
     code, _, _ = run(capsys, "run", smooth, "-q", "-o", tmp_path / "a")
@@ -148,3 +149,21 @@ def test_blocks_lists_the_library_by_group(capsys):
     assert heads[:6] == ["paper", "control", "math", "sources", "sinks", "FMU"]
     section = out.split("\ncontrol:")[1].split("\n\n")[0]
     assert "discrete_pid" in section and "integrator" in section and "manipulator" not in section
+
+
+def test_examples_copies_the_shipped_diagrams_and_keeps_a_users_files(tmp_path, capsys):
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "fig7_force_steps.yaml").write_text("my own\n")
+    assert main(["examples", "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert (out / "fig7_force_steps.yaml").read_text() == "my own\n"  # never replaced
+    assert "kept" in text and (out / "subsystems" / "fig6_controller.yaml").is_file()
+    assert main(["check", str(out / "fig9_force_and_position.yaml")]) == 0  # the copy finds its subsystem
+
+
+def test_a_shipped_diagram_runs_from_any_folder(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["check", "diagrams/fig10_force_ramp.yaml"]) == 0
+    assert "using the shipped" in capsys.readouterr().err
+    assert main(["check", "diagrams/not_there.yaml"]) == 2

@@ -19,9 +19,10 @@ SMOOTH = ROOT / "tests" / "data" / "smooth_contact.yaml"
                                                  "log_period": 0.0007}),
     (ROOT / "tests" / "data" / "every_kernel_block.yaml", {}),
     (ROOT / "tests" / "data" / "discrete_only.yaml", {}),
-    pytest.param(ROOT / "tests" / "data" / "library_blocks.yaml", {}, marks=pytest.mark.slow),
+    (ROOT / "tests" / "data" / "library_blocks.yaml", {}),
 ], ids=["fig9-friction", "fig8-moving-surface", "damped-log-at-ticks", "fig9-two-rates-odd-log",
         "every-kernel-block", "discrete-only", "standard-library"])
+@pytest.mark.slow
 def test_compiled_equals_generic(path, extra):
     a = hs.simulate(path, compiled=True, **extra)
     b = hs.simulate(path, fused=False, **extra)
@@ -36,6 +37,7 @@ def test_compiled_equals_generic(path, extra):
             assert np.array_equal(va, vb)
 
 
+@pytest.mark.slow
 def test_one_compiled_module_serves_other_parameter_values():
     from hybridsim import compiled
 
@@ -49,6 +51,7 @@ def test_one_compiled_module_serves_other_parameter_values():
     assert np.array_equal(res.table(), ref.table())
 
 
+@pytest.mark.slow
 def test_divergence_is_reported_on_the_compiled_path():
     ov = {"ctrl.fpi.Kp": [400.0, 300.0], "max_state": 50.0}
     with pytest.raises(SimulationError, match=r"diverged at t=.* block '(arm|wrist)'") as generic:
@@ -59,6 +62,7 @@ def test_divergence_is_reported_on_the_compiled_path():
     assert t(comp) <= t(generic)  # checked at every log point, not only at hits
 
 
+@pytest.mark.slow
 def test_discrete_divergence_is_reported_on_the_compiled_path():
     path = ROOT / "tests" / "data" / "discrete_only.yaml"
     # the 50 Hz delay shows at its last hit (0.48 s) what it took at 0.46 s: 2 x cnt.y = 2 x 47
@@ -68,6 +72,7 @@ def test_discrete_divergence_is_reported_on_the_compiled_path():
         hs.simulate(path, compiled=True, **{"g.K": 1e308})
 
 
+@pytest.mark.slow
 def test_compiled_path_says_what_it_cannot_compile():
     d = integrator_without_kernels()
     with pytest.raises(CompiledPathError, match=r"no kernels .*: f \(Integrator\)"):
@@ -76,6 +81,7 @@ def test_compiled_path_says_what_it_cannot_compile():
         hs.build(SMOOTH, compiled=True, solver="radau")
 
 
+@pytest.mark.slow
 def test_a_kernel_numba_cannot_compile_is_named():
     from hybridsim.kernels import Kernels, kernel
 
@@ -102,6 +108,7 @@ def test_a_kernel_numba_cannot_compile_is_named():
         hs.Simulator(d.build(), log=["lab.y"], compiled=True).run(0.01)
 
 
+@pytest.mark.slow
 def test_same_wiring_with_other_block_types_is_another_module():
     def diagram(kind, **params):
         d = hs.Diagram("shape")

@@ -3,8 +3,8 @@ import pytest
 from hybridsim import Diagram
 from hybridsim.errors import DiagramError
 
-from blocks.basic import Gain, Sum, UnitDelay
-from blocks.sources import Constant
+from hybridsim.blocks.basic import Gain, Sum, UnitDelay
+from hybridsim.blocks.sources import Constant
 
 
 def problems(d):

@@ -85,6 +85,7 @@ class Sawtooth(Block):
         return np.zeros(1)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("solver", [hs.RK4(1e-3), hs.ScipySolver("RK45", rtol=1e-10, atol=1e-12)],
                          ids=["rk4", "rk45"])
 def test_time_events_are_hit_exactly(solver):

@@ -70,7 +70,7 @@ def test_fmi2_and_fmi3_plants_give_the_same_answer_in_fmpy(plant, plant3):
 
 
 def test_xml_and_c_table_come_from_one_source():
-    from fmus import plant_model as pm
+    from hybridsim.fmus import plant_model as pm
 
     xml, header = pm.model_description(), pm.vars_header()
     for k, v in enumerate(pm.all_variables()):
@@ -147,7 +147,7 @@ def test_state_save_and_restore_reproduces_a_run(plant):
 
 
 def test_plain_c_host_runs_the_fmu(plant, tmp_path):
-    from fmus import plant_model as pm
+    from hybridsim.fmus import plant_model as pm
 
     cc = shutil.which("cc") or shutil.which("gcc")
     exe = tmp_path / "host"

@@ -51,6 +51,7 @@ def test_marked_functions_are_unchanged_and_listed():
     assert spring_damper_derivatives((1e3, 2.0, 1.0), 0.0, (0.01, 0.0), ((5.0,),)) == (0.0, -5.0)
 
 
+@pytest.mark.slow
 def test_kernel_block_on_generic_fused_and_compiled_paths():
     # free decay x(t) = x0 e^(-zeta wn t) (cos wd t + zeta wn / wd sin wd t), wn = sqrt(1000), zeta wn = 1
     wn, a = math.sqrt(1e3), 1.0

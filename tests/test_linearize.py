@@ -6,9 +6,9 @@ import pytest
 import hybridsim as hs
 from hybridsim.linearize import Linearization, LinearizationError, zoh
 
-from blocks.basic import StateSpace, Sum, ZeroOrderHold
-from blocks.controllers import PositionPID
-from blocks.sources import Constant
+from hybridsim.blocks.basic import StateSpace, Sum, ZeroOrderHold
+from hybridsim.blocks.controllers import PositionPID
+from hybridsim.blocks.sources import Constant
 from conftest import DIAGRAMS, ROOT
 
 M, B, K = 2.0, 3.0, 400.0  # mass-spring-damper: m x'' + b x' + k x = u

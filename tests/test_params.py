@@ -36,6 +36,7 @@ def test_a_change_of_structure_is_refused_with_the_parameter_named():
         sim.run(0.1, params={"arm.M3": 0.0})
 
 
+@pytest.mark.slow
 def test_batch_equals_single_runs_and_reports_divergence_in_place():
     _, sim, _ = hs.build(SMOOTH, t_end=0.3, compiled=True)
     sets = [{"arm.damping": [d, 10 * d]} for d in (50.0, 100.0, 200.0)] + [{"ctrl.fpi.Ki": [1e9, 1e9]}]
@@ -45,6 +46,7 @@ def test_batch_equals_single_runs_and_reports_divergence_in_place():
     assert isinstance(out[3], SimulationError) and "diverged" in str(out[3])
 
 
+@pytest.mark.slow
 def test_batched_sweep_gives_the_point_by_point_table(tmp_path):
     spec = tmp_path / "s.yaml"
     spec.write_text(f"diagram: {DIAGRAMS / 'fig7_force_steps.yaml'}\n"
@@ -66,6 +68,7 @@ def test_runtime_params_of_a_file_follow_dollar_references():
         f.runtime_params({"simulation.t_end": 1})
 
 
+@pytest.mark.slow
 def test_an_unrelated_kernel_does_not_change_the_compiled_module():
     from hybridsim.kernels import kernel
 

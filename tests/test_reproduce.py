@@ -76,6 +76,7 @@ def test_damping_search_reports_its_trials(small_report):
             assert any(t["passed"] and t["s"] == s["found"] for t in s["trials"])
 
 
+@pytest.mark.slow
 def test_compiled_reproduce_judges_the_same(small_report, tmp_path):
     pytest.importorskip("numba")
     _, report = small_report

@@ -53,6 +53,7 @@ def test_stiff_solvers_with_events_agree_through_stick_slip():
         assert np.max(np.abs(res["ctrl.ft.CF[0]"] - ref["ctrl.ft.CF[0]"])) < tol, solver
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("friction, force_tol, position_tol", [
     (False, 0.1, 1e-5),   # the speed issue's targets: 0.1 N and 0.01 mm with friction off,
     (True, 1.0, 1e-4),    # 1 N and 0.1 mm with it on

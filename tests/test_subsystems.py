@@ -57,6 +57,7 @@ def test_a_subsystem_two_levels_deep_is_flattened_with_dotted_names(nested):
     assert res["m.lag.y[0]"][-1] != 0.0
 
 
+@pytest.mark.slow
 def test_a_nested_subsystem_runs_identically_on_every_path(nested):
     generic = hs.simulate(nested, fused=False)
     fused = hs.simulate(nested)

@@ -90,6 +90,7 @@ def test_random_design_is_seeded(tmp_path):
     assert all(8e5 <= x["params"]["Kr"] <= 1e6 for x in a)
 
 
+@pytest.mark.slow
 def test_compiled_sweep_gives_the_same_table(sweep_file, tmp_path):
     pytest.importorskip("numba")
     sw.run_sweep(sweep_file, tmp_path / "plain", jobs=1, progress=False)

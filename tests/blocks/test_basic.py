@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from blocks.basic import Demux, LowPass, Mux, Selection, Sum, UnitDelay
+from hybridsim.blocks.basic import Demux, LowPass, Mux, Selection, Sum, UnitDelay
 
 
 def test_sum_signs():

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import hybridsim as hs
-from blocks.continuous import FilteredDerivative, Integrator, Relay, TransferFunction, tf_to_ss
+from hybridsim.blocks.continuous import FilteredDerivative, Integrator, Relay, TransferFunction, tf_to_ss
 
 
 def _run(blocks, wires, t_end, log, step=1e-3, **sim):

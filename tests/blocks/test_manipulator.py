@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from blocks.manipulator import Manipulator
+from hybridsim.blocks.manipulator import Manipulator
 
 
 def test_eq5_eq6_without_friction_hand_checked():

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import hybridsim as hs
-from blocks.noise import Noise
+from hybridsim.blocks.noise import Noise
 
 
 def samples(seed, n=4000, width=1):
@@ -29,7 +29,7 @@ def test_noise_has_its_mean_and_sigma_and_depends_on_the_seed():
 
 
 def test_noise_is_the_same_in_another_process():
-    code = ("from blocks.noise import Noise; b = Noise(seed=11, rate=10); x = b.initial_state(); "
+    code = ("from hybridsim.blocks.noise import Noise; b = Noise(seed=11, rate=10); x = b.initial_state(); "
             "import numpy as np; print(repr(float(b.output(0, b.update(0, b.update(0, x, []), []), [])[0][0])))")
     other = float(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout)
     b = Noise(seed=11, rate=10)

@@ -1,0 +1,70 @@
+"""Installed from a wheel, outside the checkout, hybridsim does its main jobs and claims no generic name."""
+import os
+import subprocess
+import sys
+import venv
+
+import pytest
+
+from conftest import ROOT
+
+
+@pytest.fixture(scope="module")
+def installed(tmp_path_factory):
+    """A fresh virtual environment with hybridsim installed from a wheel built here.
+
+    The environment sees this interpreter's packages (numpy, fmpy, ...: nothing is
+    downloaded) but not the checkout: hybridsim comes from the wheel alone.
+    """
+    tmp = tmp_path_factory.mktemp("wheel")
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--no-build-isolation",
+                    "-w", str(tmp / "dist"), str(ROOT)], check=True, capture_output=True, timeout=300)
+    wheel = next((tmp / "dist").glob("hybridsim-*.whl"))
+    venv.EnvBuilder(system_site_packages=True, with_pip=False).create(tmp / "env")
+    py = tmp / "env" / "bin" / "python"
+    # pip of this interpreter installs into the new environment's site-packages
+    site = subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+                          check=True, capture_output=True, text=True).stdout.strip()
+    subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--no-index", "--target", site,
+                    str(wheel)], check=True, capture_output=True, timeout=300)
+    work = tmp / "elsewhere"
+    work.mkdir()
+    return py, work
+
+
+def run(installed, *args, code=None):
+    py, work = installed
+    cmd = [str(py), "-c", code] if code else [str(py), "-m", "hybridsim.cli", *args]
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    return subprocess.run(cmd, cwd=work, capture_output=True, text=True, timeout=600, env=env)
+
+
+@pytest.mark.slow
+def test_the_wheel_runs_the_shipped_diagrams_from_any_folder(installed):
+    where = run(installed, code="import hybridsim, hybridsim.blocks; print(hybridsim.__file__)")
+    assert where.returncode == 0 and str(ROOT) not in where.stdout and "site-packages" in where.stdout
+    for name in ("blocks", "fmus", "diagrams"):  # installed under hybridsim's namespace only
+        r = run(installed, code=f"import {name}")
+        assert r.returncode != 0 and "No module named" in r.stderr, name
+    r = run(installed, "check", "diagrams/fig9_force_and_position.yaml")
+    assert r.returncode == 0, r.stderr
+    assert "using the shipped" in r.stderr and "OK - 22 blocks" in r.stdout
+    r = run(installed, "run", "diagrams/fig9_force_and_position.yaml", "-q", "--set", "simulation.t_end=0.1",
+            "--set", "rate=120", "-o", "fig9")
+    assert r.returncode == 0, r.stderr
+    assert (installed[1] / "fig9" / "fig9_force_and_position.csv").is_file()
+    r = run(installed, "reproduce", "--quick", "-o", "rq")
+    assert r.returncode == 0, r.stderr
+    assert (installed[1] / "rq" / "reproduce.html").is_file() and "272.5 Hz" in r.stdout
+    r = run(installed, "examples", "-o", "mine")
+    assert r.returncode == 0, r.stderr
+    assert (installed[1] / "mine" / "subsystems" / "fig6_controller.yaml").is_file()
+    r = run(installed, "run", "mine/fig10_force_ramp.yaml", "-q", "--set", "simulation.t_end=0.1", "-o", "f10")
+    assert r.returncode == 0, r.stderr
+
+
+@pytest.mark.slow
+def test_the_wheel_builds_the_plant_fmu(installed):
+    r = run(installed, "fmu", "build", "--fmi", "3", "-o", "plant3.fmu")
+    assert r.returncode == 0, r.stderr
+    assert (installed[1] / "plant3.fmu").stat().st_size > 10_000
