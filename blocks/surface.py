@@ -66,6 +66,7 @@ def surface_output(p, t, x, u):
 
 @kernel
 def moving_surface_output(p, t, x, u):
+    """Eq 9 against a surface at the input position ``xs`` moving at ``vs``."""
     return contact_force(p, u[0][0] - u[2][0], u[1][0] - u[3][0])
 
 
@@ -77,6 +78,7 @@ def surface_contact(p, t, x, u):
 
 @kernel
 def moving_surface_contact(p, t, x, u):
+    """Contact make / break for a moving surface: X_hand - xs (m)."""
     return (u[0][0] - u[2][0],)
 
 

@@ -95,6 +95,7 @@ def c_name(name):
 
 
 def guid():
+    """The FMU's GUID / instantiation token: a hash of the variable list (it changes when they do)."""
     text = repr(all_variables()).encode()
     return "{" + str(uuid.UUID(hashlib.md5(text).hexdigest())) + "}"
 

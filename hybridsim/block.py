@@ -246,33 +246,40 @@ class Block:
         return [names[d] for d in dep]
 
     def input_port(self, name):
+        """The input port named ``name`` (a :class:`Port`), or None."""
         return next((p for p in self.inputs if p.name == name), None)
 
     def output_port(self, name):
+        """The output port named ``name`` (a :class:`Port`), or None."""
         return next((p for p in self.outputs if p.name == name), None)
 
     # -- computations (override) --------------------------------------------
     def output(self, t, x, u):
+        """Outputs at time ``t`` (s) from state ``x`` and inputs ``u``: one sequence per output port."""
         k = self.kernels
         return k.output(self.params, t, x, u) if k is not None and k.output else ()
 
     def derivatives(self, t, x, u):
+        """dx/dt of the continuous states at ``t`` (s), as a sequence of floats."""
         k = self.kernels
         if k is not None and k.derivatives:
             return k.derivatives(self.params, t, x, u)
         return np.zeros(self.n_continuous)
 
     def update(self, t, x, u):
+        """The discrete state after the sample hit at ``t`` (s) (default: unchanged)."""
         k = self.kernels
         return k.update(self.params, t, x, u) if k is not None and k.update else x
 
     def initial_state(self, u=None):
+        """The state at t = 0 (default zeros); ``u`` the initial inputs when known."""
         return np.zeros(self.n_continuous or self.n_discrete)
 
     #: per zero-crossing function: +1 fires when it rises through 0, -1 when it falls, 0 both
     event_directions = None
 
     def zero_crossings(self, t, x, u):
+        """The block's event functions at ``t`` (a sequence of floats), or None without events."""
         k = self.kernels
         return k.zero_crossings(self.params, t, x, u) if k is not None and k.zero_crossings else None
 

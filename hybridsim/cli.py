@@ -84,6 +84,7 @@ def _find_diagram(path):
 
 
 def cmd_run(args):
+    """`hybridsim run`: every variant of a diagram, then CSV, figures and metrics. Returns the exit status."""
     from . import api
 
     f = _load(args.diagram, list(args.set or []) + (["simulation.compiled=true"] if args.compiled else []))
@@ -122,6 +123,7 @@ def cmd_run(args):
 
 
 def cmd_check(args):
+    """`hybridsim check`: validate every variant without running. Returns the exit status."""
     from . import api
 
     f = _load(args.diagram, args.set)
@@ -133,6 +135,7 @@ def cmd_check(args):
 
 
 def cmd_draw(args):
+    """`hybridsim draw`: a picture of the diagram. Returns the exit status."""
     from .plots import draw_diagram
     from .files import atomic_file
 
@@ -154,6 +157,7 @@ def _image_formats():
 
 
 def cmd_analyze(args):
+    """`hybridsim analyze`: linearize, poles, margins, rate and gain sweeps. Returns the exit status."""
     from . import analysis
 
     f = _load(args.diagram, args.set)
@@ -175,6 +179,7 @@ def cmd_analyze(args):
 
 
 def cmd_report(args):
+    """`hybridsim report`: the HTML stability report. Returns the exit status."""
     from .report import write_report
 
     f = _load(args.diagram, args.set)
@@ -189,6 +194,7 @@ def cmd_report(args):
 
 
 def cmd_reproduce(args):
+    """`hybridsim reproduce`: the paper's claims, one by one. Returns the exit status."""
     from .reproduce import reproduce, summary_rows
 
     out = check_output_dir(Path(args.output or "out/reproduce"))
@@ -203,6 +209,7 @@ def cmd_reproduce(args):
 
 
 def cmd_examples(args):
+    """`hybridsim examples`: copy the shipped diagrams into a folder. Returns the exit status."""
     from .examples import copy_examples
 
     written, kept = copy_examples(args.output)
@@ -214,6 +221,7 @@ def cmd_examples(args):
 
 
 def cmd_fmu_build(args):
+    """`hybridsim fmu build`: export the plant FMU (FMI 2.0 or 3.0). Returns the exit status."""
     from .fmu import build_plant_fmu
 
     out = build_plant_fmu(check_output_file(args.output, ["fmu"]), fmi=args.fmi)
@@ -222,6 +230,7 @@ def cmd_fmu_build(args):
 
 
 def cmd_sweep(args):
+    """`hybridsim sweep`: a resumable parameter sweep. Returns the exit status."""
     from .sweep import run_sweep
 
     out = check_output_dir(Path(args.output or Path("out") / safe_name(Path(args.sweep).stem)))
@@ -240,6 +249,7 @@ def _num(v):
 
 
 def cmd_blocks(args):
+    """`hybridsim blocks`: the block library by group. Returns the exit status."""
     from .registry import GROUP_ORDER, group, lookup, parameters, types
 
     by_group = {}
@@ -325,6 +335,7 @@ def _on_sigterm(signum, frame):
 
 
 def build_parser():
+    """The argparse parser of the ``hybridsim`` command and its subcommands."""
     p = argparse.ArgumentParser(
         prog="hybridsim",
         description="Simulate block diagrams of robot force control (Raibert & Craig's hybrid "
@@ -430,6 +441,7 @@ def build_parser():
 
 
 def main(argv=None):
+    """Run the ``hybridsim`` command with ``argv`` (default: sys.argv); returns the exit status (see README)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     _show_notes()

@@ -181,21 +181,26 @@ class FusedStepper:
         return self.method.advance_to_event(f, t0, t1, x, t_out, g, directions, steps_with=self)
 
     def first(self, x):
+        """The state in this stepper's form (a tuple of floats)."""
         import numpy as np
 
         return tuple(np.asarray(x, float).tolist())
 
     def array(self, X):
+        """A state of this stepper's form as a numpy array."""
         import numpy as np
 
         return np.array(X)
 
     def step(self, t0, h, k, X):
+        """Step ``k`` of size ``h`` from ``t0`` with the generated code: ``(X_next, None)``."""
         return self.advance(t0, h, k, k + 1, X, self.H, self.P), None
 
     def dense(self, t0, h, k, X, _stages, theta):
+        """The state at ``theta`` (0..1) inside step ``k``, from the generated dense output."""
         w = self.method.dense_weights(theta)
         return self.array(self.advance_obs(t0, h, k, k + 1, X, self.H, k, w, self.P)[2])
 
     def restep(self, t, hh, X):
+        """One step of size ``hh`` from ``t`` (to land on an event)."""
         return self.advance(t, hh, 0, 1, X, self.H, self.P)

@@ -119,6 +119,7 @@ def root_locus(path, base, ref, value, scales):
 
 
 def sweep_chart(rows_by_label, xkey, xlabel, logx=True):
+    """Largest |z| of the closed loop against ``xkey`` (servo rate or gain scale), one line per label; a Figure."""
     fig, ax = plt.subplots(figsize=(6, 3.6))
     for label, rows in rows_by_label:
         x = [r[xkey] for r in rows if r["spectral_radius"] is not None]

@@ -56,6 +56,7 @@ def _window_max(res, sig, ref, t0, t1):
 
 
 def claims_fig7(runs):
+    """Fig 7's claims (rise ~0.15 s, little overshoot, steady error < 1 N) judged on ``runs``: (claim, paper, ours, holds) rows."""
     r60 = _runs_at(runs, rate=60) or runs
     rise = [r["metrics"]["rise_time_s"] for r in r60]
     over = [r["metrics"]["overshoot_pct"] for r in r60]
@@ -73,6 +74,7 @@ def claims_fig7(runs):
 
 
 def claims_fig8(runs):
+    """Fig 8's claims (contact kept, force error <= 1.75 N) judged on ``runs``: (claim, paper, ours, holds) rows."""
     m = runs[0]["metrics"]
     return [
         ("contact never lost", "never lost",
@@ -83,6 +85,7 @@ def claims_fig8(runs):
 
 
 def claims_fig9(runs):
+    """Fig 9's claims (no position disturbance from the force step, less overshoot when faster): (claim, paper, ours, holds) rows."""
     by_rate = {r["overrides"].get("rate"): r for r in runs}
     dist = {}
     for rate, r in by_rate.items():
@@ -108,6 +111,7 @@ def claims_fig9(runs):
 
 
 def claims_fig10(runs):
+    """Fig 10's claim (faithful ramp tracking) judged on ``runs``: (claim, paper, ours, holds) rows."""
     m = runs[0]["metrics"]
     return [
         ("faithful ramp tracking (0.75–2.5 s)", "error ≤ 1.0 N (12 Hz filtered)",
@@ -117,6 +121,7 @@ def claims_fig10(runs):
 
 
 def claims_eq18(runs):
+    """Eq 18's claim (hand oscillation near 280 Hz) against the measured frequency: (claim, paper, ours, holds) rows."""
     out = []
     for r in runs:
         kr = r["overrides"]["Kr"]

@@ -173,9 +173,11 @@ class Steps:
         self.method, self.f = method, f
 
     def first(self, x):
+        """The state in the form the steps take (here: itself)."""
         return x
 
     def array(self, x):
+        """A state as a numpy array (here: itself)."""
         return x
 
     def step(self, t0, h, k, x):

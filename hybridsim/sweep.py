@@ -201,6 +201,7 @@ def _number(v):
 
 
 def point_key(overrides):
+    """A short stable hash of one point's overrides (its resume key in points.jsonl)."""
     text = json.dumps(overrides, sort_keys=True, default=float)
     return hashlib.sha1(text.encode()).hexdigest()[:16]
 

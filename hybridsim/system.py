@@ -119,6 +119,7 @@ class System:
 
     # -- queries -------------------------------------------------------------
     def block(self, name):
+        """The block named ``name``."""
         return self.blocks[self.index[name]]
 
     def port_ref(self, ref):
