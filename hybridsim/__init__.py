@@ -20,7 +20,7 @@ from .api import build, check, load, run_experiment, simulate, write_outputs
 from .block import Block
 from .diagram import Diagram
 from .errors import (CompiledPathError, DiagramError, FMUError, HybridsimError, InputError,
-                     LoaderError, OutputError, ParameterError, RateError, SimulationError)
+                     LoaderError, OutputError, ParameterError, PluginError, RateError, SimulationError)
 from .interop import from_control
 from .registry import register
 from . import registry
@@ -30,5 +30,5 @@ from .solvers import RK4, ExplicitRK, Heun, ScipySolver
 __all__ = ["registry", "Block", "Diagram", "Simulator", "RK4", "Heun", "ExplicitRK", "ScipySolver", "register", "simulate", "load",
            "build", "check", "from_control", "run_experiment", "write_outputs", "HybridsimError", "InputError",
            "DiagramError", "LoaderError", "RateError", "ParameterError", "OutputError",
-           "CompiledPathError", "SimulationError", "FMUError"]
+           "CompiledPathError", "PluginError", "SimulationError", "FMUError"]
 __version__ = "0.1.0"

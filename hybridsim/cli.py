@@ -437,6 +437,10 @@ def build_parser():
     b = sub.add_parser("blocks", help="list the block types")
     b.add_argument("-v", "--verbose", action="store_true", help="with their parameters")
     b.set_defaults(func=cmd_blocks)
+    for sp in sub.choices.values():
+        sp.add_argument("--plugin", action="append", metavar="MODULE", dest="plugins",
+                        help="import MODULE first, for the blocks it registers (repeatable); installed "
+                             "plugins (entry-point group hybridsim.blocks) load by themselves")
     return p
 
 
@@ -454,6 +458,10 @@ def main(argv=None):
     except ValueError:  # not the main thread: leave signals alone
         previous = None
     try:
+        for module in getattr(args, "plugins", None) or []:
+            from .registry import load_plugin
+
+            load_plugin(module)
         return args.func(args)
     except HybridsimError as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -70,6 +70,10 @@ class CompiledPathError(InputError):
     """The compiled path was asked for but cannot run this diagram (or numba is missing)."""
 
 
+class PluginError(InputError):
+    """A plugin module (``--plugin`` or the ``hybridsim.blocks`` entry points) cannot be imported (exit 2)."""
+
+
 class StopRequest(Exception):
     """A block asks the run to end at ``t`` (an FMU's terminateSimulation). Not an error:
     the simulator ends there cleanly, with every result so far and ``meta["stopped"]``."""

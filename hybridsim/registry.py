@@ -3,14 +3,24 @@
 The engine knows no particular block: the library, :mod:`hybridsim.blocks`
 (the repository's ``blocks/`` folder), registers its classes with
 :func:`register`, and any user module can do the same. :func:`lookup` imports
-the library on first use.
+the library on first use, and with it every plugin: a module another package
+names in the ``hybridsim.blocks`` entry-point group, e.g. in its pyproject.toml::
+
+    [project.entry-points."hybridsim.blocks"]
+    mine = "my_package.blocks"
+
+A module can also be loaded for one run with ``--plugin MODULE`` (:func:`load_plugin`).
 """
 import difflib
 import importlib
 import inspect
+import logging
 
 _TYPES = {}
 _LIBRARIES = ["hybridsim.blocks", "hybridsim.fmu"]
+ENTRY_POINT_GROUP = "hybridsim.blocks"
+_loaded = []  # whether the library and the entry-point plugins were imported
+_log = logging.getLogger("hybridsim")
 
 
 def register(type_name):
@@ -25,8 +35,41 @@ def register(type_name):
 
 
 def _load_libraries():
+    if _loaded:
+        return
+    _loaded.append(True)
     for mod in _LIBRARIES:
         importlib.import_module(mod)
+    from importlib.metadata import entry_points
+
+    for ep in entry_points(group=ENTRY_POINT_GROUP):
+        try:
+            ep.load()
+        except Exception as exc:  # noqa: BLE001 - a broken plugin must not stop the built-in blocks
+            _log.warning("plugin %r (%s) cannot be imported and is skipped: %s: %s", ep.name, ep.value,
+                         type(exc).__name__, exc)
+
+
+def load_plugin(module):
+    """Import ``module`` (a dotted name) so that the blocks it registers can be used.
+
+    Parameters
+    ----------
+    module : str
+        e.g. ``"my_package.blocks"``; it must be importable (on ``sys.path``).
+
+    Raises
+    ------
+    hybridsim.errors.PluginError
+        When it cannot be imported (the reason named).
+    """
+    from .errors import PluginError
+
+    _load_libraries()
+    try:
+        importlib.import_module(module)
+    except Exception as exc:  # noqa: BLE001 - any failure of a user's module is theirs to see
+        raise PluginError(f"cannot import plugin module {module!r}: {type(exc).__name__}: {exc}") from None
 
 
 def types():
