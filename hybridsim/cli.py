@@ -220,6 +220,23 @@ def cmd_examples(args):
     return 0
 
 
+def cmd_schema(args):
+    """`hybridsim schema`: the JSON Schema of the diagram format, for editors. Returns the exit status."""
+    from .files import atomic_file
+    from .schema import diagram_schema
+
+    text = json.dumps(diagram_schema(), indent=1) + "\n"
+    if not args.output:
+        sys.stdout.write(text)
+        return 0
+    out = check_output_file(args.output, ["json"])
+    with atomic_file(out, "w") as fh:
+        fh.write(text)
+    print(f"wrote {out}: attach it with the first line of a diagram\n"
+          f"  # yaml-language-server: $schema={out}")
+    return 0
+
+
 def cmd_fmu_build(args):
     """`hybridsim fmu build`: export the plant FMU (FMI 2.0 or 3.0). Returns the exit status."""
     from .fmu import build_plant_fmu
@@ -405,6 +422,14 @@ def build_parser():
     ex.add_argument("-o", "--output", default="hybridsim-diagrams", metavar="DIR",
                     help="the folder to copy into (default hybridsim-diagrams)")
     ex.set_defaults(func=cmd_examples)
+    sc = sub.add_parser("schema", help="write a JSON Schema of the diagram format (for editors)",
+                        description="Generate a JSON Schema of the diagram format from the block registry "
+                                    "(every block type with its parameters and defaults, plugins included, "
+                                    "the simulation keys, signal roles). A YAML language server uses it to "
+                                    "complete names and flag mistakes; attach it to a diagram with the line "
+                                    "'# yaml-language-server: $schema=PATH'.")
+    sc.add_argument("-o", "--output", metavar="FILE", help="the .json file to write (default: standard output)")
+    sc.set_defaults(func=cmd_schema)
     fm = sub.add_parser("fmu", help="FMU tools: 'hybridsim fmu build' exports the plant")
     fsub = fm.add_subparsers(dest="fmu_command", metavar="FMU_COMMAND")
     fb = fsub.add_parser("build", help="compile the plant (fmus/) into an FMI 2.0 or 3.0 FMU",
