@@ -34,6 +34,9 @@ def experiment_figure(f, runs, settings):
         panels.append("contact")
     if not panels:  # no roles given: a scope, one panel per logged signal
         return _scope_figure(f, runs)
+    grid = _grid_axes(runs)
+    if grid and "force" in sig:  # a grid of variants (Fig 7: force x rate): one small panel per case
+        return _grid_figure(f, runs, sig, *grid)
     heights = [3 if p in ("position", "force", "surface", "oscillation") else 1 for p in panels]
     fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(8, 1.2 + 1.3 * sum(heights) / 1.5),
                              gridspec_kw={"height_ratios": heights}, squeeze=False)
@@ -83,6 +86,54 @@ def experiment_figure(f, runs, settings):
             ax.legend(fontsize=7, loc="best", ncol=2 if len(runs) > 4 else 1)
     axes[-1].set_xlabel("time (ms)" if panels[-1] == "oscillation" else "time (s)")
     fig.suptitle(f.description or f.name, fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def _grid_axes(runs):
+    """(row parameter, its values, column parameter, its values) when the runs are a 2-D grid, else None."""
+    if len(runs) < 4:
+        return None
+    keys = [k for k in runs[0].get("overrides", {})
+            if len({repr(r["overrides"].get(k)) for r in runs}) > 1]
+    if len(keys) != 2:
+        return None
+    values = [list(dict.fromkeys(repr(r["overrides"][k]) for r in runs)) for k in keys]
+    if len(values[0]) * len(values[1]) != len(runs):
+        return None
+    return keys[0], values[0], keys[1], values[1]
+
+
+def _grid_figure(f, runs, sig, rkey, rvals, ckey, cvals):
+    """Force against time, one small panel per case of a two-parameter grid, shared axes (the paper
+    draws each case of Fig 7 on its own)."""
+    fig, axes = plt.subplots(len(rvals), len(cvals), sharex=True, sharey="row", squeeze=False,
+                             figsize=(2.6 * len(cvals) + 1.2, 1.9 * len(rvals) + 1.0))
+    ranges = {}  # per row: the filtered force's range (the raw ringing may be cut)
+    for run in runs:
+        i = rvals.index(repr(run["overrides"][rkey]))
+        j = cvals.index(repr(run["overrides"][ckey]))
+        ax, r = axes[i, j], run["result"]
+        raw = _col(r, sig["force"])
+        filt = display_filter(r.t, raw)
+        ax.plot(r.t, raw, color="C0", lw=0.4, alpha=0.25)
+        ax.plot(r.t, filt, color="C0", lw=1.2)
+        lo, hi = ranges.get(i, (0.0, 0.0))
+        ranges[i] = (min(lo, float(np.min(filt))), max(hi, float(np.max(filt))))
+        if "force_desired" in sig:
+            ax.plot(r.t, _col(r, sig["force_desired"]), "k--", lw=0.9)
+        ax.grid(True, alpha=0.3)
+        if i == 0:
+            ax.set_title(f"{ckey} = {run['overrides'][ckey]}", fontsize=8)
+        if j == 0:
+            ax.set_ylabel(f"{rkey} = {run['overrides'][rkey]}\nC-X force (N)", fontsize=8)
+        if i == len(rvals) - 1:
+            ax.set_xlabel("time (s)", fontsize=8)
+        ax.tick_params(labelsize=7)
+    for i, (lo, hi) in ranges.items():
+        pad = 0.1 * (hi - lo or 1.0)
+        axes[i, 0].set_ylim(lo - pad, hi + pad)
+    fig.suptitle((f.description or f.name) + " (12 Hz filtered, raw faint, desired dashed)", fontsize=9)
     fig.tight_layout()
     return fig
 

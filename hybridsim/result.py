@@ -55,3 +55,51 @@ class Result:
             w.writerow(self.columns())
             for row in self.table():
                 w.writerow([f"{v:.10g}" for v in row])
+
+    def to_dataframe(self):
+        """All logged data as a pandas DataFrame indexed by time (s), columns as in :meth:`columns`.
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        import pandas as pd
+
+        cols = self.columns()
+        return pd.DataFrame(self.table()[:, 1:], index=pd.Index(self.t, name="time"), columns=cols[1:])
+
+    def plot(self, signals=None, ax=None):
+        """Plot logged signals against time, one panel per signal (all by default).
+
+        Parameters
+        ----------
+        signals : list of str, optional
+            ``"block.port"`` or ``"block.port[i]"`` references (default: every logged signal).
+        ax : matplotlib Axes or list of them, optional
+            Where to draw (default: a new figure with one panel per signal).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        import matplotlib.pyplot as plt
+
+        refs = list(signals or self.signals)
+        if ax is None:
+            fig, axes = plt.subplots(len(refs), 1, sharex=True, squeeze=False,
+                                     figsize=(7, 1.8 + 1.6 * len(refs)))
+            axes = list(axes[:, 0])
+        else:
+            axes = list(ax) if isinstance(ax, (list, tuple, np.ndarray)) else [ax] * len(refs)
+            fig = axes[0].figure
+        for a, ref in zip(axes, refs):
+            v = np.atleast_2d(self[ref].T).T
+            for j in range(v.shape[1]):
+                a.plot(self.t, v[:, j], lw=1.2, label=f"[{j}]" if v.shape[1] > 1 else None)
+            a.set_ylabel(ref, fontsize=8)
+            a.grid(True, alpha=0.3)
+            if v.shape[1] > 1:
+                a.legend(fontsize=7, loc="best")
+        axes[-1].set_xlabel("time (s)")
+        fig.tight_layout()
+        return fig
