@@ -35,6 +35,17 @@ class Manipulator(Block):
     A joint inside the band drifts at most ``stick_band * stick_time``
     (1e-7 m or rad with the defaults), and no switch chatters.
 
+    ``friction_model`` chooses the law (docs/model.md, "Friction"):
+
+    * ``karnopp`` (default): the above, sliding friction tau_c at every speed;
+    * ``stribeck``: the same stick band, but sliding friction falls from the
+      static level to the Coulomb level as the speed grows,
+      g(v) = tau_c + (tau_s - tau_c) exp(-(v / stribeck_velocity)^2);
+    * ``lugre``: a bristle deflection z_i per joint (two more states),
+      z' = v - sigma0 |v| z / g(v), friction -(sigma0 z + sigma1 z'); in steady
+      sliding it equals the Stribeck curve -sgn(v) g(v), and below the break-away
+      force a joint deflects elastically by F / sigma0 (presliding).
+
     Parameters
     ----------
     I1 : [a0, a1, a2]   I1(q2) = a0 + a1 q2 + a2 q2^2, kg m^2
@@ -45,6 +56,10 @@ class Manipulator(Block):
     q0 : [rad, m]        initial joint position, or
     endpoint0 : [m, m]   initial endpoint Lambda(q) in {C} (inverse kinematics)
     l : m                link offset
+    friction_model : 'karnopp', 'stribeck' or 'lugre'
+    stribeck_velocity : [rad/s, m/s]   speed scale of the static-to-Coulomb decay
+    bristle_stiffness : [N m/rad, N/m]  LuGre sigma0 (default 1e5)
+    bristle_damping : [N m s/rad, N s/m]  LuGre sigma1 (default 2 sqrt(sigma0 m): critical)
     """
 
     kernels = None  # set below, after the kernel functions
@@ -52,8 +67,12 @@ class Manipulator(Block):
     def __init__(self, name="arm", I1=(3.98, -5.25, 6.47), M2=6.68, M3=0.58,
                  tau_c=(5.0, 3.5), tau_s=(5.75, 4.6), friction=True,
                  damping=(0.0, 0.0), q0=None, endpoint0=None, qd0=(0.0, 0.0),
-                 l=L_OFFSET, stick_band=1e-4, stick_time=1e-3):
+                 l=L_OFFSET, stick_band=1e-4, stick_time=1e-3, friction_model="karnopp",
+                 stribeck_velocity=(1e-3, 1e-3), bristle_stiffness=(1e5, 1e5), bristle_damping=None):
         super().__init__(name)
+        if friction_model not in FRICTION_MODELS:
+            raise ParameterError("friction_model", f"must be one of {', '.join(FRICTION_MODELS)}; "
+                                                   f"got {friction_model!r}")
         zero = (0.0, 0.0)
         friction = flag(friction, "friction")
         m2 = scalar(M2, "M2", "nonnegative") + scalar(M3, "M3", "positive")
@@ -63,7 +82,13 @@ class Manipulator(Block):
             tau_s=floats(tau_s, "tau_s", 2, "nonnegative") if friction else zero,
             friction=friction, b=floats(damping, "damping", 2, "nonnegative"), l=scalar(l, "l"),
             eps=scalar(stick_band, "stick_band", "nonnegative"),
-            t_stick=scalar(stick_time, "stick_time", "positive"))
+            t_stick=scalar(stick_time, "stick_time", "positive"),
+            model=float(FRICTION_MODELS.index(friction_model)),
+            v_s=floats(stribeck_velocity, "stribeck_velocity", 2, "positive"),
+            sigma0=floats(bristle_stiffness, "bristle_stiffness", 2, "positive"),
+            sigma1=(0.0, 0.0))
+        if friction and any(c > s for c, s in zip(self.params.tau_c, self.params.tau_s)):
+            raise ParameterError("tau_s", f"must be at least tau_c (static >= Coulomb), got {tau_s!r}")
         if q0 is not None and endpoint0 is not None:
             raise ParameterError("endpoint0", "and q0 both given: give one of them")
         if endpoint0 is not None:
@@ -81,7 +106,16 @@ class Manipulator(Block):
         self.declare_input("f_wrist", 2)
         self.declare_output("q", 2, depends_on=())
         self.declare_output("qd", 2, depends_on=())
-        self.declare_continuous_state(4, atol=(1e-11, 1e-11, 1e-9, 1e-9))
+        if friction_model == "lugre" and friction:
+            masses = (inertia(self.params.I1, q0[1]), m2)
+            s1 = floats(bristle_damping, "bristle_damping", 2, "nonnegative") if bristle_damping is not None \
+                else tuple(2.0 * math.sqrt(k * m) for k, m in zip(self.params.sigma0, masses))
+            self.params = self.params._replace(sigma1=s1)
+            self.x0 = np.concatenate([self.x0, np.zeros(2)])  # bristles at rest
+            self.kernels = Kernels(output=arm_output, derivatives=arm_lugre_derivatives)
+            self.declare_continuous_state(6, atol=(1e-11, 1e-11, 1e-9, 1e-9, 1e-13, 1e-13))
+        else:
+            self.declare_continuous_state(4, atol=(1e-11, 1e-11, 1e-9, 1e-9))
 
     def initial_state(self, u=None):
         return self.x0.copy()
@@ -101,12 +135,27 @@ class ArmParams(NamedTuple):
     l: float         # link offset, m
     eps: float       # stick band, rad/s and m/s
     t_stick: float   # time constant that brings a sticking joint to rest, s
+    model: float     # FRICTION_MODELS index: 0 karnopp, 1 stribeck, 2 lugre
+    v_s: tuple       # Stribeck velocity, rad/s and m/s
+    sigma0: tuple    # LuGre bristle stiffness, N m/rad and N/m
+    sigma1: tuple    # LuGre bristle damping, N m s/rad and N s/m
+
+
+#: the friction laws of eq 11 the arm offers (``friction_model``)
+FRICTION_MODELS = ("karnopp", "stribeck", "lugre")
 
 
 @kernel
 def inertia(a, q2):
     """I1(q2) = a0 + a1 q2 + a2 q2^2, kg m^2."""
     return a[0] + a[1] * q2 + a[2] * q2 * q2
+
+
+@kernel
+def stribeck_level(v, tau_c, tau_s, v_s):
+    """g(v) = tau_c + (tau_s - tau_c) exp(-(v/v_s)^2): the sliding friction level at speed v."""
+    r = v / v_s
+    return tau_c + (tau_s - tau_c) * math.exp(-r * r)
 
 
 @kernel
@@ -118,22 +167,50 @@ def friction_force(v, F, m, tau_c, tau_s, eps, t_stick):
 
 
 @kernel
+def joint_friction(p, i, v, F, m):
+    """B_i of joint ``i`` under the arm's friction model (Karnopp or Stribeck; LuGre has its own kernel)."""
+    if p.model == 1.0 and abs(v) >= p.eps:  # Stribeck: sliding friction falls with speed
+        return -math.copysign(stribeck_level(v, p.tau_c[i], p.tau_s[i], p.v_s[i]), v)
+    return friction_force(v, F, m, p.tau_c[i], p.tau_s[i], p.eps, p.t_stick)
+
+
+@kernel
 def arm_output(p, t, x, u):
     return x[0:2], x[2:4]
 
 
 @kernel
 def arm_derivatives(p, t, x, u):
-    I1c, m2, tau_c, tau_s, friction, b, l, eps, t_stick = p
     q2, v1, v2 = x[1], x[2], x[3]
     tau, f = u[0], u[1]
-    I1 = inertia(I1c, q2)
+    b, l, m2 = p.b, p.l, p.m2
+    I1 = inertia(p.I1, q2)
     F1 = tau[0] + q2 * f[1] + l * f[0] - b[0] * v1  # eq 5 without B1
     F2 = tau[1] + f[0] - b[1] * v2                  # eq 6 without B2
-    if friction:
-        F1 = F1 + friction_force(v1, F1, I1, tau_c[0], tau_s[0], eps, t_stick)
-        F2 = F2 + friction_force(v2, F2, m2, tau_c[1], tau_s[1], eps, t_stick)
+    if p.friction:
+        F1 = F1 + joint_friction(p, 0, v1, F1, I1)
+        F2 = F2 + joint_friction(p, 1, v2, F2, m2)
     return (v1, v2, F1 / I1, F2 / m2)
+
+
+@kernel
+def lugre(p, i, v, z):
+    """(friction B_i, z') of LuGre for joint ``i``: z' = v - sigma0 |v| z / g(v), B = -(sigma0 z + sigma1 z')."""
+    g = stribeck_level(v, p.tau_c[i], p.tau_s[i], p.v_s[i])
+    zd = v - p.sigma0[i] * abs(v) * z / g
+    return -(p.sigma0[i] * z + p.sigma1[i] * zd), zd
+
+
+@kernel
+def arm_lugre_derivatives(p, t, x, u):
+    q2, v1, v2, z1, z2 = x[1], x[2], x[3], x[4], x[5]
+    tau, f = u[0], u[1]
+    I1 = inertia(p.I1, q2)
+    B1, zd1 = lugre(p, 0, v1, z1)
+    B2, zd2 = lugre(p, 1, v2, z2)
+    F1 = tau[0] + q2 * f[1] + p.l * f[0] - p.b[0] * v1 + B1  # eq 5
+    F2 = tau[1] + f[0] - p.b[1] * v2 + B2                    # eq 6
+    return (v1, v2, F1 / I1, F2 / p.m2, zd1, zd2)
 
 
 @kernel

@@ -151,3 +151,13 @@ def test_an_unwritable_cache_is_a_clear_error(tmp_path, monkeypatch):
     monkeypatch.setenv("HYBRIDSIM_CACHE", str(blocker))
     with pytest.raises(CompiledPathError, match="cannot write the compiled module .* HYBRIDSIM_CACHE"):
         compiled._load(f"# {tmp_path}\ndef run():\n    return 0\n", {}, "tiny")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model", ["stribeck", "lugre"])
+def test_friction_models_run_identically_on_every_path(model):
+    ov = {"t_end": 0.8, "arm.friction_model": model}
+    generic = hs.simulate(DIAGRAMS / "fig10_force_ramp.yaml", fused=False, **ov)
+    assert np.array_equal(hs.simulate(DIAGRAMS / "fig10_force_ramp.yaml", **ov).table(), generic.table())
+    assert np.array_equal(hs.simulate(DIAGRAMS / "fig10_force_ramp.yaml", compiled=True, **ov).table(),
+                          generic.table())

@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 
 from hybridsim.blocks.manipulator import Manipulator
+from hybridsim.errors import ParameterError
 
 
 def test_eq5_eq6_without_friction_hand_checked():
@@ -50,3 +51,70 @@ def test_zero_crossings_mark_stick_slip():
     arm = Manipulator()
     z = arm.zero_crossings(0, np.array([0, 0.5, 2e-4, -5e-5]), None)
     assert z[0] > 0 > z[1]
+
+
+def _arm_alone(t_end, tau, **arm):
+    """The arm with constant torques and no wrist force, from rest at q = (0.3, 0.5)."""
+    import hybridsim as hs
+
+    d = hs.Diagram("arm")
+    d.add(Manipulator("arm", q0=(0.3, 0.5), **arm))
+    d.add(hs.registry.lookup("constant")("tau", value=list(tau)))
+    d.add(hs.registry.lookup("constant")("f", value=[0.0, 0.0]))
+    d.connect("tau.y", "arm.tau")
+    d.connect("f.y", "arm.f_wrist")
+    return hs.Simulator(d.build(), hs.RK4(1e-5), log=["arm.q", "arm.qd"], log_period=0.01).run(t_end)
+
+
+def test_stribeck_sliding_friction_falls_from_static_to_coulomb():
+    import math
+
+    arm = Manipulator(q0=(0.3, 0.5), friction_model="stribeck", stribeck_velocity=(1e-3, 2e-3))
+    m2 = 6.68 + 0.58
+    for v in (2e-3, 5e-3, 0.1):
+        acc = arm.derivatives(0, np.array([0.3, 0.5, 0.0, v]), [np.zeros(2), np.zeros(2)])[3]
+        g = 3.5 + (4.6 - 3.5) * math.exp(-(v / 2e-3) ** 2)  # g(v) of joint 2
+        assert acc == pytest.approx(-g / m2, rel=1e-12)
+    # inside the stick band it sticks as Karnopp does: friction cancels a force below tau_s
+    acc = arm.derivatives(0, np.array([0.3, 0.5, 0.0, 0.0]), [np.array([0.0, 4.0]), np.zeros(2)])[3]
+    assert acc == 0.0
+
+
+def test_lugre_steady_sliding_equals_the_stribeck_curve():
+    import math
+
+    from hybridsim.blocks.manipulator import lugre, stribeck_level
+
+    arm = Manipulator(q0=(0.3, 0.5), friction_model="lugre", stribeck_velocity=(1e-3, 2e-3))
+    p = arm.params
+    for v in (-0.05, -1e-3, 5e-4, 2e-3, 0.2):
+        g = stribeck_level(v, p.tau_c[1], p.tau_s[1], p.v_s[1])
+        z_ss = math.copysign(g, v) / p.sigma0[1]  # z' = 0
+        B, zd = lugre(p, 1, v, z_ss)
+        assert zd == pytest.approx(0.0, abs=1e-15) and B == pytest.approx(-math.copysign(g, v), rel=1e-12)
+    # and the bristle state gets there: held at 0.01 m/s from z = 0, z' -> 0 and B -> the curve
+    z = 0.0
+    for _ in range(100000):  # 0.1 s: the bristle's time constant g / (sigma0 v) is 3.5 ms here
+        z += 1e-6 * lugre(p, 1, 0.01, z)[1]
+    g = stribeck_level(0.01, p.tau_c[1], p.tau_s[1], p.v_s[1])
+    assert lugre(p, 1, 0.01, z)[0] == pytest.approx(-g, rel=1e-6)
+
+
+@pytest.mark.parametrize("force", [0.05, 2.0])
+def test_lugre_presliding_deflection_follows_the_bristle_stiffness(force):
+    res = _arm_alone(0.3, (0.0, force), friction_model="lugre", bristle_stiffness=(1e5, 1e5))
+    x = res["arm.q[1]"][-1] - 0.5
+    z = res.context.xc[5]  # joint 2's bristle deflection (the arm is the only continuous block)
+    assert abs(res["arm.qd[1]"][-1]) < 1e-8  # it stopped: below break-away (4.6 N) it does not slide
+    assert z == pytest.approx(force / 1e5, rel=1e-6)  # at rest the bristles carry the force: sigma0 z = F
+    if force < 0.1:  # a small force: the linear bristle stiffness, x = F / sigma0
+        assert x == pytest.approx(force / 1e5, rel=0.01)
+    else:  # nearer break-away the bristles also slip a little (x > z); measured 2.73e-5 m for 2 N
+        assert force / 1e5 < x < 1.5 * force / 1e5
+
+
+def test_bad_friction_models_are_parameter_errors():
+    with pytest.raises(ParameterError, match="friction_model"):
+        Manipulator(friction_model="coulomb")
+    with pytest.raises(ParameterError, match="tau_s"):
+        Manipulator(tau_c=(5.0, 3.5), tau_s=(4.0, 4.6))
