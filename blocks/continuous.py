@@ -204,6 +204,54 @@ def lti_derivatives(p, t, x, u):
     return np.dot(A, np.asarray(x)) + np.dot(B, np.asarray(u[0]))
 
 
+@register("first_order")
+class FirstOrder(Block):
+    """y' = (u - y) / tau: a first-order low-pass (a force-sensor filter, an actuator lag).
+
+    ``tau`` (s) = 0 passes u through unchanged (no state): an option that is off
+    costs nothing and changes no number. Starts in balance, y(0) = u(0), unless
+    ``initial`` is given. Example: tau = 0.1 s, u = 1 from y(0) = 0 gives
+    y(0.1 s) = 1 - 1/e.
+    """
+
+    init_needs_inputs = True
+
+    def __init__(self, name="lag", tau=0.01, width=1, initial=None):
+        super().__init__(name)
+        n = count(width, "width")
+        tau = scalar(tau, "tau", "nonnegative")
+        self.params = (tau if tau > 0 else 1.0, n)
+        self.x0 = None if initial is None else vector(initial, "initial", n)
+        self.declare_input("u", n)
+        if tau == 0.0:
+            self.init_needs_inputs = False
+            self.kernels = Kernels(output=pass_through_output)
+            self.declare_output("y", n)
+        else:
+            self.declare_output("y", n, depends_on=())
+            self.declare_continuous_state(n)
+
+    def initial_state(self, u=None):
+        if self.x0 is not None:
+            return self.x0.copy()
+        return np.array(u[0], dtype=float) if u is not None else np.zeros(self.params[1])
+
+
+@kernel
+def pass_through_output(p, t, x, u):
+    return (np.asarray(u[0]) * 1.0,)
+
+
+@kernel
+def first_order_output(p, t, x, u):
+    return (np.asarray(x) * 1.0,)
+
+
+@kernel
+def first_order_derivatives(p, t, x, u):
+    return (np.asarray(u[0]) - np.asarray(x)) / p[0]
+
+
 @register("relay")
 class Relay(Block):
     """A relay with hysteresis: switches on when u rises through ``switch_on``, off when it falls through ``switch_off``.
@@ -270,5 +318,6 @@ Integrator.kernels = Kernels(output=integrator_output, derivatives=integrator_de
                              zero_crossings=integrator_crossings, event_action=integrator_event)
 FilteredDerivative.kernels = Kernels(output=derivative_output, derivatives=derivative_derivatives)
 TransferFunction.kernels = Kernels(output=lti_output, derivatives=lti_derivatives)
+FirstOrder.kernels = Kernels(output=first_order_output, derivatives=first_order_derivatives)
 Relay.kernels = Kernels(output=relay_output, derivatives=relay_derivatives,
                         zero_crossings=relay_crossings, event_action=relay_event)

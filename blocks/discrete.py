@@ -130,19 +130,40 @@ class DiscreteTransferFunction(_LTI):
 
 @register("delay_n")
 class DelayN(_Sampled):
-    """y[k] = u[k - N]: ``N`` samples of delay (the first N outputs are ``initial``)."""
+    """y[k] = u[k - N]: ``N`` samples of delay (the first N outputs are ``initial``).
 
-    def __init__(self, name="delay_n", N=1, initial=0.0, rate=None, period=None, width=1):
+    Without ``initial`` the delay starts in balance: its first N outputs are
+    its input at t = 0. N = 0 passes each sample through (no state): a delay
+    option that is off changes no number (e.g. a controller's computation
+    delay of N ticks).
+    """
+
+    init_needs_inputs = True
+
+    def __init__(self, name="delay_n", N=1, initial=None, rate=None, period=None, width=1):
         super().__init__(name, rate, period)
-        n, N = count(width, "width"), count(N, "N")
+        n, N = count(width, "width"), count(N, "N", minimum=0)
         self.params = (n, N)
-        self.x0 = np.tile(vector(initial, "initial", n), N)
-        self.declare_discrete_state(n * N)
+        self.x0 = None if initial is None else np.tile(vector(initial, "initial", n), N)
+        self.init_needs_inputs = initial is None and N > 0
         self.declare_input("u", n)
-        self.declare_output("y", n, depends_on=())
+        if N == 0:
+            self.kernels = Kernels(output=sample_output)
+            self.declare_output("y", n)
+        else:
+            self.declare_discrete_state(n * N)
+            self.declare_output("y", n, depends_on=())
 
     def initial_state(self, u=None):
-        return self.x0.copy()
+        if self.x0 is not None:
+            return self.x0.copy()
+        n, N = self.params
+        return np.tile(np.asarray(u[0], float) if u is not None else np.zeros(n), N)
+
+
+@kernel
+def sample_output(p, t, x, u):
+    return (np.asarray(u[0]) * 1.0,)
 
 
 @kernel

@@ -42,11 +42,14 @@ class Context:
                 late.append(i)
                 continue
             self._set_initial(i, b.initial_state(None))
-        if late:
-            # provisional outputs at t = 0, then the blocks that need inputs
+        # provisional outputs at t = 0, then the blocks that need inputs; again while one such
+        # block's start depends on another's (a sensor filter on a pre-loaded wrist), in any order
+        for _ in range(len(late)):
             self.evaluate(range(len(self.blocks)), 0.0, self.xc)
             for i in late:
                 self._set_initial(i, self.blocks[i].initial_state(self.u[i]))
+            if len(late) == 1:
+                break
 
     def _set_initial(self, i, x0):
         s = self.system.xslices[i]

@@ -87,3 +87,16 @@ def test_eq18_hand_mode_frequency():
     for kr, hz in fn.items():
         assert hz == pytest.approx(np.sqrt((kr + 8e5) / 0.58) / (2 * np.pi), rel=2e-3)
     assert runs[0]["metrics"]["contact_lost"] is False
+
+
+def test_sensing_and_actuation_options_start_in_balance_and_change_the_answer():
+    """Sensor filter, a tick of computation delay and an actuator lag (all off by default)."""
+    on = {"sensor_tau": 0.005, "delay_ticks": 1, "actuator_tau": 0.01, "t_end": 0.3}
+    res = hs.simulate(DIAGRAMS / "hybrid_controller.yaml", **on, log_period=0.01)
+    base = hs.simulate(DIAGRAMS / "hybrid_controller.yaml", t_end=0.3, log_period=0.01)
+    # held at 10 N from a static balance: the filter and the lag start at their inputs' values
+    assert res["ctrl.ft.CF[0]"][0] == pytest.approx(10.0, abs=1e-5)
+    assert np.max(np.abs(res["ctrl.ft.CF[0]"] - 10.0)) < 0.5
+    system = hs.build(DIAGRAMS / "hybrid_controller.yaml", **on)[0]
+    assert system.block("delay").n_discrete == 2 and system.block("sensor").n_continuous == 2
+    assert not np.array_equal(res["ctrl.ft.CF[0]"], base["ctrl.ft.CF[0]"])

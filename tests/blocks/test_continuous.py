@@ -65,3 +65,15 @@ def test_relay_switches_with_hysteresis():
     assert y[0.3] == 2.0 and y[0.5] == -1.0 and y[0.9] == 2.0
     with pytest.raises(hs.ParameterError, match="switch_off"):
         Relay(switch_on=0.0, switch_off=1.0)
+
+
+def test_first_order_lag_and_its_pass_through():
+    from hybridsim.blocks.continuous import FirstOrder
+
+    c = hs.registry.lookup("constant")("c", value=1.0)
+    res = _run([c, FirstOrder("f", tau=0.1, initial=0.0)], [("c.y", "f.u")], 0.1, ["f.y"], step=1e-4)
+    assert res["f.y[0]"][-1] == pytest.approx(1 - np.exp(-1.0), abs=1e-12)
+    res = _run([c, FirstOrder("f", tau=0.1)], [("c.y", "f.u")], 0.1, ["f.y"])
+    assert np.all(res["f.y[0]"] == 1.0)  # starts in balance with its input: y(0) = u(0)
+    off = FirstOrder("f", tau=0.0, width=2)
+    assert off.n_continuous == 0 and list(off.output(0, (), [np.array([3.0, 4.0])])[0]) == [3.0, 4.0]

@@ -70,3 +70,9 @@ def test_discrete_pid_anti_windup():
     assert sequence(back, steps)[5, 0] == -1.0
     with pytest.raises(hs.ParameterError, match="anti_windup"):
         DiscretePID(anti_windup="magic", rate=10)
+
+
+def test_a_zero_sample_delay_passes_samples_through():
+    d = DelayN(N=0, rate=10, width=2)
+    assert d.n_discrete == 0
+    assert sequence(d, [[[1.0, 2.0]], [[3.0, 4.0]]]).tolist() == [[1.0, 2.0], [3.0, 4.0]]
