@@ -34,13 +34,18 @@ typedef struct {
 
 /* ---- the model ---------------------------------------------------------- */
 
-/* eq 11, Karnopp: slide above the band, else cancel F and bring v to rest, up to tau_s */
+/* eq 11, Karnopp: slide above the band, else cancel F and bring v to rest, up to tau_s.
+ * With `stribeck` the sliding level falls from tau_s to tau_c: tc + (ts - tc) exp(-(v/vs)^2). */
 static double friction(const Plant *p, double v, double F, double m, int joint) {
     double tc = joint == 1 ? R(VR_TAU_C_1) : R(VR_TAU_C_2);
     double ts = joint == 1 ? R(VR_TAU_S_1) : R(VR_TAU_S_2);
-    double b;
+    double vs = joint == 1 ? R(VR_STRIBECK_VELOCITY_1) : R(VR_STRIBECK_VELOCITY_2);
+    double b, level;
     if (R(VR_FRICTION) == 0.0) return 0.0;
-    if (fabs(v) >= R(VR_STICK_BAND)) return v > 0 ? -tc : tc;
+    if (fabs(v) >= R(VR_STICK_BAND)) {
+        level = R(VR_STRIBECK) != 0.0 ? tc + (ts - tc) * exp(-(v / vs) * (v / vs)) : tc;
+        return v > 0 ? -level : level;
+    }
     b = -F - m * v / R(VR_STICK_TIME);
     return b > ts ? ts : (b < -ts ? -ts : b);
 }
@@ -156,6 +161,8 @@ static int cs_step(Plant *p, double h) {
 static const char *bad_parameters(Plant *p, char *msg, size_t size) {
     if (R(VR_KW) <= 0.0 || R(VR_M3) <= 0.0 || R(VR_MAX_SUBSTEP) <= 0.0)
         return "Kw, M3 and max_substep must be positive";
+    if (R(VR_STRIBECK_VELOCITY_1) <= 0.0 || R(VR_STRIBECK_VELOCITY_2) <= 0.0)
+        return "stribeck_velocity must be positive";
     if (!initial_state(p)) {
         snprintf(msg, size, "endpoint0 (%g, %g) lies within the link offset of the base",
                  R(VR_ENDPOINT0_1), R(VR_ENDPOINT0_2));

@@ -52,6 +52,9 @@ VARIABLES = [
     ("friction", P, "fixed", 1.0, "1", "stick-slip friction on"),
     ("stick_band", P, "fixed", 1e-4, "1", "Karnopp capture band on joint speeds (rad/s, m/s)"),
     ("stick_time", P, "fixed", 1e-3, "s", "time constant bringing a stuck joint to rest"),
+    ("stribeck", P, "fixed", 0.0, "1", "Stribeck sliding friction (else Karnopp's constant tau_c)"),
+    ("stribeck_velocity[1]", P, "fixed", 1e-3, "rad/s", "speed scale of the static-to-Coulomb decay, joint 1"),
+    ("stribeck_velocity[2]", P, "fixed", 1e-3, "m/s", "speed scale of the static-to-Coulomb decay, joint 2"),
     ("b[1]", P, "fixed", 0.0, "N.m.s/rad", "joint 1 viscous damping"),
     ("b[2]", P, "fixed", 0.0, "N.s/m", "joint 2 viscous damping"),
     ("bw", P, "fixed", 0.0, "N.s/m", "wrist damping"),
@@ -76,7 +79,7 @@ STATE_NAMES = [v[0] for v in VARIABLES if v[0].startswith("s.")]
 DERIVATIVES = [f"der({n})" for n in STATE_NAMES]
 N_EVENT_INDICATORS = 3  # |q1'| - band, |q2'| - band, penetration
 #: the variables that are Boolean (stored as 0/1 in the C array like the others)
-BOOLEANS = {"friction", "unilateral", "contact"}
+BOOLEANS = {"friction", "unilateral", "contact", "stribeck"}
 
 
 def all_variables():

@@ -1,5 +1,6 @@
 """FMU export and import: a valid FMU, the same answers as the Python plant,
 a plain C host and a second importer (libcosimpy) run it, foreign FMUs import."""
+import ctypes
 import os
 import shutil
 import subprocess
@@ -395,3 +396,45 @@ fmu.terminate(); fmu.freeInstance()
     r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr[-2000:]
     assert "[ERROR]" in r.stdout and "fixed parameter" in r.stdout  # fmpy printed the plant's message, formatted
+
+
+def test_the_plant_fmu_has_the_stribeck_friction_of_the_python_arm(any_plant):
+    """Joint accelerations of a sliding arm with no wrist force: the FMU's and the Python block's."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Model
+    from fmpy.fmi3 import FMU3Model
+
+    from hybridsim.blocks.manipulator import Manipulator
+
+    dbl = ctypes.POINTER(ctypes.c_double)
+    md = read_model_description(str(any_plant))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    fmi3 = md.fmiVersion == "3.0"
+    fmu = (FMU3Model if fmi3 else FMU2Model)(guid=md.guid, unzipDirectory=extract(str(any_plant)),
+                                             modelIdentifier=md.modelExchange.modelIdentifier)
+    fmu.instantiate()
+    try:
+        if fmi3:
+            fmu.enterInitializationMode(startTime=0.0)
+            fmu.setBoolean([vr["stribeck"]], [True])
+            fmu.setFloat64([vr["stribeck_velocity[2]"]], [2e-3])
+        else:
+            fmu.setupExperiment(startTime=0.0)
+            fmu.enterInitializationMode()
+            fmu.setBoolean([vr["stribeck"]], [True])
+            fmu.setReal([vr["stribeck_velocity[2]"]], [2e-3])
+        fmu.exitInitializationMode()
+        (fmu.updateDiscreteStates if fmi3 else fmu.newDiscreteStates)()
+        fmu.enterContinuousTimeMode()
+        arm = Manipulator(q0=(0.3, 0.5), friction_model="stribeck", stribeck_velocity=(1e-3, 2e-3))
+        get = fmu.getContinuousStateDerivatives if fmi3 else fmu.getDerivatives
+        for v in (3e-3, -5e-3, 0.05):
+            x = np.array([0.3, 0.5, 0.0, v, 0.0, 0.0, 0.0, 0.0])  # no wrist deflection: no wrist force
+            fmu.setContinuousStates(x.ctypes.data_as(dbl), 8)
+            dx = np.zeros(8)
+            get(dx.ctypes.data_as(dbl), 8)
+            ref = arm.derivatives(0, x[:4], [np.zeros(2), np.zeros(2)])
+            assert dx[3] == pytest.approx(ref[3], rel=1e-12), v
+    finally:
+        fmu.terminate()
+        fmu.freeInstance()
