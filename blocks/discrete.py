@@ -163,6 +163,7 @@ class DelayN(_Sampled):
 
 @kernel
 def sample_output(p, t, x, u):
+    """y[k] = u[k]: a delay_n block with N = 0."""
     return (np.asarray(u[0]) * 1.0,)
 
 

@@ -203,6 +203,7 @@ def lugre(p, i, v, z):
 
 @kernel
 def arm_lugre_derivatives(p, t, x, u):
+    """Eqs 5 and 6 with LuGre friction: (q1', q2', q1'', q2'', z1', z2')."""
     q2, v1, v2, z1, z2 = x[1], x[2], x[3], x[4], x[5]
     tau, f = u[0], u[1]
     I1 = inertia(p.I1, q2)

@@ -18,23 +18,26 @@ from ._util import count, vector
 
 GROUP = "math"  # where `hybridsim blocks` lists this module's blocks
 
-def _limits(lower, upper, n):
-    lo, hi = vector(lower, "lower", n, inf_ok=True), vector(upper, "upper", n, inf_ok=True)
-    if np.any(lo > hi):
-        raise ParameterError("lower", f"must not exceed upper ({lower!r} > {upper!r})")
-    return lo, hi
+class _Band(Block):
+    """A memoryless block of ``width`` signals with a band [lower, upper] (its params)."""
+
+    def __init__(self, name, lower, upper, width):
+        super().__init__(name)
+        n = count(width, "width")
+        lo, hi = vector(lower, "lower", n, inf_ok=True), vector(upper, "upper", n, inf_ok=True)
+        if np.any(lo > hi):
+            raise ParameterError("lower", f"must not exceed upper ({lower!r} > {upper!r})")
+        self.params = (lo, hi)
+        self.declare_input("u", n)
+        self.declare_output("y", n)
 
 
 @register("saturation")
-class Saturation(Block):
+class Saturation(_Band):
     """y = u clipped to [lower, upper]. Example: lower -1, upper 2: u = 3 gives 2, u = -5 gives -1."""
 
     def __init__(self, name="saturation", lower=-1.0, upper=1.0, width=1):
-        super().__init__(name)
-        n = count(width, "width")
-        self.params = _limits(lower, upper, n)
-        self.declare_input("u", n)
-        self.declare_output("y", n)
+        super().__init__(name, lower, upper, width)
 
 
 @kernel
@@ -43,15 +46,11 @@ def saturation_output(p, t, x, u):
 
 
 @register("dead_zone")
-class DeadZone(Block):
+class DeadZone(_Band):
     """y = 0 for lower <= u <= upper, else u minus the nearer edge. Example: [-1, 1]: u = 3 gives 2."""
 
     def __init__(self, name="dead_zone", lower=-1.0, upper=1.0, width=1):
-        super().__init__(name)
-        n = count(width, "width")
-        self.params = _limits(lower, upper, n)
-        self.declare_input("u", n)
-        self.declare_output("y", n)
+        super().__init__(name, lower, upper, width)
 
 
 @kernel
