@@ -28,10 +28,14 @@ examples:
   hybridsim report diagrams/fig9_force_and_position.yaml -o out/fig9_report
   hybridsim fmu build -o plant.fmu && hybridsim run diagrams/fig9_fmu_cs.yaml
   hybridsim sweep diagrams/sweeps/fig7_force_gains.yaml          # 5 x 5 gains, resumable
+  hybridsim run diagrams/fig9_force_and_position.yaml --set ctrl.fpi.Ki=[100,100]  # inside the Fig 6 subsystem
+  hybridsim run diagrams/examples/msd_pid.yaml                   # a PID loop from library blocks
+  hybridsim examples -o mydiagrams                               # the diagrams, to edit
   hybridsim blocks                                               # the block library
 
 --set PATH=VALUE: PATH is a name in the diagram's 'params', a block
-parameter 'block.param', or 'simulation.key' (t_end, solver, step, rtol,
+parameter 'block.param' ('sub.block.param' inside a subsystem), or
+'simulation.key' (t_end, solver, step, rtol,
 atol, log_period). VALUE is read as YAML: 10, 1e-4, [5, 50], true.
 A --set of a parameter that 'variants' sweeps fixes it to one run.
 """
