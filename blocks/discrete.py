@@ -163,8 +163,8 @@ class DelayN(_Sampled):
 
 @kernel
 def sample_output(p, t, x, u):
-    """y[k] = u[k]: a delay_n block with N = 0."""
-    return (np.asarray(u[0]) * 1.0,)
+    """y[k] = u[k]: a delay_n block with N = 0 (the input itself)."""
+    return (u[0],)
 
 
 @kernel

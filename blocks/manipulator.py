@@ -44,7 +44,9 @@ class Manipulator(Block):
     * ``lugre``: a bristle deflection z_i per joint (two more states),
       z' = v - sigma0 |v| z / g(v), friction -(sigma0 z + sigma1 z'); in steady
       sliding it equals the Stribeck curve -sgn(v) g(v), and below the break-away
-      force a joint deflects elastically by F / sigma0 (presliding).
+      force a joint deflects elastically by F / sigma0 (presliding). It is stiff:
+      z relaxes at the rate sigma0 |v| / g, which a fixed step h must keep below
+      about 2.7 / h (RK4; h = 1e-4 s holds speeds up to ~0.9 m/s with the defaults).
 
     Parameters
     ----------
@@ -83,7 +85,6 @@ class Manipulator(Block):
             friction=friction, b=floats(damping, "damping", 2, "nonnegative"), l=scalar(l, "l"),
             eps=scalar(stick_band, "stick_band", "nonnegative"),
             t_stick=scalar(stick_time, "stick_time", "positive"),
-            model=float(FRICTION_MODELS.index(friction_model)),
             v_s=floats(stribeck_velocity, "stribeck_velocity", 2, "positive"),
             sigma0=floats(bristle_stiffness, "bristle_stiffness", 2, "positive"),
             sigma1=(0.0, 0.0))
@@ -115,6 +116,9 @@ class Manipulator(Block):
             self.kernels = Kernels(output=arm_output, derivatives=arm_lugre_derivatives)
             self.declare_continuous_state(6, atol=(1e-11, 1e-11, 1e-9, 1e-9, 1e-13, 1e-13))
         else:
+            if friction_model == "stribeck" and friction:
+                self.kernels = Kernels(output=arm_output, derivatives=arm_stribeck_derivatives,
+                                       zero_crossings=arm_switches)
             self.declare_continuous_state(4, atol=(1e-11, 1e-11, 1e-9, 1e-9))
 
     def initial_state(self, u=None):
@@ -135,7 +139,6 @@ class ArmParams(NamedTuple):
     l: float         # link offset, m
     eps: float       # stick band, rad/s and m/s
     t_stick: float   # time constant that brings a sticking joint to rest, s
-    model: float     # FRICTION_MODELS index: 0 karnopp, 1 stribeck, 2 lugre
     v_s: tuple       # Stribeck velocity, rad/s and m/s
     sigma0: tuple    # LuGre bristle stiffness, N m/rad and N/m
     sigma1: tuple    # LuGre bristle damping, N m s/rad and N s/m
@@ -167,11 +170,11 @@ def friction_force(v, F, m, tau_c, tau_s, eps, t_stick):
 
 
 @kernel
-def joint_friction(p, i, v, F, m):
-    """B_i of joint ``i`` under the arm's friction model (Karnopp or Stribeck; LuGre has its own kernel)."""
-    if p.model == 1.0 and abs(v) >= p.eps:  # Stribeck: sliding friction falls with speed
-        return -math.copysign(stribeck_level(v, p.tau_c[i], p.tau_s[i], p.v_s[i]), v)
-    return friction_force(v, F, m, p.tau_c[i], p.tau_s[i], p.eps, p.t_stick)
+def stribeck_friction(v, F, m, tau_c, tau_s, v_s, eps, t_stick):
+    """B_i with Stribeck sliding friction: -sgn(v) g(v) outside the band, Karnopp's sticking inside."""
+    if abs(v) >= eps:
+        return -math.copysign(stribeck_level(v, tau_c, tau_s, v_s), v)
+    return friction_force(v, F, m, tau_c, tau_s, eps, t_stick)
 
 
 @kernel
@@ -188,8 +191,23 @@ def arm_derivatives(p, t, x, u):
     F1 = tau[0] + q2 * f[1] + l * f[0] - b[0] * v1  # eq 5 without B1
     F2 = tau[1] + f[0] - b[1] * v2                  # eq 6 without B2
     if p.friction:
-        F1 = F1 + joint_friction(p, 0, v1, F1, I1)
-        F2 = F2 + joint_friction(p, 1, v2, F2, m2)
+        F1 = F1 + friction_force(v1, F1, I1, p.tau_c[0], p.tau_s[0], p.eps, p.t_stick)
+        F2 = F2 + friction_force(v2, F2, m2, p.tau_c[1], p.tau_s[1], p.eps, p.t_stick)
+    return (v1, v2, F1 / I1, F2 / m2)
+
+
+@kernel
+def arm_stribeck_derivatives(p, t, x, u):
+    """Eqs 5 and 6 with Stribeck friction (its own kernel: a branch in the Karnopp one slowed the
+    compiled loop 5x)."""
+    q2, v1, v2 = x[1], x[2], x[3]
+    tau, f = u[0], u[1]
+    b, l, m2 = p.b, p.l, p.m2
+    I1 = inertia(p.I1, q2)
+    F1 = tau[0] + q2 * f[1] + l * f[0] - b[0] * v1  # eq 5 without B1
+    F2 = tau[1] + f[0] - b[1] * v2                  # eq 6 without B2
+    F1 = F1 + stribeck_friction(v1, F1, I1, p.tau_c[0], p.tau_s[0], p.v_s[0], p.eps, p.t_stick)
+    F2 = F2 + stribeck_friction(v2, F2, m2, p.tau_c[1], p.tau_s[1], p.v_s[1], p.eps, p.t_stick)
     return (v1, v2, F1 / I1, F2 / m2)
 
 
