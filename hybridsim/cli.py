@@ -202,11 +202,21 @@ def cmd_reproduce(args):
     from .reproduce import reproduce, summary_rows
 
     out = check_output_dir(Path(args.output or "out/reproduce"))
-    quick = dict(experiments=["eq 18"], grid=[16.0], bisections=1, sensitivities=[]) if args.quick else {}
+    quick = dict(experiments=["eq 18"], grid=[16.0], bisections=1, sensitivities=[], hinges=False) \
+        if args.quick else {}
     report = reproduce(out, jobs=args.jobs, progress=lambda m: print(f"  {m} ...", file=sys.stderr),
                        compiled=args.compiled, **quick)
     for exp, claim, ours, ok in summary_rows(report):
         print(f"  {'✓' if ok else '✗'} {exp}: {claim} - ours: {ours}")
+    h = report.get("hinges")
+    if h:
+        for r in h["rows"]:
+            if r["as_printed"] != "holds":
+                print(f"  {r['experiment']}: {r['claim']} ({r['as_printed']} as printed): {r['hinges_on'][0]}")
+        if h["best"]:
+            model = " + ".join(f"{a} {v:.3g}" for a, v in h["best"]["model"])
+            held = ", ".join(f"{k}/{n} at {rate} Hz" for rate, (k, n) in h["best"]["held"].items())
+            print(f"  best stated model: {model}: {held}")
     print(f"wrote {out}/reproduce.html (+ figures, metrics.csv, reproduce.json) "
           f"in {report['wall_time_s']:.0f} s")
     return 0

@@ -1,0 +1,232 @@
+"""What each of the paper's claims hinges on: assumptions the paper does not state, varied one at a time.
+
+For every claim of Figs 7-10 (the claims of :mod:`hybridsim.reproduce`) and
+every *assumption family* below, the claim is judged over a grid of the
+assumption's values; where its verdict flips between neighbours, the
+threshold is located by bisection. A claim then reads: holds as printed;
+holds if <assumption> (with the threshold); or not found within the ranges
+tried. A few *stated models* (combinations of the assumptions that made
+claims hold) are then judged at 60, 80 and 120 Hz, and the one under which
+the most claims hold is the "best stated model". Each as-printed verdict is
+also re-judged with the step halved and the runs 0.5 s longer (the
+steady-state windows move by 0.5 s): a verdict that changes is "fragile".
+"""
+import math
+
+from .reproduce import FAMILIES, _evaluate, _pool_map
+
+#: name -> (values tried, overrides for a value, printed value or None, unit, continuous)
+ASSUMPTIONS = {
+    "stick band": ([1e-4, 2e-4, 4e-4, 8e-4], lambda s: {"arm.stick_band": s}, 1e-4, "rad/s, m/s", True),
+    "Stribeck velocity": ([1e-3, 3e-3, 1e-2, 3e-2],
+                          lambda s: {"arm.friction_model": "stribeck", "arm.stribeck_velocity": [s, s]},
+                          None, "rad/s, m/s", True),
+    "LuGre friction": ([1.0], lambda s: {"arm.friction_model": "lugre"}, None, "", False),
+    "joint damping s": ([1.0, 4.0, 16.0, 64.0], FAMILIES["joint"], 0.0, "x (10 N m s/rad, 100 N s/m)", True),
+    "wrist damping s": ([1.0, 4.0, 16.0, 64.0], FAMILIES["wrist"], 0.0, "x 20 N s/m", True),
+    "sensor filter": ([0.002, 0.005, 0.01, 0.02], lambda s: {"sensor_tau": s}, 0.0, "s", True),
+    "computation delay": ([1], lambda s: {"delay_ticks": s}, 0, "ticks", False),
+    "actuator lag": ([0.005, 0.01, 0.02, 0.04], lambda s: {"actuator_tau": s}, 0.0, "s", True),
+}
+#: the experiments judged (eq 18 has no controller: nothing here moves it)
+JUDGED = {"Fig 7": {"rate": 60}, "Fig 8": {}, "Fig 9": {}, "Fig 10": {}}
+
+
+def _verdicts(results):
+    return [[c[3] for c in claims] for claims, _, _ in results]
+
+
+def hinge_search(name, assumption, jobs, extra=None, bisections=2, values=None):
+    """Per claim of experiment ``name``: where its verdict flips as ``assumption`` varies.
+
+    Parameters
+    ----------
+    name : str
+        An experiment of :data:`JUDGED` ("Fig 7", ...).
+    assumption : str
+        A key of :data:`ASSUMPTIONS`.
+    jobs : int
+        Worker processes.
+    extra : dict, optional
+        Overrides added to every run (e.g. ``{"compiled": True}``).
+    bisections : int
+        Bisection steps on a flip between two tried values (geometric for
+        positive values).
+    values : list, optional
+        Values to try instead of the assumption's own.
+
+    Returns
+    -------
+    dict
+        ``claims``: the claim texts; ``trials``: [(value, [verdict per claim])];
+        ``flips``: per claim None or {"from": value, "to": value, "holds_above": bool}.
+    """
+    grid, ov, _, _, continuous = ASSUMPTIONS[assumption]
+    grid = list(values or grid)
+    base = JUDGED[name]
+    results = _pool_map([(name, {**base, **ov(v)}) for v in grid], jobs, extra)
+    claims = [c[0] for c in results[0][0]]
+    trials = list(zip(grid, _verdicts(results)))
+    flips = []
+    for c in range(len(claims)):
+        flip = None
+        for (v0, a), (v1, b) in zip(trials, trials[1:]):
+            if c < len(a) and c < len(b) and a[c] != b[c]:
+                lo, hi, ok_hi = v0, v1, b[c]
+                for _ in range(bisections if continuous else 0):
+                    mid = math.sqrt(lo * hi) if lo > 0 else (lo + hi) / 2
+                    got = _verdicts(_pool_map([(name, {**base, **ov(mid)})], 1, extra))[0]
+                    trials.append((mid, got))
+                    if c >= len(got):
+                        break
+                    lo, hi = (lo, mid) if got[c] == ok_hi else (mid, hi)
+                flip = {"from": lo, "to": hi, "holds_above": bool(ok_hi)}
+                break
+        flips.append(flip)
+    trials.sort(key=lambda t: t[0])
+    return {"experiment": name, "assumption": assumption, "claims": claims,
+            "trials": [{"value": v, "verdicts": vs} for v, vs in trials], "flips": flips}
+
+
+def describe(search, c, holds_as_printed=False):
+    """A claim's line for one assumption, from every value tried, or None when it says nothing.
+
+    A failing claim: "holds if stick band >= 0.000283", "holds for joint damping s from 1 to 16",
+    "holds with LuGre friction", "holds at every Stribeck velocity tried (0.001 to 0.03)". A claim
+    that holds as printed: "fails if sensor filter >= 0.02 s" (what breaks it).
+    """
+    name = search["assumption"]
+    _, _, _, unit, continuous = ASSUMPTIONS[name]
+    seen, trials = set(), []
+    for t in search["trials"]:  # sorted by value; a value bisected for two claims counts once
+        if c < len(t["verdicts"]) and t["value"] not in seen:
+            seen.add(t["value"])
+            trials.append((t["value"], t["verdicts"][c]))
+    if not trials:
+        return None
+    want = not holds_as_printed  # the verdict worth reporting
+    hits = [v for v, ok in trials if ok == want]
+    verb = "holds" if want else "fails"
+    unit = f" {unit}" if unit else ""
+    if not hits:
+        return None
+    if not continuous:
+        return f"{verb} with {name}" + (f" {hits[0]:g}{unit}" if hits[0] != 1.0 else "")
+    values = [v for v, _ in trials]
+    if len(hits) == len(values):
+        return f"{verb} at every {name} tried ({values[0]:.3g} to {values[-1]:.3g}{unit})"
+    first, last = values.index(hits[0]), values.index(hits[-1])
+    contiguous = hits == values[first:last + 1]
+    if contiguous and last == len(values) - 1:
+        return f"{verb} if {name} >= {hits[0]:.3g}{unit}"
+    if contiguous and first == 0:
+        return f"{verb} if {name} <= {hits[-1]:.3g}{unit}"
+    if contiguous:
+        return f"{verb} for {name} from {hits[0]:.3g} to {hits[-1]:.3g}{unit}"
+    return f"{verb} at {name} = " + ", ".join(f"{v:.3g}" for v in hits) + unit
+
+
+def fragile(name, jobs, extra=None, step=1e-4):
+    """Which as-printed verdicts of ``name`` change with the step halved or the runs 0.5 s longer.
+
+    Returns
+    -------
+    list of bool
+        One per claim: True when the verdict is fragile.
+    """
+    from .api import load
+
+    base = JUDGED[name]
+    f = load(_file(name))
+    t_end = float(f.data.get("simulation", {}).get("t_end", 1.0))
+    runs = _pool_map([(name, base), (name, {**base, "step": step / 2}),
+                      (name, {**base, "t_end": t_end + 0.5})], jobs, extra)
+    printed, half, longer = _verdicts(runs)
+    return [not (printed[c] == half[c] == longer[c]) if c < min(len(half), len(longer)) else True
+            for c in range(len(printed))]
+
+
+def _file(name):
+    from .reproduce import DIAGRAMS, EXPERIMENTS
+
+    return DIAGRAMS / next(e[1] for e in EXPERIMENTS if e[0] == name)
+
+
+def stated_models(searches):
+    """Candidate models: each assumption value that made a claim hold, and the friction x lag pairs."""
+    single = {}
+    for s in searches:
+        for flip in s["flips"]:
+            if flip and flip["holds_above"]:
+                _, ov, _, _, _ = ASSUMPTIONS[s["assumption"]]
+                value = flip["to"]
+                key = (s["assumption"], value)
+                single.setdefault(s["assumption"], key)
+                if value < single[s["assumption"]][1]:
+                    single[s["assumption"]] = key  # the smallest value that made any claim hold
+    models = []
+    for assumption, value in single.values():
+        models.append(((assumption, value),))
+    friction = [m for m in models if m[0][0] in ("stick band", "Stribeck velocity", "LuGre friction")]
+    lag = [m for m in models if m[0][0] in ("actuator lag", "joint damping s", "wrist damping s")]
+    models += [f + g for f in friction for g in lag]
+    return models[:10]
+
+
+def judge_model(model, jobs, extra=None, names=tuple(JUDGED)):
+    """Claims held under ``model`` (((assumption, value), ...)) per servo rate: {rate: (held, total)}.
+
+    Figs 7, 8 and 10 run at each rate; Fig 9 compares its own three rates, so its claims count at each.
+    """
+    ov = {}
+    for assumption, value in model:
+        ov.update(ASSUMPTIONS[assumption][1](value))
+    per_rate = [n for n in names if n != "Fig 9"]
+    items = [(n, {**ov, "rate": rate}) for rate in (60, 80, 120) for n in per_rate]
+    if "Fig 9" in names:
+        items.append(("Fig 9", ov))
+    results = _pool_map(items, jobs, extra)
+    fig9 = [c[3] for c in results[-1][0]] if "Fig 9" in names else []
+    out = {}
+    for k, rate in enumerate((60, 80, 120)):
+        chunk = results[k * len(per_rate):(k + 1) * len(per_rate)]
+        held = [c[3] for claims, _, _ in chunk for c in claims] + fig9
+        out[rate] = (sum(held), len(held))
+    return out
+
+
+def hinges(jobs, extra=None, experiments=None, assumptions=None, bisections=2, progress=None):
+    """The whole analysis: searches, fragility, stated models and the best of them.
+
+    Returns
+    -------
+    dict
+        ``rows`` (per experiment and claim: as printed, fragile, what it hinges on),
+        ``searches``, ``models`` (each with its claims held per rate) and ``best``.
+    """
+    say = progress or (lambda msg: None)
+    names = [n for n in JUDGED if experiments is None or n in experiments]
+    chosen = [a for a in ASSUMPTIONS if assumptions is None or a in assumptions]
+    searches, rows = [], []
+    for name in names:
+        say(f"{name}: what its claims hinge on ({len(chosen)} assumptions)")
+        printed = _evaluate((name, {**JUDGED[name], **(extra or {})}))[0]
+        weak = fragile(name, jobs, extra)
+        mine = [hinge_search(name, a, jobs, extra, bisections) for a in chosen]
+        for search in mine:  # the value as printed (0 damping, no filter, ...) is a trial too
+            at = ASSUMPTIONS[search["assumption"]][2]
+            if at is not None and all(t["value"] != at for t in search["trials"]):
+                search["trials"].insert(0, {"value": at, "verdicts": [c[3] for c in printed]})
+        searches += mine
+        for c, (text, criterion, ours, ok) in enumerate(printed):
+            hinge = [d for d in (describe(s, c, ok) for s in mine if c < len(s["flips"])) if d]
+            nothing = ("nothing tried breaks it" if ok else
+                       f"not found within the ranges tried ({', '.join(chosen)})")
+            rows.append({"experiment": name, "claim": text, "criterion": criterion, "ours": ours,
+                         "as_printed": "fragile" if weak[c] else ("holds" if ok else "fails"),
+                         "hinges_on": hinge or [nothing]})
+    say("judging the stated models at 60, 80 and 120 Hz")
+    models = [{"model": [list(m) for m in model], "held": judge_model(model, jobs, extra, names)}
+              for model in stated_models(searches)]
+    best = max(models, key=lambda m: (sum(h for h, _ in m["held"].values()), -len(m["model"])), default=None)
+    return {"rows": rows, "searches": searches, "models": models, "best": best}
