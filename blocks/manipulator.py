@@ -183,32 +183,32 @@ def arm_output(p, t, x, u):
 
 
 @kernel
-def arm_derivatives(p, t, x, u):
+def joint_forces(p, x, u):
+    """(v1, v2, I1, F1, F2): joint rates, I1(q2) and the forces of eqs 5 and 6 without friction."""
     q2, v1, v2 = x[1], x[2], x[3]
     tau, f = u[0], u[1]
-    b, l, m2 = p.b, p.l, p.m2
-    I1 = inertia(p.I1, q2)
-    F1 = tau[0] + q2 * f[1] + l * f[0] - b[0] * v1  # eq 5 without B1
-    F2 = tau[1] + f[0] - b[1] * v2                  # eq 6 without B2
+    F1 = tau[0] + q2 * f[1] + p.l * f[0] - p.b[0] * v1  # eq 5 without B1
+    F2 = tau[1] + f[0] - p.b[1] * v2                    # eq 6 without B2
+    return v1, v2, inertia(p.I1, q2), F1, F2
+
+
+@kernel
+def arm_derivatives(p, t, x, u):
+    v1, v2, I1, F1, F2 = joint_forces(p, x, u)
     if p.friction:
         F1 = F1 + friction_force(v1, F1, I1, p.tau_c[0], p.tau_s[0], p.eps, p.t_stick)
-        F2 = F2 + friction_force(v2, F2, m2, p.tau_c[1], p.tau_s[1], p.eps, p.t_stick)
-    return (v1, v2, F1 / I1, F2 / m2)
+        F2 = F2 + friction_force(v2, F2, p.m2, p.tau_c[1], p.tau_s[1], p.eps, p.t_stick)
+    return (v1, v2, F1 / I1, F2 / p.m2)
 
 
 @kernel
 def arm_stribeck_derivatives(p, t, x, u):
     """Eqs 5 and 6 with Stribeck friction (its own kernel: a branch in the Karnopp one slowed the
     compiled loop 5x)."""
-    q2, v1, v2 = x[1], x[2], x[3]
-    tau, f = u[0], u[1]
-    b, l, m2 = p.b, p.l, p.m2
-    I1 = inertia(p.I1, q2)
-    F1 = tau[0] + q2 * f[1] + l * f[0] - b[0] * v1  # eq 5 without B1
-    F2 = tau[1] + f[0] - b[1] * v2                  # eq 6 without B2
+    v1, v2, I1, F1, F2 = joint_forces(p, x, u)
     F1 = F1 + stribeck_friction(v1, F1, I1, p.tau_c[0], p.tau_s[0], p.v_s[0], p.eps, p.t_stick)
-    F2 = F2 + stribeck_friction(v2, F2, m2, p.tau_c[1], p.tau_s[1], p.v_s[1], p.eps, p.t_stick)
-    return (v1, v2, F1 / I1, F2 / m2)
+    F2 = F2 + stribeck_friction(v2, F2, p.m2, p.tau_c[1], p.tau_s[1], p.v_s[1], p.eps, p.t_stick)
+    return (v1, v2, F1 / I1, F2 / p.m2)
 
 
 @kernel
