@@ -15,13 +15,14 @@ import math
 
 from .reproduce import FAMILIES, _evaluate, _pool_map
 
-#: name -> (values tried, overrides for a value, printed value or None, unit, continuous)
+#: name -> (values tried, overrides for a value, the value as printed or None, unit, continuous);
+#: for an on/off assumption the value 1 is on and 0 (as printed) off
 ASSUMPTIONS = {
     "stick band": ([1e-4, 2e-4, 4e-4, 8e-4], lambda s: {"arm.stick_band": s}, 1e-4, "rad/s, m/s", True),
     "Stribeck velocity": ([1e-3, 3e-3, 1e-2, 3e-2],
                           lambda s: {"arm.friction_model": "stribeck", "arm.stribeck_velocity": [s, s]},
                           None, "rad/s, m/s", True),
-    "LuGre friction": ([1.0], lambda s: {"arm.friction_model": "lugre"}, None, "", False),
+    "LuGre friction": ([1.0], lambda s: {"arm.friction_model": "lugre"}, 0.0, "", False),
     "joint damping s": ([1.0, 4.0, 16.0, 64.0], FAMILIES["joint"], 0.0, "x (10 N m s/rad, 100 N s/m)", True),
     "wrist damping s": ([1.0, 4.0, 16.0, 64.0], FAMILIES["wrist"], 0.0, "x 20 N s/m", True),
     "sensor filter": ([0.002, 0.005, 0.01, 0.02], lambda s: {"sensor_tau": s}, 0.0, "s", True),
@@ -36,7 +37,7 @@ def _verdicts(results):
     return [[c[3] for c in claims] for claims, _, _ in results]
 
 
-def hinge_search(name, assumption, jobs, extra=None, bisections=2, values=None):
+def hinge_search(name, assumption, jobs, extra=None, bisections=2, values=None, printed=None):
     """Per claim of experiment ``name``: where its verdict flips as ``assumption`` varies.
 
     Parameters
@@ -54,6 +55,9 @@ def hinge_search(name, assumption, jobs, extra=None, bisections=2, values=None):
         positive values).
     values : list, optional
         Values to try instead of the assumption's own.
+    printed : list of bool, optional
+        The claims' verdicts as printed: a trial at the assumption's printed
+        value (0 damping, LuGre off, ...), so a flip from it is found too.
 
     Returns
     -------
@@ -61,31 +65,38 @@ def hinge_search(name, assumption, jobs, extra=None, bisections=2, values=None):
         ``claims``: the claim texts; ``trials``: [(value, [verdict per claim])];
         ``flips``: per claim None or {"from": value, "to": value, "holds_above": bool}.
     """
-    grid, ov, _, _, continuous = ASSUMPTIONS[assumption]
+    grid, ov, at, _, continuous = ASSUMPTIONS[assumption]
     grid = list(values or grid)
     base = JUDGED[name]
     results = _pool_map([(name, {**base, **ov(v)}) for v in grid], jobs, extra)
     claims = [c[0] for c in results[0][0]]
-    trials = list(zip(grid, _verdicts(results)))
+    seen = dict(zip(grid, _verdicts(results)))  # value -> verdicts: each value runs once
+    if printed is not None and at is not None:
+        seen.setdefault(at, list(printed))
+
+    def verdicts(v):
+        if v not in seen:
+            seen[v] = _verdicts(_pool_map([(name, {**base, **ov(v)})], 1, extra))[0]
+        return seen[v]
+
+    tried = sorted(seen.items())
     flips = []
     for c in range(len(claims)):
         flip = None
-        for (v0, a), (v1, b) in zip(trials, trials[1:]):
+        for (v0, a), (v1, b) in zip(tried, tried[1:]):
             if c < len(a) and c < len(b) and a[c] != b[c]:
                 lo, hi, ok_hi = v0, v1, b[c]
                 for _ in range(bisections if continuous else 0):
                     mid = math.sqrt(lo * hi) if lo > 0 else (lo + hi) / 2
-                    got = _verdicts(_pool_map([(name, {**base, **ov(mid)})], 1, extra))[0]
-                    trials.append((mid, got))
+                    got = verdicts(mid)
                     if c >= len(got):
                         break
                     lo, hi = (lo, mid) if got[c] == ok_hi else (mid, hi)
                 flip = {"from": lo, "to": hi, "holds_above": bool(ok_hi)}
                 break
         flips.append(flip)
-    trials.sort(key=lambda t: t[0])
     return {"experiment": name, "assumption": assumption, "claims": claims,
-            "trials": [{"value": v, "verdicts": vs} for v, vs in trials], "flips": flips}
+            "trials": [{"value": v, "verdicts": vs} for v, vs in sorted(seen.items())], "flips": flips}
 
 
 def describe(search, c, holds_as_printed=False):
@@ -97,11 +108,7 @@ def describe(search, c, holds_as_printed=False):
     """
     name = search["assumption"]
     _, _, _, unit, continuous = ASSUMPTIONS[name]
-    seen, trials = set(), []
-    for t in search["trials"]:  # sorted by value; a value bisected for two claims counts once
-        if c < len(t["verdicts"]) and t["value"] not in seen:
-            seen.add(t["value"])
-            trials.append((t["value"], t["verdicts"][c]))
+    trials = [(t["value"], t["verdicts"][c]) for t in search["trials"] if c < len(t["verdicts"])]
     if not trials:
         return None
     want = not holds_as_printed  # the verdict worth reporting
@@ -126,8 +133,9 @@ def describe(search, c, holds_as_printed=False):
     return f"{verb} at {name} = " + ", ".join(f"{v:.3g}" for v in hits) + unit
 
 
-def fragile(name, jobs, extra=None, step=1e-4):
-    """Which as-printed verdicts of ``name`` change with the step halved or the runs 0.5 s longer.
+def fragile(name, printed, jobs, extra=None, step=1e-4):
+    """Which as-printed verdicts (``printed``) of ``name`` change with the step halved or the runs
+    0.5 s longer.
 
     Returns
     -------
@@ -137,11 +145,9 @@ def fragile(name, jobs, extra=None, step=1e-4):
     from .api import load
 
     base = JUDGED[name]
-    f = load(_file(name))
-    t_end = float(f.data.get("simulation", {}).get("t_end", 1.0))
-    runs = _pool_map([(name, base), (name, {**base, "step": step / 2}),
-                      (name, {**base, "t_end": t_end + 0.5})], jobs, extra)
-    printed, half, longer = _verdicts(runs)
+    t_end = float(load(_file(name)).data.get("simulation", {}).get("t_end", 1.0))
+    half, longer = _verdicts(_pool_map([(name, {**base, "step": step / 2}),
+                                        (name, {**base, "t_end": t_end + 0.5})], jobs, extra))
     return [not (printed[c] == half[c] == longer[c]) if c < min(len(half), len(longer)) else True
             for c in range(len(printed))]
 
@@ -153,24 +159,17 @@ def _file(name):
 
 
 def stated_models(searches):
-    """Candidate models: each assumption value that made a claim hold, and the friction x lag pairs."""
-    single = {}
+    """Candidate models: for each assumption, the smallest value that made a claim hold; and the
+    friction x lag/damping pairs of those."""
+    smallest = {}
     for s in searches:
         for flip in s["flips"]:
             if flip and flip["holds_above"]:
-                _, ov, _, _, _ = ASSUMPTIONS[s["assumption"]]
-                value = flip["to"]
-                key = (s["assumption"], value)
-                single.setdefault(s["assumption"], key)
-                if value < single[s["assumption"]][1]:
-                    single[s["assumption"]] = key  # the smallest value that made any claim hold
-    models = []
-    for assumption, value in single.values():
-        models.append(((assumption, value),))
+                smallest[s["assumption"]] = min(smallest.get(s["assumption"], math.inf), flip["to"])
+    models = [((a, v),) for a, v in smallest.items()]
     friction = [m for m in models if m[0][0] in ("stick band", "Stribeck velocity", "LuGre friction")]
     lag = [m for m in models if m[0][0] in ("actuator lag", "joint damping s", "wrist damping s")]
-    models += [f + g for f in friction for g in lag]
-    return models[:10]
+    return (models + [f + g for f in friction for g in lag])[:12]
 
 
 def judge_model(model, jobs, extra=None, names=tuple(JUDGED)):
@@ -211,12 +210,9 @@ def hinges(jobs, extra=None, experiments=None, assumptions=None, bisections=2, p
     for name in names:
         say(f"{name}: what its claims hinge on ({len(chosen)} assumptions)")
         printed = _evaluate((name, {**JUDGED[name], **(extra or {})}))[0]
-        weak = fragile(name, jobs, extra)
-        mine = [hinge_search(name, a, jobs, extra, bisections) for a in chosen]
-        for search in mine:  # the value as printed (0 damping, no filter, ...) is a trial too
-            at = ASSUMPTIONS[search["assumption"]][2]
-            if at is not None and all(t["value"] != at for t in search["trials"]):
-                search["trials"].insert(0, {"value": at, "verdicts": [c[3] for c in printed]})
+        verdicts = [c[3] for c in printed]
+        weak = fragile(name, verdicts, jobs, extra)
+        mine = [hinge_search(name, a, jobs, extra, bisections, printed=verdicts) for a in chosen]
         searches += mine
         for c, (text, criterion, ours, ok) in enumerate(printed):
             hinge = [d for d in (describe(s, c, ok) for s in mine if c < len(s["flips"])) if d]
