@@ -90,8 +90,7 @@ fmi2Status fmi2Reset(fmi2Component c) {
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real value[]) {
     Plant *p = (Plant *)c;
     size_t i;
-    if (p->mode == MODE_INIT) initial_state(p); /* the initial state of the parameters as set so far */
-    if (p->mode != MODE_INSTANTIATED) outputs(p);
+    refresh(p);
     for (i = 0; i < n; i++) {
         if (vr[i] >= N_VARS) {
             say(p, fmi2Error, "logStatusError", "fmi2GetReal: unknown value reference");
@@ -110,7 +109,7 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
             say(p, fmi2Error, "logStatusError", "fmi2SetReal: unknown value reference");
             return fmi2Error;
         }
-        if (FIXED[vr[i]] && p->mode != MODE_INSTANTIATED && p->mode != MODE_INIT) {
+        if (frozen(p, vr[i])) {
             say(p, fmi2Error, "logStatusError", "fmi2SetReal: a fixed parameter cannot change after initialization");
             return fmi2Error;
         }
@@ -126,8 +125,7 @@ fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
 fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[]) {
     Plant *p = (Plant *)c;
     size_t i;
-    if (p->mode == MODE_INIT) initial_state(p);
-    if (p->mode != MODE_INSTANTIATED) outputs(p);
+    refresh(p);
     for (i = 0; i < n; i++) {
         if (vr[i] >= N_VARS || !BOOLEAN[vr[i]]) {
             say(p, fmi2Error, "logStatusError", "fmi2GetBoolean: not a Boolean variable");
@@ -153,7 +151,7 @@ fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
             say(p, fmi2Error, "logStatusError", "fmi2SetBoolean: not a Boolean parameter");
             return fmi2Error;
         }
-        if (FIXED[vr[i]] && p->mode != MODE_INSTANTIATED && p->mode != MODE_INIT) {
+        if (frozen(p, vr[i])) {
             say(p, fmi2Error, "logStatusError", "fmi2SetBoolean: a fixed parameter cannot change after initialization");
             return fmi2Error;
         }

@@ -100,12 +100,6 @@ fmi3Status fmi3Reset(fmi3Instance c) {
     return fmi3OK;
 }
 
-/* the current values: outputs refreshed from the state (in initialization mode, the start state so far) */
-static void refresh(Plant *p) {
-    if (p->mode == MODE_INIT) initial_state(p);
-    if (p->mode != MODE_INSTANTIATED) outputs(p);
-}
-
 fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, fmi3Float64 v[], size_t nv) {
     Plant *p = (Plant *)c;
     size_t i;
@@ -134,7 +128,7 @@ fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
             say(p, fmi3Error, "logStatusError", "fmi3SetFloat64: not a Float64 variable");
             return fmi3Error;
         }
-        if (FIXED[vr[i]] && p->mode != MODE_INSTANTIATED && p->mode != MODE_INIT) {
+        if (frozen(p, vr[i])) {
             say(p, fmi3Error, "logStatusError", "fmi3SetFloat64: a fixed parameter cannot change after initialization");
             return fmi3Error;
         }
@@ -168,7 +162,7 @@ fmi3Status fmi3SetBoolean(fmi3Instance c, const fmi3ValueReference vr[], size_t 
             say(p, fmi3Error, "logStatusError", "fmi3SetBoolean: not a Boolean parameter");
             return fmi3Error;
         }
-        if (FIXED[vr[i]] && p->mode != MODE_INSTANTIATED && p->mode != MODE_INIT) {
+        if (frozen(p, vr[i])) {
             say(p, fmi3Error, "logStatusError", "fmi3SetBoolean: a fixed parameter cannot change after initialization");
             return fmi3Error;
         }

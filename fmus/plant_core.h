@@ -171,6 +171,17 @@ static const char *bad_parameters(Plant *p, char *msg, size_t size) {
     return NULL;
 }
 
+/* before a read: outputs from the state (in initialization mode, the start state of the parameters so far) */
+static void refresh(Plant *p) {
+    if (p->mode == MODE_INIT) initial_state(p);
+    if (p->mode != MODE_INSTANTIATED) outputs(p);
+}
+
+/* whether value reference vr is a fixed parameter that can no longer change (initialization is over) */
+static int frozen(const Plant *p, unsigned int vr) {
+    return FIXED[vr] && p->mode != MODE_INSTANTIATED && p->mode != MODE_INIT;
+}
+
 static const double NOMINALS[N_STATES] = {1.0, 1.0, 1.0, 1.0, 1e-5, 1e-5, 1e-2, 1e-2};
 
 #endif

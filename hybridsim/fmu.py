@@ -122,8 +122,8 @@ def _text_parameter(var, value):
     if isinstance(value, (bytes, bytearray)):
         return bytes(value)
     try:
-        return bytes.fromhex(value.replace("0x", "")) if isinstance(value, str) else _raise(ValueError())
-    except ValueError:
+        return bytes.fromhex(value.replace("0x", ""))
+    except (AttributeError, ValueError):  # not text, or not hex digits
         raise ParameterError("parameters", f"{var.name} is Binary: give its bytes as hex digits, e.g. "
                                            f"'0a ff 10', got {value!r}") from None
 

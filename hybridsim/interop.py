@@ -95,5 +95,4 @@ class ControlSystemBlock(Block):
     def derivatives(self, t, x, u):
         return np.asarray(self.sys.dynamics(t, np.asarray(x, float), u[0], self._params), float).reshape(-1)
 
-    def update(self, t, x, u):
-        return np.asarray(self.sys.dynamics(t, np.asarray(x, float), u[0], self._params), float).reshape(-1)
+    update = derivatives  # discrete: the same function gives the next state
