@@ -557,8 +557,10 @@ class DiagramFile:
         diagram = Diagram(self.name, source=str(self.path))
         problems = diagram.problems
         self.aliases = {}
+        self._cut = set()  # inputs whose wire was left out because its other end has a problem
         self._expand(diagram, params, "", (self.path.resolve(),), "")
-        problems += [p for p in diagram.check() if p not in problems]
+        problems += [p for p in diagram.check() if p not in problems
+                     and not any(p.startswith(f"input {ref} (") for ref in self._cut)]
         if self.data.get("inputs") and any("is not connected" in p for p in problems):
             problems.insert(0, f"{self.path} declares 'inputs': it is a subsystem, used from a diagram as "
                                "'{type: subsystem, file: ...}'; on its own its inputs are not wired")
@@ -627,7 +629,8 @@ class DiagramFile:
             sb, db = src.split(".")[0], dst.split(".")[0]
             if (sb in blocks and prefix + sb not in diagram.blocks and sb not in subs) or \
                     (db in blocks and prefix + db not in diagram.blocks and db not in subs):
-                continue  # the block itself already has a problem
+                self._cut.update(dsts)  # the block itself already has a problem: not this input's
+                continue
             for d in dsts:
                 diagram.connect(srcs[0], d, f"{context}{line}" if context else line)
         ins, outs = {}, {}
@@ -712,7 +715,7 @@ class DiagramFile:
         except LoaderError as exc:
             problems.append(f"{context}{spec.locs.get(next(iter(overrides), 'type'), here)}: in subsystem {bname!r}: {exc}")
             return None
-        sub.aliases = self.aliases
+        sub.aliases, sub._cut = self.aliases, self._cut  # one table of each for the whole hierarchy
         inner = f"{context}in subsystem {prefix}{bname} ({where}): "
         ins, outs = sub._expand(diagram, dict(sub.params), f"{prefix}{bname}.", chain + (path,), inner)
         if self.files is not None:

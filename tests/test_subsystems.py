@@ -132,3 +132,16 @@ def test_draw_shows_a_subsystem_as_one_box_or_expanded(nested, tmp_path):
     assert {"m.in1.g", "m.in2.s", "m.lag"} <= opened and "integ:reset=default" not in opened
     assert main(["draw", str(nested), "--expand", "-o", str(tmp_path / "d.png")]) == 0
     assert (tmp_path / "d.png").stat().st_size > 1000
+
+
+def test_a_broken_subsystem_is_one_problem_not_also_its_wires(tmp_path, capsys):
+    """Its outer wires are left out; the inputs they would have fed are not reported unconnected."""
+    (tmp_path / "inner.yaml").write_text(INNER)
+    (tmp_path / "d.yaml").write_text("blocks:\n  c: {type: constant, value: 1.0}\n"
+                                     "  m: {type: subsystem, file: inner.yaml, gian: 3}\n"
+                                     "  g: {type: gain}\n"
+                                     "wires: [c.y -> m.a, c.y -> m.b, m.y -> g.u]\n")
+    assert main(["check", str(tmp_path / "d.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert "diagram has 1 problem(s)" in err and "has no parameter 'gian'" in err
+    assert "g.u" not in err
