@@ -558,6 +558,7 @@ class DiagramFile:
         problems = diagram.problems
         self.aliases = {}
         self._cut = set()  # inputs whose wire was left out because its other end has a problem
+        self._broken = set()  # flat names of the blocks and subsystems that had a problem
         self._expand(diagram, params, "", (self.path.resolve(),), "")
         problems += [p for p in diagram.check() if p not in problems
                      and not any(p.startswith(f"input {ref} (") for ref in self._cut)]
@@ -610,8 +611,12 @@ class DiagramFile:
                 got = self._subsystem(diagram, bname, spec, params, prefix, chain, context)
                 if got is not None:
                     subs[bname] = got
+                else:
+                    self._broken.add(prefix + bname)
                 continue
             self._make_block(diagram, bname, spec, params, prefix, context)
+            if prefix + bname not in diagram.blocks:
+                self._broken.add(prefix + bname)
         wires = self.data.get("wires") or []
         for k, w in enumerate(wires):
             line = wires.locs[k]
@@ -626,10 +631,8 @@ class DiagramFile:
             dsts = self._endpoint(dst, subs, prefix, 0, line, context, problems)
             if srcs is None or dsts is None:
                 continue
-            sb, db = src.split(".")[0], dst.split(".")[0]
-            if (sb in blocks and prefix + sb not in diagram.blocks and sb not in subs) or \
-                    (db in blocks and prefix + db not in diagram.blocks and db not in subs):
-                self._cut.update(dsts)  # the block itself already has a problem: not this input's
+            if any(self._dead(r) for r in srcs + dsts):
+                self._cut.update(dsts)  # a block at one end already has a problem: not this input's
                 continue
             for d in dsts:
                 diagram.connect(srcs[0], d, f"{context}{line}" if context else line)
@@ -652,6 +655,11 @@ class DiagramFile:
         for name, ref in outs.items():
             self.aliases[prefix + name] = ref
         return ins, outs
+
+    def _dead(self, ref):
+        """Whether the flat 'block.port' ``ref`` belongs to a block (or inside a subsystem) that had a problem."""
+        block = ref.rsplit(".", 1)[0]
+        return any(block == b or block.startswith(b + ".") for b in self._broken)
 
     def _endpoint(self, ref, subs, prefix, output, line, context, problems):
         """The flat 'block.port' references a wire end names (a subsystem's port maps to its inner ones)."""
@@ -712,10 +720,15 @@ class DiagramFile:
                 return None
         try:
             sub.apply(overrides)
+            for key in overrides:  # an inner block's error names where the value came from
+                if "." in str(key):
+                    first, rest = str(key).split(".", 1)
+                    sub.data["blocks"][first].locs[rest] = spec.locs[key]
         except LoaderError as exc:
             problems.append(f"{context}{spec.locs.get(next(iter(overrides), 'type'), here)}: in subsystem {bname!r}: {exc}")
             return None
-        sub.aliases, sub._cut = self.aliases, self._cut  # one table of each for the whole hierarchy
+        # one table of each for the whole hierarchy
+        sub.aliases, sub._cut, sub._broken = self.aliases, self._cut, self._broken
         inner = f"{context}in subsystem {prefix}{bname} ({where}): "
         ins, outs = sub._expand(diagram, dict(sub.params), f"{prefix}{bname}.", chain + (path,), inner)
         if self.files is not None:
