@@ -7,7 +7,8 @@ threshold is located by bisection. A claim then reads: holds as printed;
 holds if <assumption> (with the threshold); or not found within the ranges
 tried. A few *stated models* (combinations of the assumptions that made
 claims hold) are then judged at 60, 80 and 120 Hz, and the one under which
-the most claims hold is the "best stated model". Each as-printed verdict is
+the most claims hold is the "best stated model" (each assumption enters at the largest threshold
+it showed, so that every claim it made hold on its own, where that is monotone, holds). Each as-printed verdict is
 also re-judged with the step halved and the runs 0.5 s longer (the
 steady-state windows move by 0.5 s): a verdict that changes is "fragile".
 """
@@ -159,14 +160,14 @@ def _file(name):
 
 
 def stated_models(searches):
-    """Candidate models: for each assumption, the smallest value that made a claim hold; and the
-    friction x lag/damping pairs of those."""
-    smallest = {}
+    """Candidate models: for each assumption, the value from which every claim it made hold holds
+    (the largest such threshold); and the friction x lag/damping pairs of those."""
+    value = {}
     for s in searches:
         for flip in s["flips"]:
             if flip and flip["holds_above"]:
-                smallest[s["assumption"]] = min(smallest.get(s["assumption"], math.inf), flip["to"])
-    models = [((a, v),) for a, v in smallest.items()]
+                value[s["assumption"]] = max(value.get(s["assumption"], 0.0), flip["to"])
+    models = [((a, v),) for a, v in value.items()]
     friction = [m for m in models if m[0][0] in ("stick band", "Stribeck velocity", "LuGre friction")]
     lag = [m for m in models if m[0][0] in ("actuator lag", "joint damping s", "wrist damping s")]
     return (models + [f + g for f in friction for g in lag])[:12]
