@@ -14,6 +14,28 @@ from .kinematics import L_OFFSET, inverse_kinematics
 
 
 GROUP = "paper"  # where `hybridsim blocks` lists this module's blocks
+BALANCE_KEYS = ("surface_x", "force", "Kr", "Kw", "y")
+
+
+def balance_endpoint(balance):
+    """Endpoint (m, m) in static balance: the surface and wrist springs in series carry the force.
+
+    ``balance`` is ``{surface_x: m, force: N, Kr: N/m, Kw: N/m, y: m (default 0)}``;
+    X = surface_x + force (1/Kr + 1/Kw) (docs/model.md, "Geometry").
+    """
+    if not isinstance(balance, dict):
+        raise ParameterError("balance", f"must be a mapping {{surface_x, force, Kr, Kw[, y]}}, got {balance!r}")
+    unknown = sorted(set(balance) - set(BALANCE_KEYS))
+    missing = [k for k in BALANCE_KEYS[:4] if k not in balance]
+    if unknown or missing:
+        raise ParameterError("balance", "needs surface_x, force, Kr and Kw (y optional)"
+                             + (f"; unknown {', '.join(map(str, unknown))}" if unknown else "")
+                             + (f"; missing {', '.join(missing)}" if missing else ""))
+    Kr = scalar(balance["Kr"], "balance.Kr", "positive")
+    Kw = scalar(balance["Kw"], "balance.Kw", "positive")
+    x = scalar(balance["surface_x"], "balance.surface_x") + scalar(balance["force"], "balance.force") * (1.0 / Kr + 1.0 / Kw)
+    return [x, scalar(balance.get("y", 0.0), "balance.y")]
+
 
 @register("manipulator")
 class Manipulator(Block):
@@ -57,6 +79,10 @@ class Manipulator(Block):
     damping : [N m s/rad, N s/m]   viscous joint damping b1, b2 (0 as printed)
     q0 : [rad, m]        initial joint position, or
     endpoint0 : [m, m]   initial endpoint Lambda(q) in {C} (inverse kinematics)
+    balance : {surface_x: m, force: N, Kr: N/m, Kw: N/m, y: m}   or start in static
+                         balance pressing ``force`` along C-X on a surface at X = surface_x
+                         through the surface and wrist springs in series:
+                         endpoint0 = (surface_x + force (1/Kr + 1/Kw), y); y defaults to 0
     l : m                link offset
     friction_model : 'karnopp', 'stribeck' or 'lugre'
     stribeck_velocity : [rad/s, m/s]   speed scale of the static-to-Coulomb decay
@@ -68,7 +94,7 @@ class Manipulator(Block):
 
     def __init__(self, name="arm", I1=(3.98, -5.25, 6.47), M2=6.68, M3=0.58,
                  tau_c=(5.0, 3.5), tau_s=(5.75, 4.6), friction=True,
-                 damping=(0.0, 0.0), q0=None, endpoint0=None, qd0=(0.0, 0.0),
+                 damping=(0.0, 0.0), q0=None, endpoint0=None, balance=None, qd0=(0.0, 0.0),
                  l=L_OFFSET, stick_band=1e-4, stick_time=1e-3, friction_model="karnopp",
                  stribeck_velocity=(1e-3, 1e-3), bristle_stiffness=(1e5, 1e5), bristle_damping=None):
         super().__init__(name)
@@ -90,8 +116,11 @@ class Manipulator(Block):
             sigma1=(0.0, 0.0))
         if friction and any(c > s for c, s in zip(self.params.tau_c, self.params.tau_s)):
             raise ParameterError("tau_s", f"must be at least tau_c (static >= Coulomb), got {tau_s!r}")
-        if q0 is not None and endpoint0 is not None:
-            raise ParameterError("endpoint0", "and q0 both given: give one of them")
+        given = [k for k, v in (("q0", q0), ("endpoint0", endpoint0), ("balance", balance)) if v is not None]
+        if len(given) > 1:
+            raise ParameterError(given[1], f"and {given[0]} both given: give one of them")
+        if balance is not None:
+            endpoint0 = balance_endpoint(balance)
         if endpoint0 is not None:
             e = vector(endpoint0, "endpoint0", 2)
             try:

@@ -116,8 +116,14 @@ static void outputs(Plant *p) {
     derivatives(p, x, &p->r[VR_DER0]);
 }
 
+/* the initial endpoint C-X: given, or where the wrist and surface springs in series carry the preload */
+static double start_x(Plant *p) {
+    if (R(VR_BALANCE) == 0.0) return R(VR_ENDPOINT0_1);
+    return R(VR_SURFACE_X0) + R(VR_PRELOAD) * (1.0 / R(VR_KR) + 1.0 / R(VR_KW));
+}
+
 static int initial_state(Plant *p) {
-    double X = R(VR_ENDPOINT0_1), Y = R(VR_ENDPOINT0_2), l = R(VR_L);
+    double X = start_x(p), Y = R(VR_ENDPOINT0_2), l = R(VR_L);
     double r2 = X * X + Y * Y - l * l, q1, q2;
     double *x = &p->r[VR_STATE0];
     if (r2 <= 0.0) return 0;
@@ -161,11 +167,13 @@ static int cs_step(Plant *p, double h) {
 static const char *bad_parameters(Plant *p, char *msg, size_t size) {
     if (R(VR_KW) <= 0.0 || R(VR_M3) <= 0.0 || R(VR_MAX_SUBSTEP) <= 0.0)
         return "Kw, M3 and max_substep must be positive";
+    if (R(VR_BALANCE) != 0.0 && R(VR_KR) <= 0.0)
+        return "balance = 1 needs a positive Kr (the start is where the springs carry the preload)";
     if (R(VR_STRIBECK_VELOCITY_1) <= 0.0 || R(VR_STRIBECK_VELOCITY_2) <= 0.0)
         return "stribeck_velocity must be positive";
     if (!initial_state(p)) {
         snprintf(msg, size, "endpoint0 (%g, %g) lies within the link offset of the base",
-                 R(VR_ENDPOINT0_1), R(VR_ENDPOINT0_2));
+                 start_x(p), R(VR_ENDPOINT0_2));
         return msg;
     }
     return NULL;

@@ -208,9 +208,9 @@ def test_fmu_with_an_absolute_member_is_refused_and_leaves_nothing(tmp_path, cap
 # -- wrong answers with exit 0 ---------------------------------------------------------
 
 def test_vector_parameter_of_the_wrong_width_is_an_error_at_its_line(tmp_path, capsys):
-    p = write(tmp_path, f"extends: {HC}\nblocks:\n  arm:\n    endpoint0: [0.5]\n")
+    p = write(tmp_path, f"extends: {HC}\nblocks:\n  arm:\n    balance: null\n    endpoint0: [0.5]\n")
     code, _, err = run(capsys, "check", p)
-    assert code == 2 and "d.yaml:4" in err and "'endpoint0' must have 2 elements, got 1" in err
+    assert code == 2 and "d.yaml:5" in err and "'endpoint0' must have 2 elements, got 1" in err
 
 
 def test_sweep_grid_with_an_unknown_parameter_is_exit_2(tmp_path, capsys):

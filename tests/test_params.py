@@ -63,7 +63,10 @@ def test_batched_sweep_gives_the_point_by_point_table(tmp_path):
 
 def test_runtime_params_of_a_file_follow_dollar_references():
     f = hs.load(DIAGRAMS / "fig7_force_steps.yaml", force=5.0, rate=60)
-    assert f.runtime_params({"Kr": 1e6, "ctrl.fpi.Kp": [1, 2]}) == {"surface.Kr": 1e6, "ctrl.fpi.Kp": [1, 2]}
+    # Kr also moves the arm's balanced start (X = surface_x + force0 (1/Kr + 1/Kw))
+    assert f.runtime_params({"Kr": 1e6, "ctrl.fpi.Kp": [1, 2]}) == {
+        "surface.Kr": 1e6, "ctrl.fpi.Kp": [1, 2],
+        "arm.balance": {"surface_x": 0.5, "force": 0.0, "Kr": 1e6, "Kw": 8e5}}
     with pytest.raises(InputError, match="simulation setting"):
         f.runtime_params({"simulation.t_end": 1})
 

@@ -22,11 +22,6 @@ def test_fig7_criteria_hand_checked():
     assert "1.20 N" in claims[2][2]
 
 
-def test_static_endpoint():
-    x, y = rp.static_endpoint(0.5, 10.0)
-    assert x == pytest.approx(0.5 + 10 * (1 / 9e5 + 1 / 8e5)) and y == 0.0
-
-
 @pytest.fixture(scope="module")
 def small_report(tmp_path_factory):
     out = tmp_path_factory.mktemp("repro") / "r"

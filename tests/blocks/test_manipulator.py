@@ -118,3 +118,26 @@ def test_bad_friction_models_are_parameter_errors():
         Manipulator(friction_model="coulomb")
     with pytest.raises(ParameterError, match="tau_s"):
         Manipulator(tau_c=(5.0, 3.5), tau_s=(4.0, 4.6))
+
+
+def test_balance_start_is_where_the_two_springs_carry_the_force():
+    # 10 N through Kr = 9e5 and Kw = 8e5 in series: 10 (1/9e5 + 1/8e5) = 2.36111e-5 m past the surface
+    arm = Manipulator(balance={"surface_x": 0.5, "force": 10.0, "Kr": 9e5, "Kw": 8e5})
+    given = Manipulator(endpoint0=(0.5 + 10.0 / 9e5 + 10.0 / 8e5, 0.0))
+    np.testing.assert_allclose(arm.x0, given.x0, rtol=0, atol=1e-15)
+    q1, q2 = arm.x0[:2]
+    assert np.cos(q1) * q2 + 0.153 * np.sin(q1) == pytest.approx(0.5000236111111, abs=1e-13)  # eq 1: X
+    assert Manipulator(balance={"surface_x": 0.6, "force": 0.0, "Kr": 1, "Kw": 1, "y": 0.1}).x0[0] == \
+        pytest.approx(Manipulator(endpoint0=(0.6, 0.1)).x0[0], abs=1e-15)
+
+
+@pytest.mark.parametrize("kwargs, text", [
+    ({"balance": {"surface_x": 0.5, "force": 1.0, "Kr": 9e5}}, "missing Kw"),
+    ({"balance": {"surface_x": 0.5, "force": 1.0, "Kr": 9e5, "Kw": 8e5, "z": 1}}, "unknown z"),
+    ({"balance": {"surface_x": 0.5, "force": 1.0, "Kr": 0.0, "Kw": 8e5}}, "balance.Kr"),
+    ({"balance": [0.5, 1.0]}, "must be a mapping"),
+    ({"balance": {"surface_x": 0.5, "force": 1.0, "Kr": 9e5, "Kw": 8e5}, "endpoint0": [0.5, 0]}, "both given"),
+])
+def test_bad_balance_is_a_parameter_error(kwargs, text):
+    with pytest.raises(ParameterError, match=text):
+        Manipulator(**kwargs)
