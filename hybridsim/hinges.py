@@ -14,7 +14,7 @@ steady-state windows move by 0.5 s): a verdict that changes is "fragile".
 """
 import math
 
-from .reproduce import FAMILIES, _evaluate, _pool_map
+from .reproduce import FAMILIES, _evaluate, _pool_map, conventions
 
 #: name -> (values tried, overrides for a value, the value as printed or None, unit, continuous);
 #: for an on/off assumption the value 1 is on and 0 (as printed) off
@@ -210,7 +210,8 @@ def hinges(jobs, extra=None, experiments=None, assumptions=None, bisections=2, p
     searches, rows = [], []
     for name in names:
         say(f"{name}: what its claims hinge on ({len(chosen)} assumptions)")
-        printed = _evaluate((name, {**JUDGED[name], **(extra or {})}))[0]
+        printed, _, settings = _evaluate((name, {**JUDGED[name], **(extra or {})}))
+        how = conventions(name, settings) if settings else []
         verdicts = [c[3] for c in printed]
         weak = fragile(name, verdicts, jobs, extra)
         mine = [hinge_search(name, a, jobs, extra, bisections, printed=verdicts) for a in chosen]
@@ -221,7 +222,7 @@ def hinges(jobs, extra=None, experiments=None, assumptions=None, bisections=2, p
                        f"not found within the ranges tried ({', '.join(chosen)})")
             rows.append({"experiment": name, "claim": text, "criterion": criterion, "ours": ours,
                          "as_printed": "fragile" if weak[c] else ("holds" if ok else "fails"),
-                         "hinges_on": hinge or [nothing]})
+                         "convention": how[c] if c < len(how) else "", "hinges_on": hinge or [nothing]})
     say("judging the stated models at 60, 80 and 120 Hz")
     models = [{"model": [list(m) for m in model], "held": judge_model(model, jobs, extra, names)}
               for model in stated_models(searches)]

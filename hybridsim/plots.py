@@ -163,8 +163,54 @@ def _scope_figure(f, runs, most=8):
     return fig
 
 
+BOX_W, BOX_H = 2.0, 0.9  # a block's box in the picture's units (inches for Graphviz)
+
+
+def _dot_layout(nodes, edges, back):
+    """Positions and edge paths from Graphviz's ``dot``, or None where it is not installed.
+
+    ``edges`` are (a, b) node indices; the ``back`` ones (feedback: against the
+    evaluation order) are given to dot reversed with ``dir=back``, so that the
+    forward path is ranked left to right and feedback is routed around it.
+    Returns ``(pos, paths)``: node -> (x, y) and edge -> [(x, y), ...] cubic
+    Bezier control points from the source block to the destination block.
+    """
+    import shutil
+    import subprocess
+
+    dot = shutil.which("dot")
+    if dot is None:
+        return None
+    lines = ["digraph G {", "rankdir=LR; nodesep=0.35; ranksep=0.7; splines=spline;",
+             f'node [shape=box, fixedsize=true, width={BOX_W}, height={BOX_H}];']
+    lines += [f'n{v};' for v in range(len(nodes))]
+    for (a, b) in edges:
+        lines.append(f"n{b} -> n{a} [dir=back];" if (a, b) in back else f"n{a} -> n{b};")
+    lines.append("}")
+    try:
+        out = subprocess.run([dot, "-Tplain"], input="\n".join(lines), capture_output=True, text=True,
+                             timeout=30, check=True).stdout
+    except (OSError, subprocess.SubprocessError):
+        return None  # a broken Graphviz falls back to the layered layout
+    pos, paths = {}, {}
+    for line in out.splitlines():
+        f = line.split()
+        if f and f[0] == "node":
+            pos[int(f[1][1:])] = (float(f[2]), float(f[3]))
+        elif f and f[0] == "edge":
+            t, h, n = int(f[1][1:]), int(f[2][1:]), int(f[3])
+            pts = [(float(f[4 + 2 * k]), float(f[5 + 2 * k])) for k in range(n)]
+            paths[(h, t) if (h, t) in back else (t, h)] = pts[::-1] if (h, t) in back else pts
+    if len(pos) != len(nodes):
+        return None
+    return pos, paths
+
+
 def draw_diagram(system, title=None, expand=False):
-    """Picture of a built system: blocks in dependency layers, one colour per rate.
+    """Picture of a built system: the forward path left to right, feedback routed around it.
+
+    Laid out by Graphviz's ``dot`` where it is installed (as Drake's diagrams
+    are), else in dependency layers; one colour per rate.
 
     Parameters
     ----------
@@ -203,19 +249,39 @@ def draw_diagram(system, title=None, expand=False):
         for (a, b) in edges:
             if b == v and first[a] < first[v]:
                 layer[v] = max(layer[v], layer[a] + 1)
-    cols = {}
-    for v in sorted(range(n), key=first.__getitem__):
-        cols.setdefault(layer[v], []).append(v)
-    pos = {}
-    for lx, vs in cols.items():
-        for j, v in enumerate(vs):
-            pos[v] = (lx * 3.0, -j * 1.4)
+    back = {(a, b) for (a, b) in edges if first[b] <= first[a]}
+    laid = _dot_layout(nodes, edges, back)
+    if laid is not None:
+        pos, paths = laid
+        cols = {round(x, 2): None for x, _ in pos.values()}
+    else:
+        cols, paths = {}, {}
+        for v in sorted(range(n), key=first.__getitem__):
+            cols.setdefault(layer[v], []).append(v)
+        pos = {}
+        for lx, vs in cols.items():
+            for j, v in enumerate(vs):
+                pos[v] = (lx * 3.0, -j * 1.4)
+        bottom = min(y for _, y in pos.values()) - BOX_H
+        for k, (a, b) in enumerate(sorted(back)):  # feedback: down to a lane of its own, under every box
+            (x0, y0), (x1, y1) = pos[a], pos[b]
+            lane, out, into = bottom - 0.25 * k, x0 + BOX_W / 2 + 0.15 + 0.05 * k, x1 - BOX_W / 2 - 0.15 - 0.05 * k
+            paths[(a, b)] = [(x0 + BOX_W / 2, y0), (out, y0), (out, lane), (into, lane), (into, y1),
+                             (x1 - BOX_W / 2, y1)]
     blocks = system.blocks
     rates = sorted({b.period for b in blocks if b.period is not None})
     palette = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     kind_color = {"continuous": "#cfe8cf", "direct": "#eeeeee", "constant": "#f5f5dc", "subsystem": "#dde6f5"}
-    width = max(8, 2.2 * len(cols))
-    height = max(4, 1.0 * max((len(m) for m in cols.values()), default=1))
+    xs = [p[0] for p in pos.values()] or [0.0]
+    ys = [p[1] for p in pos.values()] or [0.0]
+    for pts in paths.values():
+        xs += [p[0] for p in pts]
+        ys += [p[1] for p in pts]
+    if laid is not None:  # dot's units are inches: draw at that scale, whole
+        width, height = max(6.0, max(xs) - min(xs) + 2.6), max(3.0, max(ys) - min(ys) + 2.0)
+    else:
+        width = max(8, 2.2 * len(cols))
+        height = max(4, 1.0 * max((len(m) for m in cols.values()), default=1))
     fig, ax = plt.subplots(figsize=(width, height))
     for v, name in enumerate(nodes):
         x, y = pos[v]
@@ -227,16 +293,26 @@ def draw_diagram(system, title=None, expand=False):
             fc, label = palette[rates.index(b.period) % len(palette)], getattr(type(b), "type_name", type(b).__name__)
         else:
             fc, label = kind_color[system.kind[inside[0]]], getattr(type(b), "type_name", type(b).__name__)
-        ax.add_patch(FancyBboxPatch((x - 1.0, y - 0.45), 2.0, 0.9, boxstyle="round,pad=0.05",
+        ax.add_patch(FancyBboxPatch((x - BOX_W / 2 + 0.05, y - BOX_H / 2 + 0.05), BOX_W - 0.1, BOX_H - 0.1,
+                                    boxstyle="round,pad=0.05",
                                     fc=fc, ec="k", lw=0.8, alpha=0.85))
         ax.text(x, y + 0.12, name, ha="center", va="center", fontsize=8, weight="bold")
         ax.text(x, y - 0.2, label, ha="center", va="center", fontsize=6.5)
     for (a, b) in edges:
+        color = "tab:red" if (a, b) in back else "0.3"
+        pts = paths.get((a, b))
+        if pts:  # dot's cubic Bezier spline, or a feedback lane of the layered layout
+            from matplotlib.patches import FancyArrowPatch
+            from matplotlib.path import Path
+
+            codes = [Path.MOVETO] + [Path.CURVE4 if laid is not None else Path.LINETO] * (len(pts) - 1)
+            ax.add_patch(FancyArrowPatch(path=Path(pts, codes), arrowstyle="-|>", mutation_scale=8,
+                                         lw=0.7, color=color))
+            continue
         (x0, y0), (x1, y1) = pos[a], pos[b]
-        back = x1 <= x0
         ax.annotate("", xy=(x1 - 1.0, y1), xytext=(x0 + 1.0, y0),
-                    arrowprops=dict(arrowstyle="->", lw=0.6, color="tab:red" if back else "0.3",
-                                    connectionstyle="arc3,rad=0.25" if back else "arc3,rad=0.0"))
+                    arrowprops=dict(arrowstyle="->", lw=0.6, color=color,
+                                    connectionstyle="arc3,rad=0.25" if x1 <= x0 else "arc3,rad=0.0"))
     handles = [plt.Rectangle((0, 0), 1, 1, fc=palette[k % len(palette)]) for k in range(len(rates))]
     labels = [f"{float(1 / r):g} Hz" for r in rates]
     for kind, c in kind_color.items():
@@ -244,10 +320,8 @@ def draw_diagram(system, title=None, expand=False):
         labels.append({"continuous": "continuous state", "direct": "direct (no rate)",
                        "constant": "piecewise constant", "subsystem": "subsystem"}[kind])
     ax.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=len(labels), fontsize=7)
-    xs = [p[0] for p in pos.values()] or [0.0]
-    ys = [p[1] for p in pos.values()] or [0.0]
-    ax.set_xlim(min(xs) - 1.5, max(xs) + 1.5)
-    ax.set_ylim(min(ys) - 1, max(ys) + 1)
+    ax.set_xlim(min(xs) - 1.3, max(xs) + 1.3)
+    ax.set_ylim(min(ys) - 0.8, max(ys) + 0.8)
     ax.set_axis_off()
     ax.set_title(title or system.name)
     fig.tight_layout()

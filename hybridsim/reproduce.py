@@ -127,6 +127,36 @@ def claims_eq18(runs):
     return out
 
 
+def conventions(name, settings):
+    """How each claim of experiment ``name`` is measured, read from its run ``settings``: one text per claim.
+
+    Says the run length, the log grid, the window and whether the force is
+    the 12 Hz display-filtered one (causal 2nd-order Butterworth, started in
+    steady state: :func:`hybridsim.metrics.display_filter`) or raw.
+    """
+    sim, m = settings["simulation"], settings.get("metrics") or {}
+    t_end, log = float(sim["t_end"]), float(sim.get("log_period") or sim["step"])
+    run = f"{t_end:g} s runs, logged every {log * 1e3:g} ms"
+    filt = f"force through the causal 2nd-order Butterworth at {float(m.get('filter_cutoff', 12.0)):g} Hz"
+    contact = f"surface contact at every logged sample after first touch; {run}"
+    if name == "Fig 7":
+        ts, ss = float(m.get("step_time", 0.0)), float(m.get("ss_window", 0.5))
+        return [f"10-90 % of the step at {ts:g} s, {filt}; 60 Hz runs; {run}",
+                f"peak above the command after {ts:g} s, {filt}; 60 Hz runs; {run}",
+                f"max |F - F_d| over the last {ss:g} s ({t_end - ss:g}-{t_end:g} s), {filt}; 60 Hz runs; {run}",
+                contact]
+    if name in ("Fig 8", "Fig 10"):
+        w = [float(v) for v in m.get("error_window", (0.0, t_end))]
+        err = f"max |F - F_d| over {w[0]:g}-{w[1]:g} s, {filt}; {run}"
+        return [contact, err] if name == "Fig 8" else [err, contact]
+    if name == "Fig 9":
+        return [f"max |Y - Y_d| (raw) over 1-1.5 s minus over 0.5-1 s; {run}",
+                f"overshoot of the step response {filt}, compared between the slowest and fastest rate; {run}",
+                f"time out of contact, compared between the slowest and fastest rate; {run}",
+                f"max |Y - Y_d| (raw) over the whole run, spread across the rates; {run}"]
+    return [f"frequency from the mean crossings of the surface force (raw), one claim per Kr; {run}"]
+
+
 EXPERIMENTS = [
     # name, file, overrides for the claims' runs, claim function
     ("Fig 7", "fig7_force_steps.yaml", {}, claims_fig7),
@@ -274,9 +304,11 @@ def reproduce(outdir, jobs=None, progress=None, experiments=None, grid=GRID, bis
     for (name, fname, _, _), (claims, runs, settings) in zip(chosen, printed):
         entry = {"name": name, "file": fname, "claims": [], "searches": [],
                  "metrics": [{"label": r["label"], **r["metrics"]} for r in runs]}
-        for text, criterion, ours, ok in claims:
+        how = conventions(name, settings) if settings else [""]
+        how += how[-1:] * (len(claims) - len(how))  # eq 18: one claim per run, measured alike
+        for (text, criterion, ours, ok), convention in zip(claims, how):
             entry["claims"].append({"claim": text, "criterion": criterion, "ours": ours, "reproduced": ok,
-                                    "why": "" if ok else why[name]})
+                                    "convention": convention, "why": "" if ok else why[name]})
         if runs:
             figures.append((f"{name} as printed", runs, settings, fname))
         if not all(c[3] for c in claims):
@@ -310,9 +342,7 @@ def reproduce(outdir, jobs=None, progress=None, experiments=None, grid=GRID, bis
         from .hinges import hinges as hinge_analysis
 
         names = [e[0] for e in chosen]
-        # on the fused path even with --compiled: most assumptions change the diagram's structure,
-        # and a compile each (15 s) would cost more than the runs
-        report["hinges"] = hinge_analysis(jobs, None, experiments=names, assumptions=assumptions,
+        report["hinges"] = hinge_analysis(jobs, extra, experiments=names, assumptions=assumptions,
                                           bisections=bisections, progress=say)
     report["wall_time_s"] = time.perf_counter() - t0
     outdir = Path(outdir)
@@ -365,7 +395,8 @@ def _html(report, imgs, folder):
             mark = "reproduced" if c["reproduced"] else "not reproduced"
             color = "#dfd" if c["reproduced"] else "#fdd"
             rows += (f"<tr style='background:{color}'><td>{esc(e['name'])}</td><td>{esc(c['claim'])}</td>"
-                     f"<td>{esc(c['criterion'])}</td><td>{esc(c['ours'])}</td><td>{mark}</td>"
+                     f"<td>{esc(c['criterion'])}</td><td>{esc(c.get('convention', ''))}</td>"
+                     f"<td>{esc(c['ours'])}</td><td>{mark}</td>"
                      f"<td>{esc(c['why'])}</td></tr>")
     searches = ""
     for e in report["experiments"]:
@@ -403,7 +434,7 @@ figure{{display:inline-block;width:48%;margin:0.3em}}img{{width:100%}}figcaption
 <h1>Does the model reproduce the paper?</h1>
 <p>{n_ok} of {n} claims reproduced by the model as printed (docs/model.md: no viscous damping).
 Every run, search and analysis on this page took {report['wall_time_s']:.0f} s in all.</p>
-<h2>Claims</h2><table><tr><th>experiment</th><th>the paper's claim</th><th>criterion</th><th>our number</th><th>verdict</th><th>why</th></tr>{rows}</table>
+<h2>Claims</h2><table><tr><th>experiment</th><th>the paper's claim</th><th>criterion</th><th>how it is measured</th><th>our number</th><th>verdict</th><th>why</th></tr>{rows}</table>
 {hinge_html}
 <h2>Smallest damping that reproduces the failing experiments</h2>
 <p>Searched along each family (s doubled from 0.25 to 64 in powers of 4, then bisected); ✓ = every claim of the experiment holds.</p>
@@ -427,7 +458,8 @@ def _hinges_html(h):
     rows = "".join(
         f"<tr><td>{esc(r['experiment'])}</td><td>{esc(r['claim'])}</td>"
         f"<td style='background:{color[r['as_printed']]}'>{r['as_printed']}</td>"
-        f"<td>{esc('; '.join(r['hinges_on']))}</td></tr>" for r in h["rows"])
+        f"<td>{esc('; '.join(r['hinges_on']))}</td><td>{esc(r.get('convention', ''))}</td></tr>"
+        for r in h["rows"])
     models = "".join(
         f"<tr><td>{esc(' + '.join(f'{a} {v:.3g}' for a, v in m['model']))}</td>"
         + "".join(f"<td>{held}/{total}</td>" for held, total in m["held"].values()) + "</tr>"
@@ -443,7 +475,7 @@ Stribeck velocity 1e-3..3e-2, LuGre, joint and wrist damping families s = 1..64,
 verdict flips. "fragile": the as-printed verdict changes with the step halved or the runs 0.5 s
 longer (the steady-state windows move by 0.5 s). Fig 7 is judged at 60 Hz, with the metric windows
 of its diagram.</p>
-<table><tr><th>experiment</th><th>claim</th><th>as printed</th><th>holds if</th></tr>{rows}</table>
+<table><tr><th>experiment</th><th>claim</th><th>as printed</th><th>holds if</th><th>how it is measured</th></tr>{rows}</table>
 <h3>Stated models, claims held at 60 / 80 / 120 Hz (Figs 7, 8, 10 at that rate; Fig 9's own rates)</h3>
 <table><tr><th>model</th><th>60 Hz</th><th>80 Hz</th><th>120 Hz</th></tr>{models}</table>
 <p><b>Best stated model</b>: {esc(best_text)}.</p>"""

@@ -1,4 +1,7 @@
 """Figures: a grid of variants gets one small panel per case, as the paper draws Fig 7."""
+import matplotlib.pyplot as plt
+import pytest
+
 import hybridsim as hs
 from hybridsim.plots import experiment_figure
 from conftest import DIAGRAMS
@@ -17,3 +20,31 @@ def test_one_swept_parameter_stays_one_overlaid_figure():
     f, runs, settings = hs.run_experiment(DIAGRAMS / "fig9_force_and_position.yaml", t_end=0.05)
     fig = experiment_figure(f, runs, settings)
     assert len(fig.axes) == 3  # position, force, contact; the three rates overlaid as in Fig 9
+
+
+@pytest.mark.parametrize("graphviz", [True, False], ids=["dot", "layers"])
+def test_the_diagram_picture_keeps_every_box_and_wire_on_the_canvas(graphviz, monkeypatch):
+    import shutil
+
+    from matplotlib.patches import FancyArrowPatch
+
+    from hybridsim.plots import draw_diagram
+
+    if graphviz and shutil.which("dot") is None:
+        pytest.skip("Graphviz's dot is not installed (the layered layout is tested)")
+    if not graphviz:
+        monkeypatch.setattr(shutil, "which", lambda name: None)
+    file = hs.load(DIAGRAMS / "fig9_force_and_position.yaml")
+    system = file.build()[0].build()
+    fig = draw_diagram(system, expand=True)
+    fig.canvas.draw()
+    ax = fig.axes[0]
+    frame = ax.get_window_extent()
+    drawn = list(ax.patches) + [t.arrow_patch for t in ax.texts if getattr(t, "arrow_patch", None)]
+    for p in drawn:
+        e = p.get_window_extent()
+        assert frame.x0 - 1 <= e.x0 and e.x1 <= frame.x1 + 1 and frame.y0 - 1 <= e.y0 and e.y1 <= frame.y1 + 1, p
+    if graphviz:  # every wire is one of dot's splines; the feedback ones red
+        arrows = [p for p in ax.patches if isinstance(p, FancyArrowPatch)]
+        assert len(arrows) >= 20 and any(a.get_edgecolor()[0] > 0.7 for a in arrows)
+    plt.close(fig)

@@ -98,3 +98,23 @@ def test_the_report_says_what_each_claim_hinges_on(small_report):
     assert "What each claim hinges on" in html and "Best stated model" in html
     best = report["hinges"]["best"]
     assert best is not None and best["held"][60][0] >= 1
+
+
+def test_each_claim_states_how_it_is_measured(small_report):
+    """The convention is read from the diagram's settings: Fig 10 (3.5 s, 0.5 ms log) over 0.75-2.5 s filtered."""
+    out, report = small_report
+    fig10 = report["experiments"][0]
+    ramp, contact = (c["convention"] for c in fig10["claims"])
+    assert ramp == ("max |F - F_d| over 0.75-2.5 s, force through the causal 2nd-order Butterworth at 12 Hz; "
+                    "3.5 s runs, logged every 0.5 ms")
+    assert contact.startswith("surface contact at every logged sample")
+    assert all(r["convention"] for r in report["hinges"]["rows"])
+    assert "how it is measured" in (out / "reproduce.html").read_text()
+
+
+def test_fig7_conventions_follow_its_settings():
+    settings = {"simulation": {"t_end": 2.5, "step": 1e-4, "log_period": 0.0005},
+                "metrics": {"step_time": 0.5, "ss_window": 1.0}}
+    rise, over, steady, contact = rp.conventions("Fig 7", settings)
+    assert rise.startswith("10-90 % of the step at 0.5 s") and "12 Hz" in rise
+    assert "over the last 1 s (1.5-2.5 s)" in steady and "2.5 s runs, logged every 0.5 ms" in steady
