@@ -230,7 +230,7 @@ def main():
             fe = res["ctrl.ft.CF[0]"][: ticks.size]  # logged at the ticks
             diff = np.max(np.abs(fe - fp[: ticks.size]))
             print(f"{rate:>5} {method:>8} {tp:9.3f} {te:9.3f} {te / tp:6.2f}  {diff:.2e} N")
-    from hybridsim.fmu import build_plant_fmu
+    from hybridsim.fmus.build import build_plant_fmu
 
     with tempfile.TemporaryDirectory() as tmp:
         fmu = build_plant_fmu(Path(tmp) / "plant.fmu")

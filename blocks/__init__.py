@@ -1,7 +1,13 @@
 """The hybridsim block library: the blocks of the paper's Fig 6 and friends.
 
 Importing this package registers every block type with
-:mod:`hybridsim.registry`; diagrams refer to them by these names.
+:mod:`hybridsim.registry`; diagrams refer to them by these names. Every module
+of this folder whose name does not start with ``_`` is imported: a new block
+module needs no list to be edited.
 """
-from . import (basic, bouncing, continuous, controllers, discrete, kinematics, manipulator, noise,  # noqa: F401
-               nonlinear, sources, surface, wrist)
+import importlib
+import pkgutil
+
+for _module in pkgutil.iter_modules(__path__):
+    if not _module.name.startswith("_"):
+        importlib.import_module(f"{__name__}.{_module.name}")

@@ -1,7 +1,7 @@
-"""FMU sources: the plant in C99 behind the FMI 2.0 API, and its variable table.
+"""The plant FMU: the arm, wrist and surface of the paper in C99 behind FMI 2.0 and 3.0.
 
-``hybridsim fmu build`` (``hybridsim.fmu.build_plant_fmu``) generates
-``modelDescription.xml`` and ``plant_vars.h`` from :mod:`fmus.plant_model`,
-compiles ``plant.c`` with the system C compiler against the vendored FMI 2.0
-headers in ``include/`` (2-clause BSD, Modelica Association) and zips the FMU.
+``hybridsim fmu build`` (:func:`hybridsim.fmus.build.build_plant_fmu`) generates
+``modelDescription.xml`` and ``plant_vars.h`` from :mod:`.plant_model`, compiles
+the model (``plant_core.h``) behind ``plant.c`` (FMI 2.0) or ``plant3.c`` (FMI 3.0)
+with the system C compiler against the FMI headers fmpy ships, and zips the FMU.
 """

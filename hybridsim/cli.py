@@ -199,7 +199,7 @@ def cmd_report(args):
 
 def cmd_reproduce(args):
     """`hybridsim reproduce`: the paper's claims, one by one. Returns the exit status."""
-    from .reproduce import reproduce, summary_rows
+    from .paper.reproduce import reproduce, summary_rows
 
     out = check_output_dir(Path(args.output or "out/reproduce"))
     quick = dict(experiments=["eq 18"], grid=[16.0], bisections=1, sensitivities=[], hinges=False) \
@@ -253,7 +253,7 @@ def cmd_schema(args):
 
 def cmd_fmu_build(args):
     """`hybridsim fmu build`: export the plant FMU (FMI 2.0 or 3.0). Returns the exit status."""
-    from .fmu import build_plant_fmu
+    from .fmus.build import build_plant_fmu
 
     out = build_plant_fmu(check_output_file(args.output, ["fmu"]), fmi=args.fmi)
     print(f"wrote {out} (FMI {args.fmi}.0, Co-Simulation and Model Exchange, sources included)")

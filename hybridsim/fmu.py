@@ -1,4 +1,4 @@
-"""The FMU bridge: build the plant FMU, and use any FMU as a block (via fmpy).
+"""The FMU bridge: use any FMU as a block (via fmpy), and compile C sources into an FMU.
 
 * :func:`build_fmu` compiles a C model behind the FMI 2.0 or 3.0 API into a ``.fmu``
   (``hybridsim fmu build`` builds the plant of ``fmus/``).
@@ -613,30 +613,3 @@ def build_fmu(out, model_identifier, sources, model_description, headers, includ
                 if f.is_file():
                     z.write(f, f.relative_to(tmp).as_posix())
     return out
-
-
-def build_plant_fmu(out="plant.fmu", fmi=2):
-    """Build the hybridsim plant FMU (Co-Simulation + Model Exchange in one binary).
-
-    Parameters
-    ----------
-    out : path-like
-        The ``.fmu`` file to write.
-    fmi : {2, 3}
-        The FMI version: 2.0 or 3.0 (the same model and variables).
-
-    Returns
-    -------
-    pathlib.Path
-        ``out``.
-    """
-    import hybridsim.fmus as fmus
-    from hybridsim.fmus import plant_model as pm
-
-    if fmi not in (2, 3):
-        raise FMUError(f"FMI version {fmi!r}: the plant FMU is built as FMI 2 or 3")
-    here = Path(fmus.__file__).parent
-    headers = {"plant_vars.h": pm.vars_header(), "plant_core.h": (here / "plant_core.h").read_text()}
-    extra = {"sources/buildDescription.xml": pm.build_description()} if fmi == 3 else {}
-    return build_fmu(out, pm.MODEL_NAME, [here / f for f in pm.C_FILES[fmi]], pm.model_description(fmi),
-                     headers, extra_files=extra)

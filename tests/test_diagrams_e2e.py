@@ -16,7 +16,7 @@ ALL = sorted(DIAGRAMS.glob("*.yaml"))
 
 @pytest.fixture(scope="module")
 def plant_fmu(tmp_path_factory):
-    from hybridsim.fmu import build_plant_fmu
+    from hybridsim.fmus.build import build_plant_fmu
 
     return build_plant_fmu(tmp_path_factory.mktemp("fmu") / "plant.fmu")
 

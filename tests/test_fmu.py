@@ -13,7 +13,8 @@ import pytest
 import hybridsim as hs
 from hybridsim.cli import main
 from hybridsim.errors import FMUError
-from hybridsim.fmu import FMUBlock, build_fmu, build_plant_fmu, fmi_headers
+from hybridsim.fmu import FMUBlock, build_fmu, fmi_headers
+from hybridsim.fmus.build import build_plant_fmu
 
 from conftest import DIAGRAMS, ROOT
 

@@ -366,7 +366,8 @@ def test_report_on_a_diagram_without_state(tmp_path, capsys):
 
 
 def test_bad_fmu_parameter_value_is_exit_2(tmp_path, capsys):
-    from hybridsim.fmu import build_plant_fmu, find_compiler
+    from hybridsim.fmu import find_compiler
+    from hybridsim.fmus.build import build_plant_fmu
 
     try:
         find_compiler()

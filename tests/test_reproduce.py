@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from hybridsim import reproduce as rp
+from hybridsim.paper import reproduce as rp
 
 
 def run(metrics, **ov):

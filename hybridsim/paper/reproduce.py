@@ -12,6 +12,7 @@ difference, and a set of sensitivity runs answers the usual questions.
 Every number in the report is computed in the run; nothing is tabulated ahead.
 """
 import csv
+import inspect
 import html
 import json
 import math
@@ -22,15 +23,25 @@ from pathlib import Path
 
 import numpy as np
 
-from . import analysis as an
-from .api import run_experiment
-from .errors import SimulationError
-from .examples import diagrams_folder
-from .files import atomic_dir
+from .. import analysis as an
+from ..api import run_experiment
+from ..errors import SimulationError
+from ..examples import diagrams_folder
+from ..files import atomic_dir
+from ..blocks.surface import Surface
+from ..blocks.wrist import Wrist
 
 DIAGRAMS = diagrams_folder()  # the shipped diagrams, installed with the package
 
-KW, KR, L = 8.0e5, 9.0e5, 0.153
+
+
+def _default(cls, name):
+    """A block parameter's default: the model's constants are read from the blocks that own them."""
+    return inspect.signature(cls.__init__).parameters[name].default
+
+
+KW, M3 = _default(Wrist, "Kw"), _default(Wrist, "M3")  # wrist stiffness N/m, hand mass kg (Appendix A)
+KR = _default(Surface, "Kr")  # surface stiffness, N/m
 FAMILIES = {
     "joint": lambda s: {"joint_damping": [10.0 * s, 100.0 * s]},
     "wrist": lambda s: {"wrist_damping": 20.0 * s},
@@ -120,7 +131,7 @@ def claims_eq18(runs):
     out = []
     for r in runs:
         kr = r["overrides"]["Kr"]
-        pred = math.sqrt((kr + KW) / 0.58) / (2 * math.pi)
+        pred = math.sqrt((kr + KW) / M3) / (2 * math.pi)  # eq 18
         hz = r["metrics"]["oscillation_hz"]
         out.append((f"hand oscillation at (1/2π)√((Kr+Kw)/M3), Kr = {kr:.1e}", f"{pred:.1f} Hz (paper: 280, observed 286)",
                     f"{hz:.1f} Hz", abs(hz - pred) / pred < 0.01))
@@ -284,11 +295,11 @@ def reproduce(outdir, jobs=None, progress=None, experiments=None, grid=GRID, bis
     ``experiments`` (names such as "Fig 7"), ``grid``, ``bisections`` and
     ``sensitivities`` narrow the work (the defaults do all of it); ``compiled``
     runs every simulation on the compiled path (the same numbers). ``hinges``
-    adds what each claim hinges on (:mod:`hybridsim.hinges`, over
+    adds what each claim hinges on (:mod:`hybridsim.paper.hinges`, over
     ``assumptions``, default all) and the best stated model.
     """
     extra = {"compiled": True} if compiled else {}
-    from .plots import experiment_figure
+    from ..plots import experiment_figure
     import matplotlib.pyplot as plt
 
     say = progress or (lambda msg: None)
@@ -349,7 +360,7 @@ def reproduce(outdir, jobs=None, progress=None, experiments=None, grid=GRID, bis
     with atomic_dir(outdir) as tmp:
         imgs = []
         for k, (title, runs, settings, fname) in enumerate(figures):
-            from .loader import DiagramFile
+            from ..loader import DiagramFile
 
             f = DiagramFile(DIAGRAMS / fname)
             f.description = title

@@ -1,6 +1,6 @@
 """What each of the paper's claims hinges on: assumptions the paper does not state, varied one at a time.
 
-For every claim of Figs 7-10 (the claims of :mod:`hybridsim.reproduce`) and
+For every claim of Figs 7-10 (the claims of :mod:`hybridsim.paper.reproduce`) and
 every *assumption family* below, the claim is judged over a grid of the
 assumption's values; where its verdict flips between neighbours, the
 threshold is located by bisection. A claim then reads: holds as printed;
@@ -143,7 +143,7 @@ def fragile(name, printed, jobs, extra=None, step=1e-4):
     list of bool
         One per claim: True when the verdict is fragile.
     """
-    from .api import load
+    from ..api import load
 
     base = JUDGED[name]
     t_end = float(load(_file(name)).data.get("simulation", {}).get("t_end", 1.0))
