@@ -32,6 +32,8 @@ class Integrator(Block):
     lower, upper : float or list   limits of x (default unlimited)
     width : int                number of signals
 
+    Notes
+    -----
     Reaching a limit is a located event: x is set to the limit and the
     integrator stops (a mode state m = +1 at the upper limit, -1 at the
     lower) while u pushes outward; it leaves the limit, another located event,

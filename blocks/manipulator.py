@@ -49,8 +49,8 @@ class Manipulator(Block):
 
     Friction (eq 11), Karnopp model with a capture band ``stick_band``:
 
-    * sliding, |q_i'| >= stick_band: B_i = -sgn(q_i') tau_c,i
-    * sticking, |q_i'| < stick_band: friction cancels the net non-friction force
+    * sliding, ``|q_i'| >= stick_band``: B_i = -sgn(q_i') tau_c,i
+    * sticking, ``|q_i'| < stick_band``: friction cancels the net non-friction force
       F_i and brings the velocity to rest with time constant ``stick_time``,
       up to the static limit: B_i = clip(-F_i - m_i q_i'/stick_time, +-tau_s,i).
 
@@ -64,10 +64,10 @@ class Manipulator(Block):
       static level to the Coulomb level as the speed grows,
       g(v) = tau_c + (tau_s - tau_c) exp(-(v / stribeck_velocity)^2);
     * ``lugre``: a bristle deflection z_i per joint (two more states),
-      z' = v - sigma0 |v| z / g(v), friction -(sigma0 z + sigma1 z'); in steady
+      ``z' = v - sigma0 |v| z / g(v)``, friction -(sigma0 z + sigma1 z'); in steady
       sliding it equals the Stribeck curve -sgn(v) g(v), and below the break-away
       force a joint deflects elastically by F / sigma0 (presliding). It is stiff:
-      z relaxes at the rate sigma0 |v| / g, which a fixed step h must keep below
+      z relaxes at the rate ``sigma0 |v| / g``, which a fixed step h must keep below
       about 2.7 / h (RK4; h = 1e-4 s holds speeds up to ~0.9 m/s with the defaults).
 
     Parameters
@@ -242,7 +242,7 @@ def arm_stribeck_derivatives(p, t, x, u):
 
 @kernel
 def lugre(p, i, v, z):
-    """(friction B_i, z') of LuGre for joint ``i``: z' = v - sigma0 |v| z / g(v), B = -(sigma0 z + sigma1 z')."""
+    """(friction B_i, z') of LuGre for joint ``i``: ``z' = v - sigma0 |v| z / g(v)``, ``B = -(sigma0 z + sigma1 z')``."""
     g = stribeck_level(v, p.tau_c[i], p.tau_s[i], p.v_s[i])
     zd = v - p.sigma0[i] * abs(v) * z / g
     return -(p.sigma0[i] * z + p.sigma1[i] * zd), zd

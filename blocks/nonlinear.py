@@ -85,7 +85,7 @@ def switch_output(p, t, x, u):
 
 @register("product")
 class Product(Block):
-    """y = u1 * u2 / u3 ... element-wise, by ``ops`` ('**/' : u1 u2 / u3).
+    """y = u1 * u2 / u3 ... element-wise, by ``ops`` (``'**/'``: u1 u2 / u3).
 
     A division by exactly zero is a run-time error (the run stops on the
     non-finite value), never a silent inf.

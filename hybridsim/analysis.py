@@ -112,7 +112,7 @@ def margins(L):
 
 
 def largest_abs_z(path, overrides):
-    """Largest |z| (besides z = 1) of a diagram file's closed loop, or None."""
+    """Largest ``|z|`` (besides z = 1) of a diagram file's closed loop, or None."""
     try:
         system, _, _ = build(path, **overrides)
         return Linearization(system).closed_loop().growth

@@ -386,7 +386,7 @@ class DiscreteModel:
 
     @property
     def growth(self):
-        """Largest |z| apart from the poles at z = 1; < 1 means asymptotically
+        """Largest ``|z|`` apart from the poles at z = 1; < 1 means asymptotically
         stable except for constant integrator directions."""
         p = self.poles
         rest = p[np.abs(p - 1.0) >= 1e-7]
@@ -397,7 +397,7 @@ class DiscreteModel:
         return self.growth < 1.0 - 1e-9
 
     def pole_table(self):
-        """Rows (z, |z|, frequency Hz, damping) with s = ln(z)/T; sorted by |z| descending."""
+        """Rows (z, ``|z|``, frequency Hz, damping) with s = ln(z)/T; sorted by ``|z|`` descending."""
         rows = []
         for z in self.poles:
             if abs(z) < 1e-12:

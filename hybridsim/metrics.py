@@ -51,7 +51,7 @@ def step_response(t, y, t_step, y0, y1):
 
 
 def max_abs_error(t, y, y_d, window=None):
-    """max |y - y_d| over ``window`` = (t0, t1) (whole run if None)."""
+    """max ``|y - y_d|`` over ``window`` = (t0, t1) (whole run if None)."""
     t = np.asarray(t)
     m = np.ones_like(t, bool) if window is None else (t >= window[0]) & (t <= window[1])
     if not m.any():

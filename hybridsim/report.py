@@ -5,7 +5,7 @@ at 60, 80, 120 Hz), as printed and under each ``analysis.compare`` setting
 (e.g. a damped model), and writes ``report.html`` with: the diagram picture;
 Bode plots of each loop with margins marked; root locus against the force
 gain with the Appendix A gains marked; the pole map in the unit circle; the
-largest |z| against servo rate and against each gain scale; the linear step
+largest ``|z|`` against servo rate and against each gain scale; the linear step
 response beside the nonlinear simulation; and the numbers in tables.
 """
 import base64
@@ -119,7 +119,7 @@ def root_locus(path, base, ref, value, scales):
 
 
 def sweep_chart(rows_by_label, xkey, xlabel, logx=True):
-    """Largest |z| of the closed loop against ``xkey`` (servo rate or gain scale), one line per label; a Figure."""
+    """Largest ``|z|`` of the closed loop against ``xkey`` (servo rate or gain scale), one line per label; a Figure."""
     fig, ax = plt.subplots(figsize=(6, 3.6))
     for label, rows in rows_by_label:
         x = [r[xkey] for r in rows if r["spectral_radius"] is not None]

@@ -2,13 +2,13 @@
 
 Each block falls in one of four classes:
 
-``discrete``   has a sample period; outputs computed at its hits and held
-               (zero-order hold) in between;
-``continuous`` has continuous state, integrated by the solver;
-``constant``   stateless, not time-varying, fed only by discrete or constant
-               blocks: its outputs change only at sample hits;
-``direct``     any other stateless block (sources, kinematics of plant
-               signals): evaluated whenever its outputs are needed.
+* ``discrete``: has a sample period; outputs computed at its hits and held
+  (zero-order hold) in between;
+* ``continuous``: has continuous state, integrated by the solver;
+* ``constant``: stateless, not time-varying, fed only by discrete or constant
+  blocks: its outputs change only at sample hits;
+* ``direct``: any other stateless block (sources, kinematics of plant
+  signals): evaluated whenever its outputs are needed.
 
 From this the system precomputes, once, the short list of blocks to evaluate
 inside the right-hand side (``rhs_path``) and for logging, so the integrator's
