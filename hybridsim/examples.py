@@ -59,7 +59,7 @@ def copy_examples(out):
     src = diagrams_folder()
     written, kept = [], []
     for f in sorted(src.rglob("*")):
-        if f.suffix.lower() not in (".yaml", ".yml", ".md") or "__pycache__" in f.parts:
+        if f.suffix.lower() not in (".yaml", ".yml", ".md", ".urdf") or "__pycache__" in f.parts:
             continue
         dest = out / f.relative_to(src)
         if dest.exists():

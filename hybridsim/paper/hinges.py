@@ -195,6 +195,24 @@ def judge_model(model, jobs, extra=None, names=tuple(JUDGED)):
     return out
 
 
+def _warm_up(names, chosen, jobs, extra):
+    """On the compiled path: one run of each diagram structure the analysis will use, all at once.
+
+    Most assumptions change a diagram's structure (a friction kernel, a filter's
+    state, a delay line), and each structure compiles once (~14 s). Run one
+    after another, both workers would compile the same module at the same
+    time; warmed up together, the two compile different ones and every later
+    run loads its module from the cache.
+    """
+    items = [(n, {**JUDGED[n], **ASSUMPTIONS[a][1](ASSUMPTIONS[a][0][0])}) for n in names for a in chosen]
+    lag = ASSUMPTIONS["actuator lag"][1](ASSUMPTIONS["actuator lag"][0][0]) if "actuator lag" in chosen else None
+    for friction in ("Stribeck velocity", "LuGre friction"):  # the stated models' friction x lag pairs
+        if lag and friction in chosen:
+            ov = ASSUMPTIONS[friction][1](ASSUMPTIONS[friction][0][0])
+            items += [(n, {**JUDGED[n], **ov, **lag}) for n in names]
+    _pool_map(items, jobs, extra)
+
+
 def hinges(jobs, extra=None, experiments=None, assumptions=None, bisections=2, progress=None):
     """The whole analysis: searches, fragility, stated models and the best of them.
 
@@ -208,6 +226,9 @@ def hinges(jobs, extra=None, experiments=None, assumptions=None, bisections=2, p
     names = [n for n in JUDGED if experiments is None or n in experiments]
     chosen = [a for a in ASSUMPTIONS if assumptions is None or a in assumptions]
     searches, rows = [], []
+    if (extra or {}).get("compiled"):
+        say("compiling each structure the analysis uses, two at a time (numba; cached for later runs)")
+        _warm_up(names, chosen, jobs, extra)
     for name in names:
         say(f"{name}: what its claims hinge on ({len(chosen)} assumptions)")
         printed, _, settings = _evaluate((name, {**JUDGED[name], **(extra or {})}))
