@@ -350,7 +350,7 @@ class TaskPhases(Block):
             Xd = x[8:14].copy()
             s = t - x[1]
             Fd[k] = self.f0 + (self.f1 - self.f0) * (min(1.0, s / self.t_ramp) if self.t_ramp > 0 else 1.0)
-            if x[0] == 1.0 and s >= self.t_ramp + self.t_settle:
+            if x[0] == 1.0 and s >= self.t_ramp + self.t_settle - 1e-9:  # a tick that lands on it, in floats
                 x[0], x[1] = 2.0, t
             if x[0] == 2.0:
                 a, b = [i for i in range(3) if i != k]

@@ -1,0 +1,121 @@
+"""URDF arms by Pinocchio: dynamics against a hand derivation, kinematics against finite differences."""
+import numpy as np
+import pytest
+
+from hybridsim.blocks.robot import GravityTorque, RobotArm, RobotKinematics, urdf_path
+from hybridsim.blocks.kinematics import endpoint, jacobian_rows
+from hybridsim.blocks.task_space import rotation_vector
+from hybridsim.errors import ParameterError
+
+# the Fig 3 arm as a rigid body (diagrams/robots/fig3_arm.urdf)
+IA, IB, M, C, L = 2.850929, 0.01, 7.26, -0.361570, 0.153
+
+
+def lagrange_fig3(q, qd, tau, g=9.81):
+    """q'' of the URDF's two bodies by Lagrange's equations, written out by hand, gravity along -Y.
+
+    Link 2 (mass M, own inertia IB about Z) has its centre at R(q1) (q2 + C, -L); link 1 only
+    rotates (IA). KE = 1/2 (IA + IB) q1'^2 + 1/2 M ((q2' + L q1')^2 + (q2 + C)^2 q1'^2),
+    V = M g ((q2 + C) sin q1 - L cos q1).
+    """
+    q1, q2 = q
+    d1, d2 = qd
+    mass = np.array([[IA + IB + M * (L ** 2 + (q2 + C) ** 2), M * L], [M * L, M]])
+    coriolis = np.array([2 * M * (q2 + C) * d1 * d2, -M * (q2 + C) * d1 ** 2])
+    gravity = np.array([M * g * ((q2 + C) * np.cos(q1) + L * np.sin(q1)), M * g * np.sin(q1)])
+    return np.linalg.solve(mass, np.asarray(tau) - coriolis - gravity)
+
+
+def test_forward_dynamics_equal_a_lagrangian_written_by_hand():
+    arm = RobotArm(robot="fig3_arm", frame="tool", gravity=(0.0, -9.81, 0.0))
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        q, qd, tau = rng.uniform([-2, 0.2], [2, 0.8]), rng.normal(size=2), rng.normal(size=2) * 20
+        d = arm.derivatives(0.0, np.concatenate([q, qd]), [tau, np.zeros(6)])
+        np.testing.assert_allclose(d[:2], qd, rtol=0, atol=0)
+        np.testing.assert_allclose(d[2:], lagrange_fig3(q, qd, tau), rtol=0, atol=1e-9)
+
+
+def test_the_fig3_urdf_has_the_papers_geometry_and_inertia_coefficients():
+    kin = RobotKinematics(robot="fig3_arm", frame="tool")
+    arm = RobotArm(robot="fig3_arm")
+    rng = np.random.default_rng(2)
+    for q in rng.uniform([-2, 0.2], [2, 0.8], size=(10, 2)):
+        p, R, _, J = kin.output(0.0, None, [q, np.zeros(2)])
+        np.testing.assert_allclose(p[:2], endpoint(q), atol=1e-12)  # eq 3a
+        np.testing.assert_allclose(J.reshape(6, 2)[:2], np.array(jacobian_rows(q, L)), atol=1e-12)
+        import pinocchio as pin
+
+        M11 = pin.crba(arm.model, arm.data, q)[0, 0]
+        assert M11 == pytest.approx(3.98 - 5.25 * q[1] + 7.26 * q[1] ** 2, abs=1e-5)  # eq 5, q2^2: 7.26 not 6.47
+
+
+def test_ur5_jacobian_equals_finite_differences_of_the_pose():
+    kin = RobotKinematics(robot="ur5", frame="tool0")
+    rng = np.random.default_rng(3)
+    h = 1e-6
+    for q in rng.uniform(-2.5, 2.5, size=(5, 6)):
+        p, R, _, J = kin.output(0.0, None, [q, np.zeros(6)])
+        J = J.reshape(6, 6)
+        for i in range(6):
+            dq = np.zeros(6)
+            dq[i] = h
+            p1, R1, _, _ = kin.output(0.0, None, [q + dq, np.zeros(6)])
+            p0, R0, _, _ = kin.output(0.0, None, [q - dq, np.zeros(6)])
+            np.testing.assert_allclose((p1 - p0) / (2 * h), J[:3, i], atol=1e-8)
+            w = rotation_vector(R1.reshape(3, 3) @ R0.reshape(3, 3).T) / (2 * h)
+            np.testing.assert_allclose(w, J[3:, i], atol=1e-8)
+
+
+def test_a_wrench_balanced_by_jacobian_transpose_holds_the_arm_still():
+    arm = RobotArm(robot="ur5", frame="tool0", gravity=(0, 0, 0))
+    kin = RobotKinematics(robot="ur5", frame="tool0")
+    q = np.array([0.3, -1.2, 1.5, -1.0, -1.6, 0.2])
+    J = kin.output(0.0, None, [q, np.zeros(6)])[3].reshape(6, 6)
+    w = np.array([10.0, -5.0, 20.0, 0.5, -0.3, 1.0])
+    d = arm.derivatives(0.0, np.concatenate([q, np.zeros(6)]), [-J.T @ w, w])  # tau = -J^T F: static
+    np.testing.assert_allclose(d, 0.0, atol=1e-10)
+
+
+def test_gravity_torque_holds_the_arm_against_gravity():
+    arm, grav = RobotArm(robot="ur5"), GravityTorque(robot="ur5")
+    q = np.array([0.3, -1.2, 1.5, -1.0, -1.6, 0.2])
+    d = arm.derivatives(0.0, np.concatenate([q, np.zeros(6)]), [grav.output(0, None, [q])[0], np.zeros(6)])
+    np.testing.assert_allclose(d, 0.0, atol=1e-10)
+    assert np.abs(grav.output(0, None, [q])[0]).max() > 1.0  # the shoulder carries the arm
+
+
+def test_friction_holds_a_joint_below_the_static_level_and_lets_it_slide_above():
+    common = dict(robot="fig3_arm", gravity=(0, 0, 0), friction=True, tau_c=[5.0, 3.5], tau_s=[5.75, 4.6])
+    arm = RobotArm(**common)
+    x = np.array([0.3, 0.5, 0.0, 0.0])
+    held = arm.derivatives(0.0, x, [np.array([0.0, 4.5]), np.zeros(6)])
+    assert abs(held[3]) < 1e-9  # 4.5 N < 4.6 N static: stuck
+    slides = arm.derivatives(0.0, x, [np.array([0.0, 4.7]), np.zeros(6)])
+    assert slides[3] > 0.0
+    sliding = arm.derivatives(0.0, np.array([0.3, 0.5, 0.0, 0.1]), [np.zeros(2), np.zeros(6)])
+    ref = RobotArm(robot="fig3_arm", gravity=(0, 0, 0)).derivatives(
+        0.0, np.array([0.3, 0.5, 0.0, 0.1]), [np.array([0.0, -3.5]), np.zeros(6)])
+    np.testing.assert_allclose(sliding, ref, atol=1e-12)  # sliding: -sgn(v) tau_c
+    assert list(arm.zero_crossings(0, np.array([0.3, 0.5, 0.0, 0.1]), None)) == pytest.approx([-1e-4, 0.1 - 1e-4])
+
+
+@pytest.mark.parametrize("kwargs, text", [
+    ({}, "give a URDF file"),
+    ({"robot": "r2d2"}, "unknown robot"),
+    ({"urdf": "no/such.urdf"}, "file not found"),
+    ({"robot": "ur5", "frame": "tool1"}, "did you mean 'tool0'"),
+    ({"robot": "ur5", "q0": [0.0, 1.0]}, "'q0' must have 6 elements"),
+    ({"robot": "ur5", "friction": True, "tau_c": 2.0, "tau_s": 1.0}, "static >= Coulomb"),
+])
+def test_bad_robot_parameters_are_parameter_errors(kwargs, text):
+    with pytest.raises(ParameterError, match=text):
+        RobotArm(**kwargs)
+
+
+def test_a_file_that_is_not_a_robot_is_a_parameter_error(tmp_path):
+    bad = tmp_path / "bad.urdf"
+    bad.write_text("<robot name='x'><link name='a'/></robot>")
+    with pytest.raises(ParameterError, match="no moving joint|not a robot model"):
+        RobotArm(urdf=str(bad))
+    assert urdf_path(robot="ur5").name == "ur5_robot.urdf"

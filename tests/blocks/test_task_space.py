@@ -1,0 +1,130 @@
+"""Six-axis task-space blocks: the force transform, the plane, the 6-D hybrid law, task phases."""
+import numpy as np
+import pytest
+
+from hybridsim.blocks.controllers import ForcePI, PositionPID
+from hybridsim.blocks.kinematics import ForceTransform, endpoint, jacobian_rows
+from hybridsim.blocks.task_space import HybridControl6D, PlaneContact, TaskPhases, WrenchTransform, rotation
+from hybridsim.errors import ParameterError, SimulationError
+
+
+def test_wrench_transform_adds_the_lever_arm_moment():
+    # 10 N along X at a point 0.2 m above (Z) the new reference point: moment r x f = (0, 2, 0) N m
+    wt = WrenchTransform(lever=(0.0, 0.0, 0.2))
+    (w,) = wt.output(0, None, [np.array([10.0, 0, 0, 0, 0, 0]), np.eye(3).ravel(), np.array([0, 0, 0.2])])
+    np.testing.assert_allclose(w, [10, 0, 0, 0, 2.0, 0], atol=1e-15)
+    # a quarter turn about Z turns X into Y, the moment too
+    R = rotation([0, 0, np.pi / 2]).ravel()
+    (w,) = wt.output(0, None, [np.array([1.0, 0, 0, 0.5, 0, 0]), R, np.zeros(3)])
+    np.testing.assert_allclose(w, [0, 1, 0, 0, 0.5, 0], atol=1e-15)
+
+
+def test_in_the_plane_it_equals_the_papers_force_transform():
+    ft, wt = ForceTransform(), WrenchTransform()
+    rng = np.random.default_rng(4)
+    for q, F in zip(rng.uniform([-2, 0.2], [2, 0.8], size=(10, 2)), rng.normal(size=(10, 2)) * 10):
+        R = rotation([0, 0, q[0]]).ravel()  # the hand frame turns with q1
+        (w,) = wt.output(0, None, [np.concatenate([F, np.zeros(4)]), R, np.zeros(3)])
+        np.testing.assert_allclose(w[:2], ft.output(0, None, [q, F])[0], rtol=0, atol=1e-12)
+
+
+def test_plane_pushes_along_its_normal_and_rubs_against_sliding():
+    plane = PlaneContact(point=(0, 0, 0.1), normal=(0, 0, 2.0), stiffness=1e4, damping=100.0, mu=0.5,
+                         slip_velocity=1e-3)
+    # 1 mm inside, sinking at 1 cm/s, sliding at 0.2 m/s along X: fn = 1e4 * 1e-3 + 100 * 0.01 = 11 N
+    w, F, contact, depth = plane.output(0, None, [np.array([0.3, 0.0, 0.099]), np.array([0.2, 0, -0.01, 0, 0, 0])])
+    assert depth[0] == pytest.approx(1e-3) and contact[0] == 1.0
+    assert w[2] == pytest.approx(11.0)
+    assert w[0] == pytest.approx(-0.5 * 11.0 * 0.2 / np.sqrt(0.04 + 1e-6))
+    np.testing.assert_allclose(F, -w)
+    # outside, or pulling away faster than the spring pushes: no force (unilateral)
+    assert not plane.output(0, None, [np.array([0, 0, 0.2]), np.zeros(6)])[0].any()
+    assert not plane.output(0, None, [np.array([0, 0, 0.0999]), np.array([0, 0, 1.0, 0, 0, 0])])[0].any()
+    assert plane.zero_crossings(0, None, [np.array([0, 0, 0.099]), np.zeros(6)])[0] == pytest.approx(1e-3)
+
+
+def _tick_inputs(q, F, Xd, Xdd, Fd, S):
+    """The 6-D controller's inputs for the Fig 3 arm at joint position q (zero speed)."""
+    p = np.concatenate([endpoint(q), [0.0]])
+    J = np.zeros((6, 2))
+    J[:2] = np.array(jacobian_rows(q, 0.153))
+    six = lambda v: np.concatenate([v, np.zeros(4)])  # noqa: E731
+    return [p, rotation([0, 0, q[0]]).ravel(), np.zeros(6), J.ravel(), six(F), six(Xd), six(Xdd), six(Fd),
+            six(S), np.concatenate([np.zeros(3), np.eye(3).ravel()]), np.zeros(2)]
+
+
+def test_one_tick_equals_the_papers_2d_controller():
+    gains = dict(Kpp=[460.0, 1650.0], Kpi=[1.3, 1200.0], Kpd=[30.0, 250.0], Kfp=[0.4, 0.3], Kfi=[240.0, 220.0],
+                 tau_max=[0.004, 0.1])
+    hyb = HybridControl6D(rate=60, joints=2, S=[1, 0, 0, 0, 0, 0], axes=[1, 1, 0, 0, 0, 0], **gains)
+    pid, fpi = PositionPID(rate=60), ForcePI(rate=60)
+    rng = np.random.default_rng(5)
+    for _ in range(10):
+        q = rng.uniform([0.2, 0.4], [0.5, 0.6])
+        F, Fd, Xd = rng.normal(size=2) * 5 + [10, 0], np.array([12.0, 0.0]), endpoint(q) + rng.normal(size=2) * 1e-3
+        z = rng.normal(size=4) * 1e-3
+        tau, _ = hyb.output(0.0, np.concatenate([z, [1, 0, 0, 0, 0, 0]]), _tick_inputs(q, F, Xd, np.zeros(2), Fd, [1, 0]))
+        # eqs 12-16 with the 2-D blocks: only Y position, only X force
+        J = np.array(jacobian_rows(q, 0.153))
+        qe = np.linalg.solve(J, np.array([0.0, (Xd - endpoint(q))[1]]))
+        tau_e = J.T @ np.array([Fd[0] - F[0], 0.0])
+        ref = pid.output(0.0, z[:2], [qe, np.zeros(2)])[0] + fpi.output(0.0, z[2:], [tau_e, J.T @ [Fd[0], 0.0]])[0]
+        np.testing.assert_allclose(tau, ref, rtol=0, atol=1e-12)
+
+
+def test_switching_S_is_bumpless():
+    """At the tick S changes, tau is what the old law gives at that tick; the next tick moves by
+    no more than the force loop's own step (its proportional part and one integrator increment)."""
+    Kfp, Kfi, T = np.array([0.4, 0.3]), np.array([200.0, 200.0]), 0.01
+    hyb = HybridControl6D(rate=1 / T, joints=2, S=[0, 0, 0, 0, 0, 0], axes=[1, 1, 0, 0, 0, 0], Kpp=[400, 1500],
+                          Kpi=[5, 500], Kpd=[20, 100], Kfp=Kfp, Kfi=Kfi)
+    q = np.array([0.31, 0.476])
+    Xd = endpoint(q) + [0.002, -0.001]
+    pos = _tick_inputs(q, [3.0, 0.0], Xd, [0, 0], [10.0, 0.0], [0, 0])
+    force = _tick_inputs(q, [3.0, 0.0], Xd, [0, 0], [10.0, 0.0], [1, 0])
+    x = hyb.initial_state()
+    for k in range(3):
+        x = hyb.update(k * T, x, pos)
+    old_law = hyb.output(3 * T, x, pos)[0]
+    switched = hyb.output(3 * T, x, force)[0]
+    np.testing.assert_allclose(switched, old_law, rtol=0, atol=1e-12)
+    x = hyb.update(3 * T, x, force)
+    after = hyb.output(4 * T, x, force)[0]
+    J = np.array(jacobian_rows(q, 0.153))
+    tau_e = J.T @ np.array([10.0 - 3.0, 0.0])
+    qe = np.linalg.solve(J, [0.0, (Xd - endpoint(q))[1]])  # Y stays position-controlled
+    one_step = Kfi * tau_e * T + np.array([5, 500]) * qe * T  # one increment of each integrator
+    np.testing.assert_allclose(after - switched, one_step, rtol=0, atol=1e-9)
+
+
+def test_a_singular_pose_is_a_runtime_error_and_uneven_axes_need_damping():
+    hyb = HybridControl6D(rate=100, joints=2, axes=[1, 1, 0, 0, 0, 0], Kpp=1.0)
+    inputs = _tick_inputs(np.array([0.3, 0.0]), [0, 0], [0.1, 0.1], [0, 0], [0, 0], [0, 0])
+    inputs[3] = np.zeros(12)  # a Jacobian with no rank
+    with pytest.raises(SimulationError, match="singular at t = 0.5 s"):
+        hyb.output(0.5, hyb.initial_state(), inputs)
+    with pytest.raises(ParameterError, match="dls_damping"):
+        HybridControl6D(joints=6, axes=[1, 1, 1, 0, 0, 0])
+    with pytest.raises(ParameterError, match="0 \\(position\\) or 1"):
+        HybridControl6D(S=[0.5, 0, 0, 0, 0, 0])
+
+
+def test_task_phases_approach_press_then_trace():
+    ph = TaskPhases(rate=100, normal_axis=2, approach_speed=0.1, contact_force=2.0, force=10.0, ramp_time=0.1,
+                    settle_time=0.0, radius=0.05, circle_period=1.0)
+    p, R = np.array([0.4, 0.1, 0.3]), np.eye(3).ravel()
+    x = ph.initial_state()
+    free, touch = np.zeros(6), np.array([0, 0, 3.0, 0, 0, 0])
+    S, Xd, Xdd, Fd, phase = ph.output(0.0, x, [p, R, free])
+    assert phase[0] == 0 and not S.any() and Xdd[2] == pytest.approx(0.1)
+    x = ph.update(0.0, x, [p, R, free])
+    S, Xd, _, Fd, phase = ph.output(0.2, x, [p, R, free])
+    assert Xd[2] == pytest.approx(0.3 + 0.02)  # moving along C-Z at 0.1 m/s
+    x = ph.update(0.2, x, [p, R, touch])
+    assert x[0] == 1.0 and x[8 + 2] == pytest.approx(0.32)  # contact found 2 cm down
+    S, Xd, _, Fd, phase = ph.output(0.25, x, [p, R, touch])
+    assert list(S) == [0, 0, 1, 0, 0, 0] and Fd[2] == pytest.approx(2.0 + 8.0 * 0.5)
+    x = ph.update(0.3, x, [p, R, touch])  # ramp done: trace
+    S, Xd, Xdd, Fd, phase = ph.output(0.3 + 0.25, x, [p, R, touch])
+    assert phase[0] == 2 and Fd[2] == 10.0
+    assert Xd[0] == pytest.approx(0.4 - 0.05) and Xd[1] == pytest.approx(0.1 + 0.05)  # a quarter circle
