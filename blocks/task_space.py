@@ -272,9 +272,10 @@ class TaskPhases(Block):
     1. press: that axis force-controlled, its force command ramping from
        contact_force to ``force`` over ``ramp_time``, the others holding the
        pose where contact was found;
-    2. trace (after ``ramp_time + settle_time``): a circle of ``radius`` in the
-       two other translation axes of {C}, once per ``circle_period``, starting
-       where the tool is, under the same force.
+    2. trace (after ``ramp_time + settle_time``): one circle of ``radius`` in
+       the two other translation axes of {C} in ``circle_period``, starting
+       where the tool is and starting and ending at rest (the angle follows
+       a half cosine, as eq 17b's position does), under the same force.
 
     The start pose is the tool's at t = 0 (inputs ``p``, ``R`` in the base
     frame), expressed in {C}. Outputs ``S``, ``X_d``, ``Xd_d``, ``F_d`` (for
@@ -291,7 +292,7 @@ class TaskPhases(Block):
     force : N                 force to press with
     ramp_time, settle_time : s    force ramp, then wait before tracing
     radius : m                the circle's radius
-    circle_period : s         time for one circle
+    circle_period : s         time for the circle
     """
 
     def __init__(self, name="phases", rate=500, frame_origin=(0.0, 0.0, 0.0), frame_rotation=(0.0, 0.0, 0.0),
@@ -349,13 +350,15 @@ class TaskPhases(Block):
             S[k] = 1.0
             Xd = x[8:14].copy()
             s = t - x[1]
-            Fd[k] = self.f0 + (self.f1 - self.f0) * (min(1.0, s / self.t_ramp) if self.t_ramp > 0 else 1.0)
+            ramp = min(1.0, s / self.t_ramp) if self.t_ramp > 0 and x[0] == 1.0 else 1.0
+            Fd[k] = self.f0 + (self.f1 - self.f0) * ramp
             if x[0] == 1.0 and s >= self.t_ramp + self.t_settle - 1e-9:  # a tick that lands on it, in floats
                 x[0], x[1] = 2.0, t
             if x[0] == 2.0:
                 a, b = [i for i in range(3) if i != k]
-                w = 2.0 * np.pi / self.T
-                th = w * (t - x[1])
+                s = min(t - x[1], self.T)  # one turn, from rest to rest: th = pi (1 - cos(pi s / T))
+                th = np.pi * (1.0 - np.cos(np.pi * s / self.T))
+                w = np.pi ** 2 / self.T * np.sin(np.pi * s / self.T)
                 Xd[a] += self.radius * (np.cos(th) - 1.0)
                 Xd[b] += self.radius * np.sin(th)
                 Xdd[a], Xdd[b] = -self.radius * w * np.sin(th), self.radius * w * np.cos(th)

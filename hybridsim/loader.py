@@ -42,6 +42,7 @@ SIM_KEYS = ["t_end", "solver", "step", "rtol", "atol", "max_step", "log_period",
             "locate_switches"]
 SOLVERS = ["rk4", "heun", "radau", "bdf", "lsoda", "rk45", "rk23", "dop853"]
 METRIC_KEYS = ["step_time", "ss_window", "error_window", "filter_cutoff"]
+PLOT_KEYS = ["title", "position_label", "force_label", "surface_label"]  # the figure's title and axis names
 SIGNAL_ROLES = ["force", "force_desired", "position", "position_desired", "contact",
                 "surface", "hand", "oscillation"]
 
@@ -893,6 +894,11 @@ class DiagramFile:
         log = [str(x) for x in (data.get("log") or [])]
         metrics = self._resolve(data.get("metrics") or {}, str(self.path), params)
         self._check_metrics(metrics, getattr(data.get("metrics"), "lines", None) or {})
+        plot = data.get("plot") or _Dict()
+        for key in plot:
+            if key not in PLOT_KEYS:
+                self._fail(f"unknown plot setting {key!r}{closest(key, PLOT_KEYS)}; settings: {', '.join(PLOT_KEYS)}",
+                           (plot.lines or {}).get(key))
         return {
             "simulation": simr,
             "log": log,

@@ -18,9 +18,21 @@ def _col(result, ref):
     return v[:, 0] if v.ndim == 2 else v
 
 
+def _labels(settings):
+    """The panels' axis names: the diagram's ``plot: {position_label, force_label, surface_label}``."""
+    plot = settings.get("plot") or {}
+    return {k: str(plot.get(f"{k}_label", k)) for k in ("position", "force", "surface")}
+
+
+def _title(f, settings):
+    """The figure's title: the diagram's ``plot: {title}``, else its description, else its name."""
+    return str((settings.get("plot") or {}).get("title") or f.description or f.name)
+
+
 def experiment_figure(f, runs, settings):
     """One figure for all runs of a diagram file; returns the Figure."""
     sig = settings["signals"]
+    name = _labels(settings)
     panels = []
     if "position" in sig:
         panels.append("position")
@@ -33,10 +45,10 @@ def experiment_figure(f, runs, settings):
     if "contact" in sig and "oscillation" not in sig:
         panels.append("contact")
     if not panels:  # no roles given: a scope, one panel per logged signal
-        return _scope_figure(f, runs)
+        return _scope_figure(f, runs, _title(f, settings))
     grid = _grid_axes(runs)
     if grid and "force" in sig:  # a grid of variants (Fig 7: force x rate): one small panel per case
-        return _grid_figure(f, runs, sig, *grid)
+        return _grid_figure(f, runs, sig, *grid, force_label=name["force"], title=_title(f, settings))
     heights = [3 if p in ("position", "force", "surface", "oscillation") else 1 for p in panels]
     fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(8, 1.2 + 1.3 * sum(heights) / 1.5),
                              gridspec_kw={"height_ratios": heights}, squeeze=False)
@@ -51,7 +63,7 @@ def experiment_figure(f, runs, settings):
                 ax.plot(r.t, _col(r, sig["position"]) * 100, color=c, lw=1.2, label=label)
                 if "position_desired" in sig and k == 0:
                     ax.plot(r.t, _col(r, sig["position_desired"]) * 100, "k--", lw=1, label="desired")
-                ax.set_ylabel("C-Y position (cm)")
+                ax.set_ylabel(f"{name['position']} (cm)")
             elif p == "force":
                 raw = _col(r, sig["force"])
                 filt = display_filter(r.t, raw)
@@ -60,13 +72,13 @@ def experiment_figure(f, runs, settings):
                 force_range.extend([np.min(filt), np.max(filt)])
                 if "force_desired" in sig:
                     ax.plot(r.t, _col(r, sig["force_desired"]), "--", color="k" if len(runs) == 1 else c, lw=1)
-                ax.set_ylabel("C-X force (N)\n12 Hz filtered")
+                ax.set_ylabel(f"{name['force']} (N)\n12 Hz filtered")
             elif p == "surface":
                 if "surface" in sig:
                     ax.plot(r.t, _col(r, sig["surface"]) * 100, "k--", lw=1, label="surface" if k == 0 else None)
                 if "hand" in sig:
                     ax.plot(r.t, _col(r, sig["hand"]) * 100, color=c, lw=1.2, label="hand")
-                ax.set_ylabel("C-X position (cm)")
+                ax.set_ylabel(f"{name['surface']} (cm)")
             elif p == "oscillation":
                 ax.plot(r.t * 1000, _col(r, sig["oscillation"]), color=c, lw=1, label=label)
                 ax.set_ylabel("force (N)")
@@ -85,7 +97,7 @@ def experiment_figure(f, runs, settings):
         if p in ("position", "force", "surface", "oscillation") and (len(runs) > 1 or p == "surface"):
             ax.legend(fontsize=7, loc="best", ncol=2 if len(runs) > 4 else 1)
     axes[-1].set_xlabel("time (ms)" if panels[-1] == "oscillation" else "time (s)")
-    fig.suptitle(f.description or f.name, fontsize=10)
+    fig.suptitle(_title(f, settings), fontsize=10)
     fig.tight_layout()
     return fig
 
@@ -104,7 +116,7 @@ def _grid_axes(runs):
     return keys[0], values[0], keys[1], values[1]
 
 
-def _grid_figure(f, runs, sig, rkey, rvals, ckey, cvals):
+def _grid_figure(f, runs, sig, rkey, rvals, ckey, cvals, force_label="force", title=None):
     """Force against time, one small panel per case of a two-parameter grid, shared axes (the paper
     draws each case of Fig 7 on its own)."""
     fig, axes = plt.subplots(len(rvals), len(cvals), sharex=True, sharey="row", squeeze=False,
@@ -126,19 +138,19 @@ def _grid_figure(f, runs, sig, rkey, rvals, ckey, cvals):
         if i == 0:
             ax.set_title(f"{ckey} = {run['overrides'][ckey]}", fontsize=8)
         if j == 0:
-            ax.set_ylabel(f"{rkey} = {run['overrides'][rkey]}\nC-X force (N)", fontsize=8)
+            ax.set_ylabel(f"{rkey} = {run['overrides'][rkey]}\n{force_label} (N)", fontsize=8)
         if i == len(rvals) - 1:
             ax.set_xlabel("time (s)", fontsize=8)
         ax.tick_params(labelsize=7)
     for i, (lo, hi) in ranges.items():
         pad = 0.1 * (hi - lo or 1.0)
         axes[i, 0].set_ylim(lo - pad, hi + pad)
-    fig.suptitle((f.description or f.name) + " (12 Hz filtered, raw faint, desired dashed)", fontsize=9)
+    fig.suptitle((title or f.description or f.name) + " (12 Hz filtered, raw faint, desired dashed)", fontsize=9)
     fig.tight_layout()
     return fig
 
 
-def _scope_figure(f, runs, most=8):
+def _scope_figure(f, runs, title=None, most=8):
     """Every logged signal (up to ``most``) in its own panel, each run in its own colour."""
     refs = list(runs[0]["result"].signals)[:most] if runs else []
     fig, axes = plt.subplots(max(1, len(refs)), 1, sharex=True, figsize=(8, 1.5 + 1.6 * max(1, len(refs))),
@@ -158,7 +170,7 @@ def _scope_figure(f, runs, most=8):
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7, loc="best")
     axes[-1].set_xlabel("time (s)")
-    fig.suptitle(f.description or f.name, fontsize=10)
+    fig.suptitle(title or f.description or f.name, fontsize=10)
     fig.tight_layout()
     return fig
 

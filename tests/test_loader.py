@@ -100,3 +100,12 @@ def test_overrides_and_variants(tmp_path):
     assert d.blocks["g"].params[0][0, 0] == 4.0 and s["simulation"]["t_end"] == 0.5
     with pytest.raises(LoaderError, match="no parameter 'kk'"):
         DiagramFile(p, {"kk": 1})
+
+
+def test_an_unknown_plot_setting_is_an_error_at_its_line(tmp_path):
+    # a misspelt label used to be ignored and the figure silently kept its default
+    f = DiagramFile(write(tmp_path, GOOD + "plot:\n  title: mine\n  force_lable: C-Z force\n"))
+    with pytest.raises(LoaderError, match=r"d.yaml:\d+.*unknown plot setting 'force_lable' \(did you mean 'force_label'\?\)"):
+        f.build()
+    ok = DiagramFile(write(tmp_path, GOOD + "plot: {title: mine, force_label: C-Z force}\n"))
+    assert ok.build()[1]["plot"] == {"title": "mine", "force_label": "C-Z force"}

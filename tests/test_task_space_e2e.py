@@ -21,3 +21,35 @@ def test_the_generic_controller_reproduces_the_papers_figures(fig, base, t_end, 
         assert np.max(np.abs(paper["ctrl.ft.CF"][:, 0] - generic["ctrl.planar.y1"][:, 0])) < tol, rate
         assert np.max(np.abs(paper["ctrl.fk.X"][:, 1] - generic["ctrl.Xp.y1"][:, 1])) < tol * 1e-3, rate
         assert np.max(np.abs(paper["ctrl.tau.y"] - generic["ctrl.hybrid.tau"])) < tol, rate
+
+
+@pytest.fixture(scope="module")
+def ur5_run():
+    return hs.simulate(DIAGRAMS / "ur5_press_and_trace.yaml")
+
+
+def test_a_ur5_presses_10_N_and_traces_a_10_cm_circle(ur5_run):
+    r = ur5_run
+    t, phase = r.t, r["phases.phase"][:, 0]
+    assert phase[0] == 0 and phase[-1] == 2
+    touch = t[np.argmax(phase >= 1)]
+    assert 0.2 < touch < 0.3  # 5 mm at 2 cm/s, then 2 N felt
+    trace = phase == 2
+    force = r["hybrid.F_C"][trace, 2]
+    assert np.all(np.abs(force - 10.0) < 0.5)  # measured within 0.26 N of 10 N while tracing
+    first = np.argmax(phase >= 1)
+    assert r["table.contact"][first:, 0].min() == 1.0  # never lifts off after the first touch
+    # the tool draws the circle: 5 cm from its centre (0.61 - 0.05, 0.109) in the table's plane
+    p = r["kin.p"][trace]
+    centre = p[0, :2] - [0.05, 0.0]
+    radius = np.hypot(*(p[:, :2] - centre).T)
+    assert np.max(np.abs(radius - 0.05)) < 2e-3
+    assert np.ptp(p[:, 0]) > 0.095  # nearly a full turn in 1.4 s (measured: 0.61 -> 0.51 -> 0.61 m)
+
+
+def test_analyze_linearizes_the_6dof_diagram_in_contact(capsys):
+    from hybridsim.cli import main
+
+    assert main(["analyze", str(DIAGRAMS / "ur5_press_and_trace.yaml"), "--at", "1.0"]) == 0
+    out = capsys.readouterr().out
+    assert "closed loop at period 2.000 ms" in out and "STABLE" in out

@@ -125,6 +125,9 @@ def test_task_phases_approach_press_then_trace():
     S, Xd, _, Fd, phase = ph.output(0.25, x, [p, R, touch])
     assert list(S) == [0, 0, 1, 0, 0, 0] and Fd[2] == pytest.approx(2.0 + 8.0 * 0.5)
     x = ph.update(0.3, x, [p, R, touch])  # ramp done: trace
-    S, Xd, Xdd, Fd, phase = ph.output(0.3 + 0.25, x, [p, R, touch])
-    assert phase[0] == 2 and Fd[2] == 10.0
-    assert Xd[0] == pytest.approx(0.4 - 0.05) and Xd[1] == pytest.approx(0.1 + 0.05)  # a quarter circle
+    S, Xd, Xdd, Fd, phase = ph.output(0.3, x, [p, R, touch])
+    assert phase[0] == 2 and Fd[2] == 10.0 and not Xdd.any()  # the circle starts at rest
+    # half the time: half the turn (th = pi (1 - cos(pi s / T)) = pi at s = T / 2), at full speed
+    S, Xd, Xdd, Fd, phase = ph.output(0.3 + 0.5, x, [p, R, touch])
+    assert Xd[0] == pytest.approx(0.4 - 0.1) and Xd[1] == pytest.approx(0.1, abs=1e-12)
+    assert np.hypot(Xdd[0], Xdd[1]) == pytest.approx(0.05 * np.pi ** 2 / 1.0)
