@@ -164,15 +164,21 @@ class RobotArm(_RobotBlock):
     stick_band : rad/s or m/s   Karnopp capture band
     stick_time : s        time constant bringing a stuck joint to rest
     gravity : [m/s^2]     gravity vector in the robot's base frame
+    start_position : [m]  start with the tool frame's origin here (base frame): the joints are
+                          solved from q0 by damped Newton steps to 1e-12 m (the nearest solution
+                          for a redundant arm); a point out of reach is a ParameterError
     """
 
     def __init__(self, name="arm", urdf=None, robot=None, frame=None, q0=None, qd0=None, damping=0.0,
                  friction=False, tau_c=0.0, tau_s=0.0, stick_band=1e-4, stick_time=1e-3,
-                 gravity=(0.0, 0.0, -9.81)):
+                 gravity=(0.0, 0.0, -9.81), start_position=None):
         super().__init__(name)
         n = self._robot(urdf, robot, frame)
         pin = _pinocchio()
         self.q0 = self._q(q0, "q0", pin.neutral(self.model))
+        if start_position is not None:
+            self.q0 = inverse_position(self.model, self.data, self.frame_id, self.q0,
+                                       vector(start_position, "start_position", 3))
         self.qd0 = self._q(qd0, "qd0", 0.0)
         self.b = vector(damping, "damping", n, "nonnegative")
         self.friction = flag(friction, "friction")
@@ -235,6 +241,21 @@ class RobotArm(_RobotBlock):
         if not self.friction:
             return None
         return np.abs(np.asarray(x[self.n:], float)) - self.band
+
+
+def inverse_position(model, data, frame_id, q, target, tol=1e-12, iterations=200, damping=1e-6):
+    """Joint positions near ``q`` that put frame ``frame_id``'s origin at ``target`` (m), by damped Newton steps."""
+    pin = _pinocchio()
+    q = np.array(q, float)
+    for _ in range(iterations):
+        pin.framesForwardKinematics(model, data, q)
+        err = target - data.oMf[frame_id].translation
+        if np.linalg.norm(err) < tol:
+            return q
+        J = pin.computeFrameJacobian(model, data, q, frame_id, pin.LOCAL_WORLD_ALIGNED)[:3]
+        q = q + J.T @ np.linalg.solve(J @ J.T + damping ** 2 * np.eye(3), err)
+    raise ParameterError("start_position", f"{target.tolist()} is out of the robot's reach from q0 "
+                                           f"(still {np.linalg.norm(err):.3g} m away after {iterations} steps)")
 
 
 @register("robot_kinematics")

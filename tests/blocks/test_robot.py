@@ -119,3 +119,15 @@ def test_a_file_that_is_not_a_robot_is_a_parameter_error(tmp_path):
     with pytest.raises(ParameterError, match="no moving joint|not a robot model"):
         RobotArm(urdf=str(bad))
     assert urdf_path(robot="ur5").name == "ur5_robot.urdf"
+
+
+def test_start_position_solves_the_joints_for_a_tool_position():
+    from hybridsim.blocks.manipulator import Manipulator
+
+    arm = RobotArm(robot="fig3_arm", frame="tool", q0=[0.3, 0.5], start_position=[0.5, 0.0, 0.0])
+    np.testing.assert_allclose(arm.q0, Manipulator(endpoint0=(0.5, 0.0)).x0[:2], rtol=0, atol=1e-12)
+    ur5 = RobotArm(robot="ur5", q0=[0.0, -1.2, 1.6, -1.9708, -1.5708, 0.0], start_position=[0.55, 0.1, 0.3])
+    p = RobotKinematics(robot="ur5").output(0.0, None, [ur5.q0, np.zeros(6)])[0]
+    np.testing.assert_allclose(p, [0.55, 0.1, 0.3], rtol=0, atol=1e-12)
+    with pytest.raises(ParameterError, match="out of the robot's reach"):
+        RobotArm(robot="ur5", start_position=[3.0, 0.0, 0.0])
