@@ -77,7 +77,7 @@ class PlaneContact(Block):
     Penetration d = (point - p) . n (positive inside; n points out of the
     plane, toward the free side). Normal force f_n = max(0, K d + B d') when
     d > 0 (``unilateral``; else K d + B d' at any d), friction
-    f_t = -mu f_n v_t / sqrt(|v_t|^2 + slip_velocity^2) (Coulomb, smoothed
+    ``f_t = -mu f_n v_t / sqrt(|v_t|^2 + slip_velocity^2)`` (Coulomb, smoothed
     below ``slip_velocity``). First touch and lift-off (d = 0) are located
     events. The surface of the paper's Figs 7-10, in three dimensions.
 

@@ -21,6 +21,6 @@ def test_the_docs_build_without_a_warning(tmp_path):
     assert not missing, missing
     api = (out / "_generated" / "api.html").read_text()
     assert "hybridsim.simulator.Simulator" in api and "hybridsim.paper.reproduce" in api
-    for page in ("tutorials/first-diagram", "tutorials/own-fmu", "tutorials/dask-sweeps",
+    for page in ("tutorials/first-diagram", "tutorials/own-fmu", "tutorials/own-robot", "tutorials/dask-sweeps",
                  "tutorials/stability-report", "model", "diagram-format"):
         assert (out / f"{page}.html").exists(), page
