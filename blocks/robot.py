@@ -288,10 +288,9 @@ class RobotKinematics(_RobotBlock):
     def output(self, t, x, u):
         pin = _pinocchio()
         q = np.asarray(u[0], float)
-        pin.framesForwardKinematics(self.model, self.data, q)
-        pose = self.data.oMf[self.frame_id]
         J = pin.computeFrameJacobian(self.model, self.data, q, self.frame_id, pin.LOCAL_WORLD_ALIGNED)
-        return (pose.translation.copy(), pose.rotation.ravel().copy(), J @ np.asarray(u[1], float), J.ravel())
+        pose = pin.updateFramePlacement(self.model, self.data, self.frame_id)  # the joints' placements are fresh
+        return (pose.translation.copy(), pose.rotation.ravel(), J @ np.asarray(u[1], float), J.ravel())
 
 
 @register("gravity_torque")

@@ -13,6 +13,8 @@ angle, rad), wrenches as (force N, moment N m). ``F`` is what the robot applies
 to its environment (what a wrist sensor reads, as in the paper); a plane's
 ``wrench`` output is what the environment applies to the tool, the arm's input.
 """
+import math
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -115,17 +117,21 @@ class PlaneContact(Block):
 
     def depth(self, p):
         """Penetration (m) of point ``p`` into the plane: positive inside."""
-        return float((self.point - np.asarray(p, float)) @ self.n)
+        n, c = self.n, self.point
+        return float(n[0] * (c[0] - p[0]) + n[1] * (c[1] - p[1]) + n[2] * (c[2] - p[2]))
 
     def output(self, t, x, u):
-        p, tw = np.asarray(u[0], float), np.asarray(u[1], float)
-        d, v = self.depth(p), tw[:3]
-        fn = self.K * d - self.B * float(v @ self.n)
+        # plain floats: this runs at every right-hand side, where numpy's per-call cost dominates
+        n, tw = self.n, u[1]
+        d = self.depth(u[0])
+        v = (float(tw[0]), float(tw[1]), float(tw[2]))
+        vn = v[0] * n[0] + v[1] * n[1] + v[2] * n[2]
+        fn = self.K * d - self.B * vn
         inside = d > 0.0 or not self.unilateral
         fn = (max(fn, 0.0) if self.unilateral else fn) if inside else 0.0
-        vt = v - float(v @ self.n) * self.n
-        ft = -self.mu * abs(fn) * vt / np.sqrt(float(vt @ vt) + self.v_s ** 2)
-        w = np.concatenate([fn * self.n + ft, np.zeros(3)])
+        vt = (v[0] - vn * n[0], v[1] - vn * n[1], v[2] - vn * n[2])
+        k = -self.mu * abs(fn) / math.sqrt(vt[0] ** 2 + vt[1] ** 2 + vt[2] ** 2 + self.v_s ** 2)
+        w = np.array([fn * n[0] + k * vt[0], fn * n[1] + k * vt[1], fn * n[2] + k * vt[2], 0.0, 0.0, 0.0])
         return (w, -w, np.array([1.0 if fn > 0.0 else 0.0]), np.array([d]))
 
     def zero_crossings(self, t, x, u):
@@ -240,6 +246,13 @@ class HybridControl6D(Block):
         return float(self.period)
 
     def _tick(self, t, x, u):
+        key = (t, np.asarray(x, float).tobytes(), b"".join(np.asarray(v, float).tobytes() for v in u))
+        if getattr(self, "_last", (None,))[0] == key:  # output and update of one tick: computed once
+            return self._last[1]
+        self._last = (key, self._compute(t, x, u))
+        return self._last[1]
+
+    def _compute(self, t, x, u):
         x = np.asarray(x, float)
         S = (np.asarray(u[8], float) != 0).astype(float)
         tau, zq, zf, FC = self._law(t, x, u, S)

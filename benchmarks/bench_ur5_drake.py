@@ -1,0 +1,187 @@
+"""UR5 press-and-trace (diagrams/ur5_press_and_trace.yaml, 2 s) in hybridsim and in Drake, in one run.
+
+The same robot (example-robot-data's UR5 URDF), the same table (the plane_contact law: a linear
+unilateral spring-damper with smoothed Coulomb friction) and the same controller (the
+hybrid_control_6d, task_phases and gravity_torque blocks, called at 500 Hz) run twice:
+
+* hybridsim: the diagram on its generic path, RK4 with the diagram's step;
+* Drake: a continuous MultibodyPlant (pydrake, its own rigid-body code) integrated by Drake's
+  Simulator with a fixed-step RK2 or the error-controlled RK3, the table force applied to the tool
+  body by a LeafSystem, the controller a LeafSystem with a 500 Hz periodic update.
+
+Each is timed (median of --repeat runs) and checked against a converged run of itself (hybridsim:
+RK4 at a tenth of the step; Drake: RK3 at accuracy 1e-9): the largest difference of the C-Z force
+over the trace phase, in % of the 10 N command. Run on demand:
+
+    python benchmarks/bench_ur5_drake.py [--repeat 3]
+
+Needs the robots extra and pydrake (`pip install -e ".[robots]" drake`).
+"""
+import argparse
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+
+import hybridsim as hs
+from hybridsim.blocks.robot import urdf_path
+
+DIAGRAM = Path(__file__).resolve().parents[1] / "diagrams" / "ur5_press_and_trace.yaml"
+T_END = 2.0
+
+
+def run_hybridsim(step=None, solver=None):
+    """(wall s, t, C-Z force, phase) of the diagram on hybridsim's generic path."""
+    ov = {"step": step} if step else {}
+    if solver:
+        ov["solver"] = solver
+    t0 = time.perf_counter()
+    r = hs.simulate(DIAGRAM, t_end=T_END, **ov)
+    wall = time.perf_counter() - t0
+    return wall, r.t, r["hybrid.F_C"][:, 2], r["phases.phase"][:, 0]
+
+
+def _blocks():
+    """The diagram's controller, table and kinematics blocks, as the diagram builds them."""
+    diagram, _ = hs.load(DIAGRAM).build()
+    return {name: diagram.blocks[name] for name in ("arm", "kin", "table", "gravity", "phases", "hybrid")}
+
+
+def run_drake(integrator="runge_kutta2", step=2.5e-4, accuracy=None):
+    """(wall s, t, C-Z force, phase) of the same robot, table and controller in Drake."""
+    from pydrake.common.value import AbstractValue
+    from pydrake.multibody.math import SpatialForce
+    from pydrake.multibody.parsing import Parser
+    from pydrake.multibody.plant import ExternallyAppliedSpatialForce, MultibodyPlant
+    from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
+    from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
+
+    b = _blocks()
+    arm, kin, table, gravity, phases, hybrid = (b[k] for k in ("arm", "kin", "table", "gravity", "phases", "hybrid"))
+    builder = DiagramBuilder()
+    plant = builder.AddSystem(MultibodyPlant(0.0))
+    Parser(plant).AddModels(str(urdf_path(robot="ur5")))
+    plant.Finalize()
+    tool = plant.GetFrameByName("tool0")
+    n = plant.num_positions()
+    damping = arm.b
+
+    def pose_twist(q, v, ctx):
+        plant.SetPositions(ctx, q)
+        plant.SetVelocities(ctx, v)
+        X = tool.CalcPoseInWorld(ctx)
+        V = tool.CalcSpatialVelocityInWorld(ctx)
+        return X.translation(), X.rotation().matrix(), np.concatenate([V.translational(), V.rotational()])
+
+    class Table(LeafSystem):
+        """The plane's force on the tool body, applied at the tool frame's origin."""
+
+        def __init__(self):
+            super().__init__()
+            self.state = self.DeclareVectorInputPort("x", 2 * n)
+            self.ctx = plant.CreateDefaultContext()
+            self.DeclareAbstractOutputPort("f", lambda: AbstractValue.Make([ExternallyAppliedSpatialForce()]),
+                                           self.calc)
+
+        def calc(self, context, out):
+            x = self.state.Eval(context)
+            p, R, tw = pose_twist(x[:n], x[n:], self.ctx)
+            w = table.output(0.0, None, [p, tw])[0]
+            f = ExternallyAppliedSpatialForce()
+            f.body_index = tool.body().index()
+            f.p_BoBq_B = tool.GetFixedPoseInBodyFrame().translation()
+            f.F_Bq_W = SpatialForce(w[3:], w[:3])
+            out.set_value([f])
+
+    class Controller(LeafSystem):
+        """task_phases + hybrid_control_6d + gravity_torque at 500 Hz, the torque held; damping continuous."""
+
+        def __init__(self):
+            super().__init__()
+            self.state = self.DeclareVectorInputPort("x", 2 * n)
+            self.ctx = plant.CreateDefaultContext()
+            self.xs = self.DeclareDiscreteState(phases.n_discrete + hybrid.n_discrete + n)
+            T = float(hybrid.period)
+            self.DeclarePeriodicDiscreteUpdateEvent(T, 0.0, self.tick)
+            self.DeclareVectorOutputPort("tau", BasicVector(n), self.torque)
+            self.log = []
+
+        def tick(self, context, discrete):
+            x = self.state.Eval(context)
+            z = discrete.get_mutable_vector().get_mutable_value()
+            zp, zh = z[:phases.n_discrete].copy(), z[phases.n_discrete:-n].copy()
+            if context.get_time() == 0.0:
+                zp, zh = phases.initial_state(), hybrid.initial_state()
+            q, v = x[:n], x[n:]
+            p, R, tw = pose_twist(q, v, self.ctx)
+            J = kin.output(0.0, None, [q, v])[3]
+            F = table.output(0.0, None, [p, tw])[1]
+            t = context.get_time()
+            S, Xd, Xdd, Fd, ph = phases.output(t, zp, [p, R.ravel(), F])
+            u = [p, R.ravel(), tw, J, F, Xd, Xdd, Fd, S, hybrid.inputs[9].default, gravity.output(0, None, [q])[0]]
+            tau, FC = hybrid.output(t, zh, u)
+            self.log.append((t, FC[2], ph[0]))
+            z[:] = np.concatenate([phases.update(t, zp, [p, R.ravel(), F]), hybrid.update(t, zh, u), tau])
+
+        def torque(self, context, out):
+            x = self.state.Eval(context)
+            out.SetFromVector(context.get_discrete_state_vector().value()[-n:] - damping * x[n:])
+
+    tbl, ctl = builder.AddSystem(Table()), builder.AddSystem(Controller())
+    builder.Connect(plant.get_state_output_port(), tbl.state)
+    builder.Connect(plant.get_state_output_port(), ctl.state)
+    builder.Connect(tbl.get_output_port(0), plant.get_applied_spatial_force_input_port())
+    builder.Connect(ctl.get_output_port(0), plant.get_actuation_input_port())
+    system = builder.Build()
+    sim = Simulator(system)
+    ctx = sim.get_mutable_context()
+    plant.SetPositions(plant.GetMyMutableContextFromRoot(ctx), arm.q0)
+    ResetIntegratorFromFlags(sim, integrator, step)
+    if accuracy:
+        sim.get_mutable_integrator().set_target_accuracy(accuracy)
+    else:
+        sim.get_mutable_integrator().set_fixed_step_mode(True)
+    sim.Initialize()
+    t0 = time.perf_counter()
+    sim.AdvanceTo(T_END)
+    wall = time.perf_counter() - t0
+    t, f, ph = (np.array(c) for c in zip(*ctl.log))
+    return wall, t, f, ph
+
+
+def trace_error(run, ref):
+    """Largest |F - F_ref| (% of 10 N) over the trace phase, on the run's own controller ticks."""
+    _, t, f, ph = run
+    _, tr, fr, _ = ref
+    m = ph == 2
+    return float(np.max(np.abs(f[m] - np.interp(t[m], tr, fr))) / 10.0 * 100.0)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args(argv)
+    rows = []
+    hs_ref = run_hybridsim(step=2.5e-5)
+    dk_ref = run_drake("runge_kutta3", 1e-4, accuracy=1e-9)
+    for label, fn, ref in (
+            ("hybridsim, generic path, RK4 h = 0.25 ms", lambda: run_hybridsim(), hs_ref),
+            ("hybridsim, generic path, Heun (RK2) h = 0.25 ms", lambda: run_hybridsim(solver="heun"), hs_ref),
+            ("hybridsim, generic path, RK4 h = 0.5 ms", lambda: run_hybridsim(step=5e-4), hs_ref),
+            ("Drake MultibodyPlant, RK2 h = 0.25 ms", lambda: run_drake("runge_kutta2", 2.5e-4), dk_ref),
+            ("Drake MultibodyPlant, RK3 accuracy 1e-4", lambda: run_drake("runge_kutta3", 2.5e-4, 1e-4), dk_ref)):
+        runs = [fn() for _ in range(args.repeat)]
+        wall = statistics.median(r[0] for r in runs)
+        rows.append((label, wall, trace_error(runs[0], ref), trace_error(runs[0], hs_ref)))
+    base = rows[0][1]
+    print(f"UR5 press and trace, {T_END:g} s simulated, median of {args.repeat}")
+    print("| run | wall (s) | / hybridsim | force vs its converged run (% of 10 N) | vs hybridsim's converged run (%) |")
+    print("| --- | --- | --- | --- | --- |")
+    for label, wall, err, cross in rows:
+        print(f"| {label} | {wall:.2f} | {wall / base:.2f} | {err:.2g} | {cross:.2g} |")
+    print(f"converged runs apart: {trace_error(dk_ref, hs_ref):.2g} % of 10 N over the trace")
+
+
+if __name__ == "__main__":
+    main()
