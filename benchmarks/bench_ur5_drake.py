@@ -1,13 +1,15 @@
 """UR5 press-and-trace (diagrams/ur5_press_and_trace.yaml, 2 s) in hybridsim and in Drake, in one run.
 
-The same robot (example-robot-data's UR5 URDF), the same table (the plane_contact law: a linear
+The same robot (example-robot-data's UR5 URDF), the same wrist sensor and tool (the ft_sensor
+block's states and law), the same table (the plane_contact law: a linear
 unilateral spring-damper with smoothed Coulomb friction) and the same controller (the
 hybrid_control_6d, task_phases and gravity_torque blocks, called at 500 Hz) run twice:
 
 * hybridsim: the diagram on its generic path, RK4 with the diagram's step;
 * Drake: a continuous MultibodyPlant (pydrake, its own rigid-body code) integrated by Drake's
-  Simulator with a fixed-step RK2 or the error-controlled RK3, the table force applied to the tool
-  body by a LeafSystem, the controller a LeafSystem with a 500 Hz periodic update.
+  Simulator with a fixed-step RK2 or the error-controlled RK3; the sensor's tool (continuous
+  states) and the table in a LeafSystem whose pull is applied to the flange body, the controller a
+  LeafSystem with a 500 Hz periodic update.
 
 Each is timed (median of --repeat runs) and checked against a converged run of itself (hybridsim:
 RK4 at a tenth of the step; Drake: RK3 at accuracy 1e-9): the largest difference of the C-Z force
@@ -45,7 +47,7 @@ def run_hybridsim(step=None, solver=None):
 def _blocks():
     """The diagram's controller, table and kinematics blocks, as the diagram builds them."""
     diagram, _ = hs.load(DIAGRAM).build()
-    return {name: diagram.blocks[name] for name in ("arm", "kin", "table", "gravity", "phases", "hybrid")}
+    return {name: diagram.blocks[name] for name in ("arm", "kin", "ft", "table", "gravity", "phases", "hybrid")}
 
 
 def run_drake(integrator="runge_kutta2", step=2.5e-4, accuracy=None):
@@ -58,7 +60,7 @@ def run_drake(integrator="runge_kutta2", step=2.5e-4, accuracy=None):
     from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
 
     b = _blocks()
-    arm, kin, table, gravity, phases, hybrid = (b[k] for k in ("arm", "kin", "table", "gravity", "phases", "hybrid"))
+    arm, kin, ft, table, gravity, phases, hybrid = (b[k] for k in ("arm", "kin", "ft", "table", "gravity", "phases", "hybrid"))
     builder = DiagramBuilder()
     plant = builder.AddSystem(MultibodyPlant(0.0))
     Parser(plant).AddModels(str(urdf_path(robot="ur5")))
@@ -74,25 +76,43 @@ def run_drake(integrator="runge_kutta2", step=2.5e-4, accuracy=None):
         V = tool.CalcSpatialVelocityInWorld(ctx)
         return X.translation(), X.rotation().matrix(), np.concatenate([V.translational(), V.rotational()])
 
-    class Table(LeafSystem):
-        """The plane's force on the tool body, applied at the tool frame's origin."""
+    class Tool(LeafSystem):
+        """The wrist sensor's tool (ft_sensor: 9 continuous states) on the table (plane_contact); its
+        pull on the flange applied to the tool body at the tool frame's origin."""
 
         def __init__(self):
             super().__init__()
             self.state = self.DeclareVectorInputPort("x", 2 * n)
             self.ctx = plant.CreateDefaultContext()
+            self.DeclareContinuousState(ft.n_continuous)
             self.DeclareAbstractOutputPort("f", lambda: AbstractValue.Make([ExternallyAppliedSpatialForce()]),
-                                           self.calc)
+                                           self.calc_force)
+            self.DeclareVectorOutputPort("F", BasicVector(6), self.calc_reading)
 
-        def calc(self, context, out):
+        def inputs(self, context):
             x = self.state.Eval(context)
             p, R, tw = pose_twist(x[:n], x[n:], self.ctx)
-            w = table.output(0.0, None, [p, tw])[0]
+            z = context.get_continuous_state_vector().CopyToVector()
+            pt, twt = ft.output(0.0, z, [p, R.ravel(), tw, np.zeros(6), np.zeros(1)])[1:3]
+            env = table.output(0.0, None, [pt, twt])[0]
+            return z, [p, R.ravel(), tw, env, np.zeros(1)]
+
+        def DoCalcTimeDerivatives(self, context, derivatives):
+            z, u = self.inputs(context)
+            derivatives.get_mutable_vector().SetFromVector(ft.derivatives(0.0, z, u))
+
+        def calc_force(self, context, out):
+            z, u = self.inputs(context)
+            w = ft.output(0.0, z, u)[0]
             f = ExternallyAppliedSpatialForce()
             f.body_index = tool.body().index()
             f.p_BoBq_B = tool.GetFixedPoseInBodyFrame().translation()
             f.F_Bq_W = SpatialForce(w[3:], w[:3])
             out.set_value([f])
+
+        def calc_reading(self, context, out):
+            z, u = self.inputs(context)
+            out.SetFromVector(ft.output(0.0, z, u)[3])
 
     class Controller(LeafSystem):
         """task_phases + hybrid_control_6d + gravity_torque at 500 Hz, the torque held; damping continuous."""
@@ -100,6 +120,7 @@ def run_drake(integrator="runge_kutta2", step=2.5e-4, accuracy=None):
         def __init__(self):
             super().__init__()
             self.state = self.DeclareVectorInputPort("x", 2 * n)
+            self.reading = self.DeclareVectorInputPort("F", 6)
             self.ctx = plant.CreateDefaultContext()
             self.xs = self.DeclareDiscreteState(phases.n_discrete + hybrid.n_discrete + n)
             T = float(hybrid.period)
@@ -116,7 +137,7 @@ def run_drake(integrator="runge_kutta2", step=2.5e-4, accuracy=None):
             q, v = x[:n], x[n:]
             p, R, tw = pose_twist(q, v, self.ctx)
             J = kin.output(0.0, None, [q, v])[3]
-            F = table.output(0.0, None, [p, tw])[1]
+            F = self.reading.Eval(context)
             t = context.get_time()
             S, Xd, Xdd, Fd, ph = phases.output(t, zp, [p, R.ravel(), F])
             u = [p, R.ravel(), tw, J, F, Xd, Xdd, Fd, S, hybrid.inputs[9].default, gravity.output(0, None, [q])[0]]
@@ -128,15 +149,19 @@ def run_drake(integrator="runge_kutta2", step=2.5e-4, accuracy=None):
             x = self.state.Eval(context)
             out.SetFromVector(context.get_discrete_state_vector().value()[-n:] - damping * x[n:])
 
-    tbl, ctl = builder.AddSystem(Table()), builder.AddSystem(Controller())
-    builder.Connect(plant.get_state_output_port(), tbl.state)
+    tol, ctl = builder.AddSystem(Tool()), builder.AddSystem(Controller())
+    builder.Connect(plant.get_state_output_port(), tol.state)
     builder.Connect(plant.get_state_output_port(), ctl.state)
-    builder.Connect(tbl.get_output_port(0), plant.get_applied_spatial_force_input_port())
+    builder.Connect(tol.get_output_port(1), ctl.reading)
+    builder.Connect(tol.get_output_port(0), plant.get_applied_spatial_force_input_port())
     builder.Connect(ctl.get_output_port(0), plant.get_actuation_input_port())
     system = builder.Build()
     sim = Simulator(system)
     ctx = sim.get_mutable_context()
-    plant.SetPositions(plant.GetMyMutableContextFromRoot(ctx), arm.q0)
+    pctx = plant.GetMyMutableContextFromRoot(ctx)
+    plant.SetPositions(pctx, arm.q0)
+    p, R, tw = pose_twist(arm.q0, np.zeros(n), plant.CreateDefaultContext())
+    tol.GetMyMutableContextFromRoot(ctx).SetContinuousState(ft.initial_state([p, R.ravel(), tw, np.zeros(6), np.zeros(1)]))
     ResetIntegratorFromFlags(sim, integrator, step)
     if accuracy:
         sim.get_mutable_integrator().set_target_accuracy(accuracy)

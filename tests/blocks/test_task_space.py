@@ -4,7 +4,8 @@ import pytest
 
 from hybridsim.blocks.controllers import ForcePI, PositionPID
 from hybridsim.blocks.kinematics import ForceTransform, endpoint, jacobian_rows
-from hybridsim.blocks.task_space import HybridControl6D, PlaneContact, TaskPhases, WrenchTransform, rotation
+from hybridsim.blocks.task_space import (ForceTorqueSensor, HybridControl6D, PlaneContact, TaskPhases,
+                                         WrenchTransform, rotation)
 from hybridsim.errors import ParameterError, SimulationError
 
 
@@ -131,3 +132,32 @@ def test_task_phases_approach_press_then_trace():
     S, Xd, Xdd, Fd, phase = ph.output(0.3 + 0.5, x, [p, R, touch])
     assert Xd[0] == pytest.approx(0.4 - 0.1) and Xd[1] == pytest.approx(0.1, abs=1e-12)
     assert np.hypot(Xdd[0], Xdd[1]) == pytest.approx(0.05 * np.pi ** 2 / 1.0)
+
+
+def test_the_ft_sensor_at_rest_reads_the_tool_weight_and_zero_after_taring():
+    import hybridsim as hs
+    from hybridsim.blocks.sources import Constant, Step
+
+    d = hs.Diagram("ft")
+    d.add(Constant("flange", value=[0.4, 0.1, 0.3]))
+    d.add(Constant("R", value=list(np.eye(3).ravel())))
+    d.add(Constant("still", value=[0.0] * 6))
+    d.add(Step("tare", initial=0.0, final=1.0, time=0.5))
+    d.add(ForceTorqueSensor("ft", mass=0.8, stiffness=[2e4] * 3, damping=[400.0] * 3))
+    for a, b in [("flange.y", "ft.p"), ("R.y", "ft.R"), ("still.y", "ft.twist"), ("tare.y", "ft.tare")]:
+        d.connect(a, b)
+    res = hs.Simulator(d.build(), hs.RK4(1e-4), log=["ft.F", "ft.p"]).run(1.0)
+    F = res["ft.F"]
+    before, after = F[np.searchsorted(res.t, 0.45)], F[-1]
+    # held still, the flange carries the tool's weight: F = -m g = (0, 0, 7.848) N
+    np.testing.assert_allclose(before[:3], [0.0, 0.0, 0.8 * 9.81], atol=1e-6)
+    assert res["ft.p"][-1][2] == pytest.approx(0.3 - 0.8 * 9.81 / 2e4, abs=1e-9)  # sagged by m g / K
+    np.testing.assert_allclose(after, 0.0, atol=1e-9)  # tared at 0.5 s
+    comp = ForceTorqueSensor(mass=0.8, gravity_compensation=True)
+    x = np.concatenate([[0.4, 0.1, 0.3 - 0.8 * 9.81 / 1e5], np.zeros(6)])
+    u = [np.array([0.4, 0.1, 0.3]), np.eye(3).ravel(), np.zeros(6), np.zeros(6), np.zeros(1)]
+    np.testing.assert_allclose(comp.output(0, x, u)[3], 0.0, atol=1e-9)  # compensated: reads zero at rest
+    # pressed on a table with 10 N (the table pushes the tool up), compensated: reads the 10 N push down
+    x[2] = 0.3 - (0.8 * 9.81 + 10.0) / 1e5
+    x[:3] = [0.4, 0.1, 0.3 + (10.0 - 0.8 * 9.81) / 1e5]
+    np.testing.assert_allclose(comp.output(0, x, u)[3][:3], [0.0, 0.0, -10.0], atol=1e-9)
