@@ -23,7 +23,8 @@ import numpy as np
 
 from .api import build, load
 from .linearize import Linearization, LinearizationError, hand_modes
-from .registry import lookup
+from .errors import LoaderError
+from .registry import closest, lookup
 
 DEFAULTS = {
     "set": {},
@@ -34,13 +35,24 @@ DEFAULTS = {
     "scales": [0.125, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0],
     "cases": {},
     "hand_mode_hz": None,
+    "at": None,  # the operating point: the state after this many seconds (None: the initial state)
 }
+KEYS = [*DEFAULTS, "compare", "step"]  # "compare" and "step" are read by hybridsim.report
 
 
 def settings_of(f):
-    """The diagram's analysis settings merged over the defaults."""
+    """The diagram's analysis settings merged over the defaults; an unknown key is a LoaderError at its line."""
+    section = f.data.get("analysis") or {}
+    for key in section:
+        if key not in KEYS:
+            raise LoaderError(f"unknown analysis setting {key!r}{closest(key, KEYS)}; settings: {', '.join(KEYS)}",
+                              f.path, (getattr(section, "lines", None) or {}).get(key))
     cfg = copy.deepcopy(DEFAULTS)
-    cfg.update({k: v for k, v in (f.data.get("analysis") or {}).items()})
+    cfg.update(dict(section))
+    if cfg["at"] is not None and not (isinstance(cfg["at"], (int, float)) and not isinstance(cfg["at"], bool)
+                                      and cfg["at"] >= 0):
+        raise LoaderError(f"analysis setting 'at' must be a time in seconds >= 0, got {cfg['at']!r}", f.path,
+                          (getattr(section, "lines", None) or {}).get("at"))
     return cfg
 
 
@@ -92,13 +104,33 @@ def least_damping(poles):
     return min(d) if d else None
 
 
+def _margins_hold(L, gm, pm, wg, wp):
+    """Whether python-control's polynomial margins describe L's own frequency response (1 % / 1 deg)."""
+    def at(w):
+        return complex(np.asarray(L(np.exp(1j * w * L.dt) if L.dt else 1j * w)).ravel()[0])
+
+    if np.isfinite(pm) and np.isfinite(wp) and abs(abs(at(wp)) - 1.0) > 0.01:
+        return False
+    return not (np.isfinite(gm) and np.isfinite(wg) and abs(abs(at(wg)) * gm - 1.0) > 0.01)
+
+
 def margins(L):
-    """Gain margin (x and dB), phase margin (deg) and their frequencies (Hz) of L."""
+    """Gain margin (x and dB), phase margin (deg) and their frequencies (Hz) of L.
+
+    python-control's polynomial method first; where its crossovers do not lie
+    on L's own frequency response (it loses accuracy on high-order loops, e.g.
+    a 6-DOF arm's with its many modes), the margins of the response sampled
+    on a dense grid up to Nyquist.
+    """
     import warnings
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         gm, pm, _, wg, wp, _ = control.stability_margins(L)
+        if L.dt and not _margins_hold(L, gm, pm, wg, wp):
+            w = np.unique(np.concatenate([np.logspace(-3, np.log10(np.pi / L.dt), 4000),
+                                          np.linspace(1e-3, np.pi / L.dt, 20000)]))
+            gm, pm, _, wg, wp, _ = control.stability_margins(control.frd(L, w[w < np.pi / L.dt * 0.99999]))
     dt = L.dt
     to_hz = (lambda w: None if w is None or not np.isfinite(w) else float(w / (2 * np.pi)))
     return {
@@ -111,23 +143,23 @@ def margins(L):
     }
 
 
-def largest_abs_z(path, overrides):
-    """Largest ``|z|`` (besides z = 1) of a diagram file's closed loop, or None."""
+def largest_abs_z(path, overrides, at=None):
+    """Largest ``|z|`` (besides z = 1) of a diagram file's closed loop, or None; about the state
+    reached at ``at`` s of simulation when given (as :func:`linearization`)."""
     try:
-        system, _, _ = build(path, **overrides)
-        return Linearization(system).closed_loop().growth
+        return linearization(path, at=at, **overrides).closed_loop().growth
     except LinearizationError:
         return None
 
 
-def critical_scale(path, base, param, value, lo=1.0, hi=None, tol=0.01):
+def critical_scale(path, base, param, value, lo=1.0, hi=None, tol=0.01, at=None):
     """Scale of ``param`` (relative to ``value``) at the stability boundary.
 
     Found by doubling/halving from 1, then bisection to ``tol`` (relative).
     Returns None when no boundary lies within 1e-4..1e4.
     """
     def unstable(s):
-        r = largest_abs_z(path, {**base, param: (value * s).tolist()})
+        r = largest_abs_z(path, {**base, param: (value * s).tolist()}, at)
         return r is None or r >= 1.0
 
     if unstable(lo):  # walk down to a stable scale
@@ -156,6 +188,7 @@ def analyze(path, at=None, sweeps=True, **overrides):
     """Run the whole analysis; returns a dict of plain results (see module doc)."""
     f = load(path, **overrides)
     cfg = settings_of(f)
+    at = cfg["at"] if at is None else at
     base = {**cfg["set"], **overrides}
     lin = linearization(path, at=at, **base)
     cl = lin.closed_loop()
@@ -187,7 +220,7 @@ def analyze(path, at=None, sweeps=True, **overrides):
         out["_objects"]["loops"][name] = L
     out["cases"] = {}
     for cname, cov in cfg["cases"].items():
-        rho = largest_abs_z(path, {**base, **cov})
+        rho = largest_abs_z(path, {**base, **cov}, at)
         out["cases"][cname] = {"set": cov, "spectral_radius": rho, "stable": rho is not None and rho < 1}
     if not sweeps:
         return out
@@ -195,17 +228,17 @@ def analyze(path, at=None, sweeps=True, **overrides):
     out["rates"] = []
     if rp in f.params:
         for r in cfg["rates"]:
-            rho = largest_abs_z(path, {**base, rp: r})
+            rho = largest_abs_z(path, {**base, rp: r}, at)
             out["rates"].append({"rate_hz": r, "spectral_radius": rho, "stable": rho is not None and rho < 1})
     out["gains"] = {}
     for gname, ref in cfg["gains"].items():
         value = param_value(f, ref)
         rows = []
         for s in cfg["scales"]:
-            rho = largest_abs_z(path, {**base, ref: (value * s).tolist()})
+            rho = largest_abs_z(path, {**base, ref: (value * s).tolist()}, at)
             rows.append({"scale": s, "spectral_radius": rho, "stable": rho is not None and rho < 1})
         out["gains"][gname] = {"param": ref, "value": value.tolist(), "sweep": rows,
-                               "critical_scale": critical_scale(path, base, ref, value)}
+                               "critical_scale": critical_scale(path, base, ref, value, at=at)}
     return out
 
 

@@ -189,7 +189,7 @@ def cmd_report(args):
     f = _load(args.diagram, args.set)
     out = check_output_dir(Path(args.output or Path("out") / f"{safe_name(f.name)}_report"))
     print(f"analysing {f.name} ...", file=sys.stderr)
-    data = write_report(f.path, out, **_overrides(args.set))
+    data = write_report(f.path, out, at=args.at, **_overrides(args.set))
     for c in data["configurations"]:
         print(f"  {c['label'] or f.name}: largest |z| {c['growth']:.4f} "
               f"({'stable' if c['stable'] else 'not stable'}), least damping {_num(c['least_damping'])}")
@@ -407,13 +407,18 @@ def build_parser():
                                    "margins at the analysis points, and stability against servo rate "
                                    "and gain scaling (settings: the diagram's 'analysis' section).")
     with_diagram(a)
-    a.add_argument("--at", type=_seconds, metavar="T", help="linearize about the state at T s of simulation")
+    a.add_argument("--at", type=_seconds, metavar="T",
+                   help="linearize about the state at T s of simulation (default: the diagram's "
+                        "'analysis: at', else its initial state)")
     a.add_argument("-o", "--output", metavar="OUTDIR", help="also write OUTDIR/analysis.json")
     a.set_defaults(func=cmd_analyze)
     rp = sub.add_parser("report", help="HTML stability report with Bode, root locus, pole map, sweeps",
                         description="Analyse every variant (and each 'analysis.compare' setting) and "
                                     "write one self-contained report.html with PNG/SVG figures.")
     with_diagram(rp)
+    rp.add_argument("--at", type=_seconds, metavar="T",
+                    help="linearize about the state at T s of simulation (default: the diagram's "
+                         "'analysis: at', else its initial state)")
     rp.add_argument("-o", "--output", metavar="OUTDIR", help="output folder (default out/<name>_report)")
     rp.set_defaults(func=cmd_report)
     rr = sub.add_parser("reproduce", help="run every experiment of the paper and check its claims",

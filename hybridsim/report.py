@@ -69,7 +69,11 @@ def bode(loops):
         w = np.logspace(np.log10(2 * np.pi * 0.05), np.log10(nyq) - 1e-3, 600)
         resp = np.asarray(L(np.exp(1j * w * L.dt))).ravel()
         f = w / (2 * np.pi)
-        line, = am.semilogx(f, 20 * np.log10(np.abs(resp)), label=label)
+        if not np.any(resp):  # nothing feeds back through this point (e.g. a position-controlled axis)
+            am.plot([], [], label=f"{label} (no feedback: L = 0)")
+            continue
+        with np.errstate(divide="ignore"):  # exact zeros of L (-inf dB) are left out of the curve
+            line, = am.semilogx(f, 20 * np.log10(np.abs(resp)), label=label)
         ph.semilogx(f, np.degrees(np.unwrap(np.angle(resp))), color=line.get_color())
         m = an.margins(L)
         inside = lambda hz: hz is not None and hz >= 0.05  # noqa: E731
@@ -194,8 +198,12 @@ def _fmt(v):
     return str(v)
 
 
-def write_report(path, outdir, **overrides):
-    """Analyse ``path`` and write ``outdir/report.html`` with figures; returns the data."""
+def write_report(path, outdir, at=None, **overrides):
+    """Analyse ``path`` and write ``outdir/report.html`` with figures; returns the data.
+
+    ``at``: linearize about the state after ``at`` s of simulation (default:
+    the diagram's ``analysis: at``, else the initial state).
+    """
     f = load(path, **overrides)
     cfg = an.settings_of(f)
     variants = f.variants()
@@ -209,7 +217,7 @@ def write_report(path, outdir, **overrides):
             for vlabel, vov in variants:
                 label = " ".join(x for x in (cname, vlabel) if x)
                 ov = {**overrides, **vov, **cov}
-                res = an.analyze(path, sweeps=False, **ov)
+                res = an.analyze(path, at=at, sweeps=False, **ov)
                 objs = res.pop("_objects")
                 models.append((label, objs["closed_loop"]))
                 loops += [(f"{label}: {k}", L) for k, L in objs["loops"].items()]
@@ -222,7 +230,7 @@ def write_report(path, outdir, **overrides):
                        for m in ("gain_margin_db", "phase_margin_deg")},
                     "poles": res["poles"][:8]})
         main_ov = {**overrides, **variants[0][1]}
-        full = an.analyze(path, **main_ov)
+        full = an.analyze(path, at=at, **main_ov)
         full.pop("_objects")
         data["analysis"] = full
     base = {**cfg["set"], **main_ov}

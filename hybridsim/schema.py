@@ -12,7 +12,7 @@ Widths, wiring, units and ranges are checked by ``hybridsim check``.
 """
 import inspect
 
-from . import loader
+from . import analysis, loader
 from .registry import lookup, parameters, types
 
 SCHEMA_ID = "https://hybridsim.invalid/diagram.schema.json"
@@ -112,7 +112,7 @@ def diagram_schema():
             "variants": {"type": "object", "additionalProperties": {"type": "array", "minItems": 1}},
             "plot": {"type": "object", "propertyNames": {"enum": loader.PLOT_KEYS},
                      "additionalProperties": {"type": "string"}},
-            "analysis": {"type": "object"},
+            "analysis": {"type": "object", "propertyNames": {"enum": analysis.KEYS}},
             "inputs": {"type": "object", "additionalProperties": {"anyOf": [ref, {"type": "array", "items": ref}]}},
             "outputs": {"type": "object", "additionalProperties": ref},
         },

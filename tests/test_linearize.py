@@ -163,3 +163,17 @@ def test_a_diagram_without_continuous_state_linearizes():
     # the delay's state is dropped (its column vanishes: z = 0); the counter's x + 1 is z = 1
     assert model.names == ["cnt.xd[0]"]
     assert model.poles[0] == pytest.approx(1.0, abs=1e-6)
+
+
+def test_an_unknown_analysis_setting_is_refused_at_its_line(tmp_path, capsys):
+    """A misspelt key of the 'analysis' section used to be ignored (the analysis ran without it)."""
+    from conftest import write
+    from hybridsim.cli import main
+
+    p = write(tmp_path, f"extends: {DIAGRAMS / 'hybrid_controller.yaml'}\nanalysis:\n  rate_parm: rate\n")
+    assert main(["analyze", str(p)]) == 2
+    err = capsys.readouterr().err
+    assert "d.yaml:3" in err and "unknown analysis setting 'rate_parm' (did you mean 'rate_param'?)" in err
+    q = write(tmp_path, f"extends: {DIAGRAMS / 'hybrid_controller.yaml'}\nanalysis:\n  at: -1\n")
+    assert main(["analyze", str(q)]) == 2
+    assert "'at' must be a time in seconds >= 0" in capsys.readouterr().err
