@@ -143,7 +143,9 @@ class RobotArm(_RobotBlock):
     that the environment applies to the tool frame (input ``wrench``).
     Friction B is the Karnopp law of the paper's eq 11 applied per joint:
 
-    * sliding, ``|q_i'| >= stick_band``: B_i = -sgn(q_i') tau_c,i;
+    * sliding, ``|q_i'| >= stick_band``: B_i = -sgn(q_i') tau_c,i (``friction_model:
+      stribeck``: -sgn(q_i') g(q_i'), g(v) = tau_c + (tau_s - tau_c) exp(-(v / stribeck_velocity)^2),
+      as the 2-DOF arm's);
     * sticking: B_i = clip(-F_i - M_ii q_i' / stick_time, +-tau_s,i), with F_i
       the net non-friction generalized force on joint i (tau + J^T w - b q'
       - C q' - g) and M_ii its diagonal inertia; joints are judged one by one
@@ -164,6 +166,8 @@ class RobotArm(_RobotBlock):
     stick_band : rad/s or m/s   Karnopp capture band
     stick_time : s        time constant bringing a stuck joint to rest
     gravity : [m/s^2]     gravity vector in the robot's base frame
+    friction_model : str  karnopp (default) or stribeck
+    stribeck_velocity : rad/s or m/s   speed scale of the Stribeck decay (scalar or per joint)
     start_position : [m]  start with the tool frame's origin here (base frame): the joints are
                           solved from q0 by damped Newton steps to 1e-12 m (the nearest solution
                           for a redundant arm); a point out of reach is a ParameterError
@@ -171,7 +175,8 @@ class RobotArm(_RobotBlock):
 
     def __init__(self, name="arm", urdf=None, robot=None, frame=None, q0=None, qd0=None, damping=0.0,
                  friction=False, tau_c=0.0, tau_s=0.0, stick_band=1e-4, stick_time=1e-3,
-                 gravity=(0.0, 0.0, -9.81), start_position=None):
+                 gravity=(0.0, 0.0, -9.81), start_position=None, friction_model="karnopp",
+                 stribeck_velocity=1e-3):
         super().__init__(name)
         n = self._robot(urdf, robot, frame)
         pin = _pinocchio()
@@ -186,6 +191,11 @@ class RobotArm(_RobotBlock):
         self.tau_s = vector(tau_s, "tau_s", n, "nonnegative")
         if self.friction and (self.tau_c > self.tau_s).any():
             raise ParameterError("tau_s", "must be at least tau_c (static >= Coulomb) at every joint")
+        if friction_model not in ("karnopp", "stribeck"):
+            raise ParameterError("friction_model", f"must be karnopp or stribeck for robot_arm (LuGre needs "
+                                                   f"bristle states: the 2-DOF manipulator has it); got {friction_model!r}")
+        self.stribeck = friction_model == "stribeck"
+        self.v_s = vector(stribeck_velocity, "stribeck_velocity", n, "positive")
         self.band = scalar(stick_band, "stick_band", "nonnegative")
         self.t_stick = scalar(stick_time, "stick_time", "positive")
         self.model = self.model.copy()  # its own gravity; the cached one stays as loaded
@@ -226,7 +236,10 @@ class RobotArm(_RobotBlock):
         bias = pin.rnea(self.model, self.data, q, v, np.zeros(n))  # C(q, q') q' + g(q)
         m = np.diag(pin.crba(self.model, self.data, q))
         stuck = np.clip(-(applied - bias) - m * v / self.t_stick, -self.tau_s, self.tau_s)
-        return np.where(np.abs(v) >= self.band, -np.sign(v) * self.tau_c, stuck)
+        level = self.tau_c
+        if self.stribeck:  # sliding friction falls from the static to the Coulomb level with speed
+            level = self.tau_c + (self.tau_s - self.tau_c) * np.exp(-(v / self.v_s) ** 2)
+        return np.where(np.abs(v) >= self.band, -np.sign(v) * level, stuck)
 
     def derivatives(self, t, x, u):
         pin = _pinocchio()

@@ -37,6 +37,17 @@ def rotation_vector(R):
     return Rotation.from_matrix(np.asarray(R, float).reshape(3, 3)).as_rotvec()
 
 
+def inverse(J, v, lam, name, t):
+    """J^-1 v for the position loop (eq 14): exact for a square J, else damped least squares
+    J^T (J J^T + lam^2 I)^-1 v; a square J with condition number above 1e8 is a SimulationError."""
+    if lam > 0.0:
+        return J.T @ np.linalg.solve(J @ J.T + lam ** 2 * np.eye(J.shape[0]), v)
+    if np.linalg.cond(J) > 1e8:
+        raise SimulationError(f"block {name!r}: the task Jacobian is singular at t = {t:.6g} s "
+                              "(condition number above 1e8): give dls_damping > 0 or avoid that pose")
+    return np.linalg.solve(J, v)
+
+
 def _rot6(R, v):
     """Both halves of a six-vector rotated by R."""
     return np.concatenate([R @ v[:3], R @ v[3:]])
@@ -167,6 +178,69 @@ class ForceTorqueSensor(Block):
         x = np.array(x, float)
         x[6:9] = self._reading(x, u)  # a tare: the reading now becomes zero
         return x
+
+
+class _JacobianBlock(Block):
+    """Shared: N joints, the controlled axes of the six (rows of J kept)."""
+
+    def _setup(self, joints, axes):
+        self.n = count(joints, "joints")
+        self.axes = vector(axes, "axes", 6) != 0
+        if not self.axes.any():
+            raise ParameterError("axes", "must keep at least one of the six axes")
+        return self.n
+
+    def _rows(self, u):
+        return np.asarray(u[0], float).reshape(6, self.n)[self.axes]
+
+
+@register("task_jacobian_transpose")
+class TaskJacobianTranspose(_JacobianBlock):
+    """tau = J^T F (eq 14b): a wrench (force N, moment N m) to joint torques, for N joints.
+
+    Parameters
+    ----------
+    joints : int     N
+    axes : [1]       six entries: 1 for the rows of J (and entries of F) used
+    """
+
+    def __init__(self, name="jt", joints=6, axes=(1, 1, 1, 1, 1, 1)):
+        super().__init__(name)
+        n = self._setup(joints, axes)
+        self.declare_input("J", 6 * n)
+        self.declare_input("F", 6)
+        self.declare_output("tau", n)
+
+    def output(self, t, x, u):
+        return (self._rows(u).T @ np.asarray(u[1], float)[self.axes],)
+
+
+@register("task_jacobian_inverse")
+class TaskJacobianInverse(_JacobianBlock):
+    """q_e = J^-1 X_e (eq 14a) for N joints: exact when as many axes as joints are kept, else damped
+    least squares J^T (J J^T + lambda^2 I)^-1 (``dls_damping`` lambda must then be positive). A square
+    J with condition number above 1e8 (a singular pose) is a run-time error naming the time.
+
+    Parameters
+    ----------
+    joints : int          N
+    axes : [1]            six entries: 1 for the rows of J (and entries of X) used
+    dls_damping : m       lambda
+    """
+
+    def __init__(self, name="jinv", joints=6, axes=(1, 1, 1, 1, 1, 1), dls_damping=0.0):
+        super().__init__(name)
+        n = self._setup(joints, axes)
+        self.lam = scalar(dls_damping, "dls_damping", "nonnegative")
+        if self.axes.sum() != n and self.lam == 0.0:
+            raise ParameterError("dls_damping", f"must be positive: {int(self.axes.sum())} axes kept with "
+                                                f"{n} joints (J is not square)")
+        self.declare_input("J", 6 * n)
+        self.declare_input("X", 6)
+        self.declare_output("q", n)
+
+    def output(self, t, x, u):
+        return (inverse(self._rows(u), np.asarray(u[1], float)[self.axes], self.lam, self.name, t),)
 
 
 @register("plane_contact")
@@ -330,12 +404,7 @@ class HybridControl6D(Block):
         return tau_p + tau_f + tff, zq, zf, FC  # eq 16
 
     def _inverse(self, t, JC, v):
-        if self.lam > 0.0:
-            return JC.T @ np.linalg.solve(JC @ JC.T + self.lam ** 2 * np.eye(JC.shape[0]), v)
-        if np.linalg.cond(JC) > 1e8:
-            raise SimulationError(f"block {self.name!r}: the task Jacobian is singular at t = {t:.6g} s "
-                                  "(condition number above 1e8): give dls_damping > 0 or avoid that pose")
-        return np.linalg.solve(JC, v)
+        return inverse(JC, v, self.lam, self.name, t)
 
     @property
     def period_s(self):

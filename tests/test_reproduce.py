@@ -118,3 +118,15 @@ def test_fig7_conventions_follow_its_settings():
     rise, over, steady, contact = rp.conventions("Fig 7", settings)
     assert rise.startswith("10-90 % of the step at 0.5 s") and "12 Hz" in rise
     assert "over the last 1 s (1.5-2.5 s)" in steady and "2.5 s runs, logged every 0.5 ms" in steady
+
+
+def test_a_pair_grid_names_the_points_where_only_both_assumptions_make_a_claim_hold():
+    from hybridsim.paper.hinges import describe_pair
+
+    # claim 0 holds with joint damping 16 alone; claim 1 only with joint 16 and wrist 4 together
+    grid = {"assumptions": ["joint damping s", "wrist damping s"], "grid": [
+        (0.0, 0.0, [False, False]), (0.0, 4.0, [False, False]),
+        (16.0, 0.0, [True, False]), (16.0, 4.0, [True, True])]}
+    assert describe_pair(grid, 0) is None  # one alone suffices
+    assert describe_pair(grid, 1) == ("holds only with both joint damping s and wrist damping s at "
+                                      "(joint damping s, wrist damping s) = (16, 4)")

@@ -195,6 +195,46 @@ def judge_model(model, jobs, extra=None, names=tuple(JUDGED)):
     return out
 
 
+#: the two-parameter searches: (assumption, values) x (assumption, values), on a coarse grid
+PAIRS = [
+    (("joint damping s", [0.0, 4.0, 16.0, 64.0]), ("wrist damping s", [0.0, 4.0, 16.0, 64.0])),
+    (("stick band", [1e-4, 2e-4, 4e-4]), ("joint damping s", [0.0, 4.0, 16.0, 64.0])),
+]
+
+
+def pair_search(name, first, second, jobs, extra=None):
+    """Per claim of ``name``: its verdict over a grid of two assumptions at once.
+
+    ``first`` and ``second`` are (assumption, values). Returns
+    ``{"experiment", "assumptions", "claims", "grid": [(v1, v2, [verdict per claim])]}``.
+    """
+    (a1, v1s), (a2, v2s) = first, second
+    base = JUDGED[name]
+    points = [(v1, v2) for v1 in v1s for v2 in v2s]
+    items = [(name, {**base, **ASSUMPTIONS[a1][1](v1), **ASSUMPTIONS[a2][1](v2)}) for v1, v2 in points]
+    results = _pool_map(items, jobs, extra)
+    claims = max(([c[0] for c in r[0]] for r in results), key=len)
+    return {"experiment": name, "assumptions": [a1, a2], "claims": claims,
+            "grid": [(v1, v2, vs) for (v1, v2), vs in zip(points, _verdicts(results))]}
+
+
+def describe_pair(search, c):
+    """A claim's line from a two-parameter grid, or None: the points where it holds only with both.
+
+    Each grid starts at the assumptions' printed values, so the grid itself
+    says where one alone (the other as printed) already makes the claim hold.
+    """
+    a1, a2 = search["assumptions"]
+    ok = {(v1, v2): c < len(vs) and vs[c] for v1, v2, vs in search["grid"]}
+    v10, v20 = search["grid"][0][0], search["grid"][0][1]
+    both = [(v1, v2) for (v1, v2), held in ok.items()
+            if held and v1 != v10 and v2 != v20 and not ok[(v1, v20)] and not ok[(v10, v2)]]
+    if not both:
+        return None
+    pts = ", ".join(f"({v1:.3g}, {v2:.3g})" for v1, v2 in both)
+    return f"holds only with both {a1} and {a2} at ({a1}, {a2}) = {pts}"
+
+
 def _warm_up(names, chosen, jobs, extra):
     """On the compiled path: one run of each diagram structure the analysis will use, all at once.
 
@@ -225,7 +265,7 @@ def hinges(jobs, extra=None, experiments=None, assumptions=None, bisections=2, p
     say = progress or (lambda msg: None)
     names = [n for n in JUDGED if experiments is None or n in experiments]
     chosen = [a for a in ASSUMPTIONS if assumptions is None or a in assumptions]
-    searches, rows = [], []
+    searches, rows, pairs = [], [], []
     if (extra or {}).get("compiled"):
         say("compiling each structure the analysis uses, two at a time (numba; cached for later runs)")
         _warm_up(names, chosen, jobs, extra)
@@ -237,8 +277,12 @@ def hinges(jobs, extra=None, experiments=None, assumptions=None, bisections=2, p
         weak = fragile(name, verdicts, jobs, extra)
         mine = [hinge_search(name, a, jobs, extra, bisections, printed=verdicts) for a in chosen]
         searches += mine
+        grids = [pair_search(name, f, s, jobs, extra) for f, s in PAIRS if f[0] in chosen and s[0] in chosen]
+        pairs += grids
         for c, (text, criterion, ours, ok) in enumerate(printed):
             hinge = [d for d in (describe(s, c, ok) for s in mine if c < len(s["flips"])) if d]
+            if not ok:  # what only two assumptions together do
+                hinge += [d for d in (describe_pair(g, c) for g in grids) if d]
             nothing = ("nothing tried breaks it" if ok else
                        f"not found within the ranges tried ({', '.join(chosen)})")
             rows.append({"experiment": name, "claim": text, "criterion": criterion, "ours": ours,
@@ -248,4 +292,4 @@ def hinges(jobs, extra=None, experiments=None, assumptions=None, bisections=2, p
     models = [{"model": [list(m) for m in model], "held": judge_model(model, jobs, extra, names)}
               for model in stated_models(searches)]
     best = max(models, key=lambda m: (sum(h for h, _ in m["held"].values()), -len(m["model"])), default=None)
-    return {"rows": rows, "searches": searches, "models": models, "best": best}
+    return {"rows": rows, "searches": searches, "pairs": pairs, "models": models, "best": best}

@@ -155,3 +155,17 @@ def test_ur5_dynamics_agree_with_drakes_multibody_plant():
         drake = deriv.get_vector().CopyToVector()[6:]
         np.testing.assert_allclose(arm.derivatives(0.0, np.concatenate([q, v]), [tau, np.zeros(6)])[6:], drake,
                                    rtol=0, atol=1e-9)
+
+
+def test_stribeck_sliding_friction_matches_the_2dof_arms():
+    """The same Stribeck law as the paper arm's friction_model: stribeck, at a few speeds."""
+    common = dict(robot="fig3_arm", gravity=(0, 0, 0), friction=True, tau_c=[5.0, 3.5], tau_s=[5.75, 4.6],
+                  friction_model="stribeck", stribeck_velocity=[2e-3, 2e-3])
+    arm, free = RobotArm(**common), RobotArm(robot="fig3_arm", gravity=(0, 0, 0))
+    for v in (5e-4, 2e-3, 1e-2):
+        x = np.array([0.3, 0.5, 0.0, v])
+        g = 3.5 + (4.6 - 3.5) * np.exp(-(v / 2e-3) ** 2)
+        np.testing.assert_allclose(arm.derivatives(0, x, [np.zeros(2), np.zeros(6)]),
+                                   free.derivatives(0, x, [np.array([0.0, -g]), np.zeros(6)]), atol=1e-12)
+    with pytest.raises(ParameterError, match="karnopp or stribeck"):
+        RobotArm(robot="fig3_arm", friction_model="lugre")

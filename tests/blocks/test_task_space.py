@@ -161,3 +161,45 @@ def test_the_ft_sensor_at_rest_reads_the_tool_weight_and_zero_after_taring():
     x[2] = 0.3 - (0.8 * 9.81 + 10.0) / 1e5
     x[:3] = [0.4, 0.1, 0.3 + (10.0 - 0.8 * 9.81) / 1e5]
     np.testing.assert_allclose(comp.output(0, x, u)[3][:3], [0.0, 0.0, -10.0], atol=1e-9)
+
+
+def test_jacobian_transpose_and_inverse_blocks_equal_the_papers_in_the_plane():
+    from hybridsim.blocks.kinematics import InverseJacobian, JacobianTranspose
+    from hybridsim.blocks.task_space import TaskJacobianInverse, TaskJacobianTranspose
+
+    jt, ji = TaskJacobianTranspose(joints=2, axes=[1, 1, 0, 0, 0, 0]), TaskJacobianInverse(joints=2, axes=[1, 1, 0, 0, 0, 0])
+    rng = np.random.default_rng(7)
+    for q in rng.uniform([0.2, 0.4], [0.5, 0.6], size=(5, 2)):
+        J = np.zeros((6, 2))
+        J[:2] = np.array(jacobian_rows(q, 0.153))
+        F, X = rng.normal(size=2), rng.normal(size=2) * 1e-3
+        six = lambda v: np.concatenate([v, np.zeros(4)])  # noqa: E731
+        np.testing.assert_allclose(jt.output(0, None, [J.ravel(), six(F)])[0],
+                                   JacobianTranspose().output(0, None, [q, F])[0], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(ji.output(0, None, [J.ravel(), six(X)])[0],
+                                   InverseJacobian().output(0, None, [q, X])[0], rtol=0, atol=1e-12)
+    # damped least squares for a redundant arm: 6 joints, 3 axes; near a singular pose it stays finite
+    dls = TaskJacobianInverse(joints=6, axes=[1, 1, 1, 0, 0, 0], dls_damping=0.01)
+    J = np.zeros((6, 6))
+    J[0, 0] = J[1, 1] = 1.0  # the Z row is lost: singular
+    q = dls.output(0, None, [J.ravel(), np.array([0.1, 0.2, 0.3, 0, 0, 0])])[0]
+    np.testing.assert_allclose(q[:2], [0.1 / (1 + 1e-4), 0.2 / (1 + 1e-4)], rtol=1e-12)
+    assert np.all(np.isfinite(q))
+
+
+def test_a_moving_task_frame_given_as_an_input_equals_the_same_frame_fixed():
+    """{C} from the input C (origin, rotation: e.g. a crank's frame from a source block) is used as the
+    parameter's would be; turning {C} a quarter turn moves the force axis from base X to base Y."""
+    gains = dict(rate=100, joints=2, S=[1, 0, 0, 0, 0, 0], axes=[1, 1, 0, 0, 0, 0], Kpp=[400, 1500],
+                 Kfp=[0.4, 0.3], Kfi=[200, 200])
+    fixed = HybridControl6D(frame_rotation=[0, 0, np.pi / 2], frame_origin=[0.1, 0.0, 0.0], **gains)
+    moving = HybridControl6D(**gains)
+    q = np.array([0.31, 0.476])
+    u = _tick_inputs(q, [3.0, 1.0], [0.01, -0.4], [0, 0], [10.0, 0.0], [1, 0])
+    C = np.concatenate([[0.1, 0.0, 0.0], rotation([0, 0, np.pi / 2]).ravel()])
+    a = fixed.output(0.0, fixed.initial_state(), u[:9] + [np.array(fixed.inputs[9].default)] + u[10:])  # unwired
+    b = moving.output(0.0, moving.initial_state(), u[:9] + [C] + u[10:])
+    turned = moving.output(0.0, moving.initial_state(), u)[0]  # {C} = base axes
+    assert np.abs(turned - b[0]).max() > 1.0  # the frame matters
+    np.testing.assert_allclose(a[0], b[0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(b[1][:2], [1.0, -3.0], atol=1e-12)  # F in {C}: base (3, 1) turned by -90 deg
