@@ -114,6 +114,30 @@ def _margins_hold(L, gm, pm, wg, wp):
     return not (np.isfinite(gm) and np.isfinite(wg) and abs(abs(at(wg)) * gm - 1.0) > 0.01)
 
 
+def _grid_margins(L, n=20000):
+    """(gm, pm deg, phase-crossover rad/s, gain-crossover rad/s) of a discrete L from its response on a
+    dense grid up to Nyquist, crossings interpolated linearly; the crossing nearest instability wins."""
+    nyq = np.pi / L.dt
+    w = np.unique(np.concatenate([np.logspace(np.log10(nyq) - 5, np.log10(nyq), n // 4), np.linspace(0, nyq, n)]))
+    w = w[(w > 0) & (w < nyq * (1 - 1e-9))]
+    r = np.asarray(L(np.exp(1j * w * L.dt))).ravel()
+    gm, pm, wg, wp = np.inf, np.inf, np.nan, np.nan
+    lm = np.log(np.maximum(np.abs(r), 1e-300))
+    for i in np.nonzero(np.sign(lm[:-1]) * np.sign(lm[1:]) < 0)[0]:  # |L| = 1
+        s = lm[i] / (lm[i] - lm[i + 1])
+        rc = r[i] + s * (r[i + 1] - r[i])
+        p = 180.0 + np.degrees(np.angle(rc))  # phase margin of this crossing
+        if abs(p) < abs(pm):
+            pm, wp = p, w[i] + s * (w[i + 1] - w[i])
+    im = r.imag
+    for i in np.nonzero((np.sign(im[:-1]) * np.sign(im[1:]) < 0) & (r.real[:-1] < 0))[0]:  # phase -180
+        s = im[i] / (im[i] - im[i + 1])
+        g = 1.0 / abs(r[i].real + s * (r[i + 1].real - r[i].real))
+        if abs(np.log(g)) < abs(np.log(gm)):
+            gm, wg = g, w[i] + s * (w[i + 1] - w[i])
+    return gm, pm, wg, wp
+
+
 def margins(L):
     """Gain margin (x and dB), phase margin (deg) and their frequencies (Hz) of L.
 
@@ -128,9 +152,7 @@ def margins(L):
         warnings.simplefilter("ignore")
         gm, pm, _, wg, wp, _ = control.stability_margins(L)
         if L.dt and not _margins_hold(L, gm, pm, wg, wp):
-            w = np.unique(np.concatenate([np.logspace(-3, np.log10(np.pi / L.dt), 4000),
-                                          np.linspace(1e-3, np.pi / L.dt, 20000)]))
-            gm, pm, _, wg, wp, _ = control.stability_margins(control.frd(L, w[w < np.pi / L.dt * 0.99999]))
+            gm, pm, wg, wp = _grid_margins(L)
     dt = L.dt
     to_hz = (lambda w: None if w is None or not np.isfinite(w) else float(w / (2 * np.pi)))
     return {
