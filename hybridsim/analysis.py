@@ -121,20 +121,35 @@ def _grid_margins(L, n=20000):
     w = np.unique(np.concatenate([np.logspace(np.log10(nyq) - 5, np.log10(nyq), n // 4), np.linspace(0, nyq, n)]))
     w = w[(w > 0) & (w < nyq * (1 - 1e-9))]
     r = np.asarray(L(np.exp(1j * w * L.dt))).ravel()
+
+    def at(x):
+        return complex(np.asarray(L(np.exp(1j * x * L.dt))).ravel()[0])
+
+    def root(f, a, b):  # bisection of a sign change of f on [a, b]
+        fa = f(a)
+        for _ in range(60):
+            m = 0.5 * (a + b)
+            if np.sign(f(m)) == np.sign(fa):
+                a, fa = m, f(m)
+            else:
+                b = m
+        return 0.5 * (a + b)
+
     gm, pm, wg, wp = np.inf, np.inf, np.nan, np.nan
     lm = np.log(np.maximum(np.abs(r), 1e-300))
     for i in np.nonzero(np.sign(lm[:-1]) * np.sign(lm[1:]) < 0)[0]:  # |L| = 1
-        s = lm[i] / (lm[i] - lm[i + 1])
-        rc = r[i] + s * (r[i + 1] - r[i])
-        p = 180.0 + np.degrees(np.angle(rc))  # phase margin of this crossing
+        x = root(lambda v: np.log(abs(at(v))), w[i], w[i + 1])
+        p = 180.0 + np.degrees(np.angle(at(x)))  # phase margin of this crossing
         if abs(p) < abs(pm):
-            pm, wp = p, w[i] + s * (w[i + 1] - w[i])
+            pm, wp = p, x
     im = r.imag
     for i in np.nonzero((np.sign(im[:-1]) * np.sign(im[1:]) < 0) & (r.real[:-1] < 0))[0]:  # phase -180
-        s = im[i] / (im[i] - im[i + 1])
-        g = 1.0 / abs(r[i].real + s * (r[i + 1].real - r[i].real))
+        x = root(lambda v: at(v).imag, w[i], w[i + 1])
+        if abs(at(x)) > 10.0 * max(abs(r[i]), abs(r[i + 1])):  # Im changed sign through a pole, not -180 deg
+            continue
+        g = 1.0 / abs(at(x).real)
         if abs(np.log(g)) < abs(np.log(gm)):
-            gm, wg = g, w[i] + s * (w[i + 1] - w[i])
+            gm, wg = g, x
     return gm, pm, wg, wp
 
 
