@@ -152,20 +152,21 @@ class ForceTorqueSensor(Block):
     def _spring(self, x, u):
         """The force (N, base axes) the spring-damper puts on the tool."""
         R = np.asarray(u[1], float).reshape(3, 3)
-        dp = np.asarray(x[:3], float) - np.asarray(u[0], float)
-        dv = np.asarray(x[3:6], float) - np.asarray(u[2], float)[:3]
-        return -(R @ (self.K * (R.T @ dp) + self.B * (R.T @ dv)))
+        x = np.asarray(x, float)
+        d = x[:6] - np.concatenate([np.asarray(u[0], float), np.asarray(u[2], float)[:3]])
+        return -(R @ (self.K * (R.T @ d[:3]) + self.B * (R.T @ d[3:])))
 
-    def _reading(self, x, u):
+    def _reading(self, x, u, f=None):
         """The reading before taring (base axes, N): the flange's push on the tool, plus m g when compensated."""
-        return self._spring(x, u) + (self.m * self.g if self.compensate else 0.0)
+        f = self._spring(x, u) if f is None else f
+        return f + (self.m * self.g if self.compensate else 0.0)
 
     def output(self, t, x, u):
         f = self._spring(x, u)
         omega = np.asarray(u[2], float)[3:]
         return (np.concatenate([-f, np.zeros(3)]), np.asarray(x[:3], float).copy(),
                 np.concatenate([np.asarray(x[3:6], float), omega]),
-                np.concatenate([self._reading(x, u) - np.asarray(x[6:9], float), np.zeros(3)]))
+                np.concatenate([self._reading(x, u, f) - np.asarray(x[6:9], float), np.zeros(3)]))
 
     def derivatives(self, t, x, u):
         acc = (self._spring(x, u) + self.m * self.g + np.asarray(u[3], float)[:3]) / self.m

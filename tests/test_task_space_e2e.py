@@ -48,6 +48,7 @@ def test_a_ur5_presses_10_N_and_traces_a_10_cm_circle(ur5_run):
     assert np.ptp(p[:, 0]) > 0.095  # nearly a full turn in 1.4 s (measured: 0.61 -> 0.51 -> 0.61 m)
 
 
+@pytest.mark.slow
 def test_analyze_linearizes_the_6dof_diagram_in_contact(capsys):
     """The diagram's 'analysis: at: 1.0' linearizes it while tracing; the servo-rate sweep is about
     that state too (it was about the initial state, out of contact); the force loop's margins lie on
