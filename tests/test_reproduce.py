@@ -130,3 +130,11 @@ def test_a_pair_grid_names_the_points_where_only_both_assumptions_make_a_claim_h
     assert describe_pair(grid, 0) is None  # one alone suffices
     assert describe_pair(grid, 1) == ("holds only with both joint damping s and wrist damping s at "
                                       "(joint damping s, wrist damping s) = (16, 4)")
+
+
+def test_a_claim_that_holds_at_one_value_tried_says_so():
+    from hybridsim.paper.hinges import describe
+
+    search = {"assumption": "actuator lag", "trials": [{"value": v, "verdicts": [ok]} for v, ok in
+                                                       ((0.0, False), (0.005, False), (0.01, True), (0.02, False))]}
+    assert describe(search, 0) == "holds at actuator lag = 0.01 s"  # not "from 0.01 to 0.01"

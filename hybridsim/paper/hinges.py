@@ -129,7 +129,7 @@ def describe(search, c, holds_as_printed=False):
         return f"{verb} if {name} >= {hits[0]:.3g}{unit}"
     if contiguous and first == 0:
         return f"{verb} if {name} <= {hits[-1]:.3g}{unit}"
-    if contiguous:
+    if contiguous and len(hits) > 1:
         return f"{verb} for {name} from {hits[0]:.3g} to {hits[-1]:.3g}{unit}"
     return f"{verb} at {name} = " + ", ".join(f"{v:.3g}" for v in hits) + unit
 
