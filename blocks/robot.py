@@ -303,7 +303,7 @@ class RobotKinematics(_RobotBlock):
         q = np.asarray(u[0], float)
         J = pin.computeFrameJacobian(self.model, self.data, q, self.frame_id, pin.LOCAL_WORLD_ALIGNED)
         pose = pin.updateFramePlacement(self.model, self.data, self.frame_id)  # the joints' placements are fresh
-        return (pose.translation.copy(), pose.rotation.ravel(), J @ np.asarray(u[1], float), J.ravel())
+        return (pose.translation.copy(), pose.rotation.ravel().copy(), J @ np.asarray(u[1], float), J.ravel())
 
 
 @register("gravity_torque")
