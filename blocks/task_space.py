@@ -332,7 +332,8 @@ class HybridControl6D(Block):
     Integrals use the rectangle rule including the current sample, as the
     2-D controller does. When S changes (task phases, input ``S``), the
     force integrator absorbs the step so that tau stays where it was
-    (bumpless transfer); from then on each loop integrates its own error. A
+    (bumpless transfer; a joint whose Kfi is 0 keeps its step); from then on
+    each loop integrates its own error. A
     square J_C whose condition number exceeds 1e8 is a run-time error
     (a singular pose), with its time.
 
