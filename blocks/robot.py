@@ -166,8 +166,11 @@ class RobotArm(_RobotBlock):
     stick_band : rad/s or m/s   Karnopp capture band
     stick_time : s        time constant bringing a stuck joint to rest
     gravity : [m/s^2]     gravity vector in the robot's base frame
-    friction_model : str  karnopp (default) or stribeck
+    friction_model : str  karnopp (default), stribeck or lugre (a bristle state per joint: n more
+                          states; in steady sliding it equals the Stribeck curve, as the 2-DOF arm's)
     stribeck_velocity : rad/s or m/s   speed scale of the Stribeck decay (scalar or per joint)
+    bristle_stiffness : N m/rad or N/m  LuGre sigma0 (default 1e5)
+    bristle_damping : N m s/rad or N s/m  LuGre sigma1 (default critical: 2 sqrt(sigma0 M_ii(q0)))
     start_position : [m]  start with the tool frame's origin here (base frame): the joints are
                           solved from q0 by damped Newton steps to 1e-12 m (the nearest solution
                           for a redundant arm); a point out of reach is a ParameterError
@@ -176,7 +179,7 @@ class RobotArm(_RobotBlock):
     def __init__(self, name="arm", urdf=None, robot=None, frame=None, q0=None, qd0=None, damping=0.0,
                  friction=False, tau_c=0.0, tau_s=0.0, stick_band=1e-4, stick_time=1e-3,
                  gravity=(0.0, 0.0, -9.81), start_position=None, friction_model="karnopp",
-                 stribeck_velocity=1e-3):
+                 stribeck_velocity=1e-3, bristle_stiffness=1e5, bristle_damping=None):
         super().__init__(name)
         n = self._robot(urdf, robot, frame)
         pin = _pinocchio()
@@ -191,11 +194,17 @@ class RobotArm(_RobotBlock):
         self.tau_s = vector(tau_s, "tau_s", n, "nonnegative")
         if self.friction and (self.tau_c > self.tau_s).any():
             raise ParameterError("tau_s", "must be at least tau_c (static >= Coulomb) at every joint")
-        if friction_model not in ("karnopp", "stribeck"):
-            raise ParameterError("friction_model", f"must be karnopp or stribeck for robot_arm (LuGre needs "
-                                                   f"bristle states: the 2-DOF manipulator has it); got {friction_model!r}")
+        if friction_model not in ("karnopp", "stribeck", "lugre"):
+            raise ParameterError("friction_model", f"must be karnopp, stribeck or lugre; got {friction_model!r}")
         self.stribeck = friction_model == "stribeck"
+        self.lugre = friction_model == "lugre" and self.friction
         self.v_s = vector(stribeck_velocity, "stribeck_velocity", n, "positive")
+        self.sigma0 = vector(bristle_stiffness, "bristle_stiffness", n, "positive")
+        if bristle_damping is None:  # critical for each joint's own inertia at the start
+            masses = np.diag(pin.crba(self.model, self.data, self.q0))
+            self.sigma1 = 2.0 * np.sqrt(self.sigma0 * masses)
+        else:
+            self.sigma1 = vector(bristle_damping, "bristle_damping", n, "nonnegative")
         self.band = scalar(stick_band, "stick_band", "nonnegative")
         self.t_stick = scalar(stick_time, "stick_time", "positive")
         self.model = self.model.copy()  # its own gravity; the cached one stays as loaded
@@ -205,55 +214,72 @@ class RobotArm(_RobotBlock):
         self.declare_input("wrench", 6, default=np.zeros(6), optional=True)
         self.declare_output("q", n, depends_on=())
         self.declare_output("qd", n, depends_on=())
-        self.declare_continuous_state(2 * n, atol=[1e-10] * n + [1e-8] * n)
-        if self.friction:
-            self.event_directions = [0] * n
+        if self.lugre:  # a bristle deflection per joint, at rest at the start
+            self.declare_continuous_state(3 * n, atol=[1e-10] * n + [1e-8] * n + [1e-13] * n)
+        else:
+            self.declare_continuous_state(2 * n, atol=[1e-10] * n + [1e-8] * n)
+            if self.friction:
+                self.event_directions = [0] * n
 
     def initial_state(self, u=None):
-        return np.concatenate([self.q0, self.qd0])
+        return np.concatenate([self.q0, self.qd0] + ([np.zeros(self.n)] if self.lugre else []))
 
     def output(self, t, x, u):
         n = self.n
-        return (np.asarray(x[:n], float), np.asarray(x[n:], float))
+        return (np.asarray(x[:n], float), np.asarray(x[n:2 * n], float))
 
     def applied(self, x, u):
         """The generalized force on the joints besides friction: tau + J^T w - b q' (N m or N)."""
         pin = _pinocchio()
         n = self.n
         q = np.asarray(x[:n], float)
-        f = np.asarray(u[0], float) - self.b * np.asarray(x[n:], float)
+        f = np.asarray(u[0], float) - self.b * np.asarray(x[n:2 * n], float)
         w = np.asarray(u[1], float)
         if w.any():
             J = pin.computeFrameJacobian(self.model, self.data, q, self.frame_id, pin.LOCAL_WORLD_ALIGNED)
             f = f + J.T @ w
         return f
 
+    def sliding_level(self, v):
+        """g(v): the sliding friction level per joint, Coulomb's, or Stribeck's falling from static."""
+        if not (self.stribeck or self.lugre):
+            return self.tau_c
+        return self.tau_c + (self.tau_s - self.tau_c) * np.exp(-(v / self.v_s) ** 2)
+
     def joint_friction(self, x, applied):
         """B of eq 11 per joint (N m or N) at state ``x`` under the non-friction force ``applied``."""
         pin = _pinocchio()
         n = self.n
-        q, v = np.asarray(x[:n], float), np.asarray(x[n:], float)
+        q, v = np.asarray(x[:n], float), np.asarray(x[n:2 * n], float)
         bias = pin.rnea(self.model, self.data, q, v, np.zeros(n))  # C(q, q') q' + g(q)
         m = np.diag(pin.crba(self.model, self.data, q))
         stuck = np.clip(-(applied - bias) - m * v / self.t_stick, -self.tau_s, self.tau_s)
-        level = self.tau_c
-        if self.stribeck:  # sliding friction falls from the static to the Coulomb level with speed
-            level = self.tau_c + (self.tau_s - self.tau_c) * np.exp(-(v / self.v_s) ** 2)
-        return np.where(np.abs(v) >= self.band, -np.sign(v) * level, stuck)
+        return np.where(np.abs(v) >= self.band, -np.sign(v) * self.sliding_level(v), stuck)
+
+    def bristles(self, x):
+        """(B, z') of LuGre per joint: ``z' = v - sigma0 |v| z / g(v)``, ``B = -(sigma0 z + sigma1 z')``."""
+        n = self.n
+        v, z = np.asarray(x[n:2 * n], float), np.asarray(x[2 * n:], float)
+        g = self.sliding_level(v)
+        zd = v - np.divide(self.sigma0 * np.abs(v) * z, g, out=np.zeros(n), where=g > 0)
+        return -(self.sigma0 * z + self.sigma1 * zd), zd
 
     def derivatives(self, t, x, u):
         pin = _pinocchio()
         n = self.n
-        q, v = np.asarray(x[:n], float), np.asarray(x[n:], float)
+        q, v = np.asarray(x[:n], float), np.asarray(x[n:2 * n], float)
         f = self.applied(x, u)
+        if self.lugre:
+            B, zd = self.bristles(x)
+            return np.concatenate([v, pin.aba(self.model, self.data, q, v, f + B), zd])
         if self.friction:
             f = f + self.joint_friction(x, f)
         return np.concatenate([v, pin.aba(self.model, self.data, q, v, f)])
 
     def zero_crossings(self, t, x, u):
-        if not self.friction:
+        if not self.friction or self.lugre:
             return None
-        return np.abs(np.asarray(x[self.n:], float)) - self.band
+        return np.abs(np.asarray(x[self.n:2 * self.n], float)) - self.band
 
 
 def inverse_position(model, data, frame_id, q, target, tol=1e-12, iterations=200, damping=1e-6):

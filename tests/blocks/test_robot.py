@@ -167,5 +167,23 @@ def test_stribeck_sliding_friction_matches_the_2dof_arms():
         g = 3.5 + (4.6 - 3.5) * np.exp(-(v / 2e-3) ** 2)
         np.testing.assert_allclose(arm.derivatives(0, x, [np.zeros(2), np.zeros(6)]),
                                    free.derivatives(0, x, [np.array([0.0, -g]), np.zeros(6)]), atol=1e-12)
-    with pytest.raises(ParameterError, match="karnopp or stribeck"):
-        RobotArm(robot="fig3_arm", friction_model="lugre")
+    with pytest.raises(ParameterError, match="karnopp, stribeck or lugre"):
+        RobotArm(robot="fig3_arm", friction_model="coulomb")
+
+
+def test_lugre_steady_sliding_is_the_stribeck_curve_and_at_rest_the_bristles_carry_the_force():
+    common = dict(robot="fig3_arm", gravity=(0, 0, 0), friction=True, tau_c=[5.0, 3.5], tau_s=[5.75, 4.6],
+                  stribeck_velocity=[2e-3, 2e-3])
+    lugre, stribeck = RobotArm(friction_model="lugre", **common), RobotArm(friction_model="stribeck", **common)
+    assert lugre.n_continuous == 6 and lugre.initial_state()[4:].tolist() == [0.0, 0.0]
+    for v in (5e-4, 3e-3, 2e-2):
+        g = 3.5 + (4.6 - 3.5) * np.exp(-(v / 2e-3) ** 2)
+        z = g / 1e5  # z' = 0: steady sliding
+        d = lugre.derivatives(0, np.array([0.3, 0.5, 0.0, v, 0.0, z]), [np.zeros(2), np.zeros(6)])
+        assert d[5] == pytest.approx(0.0, abs=1e-15)
+        ref = stribeck.derivatives(0, np.array([0.3, 0.5, 0.0, v]), [np.zeros(2), np.zeros(6)])
+        np.testing.assert_allclose(d[:4], ref, atol=1e-12)
+    # at rest under 2 N (below the 4.6 N static level) the bristles deflect F / sigma0 and hold it
+    d = lugre.derivatives(0, np.array([0.3, 0.5, 0.0, 0.0, 0.0, 2.0 / 1e5]), [np.array([0.0, 2.0]), np.zeros(6)])
+    np.testing.assert_allclose(d, 0.0, atol=1e-12)
+    assert lugre.zero_crossings(0, np.zeros(6), None) is None  # smooth: no switches to locate
