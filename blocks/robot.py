@@ -200,11 +200,10 @@ class RobotArm(_RobotBlock):
         self.lugre = friction_model == "lugre" and self.friction
         self.v_s = vector(stribeck_velocity, "stribeck_velocity", n, "positive")
         self.sigma0 = vector(bristle_stiffness, "bristle_stiffness", n, "positive")
-        if bristle_damping is None:  # critical for each joint's own inertia at the start
-            masses = np.diag(pin.crba(self.model, self.data, self.q0))
-            self.sigma1 = 2.0 * np.sqrt(self.sigma0 * masses)
-        else:
+        if bristle_damping is not None:
             self.sigma1 = vector(bristle_damping, "bristle_damping", n, "nonnegative")
+        elif self.lugre:  # critical for each joint's own inertia at the start
+            self.sigma1 = 2.0 * np.sqrt(self.sigma0 * np.diag(pin.crba(self.model, self.data, self.q0)))
         self.band = scalar(stick_band, "stick_band", "nonnegative")
         self.t_stick = scalar(stick_time, "stick_time", "positive")
         self.model = self.model.copy()  # its own gravity; the cached one stays as loaded

@@ -16,15 +16,14 @@ Every entry has a default; all results are plain data (numbers, lists) plus
 python-control objects, so plotting and computing stay separate.
 """
 import copy
-import inspect
 
 import control
 import numpy as np
 
+from . import loader
 from .api import build, load
 from .linearize import Linearization, LinearizationError, hand_modes
-from .errors import LoaderError
-from .registry import closest, lookup
+from .registry import default, lookup
 
 DEFAULTS = {
     "set": {},
@@ -37,22 +36,13 @@ DEFAULTS = {
     "hand_mode_hz": None,
     "at": None,  # the operating point: the state after this many seconds (None: the initial state)
 }
-KEYS = [*DEFAULTS, "compare", "step"]  # "compare" and "step" are read by hybridsim.report
+KEYS = loader.ANALYSIS_KEYS  # checked by the loader; "compare" and "step" are read by hybridsim.report
 
 
 def settings_of(f):
-    """The diagram's analysis settings merged over the defaults; an unknown key is a LoaderError at its line."""
-    section = f.data.get("analysis") or {}
-    for key in section:
-        if key not in KEYS:
-            raise LoaderError(f"unknown analysis setting {key!r}{closest(key, KEYS)}; settings: {', '.join(KEYS)}",
-                              f.path, (getattr(section, "lines", None) or {}).get(key))
+    """The diagram's analysis settings merged over the defaults (the loader has checked its keys)."""
     cfg = copy.deepcopy(DEFAULTS)
-    cfg.update(dict(section))
-    if cfg["at"] is not None and not (isinstance(cfg["at"], (int, float)) and not isinstance(cfg["at"], bool)
-                                      and cfg["at"] >= 0):
-        raise LoaderError(f"analysis setting 'at' must be a time in seconds >= 0, got {cfg['at']!r}", f.path,
-                          (getattr(section, "lines", None) or {}).get("at"))
+    cfg.update(dict(f.data.get("analysis") or {}))
     return cfg
 
 
@@ -93,8 +83,7 @@ def param_value(f, ref):
         if isinstance(val, str) and val.startswith("$"):
             val = f.params[val[1:]]
         return np.asarray(val, float)
-    cls = lookup(spec["type"])
-    return np.asarray(inspect.signature(cls.__init__).parameters[pname].default, float)
+    return np.asarray(default(lookup(spec["type"]), pname), float)
 
 
 def least_damping(poles):
@@ -104,14 +93,17 @@ def least_damping(poles):
     return min(d) if d else None
 
 
-def _margins_hold(L, gm, pm, wg, wp):
-    """Whether python-control's polynomial margins describe L's own frequency response (1 % / 1 deg)."""
-    def at(w):
-        return complex(np.asarray(L(np.exp(1j * w * L.dt) if L.dt else 1j * w)).ravel()[0])
+def _response(L, w):
+    """L's frequency response at ``w`` (rad/s, a number or an array), discrete or continuous."""
+    r = np.asarray(L(np.exp(1j * np.asarray(w) * L.dt) if L.dt else 1j * np.asarray(w)))
+    return complex(r.ravel()[0]) if np.ndim(w) == 0 else r.ravel()
 
-    if np.isfinite(pm) and np.isfinite(wp) and abs(abs(at(wp)) - 1.0) > 0.01:
+
+def _margins_hold(L, gm, pm, wg, wp):
+    """Whether python-control's polynomial margins describe L's own frequency response (to 1 %)."""
+    if np.isfinite(pm) and np.isfinite(wp) and abs(abs(_response(L, wp)) - 1.0) > 0.01:
         return False
-    return not (np.isfinite(gm) and np.isfinite(wg) and abs(abs(at(wg)) * gm - 1.0) > 0.01)
+    return not (np.isfinite(gm) and np.isfinite(wg) and abs(abs(_response(L, wg)) * gm - 1.0) > 0.01)
 
 
 def _grid_margins(L, n=20000):
@@ -120,10 +112,10 @@ def _grid_margins(L, n=20000):
     nyq = np.pi / L.dt
     w = np.unique(np.concatenate([np.logspace(np.log10(nyq) - 5, np.log10(nyq), n // 4), np.linspace(0, nyq, n)]))
     w = w[(w > 0) & (w < nyq * (1 - 1e-9))]
-    r = np.asarray(L(np.exp(1j * w * L.dt))).ravel()
+    r = _response(L, w)
 
     def at(x):
-        return complex(np.asarray(L(np.exp(1j * x * L.dt))).ravel()[0])
+        return _response(L, x)
 
     def root(f, a, b):  # bisection of a sign change of f on [a, b]
         fa = f(a)

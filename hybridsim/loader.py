@@ -43,6 +43,9 @@ SIM_KEYS = ["t_end", "solver", "step", "rtol", "atol", "max_step", "log_period",
 SOLVERS = ["rk4", "heun", "radau", "bdf", "lsoda", "rk45", "rk23", "dop853"]
 METRIC_KEYS = ["step_time", "ss_window", "error_window", "filter_cutoff"]
 PLOT_KEYS = ["title", "position_label", "force_label", "surface_label"]  # the figure's title and axis names
+# the analysis section (hybridsim.analysis and hybridsim.report read it)
+ANALYSIS_KEYS = ["set", "points", "rate_param", "rates", "gains", "scales", "cases", "hand_mode_hz", "at",
+                 "compare", "step"]
 SIGNAL_ROLES = ["force", "force_desired", "position", "position_desired", "contact",
                 "surface", "hand", "oscillation"]
 
@@ -894,11 +897,16 @@ class DiagramFile:
         log = [str(x) for x in (data.get("log") or [])]
         metrics = self._resolve(data.get("metrics") or {}, str(self.path), params)
         self._check_metrics(metrics, getattr(data.get("metrics"), "lines", None) or {})
-        plot = data.get("plot") or _Dict()
-        for key in plot:
-            if key not in PLOT_KEYS:
-                self._fail(f"unknown plot setting {key!r}{closest(key, PLOT_KEYS)}; settings: {', '.join(PLOT_KEYS)}",
-                           (plot.lines or {}).get(key))
+        for section, keys in (("plot", PLOT_KEYS), ("analysis", ANALYSIS_KEYS)):
+            spec = data.get(section) or _Dict()
+            for key in spec:
+                if key not in keys:
+                    self._fail(f"unknown {section} setting {key!r}{closest(key, keys)}; settings: {', '.join(keys)}",
+                               (spec.lines or {}).get(key))
+        at = (data.get("analysis") or {}).get("at")
+        if at is not None and not (_number(at) and at >= 0):
+            self._fail(f"analysis setting 'at' must be a time in seconds >= 0, got {at!r}",
+                       (data["analysis"].lines or {}).get("at"))
         return {
             "simulation": simr,
             "log": log,

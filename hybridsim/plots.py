@@ -218,6 +218,31 @@ def _dot_layout(nodes, edges, back):
     return pos, paths
 
 
+def _layered_layout(n, first, edges, back):
+    """Positions by dependency layer (the fallback without Graphviz) and feedback wires in lanes under the boxes.
+
+    Returns ``(pos, paths, cols)``: node -> (x, y), feedback edge -> polyline, layer -> its nodes.
+    """
+    order = sorted(range(n), key=first.__getitem__)
+    layer = [0] * n  # longest forward path from a source (edges against the order are feedback)
+    for v in order:
+        for (a, b) in edges:
+            if b == v and first[a] < first[v]:
+                layer[v] = max(layer[v], layer[a] + 1)
+    cols = {}
+    for v in order:
+        cols.setdefault(layer[v], []).append(v)
+    pos = {v: (lx * 3.0, -j * 1.4) for lx, vs in cols.items() for j, v in enumerate(vs)}
+    bottom = min((y for _, y in pos.values()), default=0.0) - BOX_H
+    paths = {}
+    for k, (a, b) in enumerate(sorted(back)):  # feedback: down to a lane of its own, under every box
+        (x0, y0), (x1, y1) = pos[a], pos[b]
+        lane, out, into = bottom - 0.25 * k, x0 + BOX_W / 2 + 0.15 + 0.05 * k, x1 - BOX_W / 2 - 0.15 - 0.05 * k
+        paths[(a, b)] = [(x0 + BOX_W / 2, y0), (out, y0), (out, lane), (into, lane), (into, y1),
+                         (x1 - BOX_W / 2, y1)]
+    return pos, paths, cols
+
+
 def draw_diagram(system, title=None, expand=False):
     """Picture of a built system: the forward path left to right, feedback routed around it.
 
@@ -255,31 +280,12 @@ def draw_diagram(system, title=None, expand=False):
     first = [min(members[k]) for k in nodes]  # evaluation order of a node: its first block's
     edges = sorted({(node_of[a], node_of[i]) for i in keep for (a, _) in system.sources[i]
                     if a in node_of and node_of[a] != node_of[i]})
-    n = len(nodes)
-    layer = [0] * n  # longest forward path from a source (edges against the order are feedback)
-    for v in sorted(range(n), key=first.__getitem__):
-        for (a, b) in edges:
-            if b == v and first[a] < first[v]:
-                layer[v] = max(layer[v], layer[a] + 1)
     back = {(a, b) for (a, b) in edges if first[b] <= first[a]}
     laid = _dot_layout(nodes, edges, back)
     if laid is not None:
         pos, paths = laid
-        cols = {round(x, 2): None for x, _ in pos.values()}
     else:
-        cols, paths = {}, {}
-        for v in sorted(range(n), key=first.__getitem__):
-            cols.setdefault(layer[v], []).append(v)
-        pos = {}
-        for lx, vs in cols.items():
-            for j, v in enumerate(vs):
-                pos[v] = (lx * 3.0, -j * 1.4)
-        bottom = min(y for _, y in pos.values()) - BOX_H
-        for k, (a, b) in enumerate(sorted(back)):  # feedback: down to a lane of its own, under every box
-            (x0, y0), (x1, y1) = pos[a], pos[b]
-            lane, out, into = bottom - 0.25 * k, x0 + BOX_W / 2 + 0.15 + 0.05 * k, x1 - BOX_W / 2 - 0.15 - 0.05 * k
-            paths[(a, b)] = [(x0 + BOX_W / 2, y0), (out, y0), (out, lane), (into, lane), (into, y1),
-                             (x1 - BOX_W / 2, y1)]
+        pos, paths, cols = _layered_layout(len(nodes), first, edges, back)
     blocks = system.blocks
     rates = sorted({b.period for b in blocks if b.period is not None})
     palette = plt.rcParams["axes.prop_cycle"].by_key()["color"]

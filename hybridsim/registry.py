@@ -121,3 +121,8 @@ def parameters(cls):
             continue
         (required if p.default is p.empty else optional).append(p.name)
     return required, optional
+
+
+def default(cls, name):
+    """The default of constructor parameter ``name`` of block class ``cls`` (KeyError when it has none by that name)."""
+    return inspect.signature(cls.__init__).parameters[name].default

@@ -12,7 +12,6 @@ difference, and a set of sensitivity runs answers the usual questions.
 Every number in the report is computed in the run; nothing is tabulated ahead.
 """
 import csv
-import inspect
 import html
 import json
 import math
@@ -28,20 +27,16 @@ from ..api import run_experiment
 from ..errors import SimulationError
 from ..examples import diagrams_folder
 from ..files import atomic_dir
+from ..registry import default
 from ..blocks.surface import Surface
 from ..blocks.wrist import Wrist
 
 DIAGRAMS = diagrams_folder()  # the shipped diagrams, installed with the package
 
 
-
-def _default(cls, name):
-    """A block parameter's default: the model's constants are read from the blocks that own them."""
-    return inspect.signature(cls.__init__).parameters[name].default
-
-
-KW, M3 = _default(Wrist, "Kw"), _default(Wrist, "M3")  # wrist stiffness N/m, hand mass kg (Appendix A)
-KR = _default(Surface, "Kr")  # surface stiffness, N/m
+# the model's constants are read from the blocks that own them (Appendix A)
+KW, M3 = default(Wrist, "Kw"), default(Wrist, "M3")  # wrist stiffness N/m, hand mass kg
+KR = default(Surface, "Kr")  # surface stiffness, N/m
 FAMILIES = {
     "joint": lambda s: {"joint_damping": [10.0 * s, 100.0 * s]},
     "wrist": lambda s: {"wrist_damping": 20.0 * s},
