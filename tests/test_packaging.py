@@ -1,8 +1,10 @@
 """Installed from a wheel, outside the checkout, hybridsim does its main jobs and claims no generic name."""
 import os
+import site as _site
 import subprocess
 import sys
 import venv
+from pathlib import Path
 
 import pytest
 
@@ -13,18 +15,26 @@ from conftest import ROOT
 def installed(tmp_path_factory):
     """A fresh virtual environment with hybridsim installed from a wheel built here.
 
-    The environment sees this interpreter's packages (numpy, fmpy, ...: nothing is
-    downloaded) but not the checkout: hybridsim comes from the wheel alone.
+    The environment sees the packages of the interpreter running the tests (numpy, fmpy,
+    ...: nothing is downloaded), whether that is a virtual environment or a system-wide
+    install, but not the checkout: hybridsim comes from the wheel alone.
     """
     tmp = tmp_path_factory.mktemp("wheel")
     subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--no-build-isolation",
                     "-w", str(tmp / "dist"), str(ROOT)], check=True, capture_output=True, timeout=300)
     wheel = next((tmp / "dist").glob("hybridsim-*.whl"))
-    venv.EnvBuilder(system_site_packages=True, with_pip=False).create(tmp / "env")
+    venv.EnvBuilder(system_site_packages=False, with_pip=False).create(tmp / "env")
     py = tmp / "env" / "bin" / "python"
     # pip of this interpreter installs into the new environment's site-packages
     site = subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
                           check=True, capture_output=True, text=True).stdout.strip()
+    # After its own site-packages, the environment reads this interpreter's (a venv's or the
+    # system's: system_site_packages would read the base interpreter's, which a venv does not
+    # install into). addsitedir also runs their .pth files (Pinocchio's cmeel prefix).
+    dirs = [d for d in _site.getsitepackages() + [_site.getusersitepackages()]
+            if _site.ENABLE_USER_SITE or d != _site.getusersitepackages()]
+    (Path(site) / "zz_tests_parent_site.pth").write_text(
+        "import site; " + "; ".join(f"site.addsitedir({d!r})" for d in dirs) + "\n")
     subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--no-index", "--target", site,
                     str(wheel)], check=True, capture_output=True, timeout=300)
     work = tmp / "elsewhere"
