@@ -89,6 +89,8 @@ def to_fmi(typ, value, name):
         raise FMUError(f"input {name!r} ({typ}) got {value!r}: not a finite number")
     if typ == "Boolean":
         return value != 0.0
+    if typ == "Float32" and abs(value) > 3.4028234663852886e38:
+        raise FMUError(f"input {name!r} (Float32) got {value!r}: overflows Float32 (largest 3.4028235e+38)")
     if typ in ("Real", "Float64", "Float32"):
         return value
     n = round(value)
@@ -126,6 +128,27 @@ def _text_parameter(var, value):
     except (AttributeError, ValueError):  # not text, or not hex digits
         raise ParameterError("parameters", f"{var.name} is Binary: give its bytes as hex digits, e.g. "
                                            f"'0a ff 10', got {value!r}") from None
+
+
+def _settable(var, value):
+    """``value`` for variable ``var``, or ParameterError when it cannot be set or is out of its range."""
+    if var.causality == "independent" or var.variability == "constant":
+        raise ParameterError("parameters", f"{var.name} is {'the independent variable' if var.causality == 'independent' else 'a constant'}"
+                                           " of the FMU: it cannot be set")
+    if var.causality not in ("parameter", "input") and var.initial not in ("exact", "approx") and var.start is None:
+        raise ParameterError("parameters", f"{var.name} is a {var.causality} variable of the FMU "
+                                           f"(initial={var.initial}): it cannot be set")
+    for bound, bad in (("min", lambda v, b: v < b), ("max", lambda v, b: v > b)):
+        b = getattr(var, bound, None)
+        if b is not None and not isinstance(value, (list, tuple)):
+            try:
+                b = float(b)
+            except (TypeError, ValueError):
+                continue
+            if bad(float(value), b):
+                raise ParameterError("parameters", f"{var.name} = {value!r} is outside its range: "
+                                                   f"{bound} = {b:g} in the FMU's model description")
+    return value
 
 
 def _raise(exc):
@@ -180,6 +203,10 @@ class FMUBlock(Block):
         kind = {"cs": md.coSimulation, "me": md.modelExchange}.get(self.mode, None)
         if self.mode not in ("cs", "me"):
             raise ValueError(f"mode must be 'cs' or 'me', got {mode!r}")
+        if kind is None and getattr(md, "scheduledExecution", None) is not None and not (
+                md.coSimulation or md.modelExchange):
+            raise FMUError(f"FMU {str(self.path)!r} is a Scheduled Execution FMU (FMI 3.0): hybridsim runs "
+                           "Co-Simulation and Model Exchange FMUs, not Scheduled Execution")
         if kind is None:
             raise FMUError(f"FMU {str(self.path)!r} offers no {'Co-Simulation' if self.mode == 'cs' else 'Model Exchange'}")
         binaries = {p for p in fmpy.supported_platforms(str(self.path))}
@@ -201,15 +228,20 @@ class FMUBlock(Block):
                 if not isinstance(v, (bool, int, float)) or not np.isfinite(float(v)):
                     raise ParameterError("parameters", f"{pname}: must be a finite number or a list of "
                                                        f"them, got {value!r}")
-            if pname not in byname and f"{pname}[1]" in byname and isinstance(value, (list, tuple)):
-                for k, v in enumerate(value, start=1):  # b: [1, 2] sets b[1] and b[2]
+            first = 0 if f"{pname}[0]" in byname else 1  # the element names the FMU declares
+            if pname not in byname and f"{pname}[{first}]" in byname and isinstance(value, (list, tuple)):
+                last = max(int(m.group(2)) for m in map(_INDEXED.match, byname) if m and m.group(1) == pname)
+                if len(value) != last - first + 1:
+                    raise ParameterError("parameters", f"{pname}: the FMU has {last - first + 1} elements "
+                                         f"{pname}[{first}] .. {pname}[{last}], got {len(value)} values")
+                for k, v in enumerate(value, start=first):  # b: [1, 2] sets b[1], b[2] (or b[0], b[1])
                     if f"{pname}[{k}]" not in byname:
                         raise FMUError(f"FMU {str(self.path)!r} has no variable {pname}[{k}]")
-                    self.parameters[f"{pname}[{k}]"] = v
+                    self.parameters[f"{pname}[{k}]"] = _settable(byname[f"{pname}[{k}]"], v)
                 continue
             if pname not in byname:
                 raise FMUError(f"FMU {str(self.path)!r} has no variable {pname!r}{closest(pname, byname)}")
-            self.parameters[pname] = value
+            self.parameters[pname] = _settable(byname[pname], value)
         unsupported = [f"{v.name} ({v.type}, {v.causality})" for v in md.modelVariables
                        if v.causality in ("input", "output") and v.type not in PORT_TYPES]
         if unsupported:
@@ -262,6 +294,9 @@ class FMUBlock(Block):
             nominals = [_nominal(d.variable.derivative) for d in md.derivatives][:self.nx]
             nominals += [1.0] * (self.nx - len(nominals))
             self.declare_continuous_state(self.nx, atol=[1e-12 * n for n in nominals] or None)
+        self._starts = np.array([np.nan if _start(v) is None else _start(v) for v in self.in_vars])
+        self._held = None  # the input values the FMU holds (its start values after instantiation)
+        self._pending_stop = None  # a stop the FMU asked for at the end of a completed step
         self._fmu = None
         self._unzipdir = None
         self._messages = []
@@ -280,6 +315,8 @@ class FMUBlock(Block):
 
         self.close()
         self._last_discrete = None
+        self._held = self._starts.copy()
+        self._pending_stop = None
         self._unzipdir = tempfile.mkdtemp(prefix="hybridsim-fmu-")
         try:
             fmpy.extract(str(self.path), unzipdir=self._unzipdir)
@@ -325,7 +362,7 @@ class FMUBlock(Block):
         cbs.componentEnvironment = self._log_key = fmi_log.open_sink(self._messages)
         cbs.allocateMemory, cbs.freeMemory = cb2.allocateMemory, cb2.freeMemory
         self._callbacks = cbs
-        self._call("fmi2Instantiate", fmu.instantiate, False, cbs)
+        self._call("fmi2Instantiate", fmu.instantiate, False, cbs, True)  # logging on: the FMU says why
         self._call("setupExperiment", fmu.setupExperiment, None, 0.0)
         self._call("enterInitializationMode", fmu.enterInitializationMode)
         self._get_der = getattr(fmu, "getDerivatives", None)  # ME only
@@ -339,7 +376,7 @@ class FMUBlock(Block):
         def logger(env, status, category, message):
             self._messages.append(message.decode(errors="replace") if message else "")
 
-        self._call("fmi3Instantiate", fmu.instantiate, logMessage=logger)
+        self._call("fmi3Instantiate", fmu.instantiate, loggingOn=True, logMessage=logger)
         self._call("enterInitializationMode", fmu.enterInitializationMode, startTime=0.0)
         self._get_der = getattr(fmu, "getContinuousStateDerivatives", None)  # ME only
         return fmu
@@ -383,13 +420,25 @@ class FMUBlock(Block):
             return
         values = np.concatenate(u)
         skip = set() if only is not None else set(self.in_discrete)
+        held = self._held
         for typ, (positions, vrs) in self.in_types.items():
-            pick = [(k, vr) for k, vr in zip(positions, vrs) if k not in skip and (only is None or k in only)]
+            # only what changed: an input left at its start value (unwired) is never written
+            pick = [(k, vr) for k, vr in zip(positions, vrs) if k not in skip and (only is None or k in only)
+                    and not values[k] == held[k]]
             if not pick:
                 continue
-            conv = [to_fmi(typ, values[k], self.in_vars[k].name) for k, _ in pick]
+            conv = [to_fmi(typ, values[k], self._port_name(k)) for k, _ in pick]
             self._call(f"set {typ} inputs", getattr(self._fmu, _access(typ, self.fmi3, "set")),
                        [vr for _, vr in pick], conv)
+            held[[k for k, _ in pick]] = values[[k for k, _ in pick]]
+
+    def _port_name(self, k):
+        """'port[j] (FMU variable name)' of flat input position ``k``, for messages."""
+        for pname, vs in self.in_ports:
+            if k < len(vs):
+                return f"{self.name}.{pname}[{k}] ({vs[k].name})" if len(vs) > 1 else f"{self.name}.{pname} ({vs[k].name})"
+            k -= len(vs)
+        return str(k)  # pragma: no cover
 
     def _discrete_inputs(self, t, x, u):
         """Model Exchange: discrete-time inputs that changed enter the FMU through event mode."""
@@ -428,19 +477,40 @@ class FMUBlock(Block):
         terminateSimulation / earlyReturn (FMI 3.0) ends the run cleanly at ``t``: a
         :class:`~hybridsim.errors.StopRequest` (hybridsim has no step-size control to retry,
         nor Co-Simulation event mode)."""
+        if self._pending_stop is not None:  # the row of the completed step is recorded: stop now
+            raise self._pending_stop
         self._set_inputs(u)
         try:
             res = self._fmu.doStep(t, self.T)
         except Exception as exc:  # noqa: BLE001 - fmpy raises its own exception per status
             if getattr(exc, "status", None) == 2:  # fmi2Discard
-                raise StopRequest(t, self.name, "doStep discarded the step (fmi2Discard)") from None
+                self._stop_after(t, self._last_time2(t), "doStep discarded the step (fmi2Discard)")
+                return x
             self._call(f"doStep at t={t:.6g}", _raise, exc)
         if self.fmi3 and res:
-            _event, terminate, early, _last = res
+            _event, terminate, early, last = res
             if terminate or early:
-                raise StopRequest(t, self.name, "terminateSimulation" if terminate else
-                                  "earlyReturn (Co-Simulation event mode is not supported)")
+                self._stop_after(t, float(last), "terminateSimulation" if terminate else
+                                 "earlyReturn (Co-Simulation event mode is not supported)")
         return x
+
+    def _last_time2(self, t):
+        """FMI 2.0 after a discard: fmi2LastSuccessfulTime when the FMU tells it, else ``t``."""
+        from fmpy.fmi2 import fmi2LastSuccessfulTime, fmi2Terminated
+
+        try:
+            if self._fmu.getBooleanStatus(fmi2Terminated):
+                return float(self._fmu.getRealStatus(fmi2LastSuccessfulTime))
+        except Exception:  # noqa: BLE001 - the status functions are optional
+            pass
+        return t
+
+    def _stop_after(self, t, last, reason):
+        """End the run: at ``t`` when the step did nothing, else after the completed step is recorded."""
+        if last >= t + self.T * (1 - 1e-9):  # the step completed: its row is recorded first
+            self._pending_stop = StopRequest(t + self.T, self.name, reason)
+            return
+        raise StopRequest(t, self.name, reason)
 
     def _me_set(self, t, x, u):
         fmu = self._fmu

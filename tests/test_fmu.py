@@ -347,7 +347,10 @@ def _fmu_folders():
 
 
 @pytest.mark.parametrize("case", ["setup fails", "run diverges", "interrupted"])
-def test_no_instance_or_folder_is_left_after_a_failure(plant, case, monkeypatch):
+def test_no_instance_or_folder_is_left_after_a_failure(plant, case, monkeypatch, tmp_path):
+    import tempfile
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))  # a folder of its own: other runs share /tmp
     before = _fmu_folders()
     extra = {"rate": 60, "t_end": 0.5, "fmu": str(plant)}
     if case == "setup fails":
