@@ -293,7 +293,9 @@ class FMUBlock(Block):
             # absolute tolerances from the states' nominal values (1e-12 of each; nominal 1 when none)
             nominals = [_nominal(d.variable.derivative) for d in md.derivatives][:self.nx]
             nominals += [1.0] * (self.nx - len(nominals))
-            self.declare_continuous_state(self.nx, atol=[1e-12 * n for n in nominals] or None)
+            # an FMU without continuous states gets one of zero derivative (as OpenModelica's dummy
+            # state): the event loop then serves its time and state events like any other block's
+            self.declare_continuous_state(self.nx or 1, atol=[1e-12 * n for n in nominals] or None)
         self._starts = np.array([np.nan if _start(v) is None else _start(v) for v in self.in_vars])
         self._held = None  # the input values the FMU holds (its start values after instantiation)
         self._pending_stop = None  # a stop the FMU asked for at the end of a completed step
@@ -459,6 +461,8 @@ class FMUBlock(Block):
         fmu = self._instantiate()
         if self.mode == "me":
             x = np.zeros(self.nx)
+            if not self.nx:
+                return np.zeros(1)
             self._call("getContinuousStates", fmu.getContinuousStates, x.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
             return x
         return np.zeros(0)
@@ -515,13 +519,16 @@ class FMUBlock(Block):
     def _me_set(self, t, x, u):
         fmu = self._fmu
         self._call(f"setTime({t:.9g})", fmu.setTime, t)
-        self._call(f"setContinuousStates at t={t:.9g}", fmu.setContinuousStates,
-                   np.ascontiguousarray(x, dtype=float).ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
+        if self.nx:
+            self._call(f"setContinuousStates at t={t:.9g}", fmu.setContinuousStates,
+                       np.ascontiguousarray(x, dtype=float).ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
         self._set_inputs(u)
 
     def derivatives(self, t, x, u):
         self._me_set(t, x, u)
         dx = np.zeros(self.nx)
+        if not self.nx:
+            return np.zeros(1)  # the dummy state
         self._call("get derivatives", self._get_der, dx.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
         return dx
 
@@ -564,7 +571,7 @@ class FMUBlock(Block):
         self._call(f"enterEventMode at t={t:.9g}", fmu.enterEventMode)
         changed = self._event_update(t)
         self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
-        if not changed:
+        if not changed or not self.nx:
             return None
         x_new = np.zeros(self.nx)
         self._call("getContinuousStates", fmu.getContinuousStates,

@@ -205,3 +205,126 @@ def test_bad_text_parameters_are_parameter_errors(ball_fmu, params, message):
         pytest.skip("FMI 2.0 has no Binary variables")
     with pytest.raises(hs.ParameterError, match=message):
         FMUBlock("ball", path=str(ball_fmu), mode="me", parameters=params)
+
+
+# -- FMUs without continuous states (tests/data/stair3: time events, feedthrough, a resource file) --
+
+@pytest.fixture(scope="module")
+def stair(tmp_path_factory):
+    try:
+        find_compiler()
+    except FMUError:
+        pytest.skip("no C compiler")
+    d = ROOT / "tests" / "data" / "stair3"
+    return build_fmu(tmp_path_factory.mktemp("stair3") / "stair3.fmu", "stair3", sorted(d.glob("*.c")),
+                     (d / "modelDescription.xml").read_text(), {},
+                     extra_files={"resources/gain.txt": (d / "resources" / "gain.txt").read_text()})
+
+
+def stair_run(fmu, mode, t_end, u=None, **kw):
+    d = hs.Diagram("stair")
+    extra = {"rate": 5} if mode == "cs" else {}
+    d.add(FMUBlock("s", path=str(fmu), mode=mode, **extra, **kw))
+    if u is not None:
+        d.add(hs.registry.lookup("cosine")("src", amplitude=u, frequency=0.5))
+        d.connect("src.y", "s.u")
+    return hs.Simulator(d.build(), hs.RK4(1e-3), log=["s.counter", "s.y"], log_period=0.2).run(t_end)
+
+
+@pytest.mark.parametrize("mode", ["me", "cs"])
+def test_a_stair_counter_without_states_matches_fmpy(stair, mode):
+    import fmpy
+
+    ref = fmpy.simulate_fmu(str(stair), stop_time=4.4, output_interval=0.2, output=["counter"],
+                            fmi_type="ModelExchange" if mode == "me" else "CoSimulation")
+    res = stair_run(stair, mode, 4.4)
+    t, keep = np.unique(np.round(ref["time"], 9), return_index=True)  # fmpy's ME rows around each event
+    if mode == "me":  # fmpy's row at an event is the value after it: compare at the grid times
+        after = {round(tt, 9): c for tt, c in zip(ref["time"], ref["counter"])}
+        want = np.array([after[round(tt, 9)] for tt in res.t])
+    else:
+        want = ref["counter"][keep][:len(res.t)]
+    assert np.array_equal(res["s.counter[0]"], want)
+    assert list(res["s.counter[0]"][[0, 4, 5, 10, 20]]) == [1, 1, 2, 3, 5]  # t = 0, 0.8, 1.0, 2.0, 4.0
+
+
+@pytest.mark.parametrize("mode", ["me", "cs"])
+def test_a_feedthrough_fmu_reads_its_gain_from_a_resource_file(stair, mode):
+    import fmpy
+
+    res = stair_run(stair, mode, 2.0, u=1.0)
+    n = len(res.t) - (mode == "cs")  # a CS output at t_end is the last hit's, held
+    u = np.cos(2 * np.pi * 0.5 * res.t[:n])
+    assert np.max(np.abs(res["s.y[0]"][:n] - 2.5 * u)) < 1e-12  # gain.txt says 2.5; y = gain u, the same instant
+    ref = fmpy.simulate_fmu(str(stair), stop_time=2.0, output_interval=0.2, output=["y"],
+                            input=np.array([(tt, np.cos(np.pi * tt)) for tt in res.t],
+                                           dtype=[("time", float), ("u", float)]),
+                            fmi_type="ModelExchange" if mode == "me" else "CoSimulation")
+    t, keep = np.unique(np.round(ref["time"], 9), return_index=True)
+    got = ref["y"][keep]
+    if mode == "cs":  # fmpy samples a CS output before it sets the next input: one step behind
+        assert got[0] == 2.5 and np.max(np.abs(got[1:n] - res["s.y[0]"][:n - 1])) < 1e-12
+    else:
+        assert np.max(np.abs(got[:n] - res["s.y[0]"][:n])) < 1e-9
+
+
+def test_a_missing_resource_is_named_by_the_fmu_itself(stair, tmp_path):
+    import zipfile
+
+    bare = tmp_path / "noresource.fmu"
+    with zipfile.ZipFile(stair) as src, zipfile.ZipFile(bare, "w") as dst:
+        for n in src.namelist():
+            if not n.startswith("resources/"):
+                dst.writestr(n, src.read(n))
+    with pytest.raises(FMUError, match="fmi3Instantiate failed.*cannot open the resource file gain.txt"):
+        stair_run(bare, "cs", 1.0)
+
+
+def test_a_co_simulation_stop_keeps_the_completed_step(stair):
+    import fmpy
+
+    res = stair_run(stair, "cs", 20.0, parameters={"limit": 9})
+    ref = fmpy.simulate_fmu(str(stair), stop_time=20.0, output_interval=0.2, output=["counter"],
+                            fmi_type="CoSimulation", start_values={"limit": 9})
+    assert res.t[-1] == pytest.approx(8.0) and ref["time"][-1] == pytest.approx(8.0)  # not 7.8
+    assert res["s.counter[0]"][-1] == ref["counter"][-1] == 9
+    assert res.meta["stopped"]["t"] == pytest.approx(8.0)
+
+
+def test_an_unwired_input_is_never_written(stair):
+    res = stair_run(stair, "cs", 1.0)  # 'locked' refuses every write: left alone, the run goes through
+    assert res.t[-1] == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("params, message", [
+    ({"limit": 0.5}, r"limit = 0.5 is outside its range: min = 1"),
+    ({"time": 1.0}, r"time is the independent variable of the FMU: it cannot be set"),
+    ({"y": 1.0}, r"y is a output variable of the FMU \(initial=calculated\): it cannot be set"),
+])
+def test_check_refuses_what_the_fmu_cannot_take(stair, params, message):
+    with pytest.raises(hs.ParameterError, match=message):
+        FMUBlock("s", path=str(stair), mode="cs", rate=5, parameters=params)
+
+
+def test_a_non_finite_or_float32_overflowing_input_names_the_port(stair):
+    from hybridsim.fmu import to_fmi
+
+    with pytest.raises(FMUError, match=r"overflows Float32"):
+        to_fmi("Float32", 1e39, "p.u")
+
+    class Blowup(hs.Block):  # a source that overflows to inf at t = 0.4 s
+        time_varying = True
+
+        def __init__(self, name="src"):
+            super().__init__(name)
+            self.declare_output("y", 1)
+
+        def output(self, t, x, u):
+            return ([1e308 * 10 if t >= 0.4 else 1.0],)
+
+    d = hs.Diagram("stair")
+    d.add(FMUBlock("s", path=str(stair), mode="cs", rate=5))
+    d.add(Blowup())
+    d.connect("src.y", "s.u")
+    with np.errstate(over="ignore"), pytest.raises(FMUError, match=r"input 's.u \(u\)' \(Float64\) got inf"):
+        hs.Simulator(d.build(), hs.RK4(1e-3), log=["s.y"], log_period=0.2).run(1.0)
