@@ -60,14 +60,23 @@ _INT_RANGE = {"Int8": 8, "Int16": 16, "Int32": 32, "Int64": 64, "Integer": 32, "
 _UINT_RANGE = {"UInt8": 8, "UInt16": 16, "UInt32": 32, "UInt64": 64}
 
 
+def _size(variable):
+    """Number of elements of a variable (an FMI 3.0 array has its dimensions' product)."""
+    shape = getattr(variable, "shape", None)
+    return int(np.prod(shape)) if shape else 1
+
+
 def _by_type(variables):
-    """``{type: (positions, value references)}`` of ``variables`` in order."""
-    out = {}
-    for k, v in enumerate(variables):
-        pos, vrs = out.setdefault(v.type, ([], []))
-        pos.append(k)
+    """``{type: (element positions, value references, number of values)}`` of ``variables`` in order."""
+    out, k = {}, 0
+    for v in variables:
+        n = _size(v)
+        pos, vrs, count = out.setdefault(v.type, ([], [], [0]))
+        pos.extend(range(k, k + n))
         vrs.append(v.valueReference)
-    return out
+        count[0] += n
+        k += n
+    return {t: (pos, vrs, count[0]) for t, (pos, vrs, count) in out.items()}
 
 
 def _access(typ, fmi3, verb):
@@ -102,14 +111,22 @@ def to_fmi(typ, value, name):
 
 
 def _start(variable):
-    """A variable's start value as a float, or None."""
+    """A variable's start values as a list of floats (one per element), or None."""
     start = variable.start
-    if isinstance(start, str) and start.strip().lower() in ("true", "false"):
-        return 1.0 if start.strip().lower() == "true" else 0.0
-    try:
-        return None if start is None else float(start)
-    except (TypeError, ValueError):
+    if start is None:
         return None
+    words = start.split() if isinstance(start, str) else [start]
+    out = []
+    for w in words:
+        if isinstance(w, str) and w.lower() in ("true", "false"):
+            out.append(1.0 if w.lower() == "true" else 0.0)
+            continue
+        try:
+            out.append(float(w))
+        except (TypeError, ValueError):
+            return None
+    n = _size(variable)
+    return out * n if len(out) == 1 and n > 1 else (out if len(out) == n else None)
 
 
 def _text_parameter(var, value):
@@ -241,17 +258,22 @@ class FMUBlock(Block):
                 continue
             if pname not in byname:
                 raise FMUError(f"FMU {str(self.path)!r} has no variable {pname!r}{closest(pname, byname)}")
-            self.parameters[pname] = _settable(byname[pname], value)
-        unsupported = [f"{v.name} ({v.type}, {v.causality})" for v in md.modelVariables
-                       if v.causality in ("input", "output") and v.type not in PORT_TYPES]
-        if unsupported:
-            raise FMUError(f"FMU {str(self.path)!r}: these inputs/outputs cannot be ports (numbers and "
-                           f"Booleans can: {', '.join(sorted(PORT_TYPES))}): {', '.join(unsupported)}")
-        self.in_ports = _group([v for v in md.modelVariables if v.causality == "input"])
-        self.out_ports = _group([v for v in md.modelVariables if v.causality == "output"])
+            var = byname[pname]
+            if _size(var) > 1 and (not isinstance(value, (list, tuple)) or len(value) != _size(var)):
+                raise ParameterError("parameters", f"{pname} is an array of {_size(var)} elements "
+                                                   f"{list(var.shape)}: give {_size(var)} values, got {value!r}")
+            self.parameters[pname] = _settable(var, value)
+        # text and bytes cannot cross the diagram: such inputs keep their start values, such
+        # outputs are not ports (both listed in text_variables)
+        self.text_variables = [f"{v.name} ({v.type} {v.causality})" for v in md.modelVariables
+                               if v.causality in ("input", "output") and v.type not in PORT_TYPES]
+        ported = lambda c: [v for v in md.modelVariables if v.causality == c and v.type in PORT_TYPES]  # noqa: E731
+        self.in_ports = _group(ported("input"))
+        self.out_ports = _group(ported("output"))
         for pname, vs in self.in_ports:  # an input whose variables all have start values may stay unwired
             starts = [_start(v) for v in vs]
-            self.declare_input(pname, len(vs), default=None if None in starts else starts)
+            self.declare_input(pname, sum(map(_size, vs)),
+                               default=None if None in starts else [x for st in starts for x in st])
         in_index = {v.valueReference: pname for pname, vs in self.in_ports for v in vs}
         deps = {}
         for u in md.outputs:
@@ -268,18 +290,20 @@ class FMUBlock(Block):
                     dep = None
                     break
                 dep |= d
-            self.declare_output(pname, len(vs), depends_on=None if dep is None else sorted(dep))
-        self.in_vrs = [[v.valueReference for v in vs] for _, vs in self.in_ports]
-        self.out_vrs = [[v.valueReference for v in vs] for _, vs in self.out_ports]
-        self.out_flat = [vr for vrs in self.out_vrs for vr in vrs]
-        self.cuts = np.cumsum([0] + [len(v) for v in self.out_vrs])
-        self.in_flat = [vr for vrs in self.in_vrs for vr in vrs]
+            self.declare_output(pname, sum(map(_size, vs)), depends_on=None if dep is None else sorted(dep))
+        widths = [sum(map(_size, vs)) for _, vs in self.out_ports]
+        self.n_out = sum(widths)
+        self.cuts = np.cumsum([0] + widths)
         # values cross the diagram as floats; each type is read and written with its own call
         self.out_types = _by_type([v for _, vs in self.out_ports for v in vs])
         self.in_vars = [v for _, vs in self.in_ports for v in vs]
         self.in_types = _by_type(self.in_vars)
+        # element k of the flat input vector belongs to variable in_elem[k], element in_part[k] of it
+        self.in_elem = [j for j, v in enumerate(self.in_vars) for _ in range(_size(v))]
+        self.in_part = [e for v in self.in_vars for e in range(_size(v))]
+        self.in_first = np.cumsum([0] + [_size(v) for v in self.in_vars])
         # Model Exchange: discrete-time inputs may be set in event mode only (FMI 2.0 and 3.0)
-        discrete = [k for k, v in enumerate(self.in_vars) if v.variability == "discrete"]
+        discrete = [k for k, j in enumerate(self.in_elem) if self.in_vars[j].variability == "discrete"]
         self.in_discrete = discrete if self.mode == "me" else []
         self._last_discrete = None
         if self.mode == "cs":
@@ -296,7 +320,7 @@ class FMUBlock(Block):
             # an FMU without continuous states gets one of zero derivative (as OpenModelica's dummy
             # state): the event loop then serves its time and state events like any other block's
             self.declare_continuous_state(self.nx or 1, atol=[1e-12 * n for n in nominals] or None)
-        self._starts = np.array([np.nan if _start(v) is None else _start(v) for v in self.in_vars])
+        self._starts = np.array([x for v in self.in_vars for x in (_start(v) or [np.nan] * _size(v))])
         self._held = None  # the input values the FMU holds (its start values after instantiation)
         self._pending_stop = None  # a stop the FMU asked for at the end of a completed step
         self._fmu = None
@@ -340,7 +364,9 @@ class FMUBlock(Block):
                 if var.type not in PORT_TYPES or setter is None:
                     raise FMUError(f"FMU block {self.name!r}: parameter {pname!r} is a {var.type}; "
                                    "numeric, Boolean, String and Binary parameters can be set")
-                self._call(f"setting {pname}", setter, [var.valueReference], [to_fmi(var.type, value, pname)])
+                values = value if isinstance(value, (list, tuple)) else [value]
+                self._call(f"setting {pname}", setter, [var.valueReference],
+                           [to_fmi(var.type, v, pname) for v in values])
             self._call("exitInitializationMode", fmu.exitInitializationMode)
             if self.mode == "me":
                 try:
@@ -410,37 +436,49 @@ class FMUBlock(Block):
         return state
 
     def _outputs(self):
-        vals = np.zeros(len(self.out_flat))
-        for typ, (positions, vrs) in self.out_types.items():
-            got = self._call(f"get {typ} outputs", getattr(self._fmu, _access(typ, self.fmi3, "get")), vrs)
+        vals = np.zeros(self.n_out)
+        for typ, (positions, vrs, n) in self.out_types.items():
+            get = getattr(self._fmu, _access(typ, self.fmi3, "get"))
+            got = self._call(f"get {typ} outputs", get, vrs, n) if self.fmi3 else self._call(
+                f"get {typ} outputs", get, vrs)
             vals[positions] = np.asarray(got, float)
         return tuple(vals[a:b] for a, b in zip(self.cuts[:-1], self.cuts[1:]))
 
     def _set_inputs(self, u, only=None):
         """Set the inputs (``only``: those positions; default all but ME discrete-time ones)."""
-        if not self.in_flat:
+        if not self.in_vars:
             return
         values = np.concatenate(u)
         skip = set() if only is not None else set(self.in_discrete)
-        held = self._held
-        for typ, (positions, vrs) in self.in_types.items():
-            # only what changed: an input left at its start value (unwired) is never written
-            pick = [(k, vr) for k, vr in zip(positions, vrs) if k not in skip and (only is None or k in only)
-                    and not values[k] == held[k]]
+        held, first = self._held, self.in_first
+        changed = ~(values == held)
+        for typ, (positions, vrs, _n) in self.in_types.items():
+            # only what changed: an input left at its start value (unwired) is never written;
+            # an array is written whole
+            pick = []
+            for vr in vrs:
+                j = next(i for i, v in enumerate(self.in_vars) if v.valueReference == vr and v.type == typ)
+                ks = range(first[j], first[j + 1])
+                if changed[ks].any() and first[j] not in skip and (only is None or first[j] in only):
+                    pick.append((vr, ks))
             if not pick:
                 continue
-            conv = [to_fmi(typ, values[k], self._port_name(k)) for k, _ in pick]
+            conv = [to_fmi(typ, values[k], self._port_name(k)) for _, ks in pick for k in ks]
             self._call(f"set {typ} inputs", getattr(self._fmu, _access(typ, self.fmi3, "set")),
-                       [vr for _, vr in pick], conv)
-            held[[k for k, _ in pick]] = values[[k for k, _ in pick]]
+                       [vr for vr, _ in pick], conv)
+            for _, ks in pick:
+                held[ks] = values[ks]
 
     def _port_name(self, k):
-        """'port[j] (FMU variable name)' of flat input position ``k``, for messages."""
+        """'block.port[j] (FMU variable name)' of flat input position ``k``, for messages."""
+        var = self.in_vars[self.in_elem[k]]
+        element = f"{var.name}[{self.in_part[k]}]" if _size(var) > 1 else var.name
         for pname, vs in self.in_ports:
-            if k < len(vs):
-                return f"{self.name}.{pname}[{k}] ({vs[k].name})" if len(vs) > 1 else f"{self.name}.{pname} ({vs[k].name})"
-            k -= len(vs)
-        return str(k)  # pragma: no cover
+            width = sum(map(_size, vs))
+            if k < width:
+                return f"{self.name}.{pname}[{k}] ({element})" if width > 1 else f"{self.name}.{pname} ({element})"
+            k -= width
+        return element  # pragma: no cover
 
     def _discrete_inputs(self, t, x, u):
         """Model Exchange: discrete-time inputs that changed enter the FMU through event mode."""
