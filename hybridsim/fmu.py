@@ -1,10 +1,12 @@
 """The FMU bridge: use any FMU as a block (via fmpy), and compile C sources into an FMU.
 
 * :func:`build_fmu` compiles a C model behind the FMI 2.0 or 3.0 API into a ``.fmu``
-  (``hybridsim fmu build`` builds the plant of ``fmus/``).
+  (``hybridsim fmu build`` builds the plant of ``fmus/``; it lives in
+  :mod:`hybridsim.fmi.build`).
 * :class:`FMUBlock` (``type: fmu`` in YAML) loads an FMI 2.0 or 3.0 FMU.
   Inputs and outputs become ports; variables named ``x[1]``, ``x[2]``, ...
-  are grouped into one port ``x`` of that width. Co-Simulation FMUs are
+  (or ``x[0]``, ``x[1]``, ...) and FMI 3.0 arrays are grouped into one port ``x``
+  of that width (:mod:`hybridsim.fmi.variables`). Co-Simulation FMUs are
   discrete blocks stepped at the block's period (outputs at a hit are the
   FMU's outputs at that time, then the inputs are set and the FMU steps one
   period: zero-order hold on the inputs). Model Exchange FMUs are continuous
@@ -17,11 +19,7 @@ each run re-instantiates it at t = 0.
 """
 import contextlib
 import ctypes
-import os
-import re
 import shutil
-import subprocess
-import sys
 import tempfile
 import zipfile
 from pathlib import Path
@@ -31,158 +29,21 @@ import numpy as np
 from . import fmi_log
 from .block import Block
 from .errors import FMUError, ParameterError, StopRequest
-from .files import atomic_file
+from .fmi.model_exchange import ModelExchange
+from .fmi.build import build_fmu, find_compiler, fmi_headers  # noqa: F401 - hybridsim.fmu.build_fmu
+from .fmi.variables import (_INDEXED, PORT_TYPES, _access, _by_type, _check_members, _group,  # noqa: F401
+                            _nominal, _settable, _size, _start, _text_parameter, to_fmi)
 from .registry import closest, register
 
 GROUP = "FMU"  # where `hybridsim blocks` lists this module's blocks
-
-_INDEXED = re.compile(r"^(.*)\[(\d+)\]$")
-
-
-def _group(variables):
-    """[(port name, [variables in element order])] for 'x[1]', 'x[2]', ... and scalars."""
-    ports = {}
-    for v in variables:
-        m = _INDEXED.match(v.name)
-        base, idx = (m.group(1), int(m.group(2))) if m else (v.name, 1)
-        ports.setdefault(base, []).append((idx, v))
-    out = []
-    for base, items in ports.items():
-        items.sort(key=lambda t: t[0])
-        out.append((base.replace(".", "_"), [v for _, v in items]))
-    return out
-
-
-#: FMI types an input or output port may have (values cross the diagram as floats)
-PORT_TYPES = {"Real", "Integer", "Enumeration", "Boolean", "Float32", "Float64", "Int8", "UInt8", "Int16",
-              "UInt16", "Int32", "UInt32", "Int64", "UInt64"}
-_INT_RANGE = {"Int8": 8, "Int16": 16, "Int32": 32, "Int64": 64, "Integer": 32, "Enumeration": 32}
-_UINT_RANGE = {"UInt8": 8, "UInt16": 16, "UInt32": 32, "UInt64": 64}
-
-
-def _size(variable):
-    """Number of elements of a variable (an FMI 3.0 array has its dimensions' product)."""
-    shape = getattr(variable, "shape", None)
-    return int(np.prod(shape)) if shape else 1
-
-
-def _by_type(variables):
-    """``{type: (element positions, value references, number of values)}`` of ``variables`` in order."""
-    out, k = {}, 0
-    for v in variables:
-        n = _size(v)
-        pos, vrs, count = out.setdefault(v.type, ([], [], [0]))
-        pos.extend(range(k, k + n))
-        vrs.append(v.valueReference)
-        count[0] += n
-        k += n
-    return {t: (pos, vrs, count[0]) for t, (pos, vrs, count) in out.items()}
-
-
-def _access(typ, fmi3, verb):
-    """The fmpy method that gets or sets variables of FMI type ``typ``."""
-    if fmi3:
-        return verb + ("Int64" if typ == "Enumeration" else typ)
-    return verb + {"Real": "Real", "Integer": "Integer", "Enumeration": "Integer", "Boolean": "Boolean"}[typ]
-
-
-def to_fmi(typ, value, name):
-    """A diagram value (float) as the FMI type ``typ``.
-
-    Integers are rounded to the nearest (halves to even, as Python's ``round``)
-    and must fit the type's range; a Boolean is true when the value is not 0;
-    anything not finite is an error. Raises :class:`FMUError` naming the variable.
-    """
-    value = float(value)
-    if not np.isfinite(value):
-        raise FMUError(f"input {name!r} ({typ}) got {value!r}: not a finite number")
-    if typ == "Boolean":
-        return value != 0.0
-    if typ == "Float32" and abs(value) > 3.4028234663852886e38:
-        raise FMUError(f"input {name!r} (Float32) got {value!r}: overflows Float32 (largest 3.4028235e+38)")
-    if typ in ("Real", "Float64", "Float32"):
-        return value
-    n = round(value)
-    bits = _INT_RANGE.get(typ)
-    lo, hi = (-(2 ** (bits - 1)), 2 ** (bits - 1) - 1) if bits else (0, 2 ** _UINT_RANGE[typ] - 1)
-    if not lo <= n <= hi:
-        raise FMUError(f"input {name!r} ({typ}) got {value!r}: outside {lo} .. {hi}")
-    return n
-
-
-def _start(variable):
-    """A variable's start values as a list of floats (one per element), or None."""
-    start = variable.start
-    if start is None:
-        return None
-    words = start.split() if isinstance(start, str) else [start]
-    out = []
-    for w in words:
-        if isinstance(w, str) and w.lower() in ("true", "false"):
-            out.append(1.0 if w.lower() == "true" else 0.0)
-            continue
-        try:
-            out.append(float(w))
-        except (TypeError, ValueError):
-            return None
-    n = _size(variable)
-    return out * n if len(out) == 1 and n > 1 else (out if len(out) == n else None)
-
-
-def _text_parameter(var, value):
-    """A String parameter's text, or a Binary parameter's bytes from hex digits ("0a ff 10").
-
-    Raises :class:`~hybridsim.errors.ParameterError` for anything else.
-    """
-    if var.type == "String":
-        if not isinstance(value, str) or "\0" in value:
-            raise ParameterError("parameters", f"{var.name} is a String: give text, got {value!r}")
-        return value
-    if isinstance(value, (bytes, bytearray)):
-        return bytes(value)
-    try:
-        return bytes.fromhex(value.replace("0x", ""))
-    except (AttributeError, ValueError):  # not text, or not hex digits
-        raise ParameterError("parameters", f"{var.name} is Binary: give its bytes as hex digits, e.g. "
-                                           f"'0a ff 10', got {value!r}") from None
-
-
-def _settable(var, value):
-    """``value`` for variable ``var``, or ParameterError when it cannot be set or is out of its range."""
-    if var.causality == "independent" or var.variability == "constant":
-        raise ParameterError("parameters", f"{var.name} is {'the independent variable' if var.causality == 'independent' else 'a constant'}"
-                                           " of the FMU: it cannot be set")
-    if var.causality not in ("parameter", "input") and var.initial not in ("exact", "approx") and var.start is None:
-        raise ParameterError("parameters", f"{var.name} is a {var.causality} variable of the FMU "
-                                           f"(initial={var.initial}): it cannot be set")
-    for bound, bad in (("min", lambda v, b: v < b), ("max", lambda v, b: v > b)):
-        b = getattr(var, bound, None)
-        if b is not None and not isinstance(value, (list, tuple)):
-            try:
-                b = float(b)
-            except (TypeError, ValueError):
-                continue
-            if bad(float(value), b):
-                raise ParameterError("parameters", f"{var.name} = {value!r} is outside its range: "
-                                                   f"{bound} = {b:g} in the FMU's model description")
-    return value
 
 
 def _raise(exc):
     raise exc
 
 
-def _nominal(variable):
-    """A state variable's nominal value (1 when it gives none or a bad one)."""
-    try:
-        n = abs(float(getattr(variable, "nominal", None) or 1.0))
-    except (TypeError, ValueError):
-        return 1.0
-    return n if np.isfinite(n) and n > 0 else 1.0
-
-
 @register("fmu")
-class FMUBlock(Block):
+class FMUBlock(ModelExchange, Block):
     """Any FMI 2.0 or 3.0 FMU as a block (numeric and Boolean inputs and outputs).
 
     Parameters
@@ -480,20 +341,6 @@ class FMUBlock(Block):
             k -= width
         return element  # pragma: no cover
 
-    def _discrete_inputs(self, t, x, u):
-        """Model Exchange: discrete-time inputs that changed enter the FMU through event mode."""
-        values = np.concatenate(u)[self.in_discrete]
-        if self._last_discrete is not None and np.array_equal(values, self._last_discrete):
-            return
-        self._last_discrete = values.copy()
-        fmu = self._fmu
-        self._call(f"enterEventMode at t={t:.9g}", fmu.enterEventMode)
-        self._set_inputs(u, only=set(self.in_discrete))
-        if self._event_update(t):
-            raise FMUError(f"FMU block {self.name!r} changed its continuous states at t={t:.9g} s when a "
-                           "discrete input changed; hybridsim cannot take that from an input yet")
-        self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
-
     # -- block API ----------------------------------------------------------------
     def initial_state(self, u=None):
         fmu = self._instantiate()
@@ -553,178 +400,3 @@ class FMUBlock(Block):
             self._pending_stop = StopRequest(t + self.T, self.name, reason)
             return
         raise StopRequest(t, self.name, reason)
-
-    def _me_set(self, t, x, u):
-        fmu = self._fmu
-        self._call(f"setTime({t:.9g})", fmu.setTime, t)
-        if self.nx:
-            self._call(f"setContinuousStates at t={t:.9g}", fmu.setContinuousStates,
-                       np.ascontiguousarray(x, dtype=float).ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
-        self._set_inputs(u)
-
-    def derivatives(self, t, x, u):
-        self._me_set(t, x, u)
-        dx = np.zeros(self.nx)
-        if not self.nx:
-            return np.zeros(1)  # the dummy state
-        self._call("get derivatives", self._get_der, dx.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
-        return dx
-
-    # -- Model Exchange events (FMI 2.0 and 3.0) -----------------------------------
-    @property
-    def has_event_action(self):
-        """A Model Exchange FMU with event indicators: its events go through event mode."""
-        return self.mode == "me" and self.nz > 0
-
-    @property
-    def has_time_events(self):
-        return self.mode == "me"
-
-    def _event_update(self, t):
-        """The newDiscreteStates / updateDiscreteStates loop of event mode; returns whether the
-        continuous states changed. Remembers the next time event."""
-        update = self._fmu.updateDiscreteStates if self.fmi3 else self._fmu.newDiscreteStates
-        changed = False
-        for _ in range(100):
-            need, terminate, _nominals, values, time_defined, t_next = self._call(
-                f"{'updateDiscreteStates' if self.fmi3 else 'newDiscreteStates'} at t={t:.9g}", update)
-            changed |= bool(values)
-            self._next_event = float(t_next) if time_defined else np.inf
-            if terminate:
-                raise StopRequest(t, self.name, "terminateSimulation")
-            if not need:
-                return changed
-        raise FMUError(f"FMU block {self.name!r}: the event iteration at t={t:.9g} s does not settle "
-                       "(newDiscreteStatesNeeded after 100 updates)")
-
-    def next_event_time(self, t, x):
-        """The FMU's next time event (nextEventTime), or inf."""
-        return getattr(self, "_next_event", np.inf)
-
-    def event_action(self, t, x, u, fired):
-        """Event mode at a state or time event: update the discrete states, read back the
-        continuous ones if the FMU changed them, back to continuous-time mode."""
-        self._me_set(t, x, u)
-        fmu = self._fmu
-        self._call(f"enterEventMode at t={t:.9g}", fmu.enterEventMode)
-        changed = self._event_update(t)
-        self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
-        if not changed or not self.nx:
-            return None
-        x_new = np.zeros(self.nx)
-        self._call("getContinuousStates", fmu.getContinuousStates,
-                   x_new.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
-        return x_new
-
-    def zero_crossings(self, t, x, u):
-        if self.mode != "me" or not self.nz:
-            return np.zeros(0)
-        self._me_set(t, x, u)
-        z = np.zeros(self.nz)
-        self._call("getEventIndicators", self._fmu.getEventIndicators, z.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nz)
-        return z
-
-
-def _check_members(path):
-    """FMUError unless every member of the zip stays inside the folder it is extracted to."""
-    try:
-        with zipfile.ZipFile(path) as z:
-            names = z.namelist()
-    except (zipfile.BadZipFile, OSError) as exc:
-        raise FMUError(f"FMU {str(path)!r}: cannot read the archive: {exc}") from None
-    for n in names:
-        parts = n.replace("\\", "/").split("/")
-        if n.startswith(("/", "\\")) or ":" in n or "\\" in n or ".." in parts:
-            raise FMUError(f"FMU {str(path)!r}: unsafe member {n!r} in the archive (an absolute path, "
-                           "'..' or a drive letter); not extracted")
-
-
-# -- building -------------------------------------------------------------------------
-
-def find_compiler():
-    """Path of the system C compiler (cc or gcc), or raise FMUError."""
-    for name in (os.environ.get("CC"), "cc", "gcc"):
-        if name and shutil.which(name):
-            return shutil.which(name)
-    raise FMUError("no C compiler found (looked for $CC, cc, gcc): install gcc "
-                   "(Debian/Ubuntu: sudo apt-get install gcc)")
-
-
-def fmi_headers():
-    """The folder of the FMI 2.0 and 3.0 C headers that fmpy ships (``fmpy/c-code``).
-
-    Returns
-    -------
-    pathlib.Path
-        The folder with ``fmi2Functions.h``, ``fmi3Functions.h`` and their includes.
-    """
-    import fmpy
-
-    return Path(fmpy.__file__).parent / "c-code"
-
-
-def build_fmu(out, model_identifier, sources, model_description, headers, include_dirs=None,
-              extra_files=None):
-    """Compile ``sources`` into a shared library and pack an FMU at ``out``.
-
-    The binary goes where the model description's FMI version expects it
-    (``binaries/linux64`` for 2.0, ``binaries/x86_64-linux`` for 3.0, and the
-    matching folder and library suffix on macOS and Windows).
-
-    Parameters
-    ----------
-    out : path-like
-        The ``.fmu`` file to write (atomically).
-    model_identifier : str
-        The library's name, as in the model description.
-    sources : list of path-like
-        C files, compiled and packed into ``sources/``.
-    model_description : str
-        The text of ``modelDescription.xml``.
-    headers : dict
-        {file name: text} of generated headers, packed into ``sources/``.
-    include_dirs : list of path-like, optional
-        Folders whose ``*.h`` are packed and compiled against; default: the
-        FMI headers of :func:`fmi_headers`.
-    extra_files : dict, optional
-        {path in the archive: text}, e.g. ``sources/buildDescription.xml``.
-
-    Returns
-    -------
-    pathlib.Path
-        ``out``.
-    """
-    import fmpy
-
-    cc = find_compiler()
-    out = Path(out)
-    include_dirs = [fmi_headers()] if include_dirs is None else include_dirs
-    with tempfile.TemporaryDirectory(prefix="hybridsim-fmu-") as tmp:
-        tmp = Path(tmp)
-        src = tmp / "sources"
-        fmi3 = 'fmiVersion="3.0"' in model_description
-        binary = tmp / "binaries" / (fmpy.platform_tuple if fmi3 else fmpy.platform)
-        src.mkdir(parents=True)
-        binary.mkdir(parents=True)
-        for d in include_dirs:
-            for h in Path(d).glob("*.h"):
-                shutil.copy(h, src / h.name)
-        for name, text in headers.items():
-            (src / name).write_text(text)
-        for f in sources:
-            shutil.copy(f, src / Path(f).name)
-        for name, text in (extra_files or {}).items():
-            (tmp / name).parent.mkdir(parents=True, exist_ok=True)
-            (tmp / name).write_text(text)
-        (tmp / "modelDescription.xml").write_text(model_description)
-        lib = binary / (model_identifier + {"darwin": ".dylib", "win32": ".dll"}.get(sys.platform, ".so"))
-        cmd = [cc, "-std=c99", "-O2", "-fPIC", "-shared", "-Wall", "-I", str(src), "-o", str(lib)]
-        cmd += [str(src / Path(f).name) for f in sources] + ["-lm"]
-        proc = subprocess.run(cmd, capture_output=True, text=True)
-        if proc.returncode != 0:
-            raise FMUError(f"compiling {model_identifier} failed:\n{proc.stderr.strip()}")
-        with atomic_file(out, "wb") as fh, zipfile.ZipFile(fh, "w", zipfile.ZIP_DEFLATED) as z:
-            for f in sorted(tmp.rglob("*")):
-                if f.is_file():
-                    z.write(f, f.relative_to(tmp).as_posix())
-    return out
