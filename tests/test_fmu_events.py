@@ -389,3 +389,32 @@ def test_zero_based_element_names_are_set_as_declared(arrays):
 def test_text_parameters_reach_an_fmi3_fmu(arrays):
     res = arrays_run(arrays, {"name": "hello!"})
     assert res["a.total[0]"][0] == 3 + 6 + 3  # len("hello!") = 6
+
+
+def test_check_names_an_out_of_range_parameter_and_exits_2(stair, tmp_path, capsys):
+    from hybridsim.cli import main
+
+    diagram = tmp_path / "s.yaml"
+    diagram.write_text(f"blocks:\n  s: {{type: fmu, path: {stair}, mode: cs, rate: 5, parameters: {{limit: 0.5}}}}\n"
+                       "simulation: {t_end: 1}\n")
+    code = main(["check", str(diagram)])
+    err = capsys.readouterr().err
+    assert code == 2 and "limit = 0.5 is outside its range: min = 1" in err and "Traceback" not in err
+
+
+def test_a_scheduled_execution_only_fmu_is_refused_as_such(stair, tmp_path):
+    import re
+    import zipfile
+
+    se = tmp_path / "se.fmu"
+    with zipfile.ZipFile(stair) as src, zipfile.ZipFile(se, "w") as dst:
+        for n in src.namelist():
+            data = src.read(n)
+            if n == "modelDescription.xml":
+                text = re.sub(r'<ModelExchange[^>]*/>\s*<CoSimulation[^>]*/>',
+                              '<ScheduledExecution modelIdentifier="stair3"/>', data.decode())
+                assert "ScheduledExecution" in text
+                data = text.encode()
+            dst.writestr(n, data)
+    with pytest.raises(FMUError, match="is a Scheduled Execution FMU \\(FMI 3.0\\)"):
+        FMUBlock("s", path=str(se), mode="cs", rate=5)

@@ -166,3 +166,44 @@ def test_cli_exports_and_refuses_a_bad_version(tmp_path, capsys):
     with pytest.raises(SystemExit) as e:
         main(["fmu", "export", str(CTRL), "--fmi", "4", "-o", str(tmp_path / "c4.fmu")])
     assert e.value.code == 2
+
+
+def test_a_missing_diagram_is_a_clear_error(tmp_path, capsys):
+    code = main(["fmu", "export", str(tmp_path / "nope.yaml"), "-o", str(tmp_path / "n.fmu")])
+    err = capsys.readouterr().err
+    assert code == 2 and "nope.yaml" in err and "Traceback" not in err
+    assert not (tmp_path / "n.fmu").exists()
+
+
+def test_a_diagram_with_an_fmu_inside_is_refused(tmp_path, capsys):
+    code = main(["fmu", "export", str(DIAGRAMS / "fig9_fmu_cs.yaml"), "-o", str(tmp_path / "x.fmu")])
+    err = capsys.readouterr().err
+    assert code == 4 and "block type fmu inside an exported diagram is not supported" in err
+
+
+def test_a_bad_parameter_fails_initialization_in_the_fmus_own_words(fmus):
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    path = str(fmus["ctrl2"])
+    md = read_model_description(path)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier)
+    said = []
+    from fmpy.fmi2 import fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+    from fmpy.fmi2 import defaultCallbacks as cb
+
+    def log(env, name, status, category, message):
+        said.append(message.decode())
+
+    cbs = fmi2CallbackFunctions()
+    cbs.logger = fmi2CallbackLoggerTYPE(log)
+    cbs.allocateMemory, cbs.freeMemory = cb.allocateMemory, cb.freeMemory
+    fmu.instantiate(callbacks=cbs, loggingOn=True)
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.setInteger([vr["rate"]], [0])
+    with pytest.raises(Exception):
+        fmu.exitInitializationMode()
+    assert any("cannot build the diagram" in m and "rate" in m for m in said), said
+    fmu.freeInstance()
