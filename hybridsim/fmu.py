@@ -127,7 +127,12 @@ class FMUBlock(ModelExchange, Block):
         # text and bytes cannot cross the diagram: such inputs keep their start values, such
         # outputs are not ports (both listed in text_variables)
         self.text_variables = [f"{v.name} ({v.type} {v.causality})" for v in md.modelVariables
-                               if v.causality in ("input", "output") and v.type not in PORT_TYPES]
+                               if v.causality in ("input", "output") and v.type in ("String", "Binary")]
+        unsupported = [f"{v.name} ({v.type}, {v.causality})" for v in md.modelVariables
+                       if v.causality in ("input", "output") and v.type not in PORT_TYPES | {"String", "Binary"}]
+        if unsupported:  # clocks: hybridsim has no clocked partitions
+            raise FMUError(f"FMU {str(self.path)!r}: these inputs/outputs cannot be ports (numbers and "
+                           f"Booleans can; String and Binary ones stay out of the diagram): {', '.join(unsupported)}")
         ported = lambda c: [v for v in md.modelVariables if v.causality == c and v.type in PORT_TYPES]  # noqa: E731
         self.in_ports = _group(ported("input"))
         self.out_ports = _group(ported("output"))

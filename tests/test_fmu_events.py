@@ -418,3 +418,19 @@ def test_a_scheduled_execution_only_fmu_is_refused_as_such(stair, tmp_path):
             dst.writestr(n, data)
     with pytest.raises(FMUError, match="is a Scheduled Execution FMU \\(FMI 3.0\\)"):
         FMUBlock("s", path=str(se), mode="cs", rate=5)
+
+
+def test_a_clock_port_is_still_refused_naming_it(arrays, tmp_path):
+    import zipfile
+
+    clocked = tmp_path / "clock.fmu"
+    with zipfile.ZipFile(arrays) as src, zipfile.ZipFile(clocked, "w") as dst:
+        for n in src.namelist():
+            data = src.read(n)
+            if n == "modelDescription.xml":
+                data = data.replace(b"  </ModelVariables>", b'    <Clock name="tick" valueReference="11" causality="input" '
+                                    b'variability="discrete" intervalVariability="constant" intervalDecimal="0.1"/>\n'
+                                    b"  </ModelVariables>")
+            dst.writestr(n, data)
+    with pytest.raises(FMUError, match=r"cannot be ports.*tick \(Clock, input\)"):
+        FMUBlock("a", path=str(clocked), mode="cs", rate=10)
