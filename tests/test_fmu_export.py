@@ -136,9 +136,10 @@ def test_the_exported_controller_around_the_plant_fmu_equals_the_loop_in_hybrids
     assert abs(want[-1] - 20.0) < 3.0 and abs(want[0] - 10.0) < 0.1  # it did push from 10 N toward 20 N
 
 
-def test_hybridsim_imports_the_controller_it_exported(fmus, tmp_path):
-    ref = hs.simulate(loop_diagram(tmp_path, fmus["plant2"]))
-    res = hs.simulate(loop_diagram(tmp_path, fmus["plant2"], ctrl_fmu=fmus["ctrl2"]))
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_hybridsim_imports_the_controller_it_exported(fmus, fmi, tmp_path):
+    ref = hs.simulate(loop_diagram(tmp_path, fmus[f"plant{fmi}"]))
+    res = hs.simulate(loop_diagram(tmp_path, fmus[f"plant{fmi}"], ctrl_fmu=fmus[f"ctrl{fmi}"]))
     assert np.max(np.abs(res["ctrl.CF[0]"][:-1] - ref["ctrl.ft.CF[0]"][:-1])) < 1e-9
 
 
