@@ -163,11 +163,13 @@ class FMUBlock(ModelExchange, Block):
         # values cross the diagram as floats; each type is read and written with its own call
         self.out_types = _by_type([v for _, vs in self.out_ports for v in vs])
         self.in_vars = [v for _, vs in self.in_ports for v in vs]
-        self.in_types = _by_type(self.in_vars)
         # element k of the flat input vector belongs to variable in_elem[k], element in_part[k] of it
         self.in_elem = [j for j, v in enumerate(self.in_vars) for _ in range(_size(v))]
         self.in_part = [e for v in self.in_vars for e in range(_size(v))]
         self.in_first = np.cumsum([0] + [_size(v) for v in self.in_vars])
+        self._in_members = {}  # {type: [(value reference, index in in_vars)]}
+        for j, v in enumerate(self.in_vars):
+            self._in_members.setdefault(v.type, []).append((v.valueReference, j))
         # Model Exchange: discrete-time inputs may be set in event mode only (FMI 2.0 and 3.0)
         discrete = [k for k, j in enumerate(self.in_elem) if self.in_vars[j].variability == "discrete"]
         self.in_discrete = discrete if self.mode == "me" else []
@@ -223,6 +225,9 @@ class FMUBlock(ModelExchange, Block):
             byname = {v.name: v for v in self.md.modelVariables}
             for pname, value in self.parameters.items():
                 var = byname[pname]
+                if var in self.in_vars:  # an input given a value here: the FMU no longer holds its start
+                    j = self.in_vars.index(var)
+                    self._held[self.in_first[j]:self.in_first[j + 1]] = np.nan
                 if var.type in ("String", "Binary"):
                     self._call(f"setting {pname}", getattr(fmu, "set" + var.type), [var.valueReference], [value])
                     continue
@@ -318,12 +323,11 @@ class FMUBlock(ModelExchange, Block):
         skip = set() if only is not None else set(self.in_discrete)
         held, first = self._held, self.in_first
         changed = ~(values == held)
-        for typ, (positions, vrs, _n) in self.in_types.items():
+        for typ, members in self._in_members.items():
             # only what changed: an input left at its start value (unwired) is never written;
             # an array is written whole
             pick = []
-            for vr in vrs:
-                j = next(i for i, v in enumerate(self.in_vars) if v.valueReference == vr and v.type == typ)
+            for vr, j in members:
                 ks = range(first[j], first[j + 1])
                 if changed[ks].any() and first[j] not in skip and (only is None or first[j] in only):
                     pick.append((vr, ks))
