@@ -208,3 +208,22 @@ def test_a_bad_parameter_fails_initialization_in_the_fmus_own_words(fmus):
         fmu.exitInitializationMode()
     assert any("cannot build the diagram" in m and "rate" in m for m in said), said
     fmu.freeInstance()
+
+
+def test_the_controller_keeps_its_own_rate_whatever_the_communication_step(fmus):
+    """60 Hz inside: stepped at 1/240 s or 1/20 s, its outputs at common times are those of 1/60 s
+    steps (constant inputs; between its sample hits the outputs hold)."""
+    import fmpy
+
+    start = {"q[1]": 0.3, "q[2]": 0.5, "F[1]": 9.0, "X_d[1]": 0.5, "F_d[1]": 10.0}
+    runs = {h: fmpy.simulate_fmu(str(fmus["ctrl2"]), stop_time=0.5, step_size=h, output_interval=h,
+                                 start_values=start, output=["tau[1]", "tau[2]"]) for h in (1 / 60, 1 / 240, 1 / 20)}
+    base = runs[1 / 60]
+    for h in (1 / 240, 1 / 20):
+        r = runs[h]
+        k = np.round(r["time"] * 60, 6)
+        on = k == np.round(k)  # the times that are 60 Hz sample hits
+        want = dict(zip(np.round(base["time"] * 60).astype(int), base["tau[1]"]))
+        got = r["tau[1]"][on]
+        assert np.max(np.abs(got - [want[int(round(x))] for x in k[on]])) < 1e-12, h
+    assert np.ptp(base["tau[1]"]) > 0.1  # the integrators move it
