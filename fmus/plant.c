@@ -104,6 +104,8 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real value[]) {
     Plant *p = (Plant *)c;
     size_t i;
+    char msg[160];
+    const char *bad;
     for (i = 0; i < n; i++) {
         if (vr[i] >= N_VARS) {
             say(p, fmi2Error, "logStatusError", "fmi2SetReal: unknown value reference");
@@ -111,6 +113,10 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
         }
         if (frozen(p, vr[i])) {
             say(p, fmi2Error, "logStatusError", "fmi2SetReal: a fixed parameter cannot change after initialization");
+            return fmi2Error;
+        }
+        if ((bad = not_finite(vr[i], value[i], msg, sizeof msg)) != NULL) {
+            say(p, fmi2Error, "logStatusError", bad);
             return fmi2Error;
         }
         p->r[vr[i]] = value[i];

@@ -122,6 +122,8 @@ fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
                           size_t nv) {
     Plant *p = (Plant *)c;
     size_t i;
+    char msg[160];
+    const char *bad;
     if (nv != n) return fmi3Error;
     for (i = 0; i < n; i++) {
         if (vr[i] >= N_VARS || BOOLEAN[vr[i]]) {
@@ -130,6 +132,10 @@ fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t 
         }
         if (frozen(p, vr[i])) {
             say(p, fmi3Error, "logStatusError", "fmi3SetFloat64: a fixed parameter cannot change after initialization");
+            return fmi3Error;
+        }
+        if ((bad = not_finite(vr[i], v[i], msg, sizeof msg)) != NULL) {
+            say(p, fmi3Error, "logStatusError", bad);
             return fmi3Error;
         }
         p->r[vr[i]] = v[i];

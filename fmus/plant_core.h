@@ -165,12 +165,23 @@ static int cs_step(Plant *p, double h) {
 
 /* the parameters exitInitializationMode checks; the message, or NULL when they are fine */
 static const char *bad_parameters(Plant *p, char *msg, size_t size) {
-    if (R(VR_KW) <= 0.0 || R(VR_M3) <= 0.0 || R(VR_MAX_SUBSTEP) <= 0.0)
-        return "Kw, M3 and max_substep must be positive";
+    int k;
+    for (k = 0; k < N_VARS; k++) {  /* every parameter with a min in the model description */
+        if (!isfinite(p->r[k])) {
+            snprintf(msg, size, "%s = %g: not a finite number", VAR_NAMES[k], p->r[k]);
+            return msg;
+        }
+        if (MIN_KIND[k] == 2 && !(p->r[k] > 0.0)) {
+            snprintf(msg, size, "%s = %g must be positive", VAR_NAMES[k], p->r[k]);
+            return msg;
+        }
+        if (MIN_KIND[k] == 1 && !(p->r[k] >= 0.0)) {
+            snprintf(msg, size, "%s = %g must not be negative", VAR_NAMES[k], p->r[k]);
+            return msg;
+        }
+    }
     if (R(VR_BALANCE) != 0.0 && R(VR_KR) <= 0.0)
         return "balance = 1 needs a positive Kr (the start is where the springs carry the preload)";
-    if (R(VR_STRIBECK_VELOCITY_1) <= 0.0 || R(VR_STRIBECK_VELOCITY_2) <= 0.0)
-        return "stribeck_velocity must be positive";
     if (!initial_state(p)) {
         snprintf(msg, size, "endpoint0 (%g, %g) lies within the link offset of the base",
                  start_x(p), R(VR_ENDPOINT0_2));
@@ -183,6 +194,13 @@ static const char *bad_parameters(Plant *p, char *msg, size_t size) {
 static void refresh(Plant *p) {
     if (p->mode == MODE_INIT) initial_state(p);
     if (p->mode != MODE_INSTANTIATED) outputs(p);
+}
+
+/* the message refusing a non-finite value for variable vr, or NULL when the value is finite */
+static const char *not_finite(unsigned int vr, double value, char *msg, size_t size) {
+    if (isfinite(value)) return NULL;
+    snprintf(msg, size, "%s = %g: not a finite number (refused)", VAR_NAMES[vr], value);
+    return msg;
 }
 
 /* whether value reference vr is a fixed parameter that can no longer change (initialization is over) */

@@ -84,6 +84,44 @@ DERIVATIVES = [f"der({n})" for n in STATE_NAMES]
 N_EVENT_INDICATORS = 3  # |q1'| - band, |q2'| - band, penetration
 #: the variables that are Boolean (stored as 0/1 in the C array like the others)
 BOOLEANS = {"friction", "unilateral", "contact", "stribeck"}
+#: parameters that must be positive (min="0" in the description, and exitInitializationMode
+#: refuses 0) and those that must not be negative (min="0")
+POSITIVE = {"Kw", "Kr", "M2", "M3", "stick_band", "stick_time", "stribeck_velocity[1]", "stribeck_velocity[2]",
+            "max_substep"}
+NON_NEGATIVE = {"tau_c[1]", "tau_c[2]", "tau_s[1]", "tau_s[2]", "b[1]", "b[2]", "bw", "br", "l"}
+#: SI base units of each unit the variables use (exponents of kg, m, s, rad)
+_BASE = {"kg": {"kg": 1}, "m": {"m": 1}, "s": {"s": 1}, "rad": {"rad": 1}, "N": {"kg": 1, "m": 1, "s": -2}}
+GENERATION_TOOL = "hybridsim 0.1.0 (fmus/plant_model.py)"
+GENERATION_DATE = "2026-12-02T00:00:00Z"  # the date of this model's last change (reproducible builds)
+VERSION = "3"  # the plant model's version: raised when its equations or variables change
+TOLERANCE = 1e-6  # DefaultExperiment: a relative tolerance for a variable-step importer
+
+
+def base_units(unit):
+    """``{base: exponent}`` of a unit string such as 'N.m.s/rad' or 'kg.m2' (kg, m, s, rad)."""
+    out = {}
+    for k, part in enumerate(unit.split("/")):
+        for token in filter(None, part.split(".")):
+            name = token.rstrip("0123456789")
+            power = int(token[len(name):] or 1) * (1 if k == 0 else -1)
+            for base, e in _BASE[name].items():
+                out[base] = out.get(base, 0) + e * power
+    return {b: e for b, e in out.items() if e}
+
+
+def _unit_definitions():
+    """<UnitDefinitions> lines with a BaseUnit per unit (FMI 2.0 and 3.0 write them alike)."""
+    units = sorted({v[4] for v in all_variables() if v[4] and v[4] != "1"})
+    out = ["  <UnitDefinitions>"]
+    for u in units:
+        attrs = " ".join(f'{b}="{e}"' for b, e in sorted(base_units(u).items()))
+        out.append(f'    <Unit name="{u}"><BaseUnit {attrs}/></Unit>')
+    out.append("  </UnitDefinitions>")
+    return out
+
+
+def _min(name):
+    return ' min="0"' if name in POSITIVE or name in NON_NEGATIVE else ""
 
 
 def all_variables():
@@ -122,7 +160,11 @@ def vars_header():
     starts = ", ".join(repr(float(v[3])) if v[3] is not None else "0.0" for v in vs)
     fixed = ", ".join("1" if v[2] == "fixed" else "0" for v in vs)
     boolean = ", ".join("1" if v[0] in BOOLEANS else "0" for v in vs)
+    names = ", ".join(f'"{v[0]}"' for v in vs)
+    kinds = ", ".join("2" if v[0] in POSITIVE else "1" if v[0] in NON_NEGATIVE else "0" for v in vs)
     lines += ["", f"static const double START_VALUES[N_VARS] = {{{starts}}};",
+              f"static const char *const VAR_NAMES[N_VARS] = {{{names}}};",
+              f"static const int MIN_KIND[N_VARS] = {{{kinds}}};  /* 2: must be positive, 1: not negative */",
               f"static const int FIXED[N_VARS] = {{{fixed}}};  /* set only before initialization ends */",
               f"static const int BOOLEAN[N_VARS] = {{{boolean}}};  /* fmi2Get/SetBoolean, not Real */",
               "", "#endif", ""]
@@ -144,22 +186,22 @@ def model_description(fmi=2):
 
     vs = all_variables()
     index = {v[0]: k + 1 for k, v in enumerate(vs)}  # 1-based ScalarVariable index
-    units = sorted({v[4] for v in vs if v[4] and v[4] != "1"})
     out = ['<?xml version="1.0" encoding="UTF-8"?>',
            '<fmiModelDescription fmiVersion="2.0" modelName="%s" guid="%s"' % (MODEL_NAME, guid()),
-           '  description="%s" generationTool="hybridsim" variableNamingConvention="structured"'
-           % escape(DESCRIPTION),
-           f'  numberOfEventIndicators="{N_EVENT_INDICATORS}">',
-           f'  <ModelExchange modelIdentifier="{MODEL_NAME}" canGetAndSetFMUstate="true">',
+           '  description="%s" generationTool="%s" variableNamingConvention="structured"'
+           % (escape(DESCRIPTION), GENERATION_TOOL),
+           f'  generationDateAndTime="{GENERATION_DATE}" version="{VERSION}"'
+           f' numberOfEventIndicators="{N_EVENT_INDICATORS}">',
+           f'  <ModelExchange modelIdentifier="{MODEL_NAME}" canGetAndSetFMUstate="true"'
+           ' completedIntegratorStepNotNeeded="true">',
            SOURCE_FILES,
            "  </ModelExchange>",
            f'  <CoSimulation modelIdentifier="{MODEL_NAME}" canHandleVariableCommunicationStepSize="true"'
            ' canGetAndSetFMUstate="true">',
            SOURCE_FILES,
-           "  </CoSimulation>",
-           "  <UnitDefinitions>"]
-    out += [f'    <Unit name="{escape(u)}"/>' for u in units]
-    out += ["  </UnitDefinitions>", '  <DefaultExperiment startTime="0" stopTime="4" stepSize="0.016666666666666666"/>',
+           "  </CoSimulation>"]
+    out += _unit_definitions()
+    out += [f'  <DefaultExperiment startTime="0" stopTime="4" tolerance="{TOLERANCE!r}" stepSize="0.016666666666666666"/>',
             "  <ModelVariables>"]
     for k, (name, caus, var, start, unit, desc) in enumerate(vs):
         attrs = f'name="{escape(name)}" valueReference="{k}" description="{escape(desc)}" causality="{caus}" variability="{var}"'
@@ -176,6 +218,7 @@ def model_description(fmi=2):
             continue
         if start is not None and caus in ("input", "parameter"):
             real += f' start="{start!r}"'
+        real += _min(name)
         out.append(f"    <ScalarVariable {attrs}><Real {real.strip()}/></ScalarVariable>")
     out.append("  </ModelVariables>")
     out.append("  <ModelStructure>")
@@ -207,17 +250,15 @@ def model_description3():
 
     vs = all_variables()
     vr = {v[0]: k for k, v in enumerate(vs)}
-    units = sorted({v[4] for v in vs if v[4] and v[4] != "1"})
     out = ['<?xml version="1.0" encoding="UTF-8"?>',
            f'<fmiModelDescription fmiVersion="3.0" modelName="{MODEL_NAME}" instantiationToken="{guid()}"',
-           f'  description="{escape(DESCRIPTION)}" generationTool="hybridsim" variableNamingConvention="structured">',
+           f'  description="{escape(DESCRIPTION)}" generationTool="{GENERATION_TOOL}"'
+           f' generationDateAndTime="{GENERATION_DATE}" version="{VERSION}" variableNamingConvention="structured">',
            f'  <ModelExchange modelIdentifier="{MODEL_NAME}" canGetAndSetFMUState="true"/>',
            f'  <CoSimulation modelIdentifier="{MODEL_NAME}" canHandleVariableCommunicationStepSize="true"'
-           ' canGetAndSetFMUState="true" canReturnEarlyAfterIntermediateUpdate="false"/>',
-           "  <UnitDefinitions>"]
-    out += [f'    <Unit name="{escape(u)}"/>' for u in units]
-    out += ["  </UnitDefinitions>",
-            '  <DefaultExperiment startTime="0" stopTime="4" stepSize="0.016666666666666666"/>',
+           ' canGetAndSetFMUState="true" canReturnEarlyAfterIntermediateUpdate="false"/>']
+    out += _unit_definitions()
+    out += [f'  <DefaultExperiment startTime="0" stopTime="4" tolerance="{TOLERANCE!r}" stepSize="0.016666666666666666"/>',
             "  <ModelVariables>",
             f'    <Float64 name="time" valueReference="{len(vs)}" causality="independent" variability="continuous"/>']
     for k, (name, caus, var, start, unit, desc) in enumerate(vs):
@@ -234,6 +275,7 @@ def model_description3():
             attrs += f' derivative="{vr[name[4:-1]]}"'
         if start is not None and caus in ("input", "parameter"):
             attrs += f' start="{start!r}"'
+        attrs += _min(name)
         out.append(f"    <Float64 {attrs}/>")
     out += ["  </ModelVariables>", "  <ModelStructure>"]
     states = " ".join(str(vr[n]) for n in STATE_NAMES)

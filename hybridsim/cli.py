@@ -260,6 +260,16 @@ def cmd_fmu_build(args):
     return 0
 
 
+def cmd_fmu_export(args):
+    """`hybridsim fmu export`: a diagram or subsystem as a Co-Simulation FMU. Returns the exit status."""
+    from .fmi.export import export_fmu
+
+    out = export_fmu(args.diagram, check_output_file(args.output, ["fmu"]), fmi=args.fmi)
+    print(f"wrote {out} (FMI {args.fmi}.0 Co-Simulation; it runs the diagram with hybridsim, "
+          "which the importing Python must have installed)")
+    return 0
+
+
 def cmd_sweep(args):
     """`hybridsim sweep`: a resumable parameter sweep. Returns the exit status."""
     from .sweep import run_sweep
@@ -465,6 +475,16 @@ def build_parser():
     fb.add_argument("--fmi", type=int, choices=(2, 3), default=2,
                     help="FMI version: 2 (FMI 2.0, the default) or 3 (FMI 3.0)")
     fb.set_defaults(func=cmd_fmu_build)
+    fe = fsub.add_parser("export", help="a diagram or subsystem as a Co-Simulation FMU (FMI 2.0 or 3.0)",
+                         description="Wrap a diagram file as a Co-Simulation FMU with pythonfmu (FMI 2.0) or "
+                                     "pythonfmu3 (FMI 3.0). A subsystem's inputs and outputs become the FMU's, "
+                                     "its params the FMU's parameters; inside, the diagram runs with its own "
+                                     "solver and rates. The FMU needs a Python with hybridsim installed.")
+    fe.add_argument("diagram", help="the diagram or subsystem file (.yaml)")
+    fe.add_argument("-o", "--output", default="diagram.fmu", metavar="FILE",
+                    help="the FMU to write (default diagram.fmu)")
+    fe.add_argument("--fmi", type=int, choices=(2, 3), default=2, help="FMI version: 2 (the default) or 3")
+    fe.set_defaults(func=cmd_fmu_export)
     fm.set_defaults(func=lambda a: (fm.print_help(), 2)[1])
     sw = sub.add_parser("sweep", help="run a parameter sweep in parallel (resumable)",
                         description="Run every point of a sweep file (grid, scaled gains, seeded random) "

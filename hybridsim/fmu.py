@@ -1,10 +1,12 @@
 """The FMU bridge: use any FMU as a block (via fmpy), and compile C sources into an FMU.
 
 * :func:`build_fmu` compiles a C model behind the FMI 2.0 or 3.0 API into a ``.fmu``
-  (``hybridsim fmu build`` builds the plant of ``fmus/``).
+  (``hybridsim fmu build`` builds the plant of ``fmus/``; it lives in
+  :mod:`hybridsim.fmi.build`).
 * :class:`FMUBlock` (``type: fmu`` in YAML) loads an FMI 2.0 or 3.0 FMU.
   Inputs and outputs become ports; variables named ``x[1]``, ``x[2]``, ...
-  are grouped into one port ``x`` of that width. Co-Simulation FMUs are
+  (or ``x[0]``, ``x[1]``, ...) and FMI 3.0 arrays are grouped into one port ``x``
+  of that width (:mod:`hybridsim.fmi.variables`). Co-Simulation FMUs are
   discrete blocks stepped at the block's period (outputs at a hit are the
   FMU's outputs at that time, then the inputs are set and the FMU steps one
   period: zero-order hold on the inputs). Model Exchange FMUs are continuous
@@ -17,11 +19,7 @@ each run re-instantiates it at t = 0.
 """
 import contextlib
 import ctypes
-import os
-import re
 import shutil
-import subprocess
-import sys
 import tempfile
 import zipfile
 from pathlib import Path
@@ -31,118 +29,21 @@ import numpy as np
 from . import fmi_log
 from .block import Block
 from .errors import FMUError, ParameterError, StopRequest
-from .files import atomic_file
+from .fmi.model_exchange import ModelExchange
+from .fmi.build import build_fmu, find_compiler, fmi_headers  # noqa: F401 - hybridsim.fmu.build_fmu
+from .fmi.variables import (_INDEXED, PORT_TYPES, _access, _by_type, _check_members, _group,  # noqa: F401
+                            _nominal, _settable, _size, _start, _text_parameter, to_fmi)
 from .registry import closest, register
 
 GROUP = "FMU"  # where `hybridsim blocks` lists this module's blocks
-
-_INDEXED = re.compile(r"^(.*)\[(\d+)\]$")
-
-
-def _group(variables):
-    """[(port name, [variables in element order])] for 'x[1]', 'x[2]', ... and scalars."""
-    ports = {}
-    for v in variables:
-        m = _INDEXED.match(v.name)
-        base, idx = (m.group(1), int(m.group(2))) if m else (v.name, 1)
-        ports.setdefault(base, []).append((idx, v))
-    out = []
-    for base, items in ports.items():
-        items.sort(key=lambda t: t[0])
-        out.append((base.replace(".", "_"), [v for _, v in items]))
-    return out
-
-
-#: FMI types an input or output port may have (values cross the diagram as floats)
-PORT_TYPES = {"Real", "Integer", "Enumeration", "Boolean", "Float32", "Float64", "Int8", "UInt8", "Int16",
-              "UInt16", "Int32", "UInt32", "Int64", "UInt64"}
-_INT_RANGE = {"Int8": 8, "Int16": 16, "Int32": 32, "Int64": 64, "Integer": 32, "Enumeration": 32}
-_UINT_RANGE = {"UInt8": 8, "UInt16": 16, "UInt32": 32, "UInt64": 64}
-
-
-def _by_type(variables):
-    """``{type: (positions, value references)}`` of ``variables`` in order."""
-    out = {}
-    for k, v in enumerate(variables):
-        pos, vrs = out.setdefault(v.type, ([], []))
-        pos.append(k)
-        vrs.append(v.valueReference)
-    return out
-
-
-def _access(typ, fmi3, verb):
-    """The fmpy method that gets or sets variables of FMI type ``typ``."""
-    if fmi3:
-        return verb + ("Int64" if typ == "Enumeration" else typ)
-    return verb + {"Real": "Real", "Integer": "Integer", "Enumeration": "Integer", "Boolean": "Boolean"}[typ]
-
-
-def to_fmi(typ, value, name):
-    """A diagram value (float) as the FMI type ``typ``.
-
-    Integers are rounded to the nearest (halves to even, as Python's ``round``)
-    and must fit the type's range; a Boolean is true when the value is not 0;
-    anything not finite is an error. Raises :class:`FMUError` naming the variable.
-    """
-    value = float(value)
-    if not np.isfinite(value):
-        raise FMUError(f"input {name!r} ({typ}) got {value!r}: not a finite number")
-    if typ == "Boolean":
-        return value != 0.0
-    if typ in ("Real", "Float64", "Float32"):
-        return value
-    n = round(value)
-    bits = _INT_RANGE.get(typ)
-    lo, hi = (-(2 ** (bits - 1)), 2 ** (bits - 1) - 1) if bits else (0, 2 ** _UINT_RANGE[typ] - 1)
-    if not lo <= n <= hi:
-        raise FMUError(f"input {name!r} ({typ}) got {value!r}: outside {lo} .. {hi}")
-    return n
-
-
-def _start(variable):
-    """A variable's start value as a float, or None."""
-    start = variable.start
-    if isinstance(start, str) and start.strip().lower() in ("true", "false"):
-        return 1.0 if start.strip().lower() == "true" else 0.0
-    try:
-        return None if start is None else float(start)
-    except (TypeError, ValueError):
-        return None
-
-
-def _text_parameter(var, value):
-    """A String parameter's text, or a Binary parameter's bytes from hex digits ("0a ff 10").
-
-    Raises :class:`~hybridsim.errors.ParameterError` for anything else.
-    """
-    if var.type == "String":
-        if not isinstance(value, str) or "\0" in value:
-            raise ParameterError("parameters", f"{var.name} is a String: give text, got {value!r}")
-        return value
-    if isinstance(value, (bytes, bytearray)):
-        return bytes(value)
-    try:
-        return bytes.fromhex(value.replace("0x", ""))
-    except (AttributeError, ValueError):  # not text, or not hex digits
-        raise ParameterError("parameters", f"{var.name} is Binary: give its bytes as hex digits, e.g. "
-                                           f"'0a ff 10', got {value!r}") from None
 
 
 def _raise(exc):
     raise exc
 
 
-def _nominal(variable):
-    """A state variable's nominal value (1 when it gives none or a bad one)."""
-    try:
-        n = abs(float(getattr(variable, "nominal", None) or 1.0))
-    except (TypeError, ValueError):
-        return 1.0
-    return n if np.isfinite(n) and n > 0 else 1.0
-
-
 @register("fmu")
-class FMUBlock(Block):
+class FMUBlock(ModelExchange, Block):
     """Any FMI 2.0 or 3.0 FMU as a block (numeric and Boolean inputs and outputs).
 
     Parameters
@@ -180,6 +81,10 @@ class FMUBlock(Block):
         kind = {"cs": md.coSimulation, "me": md.modelExchange}.get(self.mode, None)
         if self.mode not in ("cs", "me"):
             raise ValueError(f"mode must be 'cs' or 'me', got {mode!r}")
+        if kind is None and getattr(md, "scheduledExecution", None) is not None and not (
+                md.coSimulation or md.modelExchange):
+            raise FMUError(f"FMU {str(self.path)!r} is a Scheduled Execution FMU (FMI 3.0): hybridsim runs "
+                           "Co-Simulation and Model Exchange FMUs, not Scheduled Execution")
         if kind is None:
             raise FMUError(f"FMU {str(self.path)!r} offers no {'Co-Simulation' if self.mode == 'cs' else 'Model Exchange'}")
         binaries = {p for p in fmpy.supported_platforms(str(self.path))}
@@ -201,25 +106,40 @@ class FMUBlock(Block):
                 if not isinstance(v, (bool, int, float)) or not np.isfinite(float(v)):
                     raise ParameterError("parameters", f"{pname}: must be a finite number or a list of "
                                                        f"them, got {value!r}")
-            if pname not in byname and f"{pname}[1]" in byname and isinstance(value, (list, tuple)):
-                for k, v in enumerate(value, start=1):  # b: [1, 2] sets b[1] and b[2]
+            first = 0 if f"{pname}[0]" in byname else 1  # the element names the FMU declares
+            if pname not in byname and f"{pname}[{first}]" in byname and isinstance(value, (list, tuple)):
+                last = max(int(m.group(2)) for m in map(_INDEXED.match, byname) if m and m.group(1) == pname)
+                if len(value) != last - first + 1:
+                    raise ParameterError("parameters", f"{pname}: the FMU has {last - first + 1} elements "
+                                         f"{pname}[{first}] .. {pname}[{last}], got {len(value)} values")
+                for k, v in enumerate(value, start=first):  # b: [1, 2] sets b[1], b[2] (or b[0], b[1])
                     if f"{pname}[{k}]" not in byname:
                         raise FMUError(f"FMU {str(self.path)!r} has no variable {pname}[{k}]")
-                    self.parameters[f"{pname}[{k}]"] = v
+                    self.parameters[f"{pname}[{k}]"] = _settable(byname[f"{pname}[{k}]"], v)
                 continue
             if pname not in byname:
                 raise FMUError(f"FMU {str(self.path)!r} has no variable {pname!r}{closest(pname, byname)}")
-            self.parameters[pname] = value
+            var = byname[pname]
+            if _size(var) > 1 and (not isinstance(value, (list, tuple)) or len(value) != _size(var)):
+                raise ParameterError("parameters", f"{pname} is an array of {_size(var)} elements "
+                                                   f"{list(var.shape)}: give {_size(var)} values, got {value!r}")
+            self.parameters[pname] = _settable(var, value)
+        # text and bytes cannot cross the diagram: such inputs keep their start values, such
+        # outputs are not ports (both listed in text_variables)
+        self.text_variables = [f"{v.name} ({v.type} {v.causality})" for v in md.modelVariables
+                               if v.causality in ("input", "output") and v.type in ("String", "Binary")]
         unsupported = [f"{v.name} ({v.type}, {v.causality})" for v in md.modelVariables
-                       if v.causality in ("input", "output") and v.type not in PORT_TYPES]
-        if unsupported:
+                       if v.causality in ("input", "output") and v.type not in PORT_TYPES | {"String", "Binary"}]
+        if unsupported:  # clocks: hybridsim has no clocked partitions
             raise FMUError(f"FMU {str(self.path)!r}: these inputs/outputs cannot be ports (numbers and "
-                           f"Booleans can: {', '.join(sorted(PORT_TYPES))}): {', '.join(unsupported)}")
-        self.in_ports = _group([v for v in md.modelVariables if v.causality == "input"])
-        self.out_ports = _group([v for v in md.modelVariables if v.causality == "output"])
+                           f"Booleans can; String and Binary ones stay out of the diagram): {', '.join(unsupported)}")
+        ported = lambda c: [v for v in md.modelVariables if v.causality == c and v.type in PORT_TYPES]  # noqa: E731
+        self.in_ports = _group(ported("input"))
+        self.out_ports = _group(ported("output"))
         for pname, vs in self.in_ports:  # an input whose variables all have start values may stay unwired
             starts = [_start(v) for v in vs]
-            self.declare_input(pname, len(vs), default=None if None in starts else starts)
+            self.declare_input(pname, sum(map(_size, vs)),
+                               default=None if None in starts else [x for st in starts for x in st])
         in_index = {v.valueReference: pname for pname, vs in self.in_ports for v in vs}
         deps = {}
         for u in md.outputs:
@@ -236,18 +156,22 @@ class FMUBlock(Block):
                     dep = None
                     break
                 dep |= d
-            self.declare_output(pname, len(vs), depends_on=None if dep is None else sorted(dep))
-        self.in_vrs = [[v.valueReference for v in vs] for _, vs in self.in_ports]
-        self.out_vrs = [[v.valueReference for v in vs] for _, vs in self.out_ports]
-        self.out_flat = [vr for vrs in self.out_vrs for vr in vrs]
-        self.cuts = np.cumsum([0] + [len(v) for v in self.out_vrs])
-        self.in_flat = [vr for vrs in self.in_vrs for vr in vrs]
+            self.declare_output(pname, sum(map(_size, vs)), depends_on=None if dep is None else sorted(dep))
+        widths = [sum(map(_size, vs)) for _, vs in self.out_ports]
+        self.n_out = sum(widths)
+        self.cuts = np.cumsum([0] + widths)
         # values cross the diagram as floats; each type is read and written with its own call
         self.out_types = _by_type([v for _, vs in self.out_ports for v in vs])
         self.in_vars = [v for _, vs in self.in_ports for v in vs]
-        self.in_types = _by_type(self.in_vars)
+        # element k of the flat input vector belongs to variable in_elem[k], element in_part[k] of it
+        self.in_elem = [j for j, v in enumerate(self.in_vars) for _ in range(_size(v))]
+        self.in_part = [e for v in self.in_vars for e in range(_size(v))]
+        self.in_first = np.cumsum([0] + [_size(v) for v in self.in_vars])
+        self._in_members = {}  # {type: [(value reference, index in in_vars)]}
+        for j, v in enumerate(self.in_vars):
+            self._in_members.setdefault(v.type, []).append((v.valueReference, j))
         # Model Exchange: discrete-time inputs may be set in event mode only (FMI 2.0 and 3.0)
-        discrete = [k for k, v in enumerate(self.in_vars) if v.variability == "discrete"]
+        discrete = [k for k, j in enumerate(self.in_elem) if self.in_vars[j].variability == "discrete"]
         self.in_discrete = discrete if self.mode == "me" else []
         self._last_discrete = None
         if self.mode == "cs":
@@ -261,7 +185,12 @@ class FMUBlock(Block):
             # absolute tolerances from the states' nominal values (1e-12 of each; nominal 1 when none)
             nominals = [_nominal(d.variable.derivative) for d in md.derivatives][:self.nx]
             nominals += [1.0] * (self.nx - len(nominals))
-            self.declare_continuous_state(self.nx, atol=[1e-12 * n for n in nominals] or None)
+            # an FMU without continuous states gets one of zero derivative (as OpenModelica's dummy
+            # state): the event loop then serves its time and state events like any other block's
+            self.declare_continuous_state(self.nx or 1, atol=[1e-12 * n for n in nominals] or None)
+        self._starts = np.array([x for v in self.in_vars for x in (_start(v) or [np.nan] * _size(v))])
+        self._held = None  # the input values the FMU holds (its start values after instantiation)
+        self._pending_stop = None  # a stop the FMU asked for at the end of a completed step
         self._fmu = None
         self._unzipdir = None
         self._messages = []
@@ -280,6 +209,8 @@ class FMUBlock(Block):
 
         self.close()
         self._last_discrete = None
+        self._held = self._starts.copy()
+        self._pending_stop = None
         self._unzipdir = tempfile.mkdtemp(prefix="hybridsim-fmu-")
         try:
             fmpy.extract(str(self.path), unzipdir=self._unzipdir)
@@ -294,6 +225,9 @@ class FMUBlock(Block):
             byname = {v.name: v for v in self.md.modelVariables}
             for pname, value in self.parameters.items():
                 var = byname[pname]
+                if var in self.in_vars:  # an input given a value here: the FMU no longer holds its start
+                    j = self.in_vars.index(var)
+                    self._held[self.in_first[j]:self.in_first[j + 1]] = np.nan
                 if var.type in ("String", "Binary"):
                     self._call(f"setting {pname}", getattr(fmu, "set" + var.type), [var.valueReference], [value])
                     continue
@@ -301,7 +235,9 @@ class FMUBlock(Block):
                 if var.type not in PORT_TYPES or setter is None:
                     raise FMUError(f"FMU block {self.name!r}: parameter {pname!r} is a {var.type}; "
                                    "numeric, Boolean, String and Binary parameters can be set")
-                self._call(f"setting {pname}", setter, [var.valueReference], [to_fmi(var.type, value, pname)])
+                values = value if isinstance(value, (list, tuple)) else [value]
+                self._call(f"setting {pname}", setter, [var.valueReference],
+                           [to_fmi(var.type, v, pname) for v in values])
             self._call("exitInitializationMode", fmu.exitInitializationMode)
             if self.mode == "me":
                 try:
@@ -325,7 +261,7 @@ class FMUBlock(Block):
         cbs.componentEnvironment = self._log_key = fmi_log.open_sink(self._messages)
         cbs.allocateMemory, cbs.freeMemory = cb2.allocateMemory, cb2.freeMemory
         self._callbacks = cbs
-        self._call("fmi2Instantiate", fmu.instantiate, False, cbs)
+        self._call("fmi2Instantiate", fmu.instantiate, False, cbs, True)  # logging on: the FMU says why
         self._call("setupExperiment", fmu.setupExperiment, None, 0.0)
         self._call("enterInitializationMode", fmu.enterInitializationMode)
         self._get_der = getattr(fmu, "getDerivatives", None)  # ME only
@@ -339,7 +275,7 @@ class FMUBlock(Block):
         def logger(env, status, category, message):
             self._messages.append(message.decode(errors="replace") if message else "")
 
-        self._call("fmi3Instantiate", fmu.instantiate, logMessage=logger)
+        self._call("fmi3Instantiate", fmu.instantiate, loggingOn=True, logMessage=logger)
         self._call("enterInitializationMode", fmu.enterInitializationMode, startTime=0.0)
         self._get_der = getattr(fmu, "getContinuousStateDerivatives", None)  # ME only
         return fmu
@@ -371,45 +307,56 @@ class FMUBlock(Block):
         return state
 
     def _outputs(self):
-        vals = np.zeros(len(self.out_flat))
-        for typ, (positions, vrs) in self.out_types.items():
-            got = self._call(f"get {typ} outputs", getattr(self._fmu, _access(typ, self.fmi3, "get")), vrs)
+        vals = np.zeros(self.n_out)
+        for typ, (positions, vrs, n) in self.out_types.items():
+            get = getattr(self._fmu, _access(typ, self.fmi3, "get"))
+            got = self._call(f"get {typ} outputs", get, vrs, n) if self.fmi3 else self._call(
+                f"get {typ} outputs", get, vrs)
             vals[positions] = np.asarray(got, float)
         return tuple(vals[a:b] for a, b in zip(self.cuts[:-1], self.cuts[1:]))
 
     def _set_inputs(self, u, only=None):
         """Set the inputs (``only``: those positions; default all but ME discrete-time ones)."""
-        if not self.in_flat:
+        if not self.in_vars:
             return
         values = np.concatenate(u)
         skip = set() if only is not None else set(self.in_discrete)
-        for typ, (positions, vrs) in self.in_types.items():
-            pick = [(k, vr) for k, vr in zip(positions, vrs) if k not in skip and (only is None or k in only)]
+        held, first = self._held, self.in_first
+        changed = ~(values == held)
+        for typ, members in self._in_members.items():
+            # only what changed: an input left at its start value (unwired) is never written;
+            # an array is written whole
+            pick = []
+            for vr, j in members:
+                ks = range(first[j], first[j + 1])
+                if changed[ks].any() and first[j] not in skip and (only is None or first[j] in only):
+                    pick.append((vr, ks))
             if not pick:
                 continue
-            conv = [to_fmi(typ, values[k], self.in_vars[k].name) for k, _ in pick]
+            conv = [to_fmi(typ, values[k], self._port_name(k)) for _, ks in pick for k in ks]
             self._call(f"set {typ} inputs", getattr(self._fmu, _access(typ, self.fmi3, "set")),
-                       [vr for _, vr in pick], conv)
+                       [vr for vr, _ in pick], conv)
+            for _, ks in pick:
+                held[ks] = values[ks]
 
-    def _discrete_inputs(self, t, x, u):
-        """Model Exchange: discrete-time inputs that changed enter the FMU through event mode."""
-        values = np.concatenate(u)[self.in_discrete]
-        if self._last_discrete is not None and np.array_equal(values, self._last_discrete):
-            return
-        self._last_discrete = values.copy()
-        fmu = self._fmu
-        self._call(f"enterEventMode at t={t:.9g}", fmu.enterEventMode)
-        self._set_inputs(u, only=set(self.in_discrete))
-        if self._event_update(t):
-            raise FMUError(f"FMU block {self.name!r} changed its continuous states at t={t:.9g} s when a "
-                           "discrete input changed; hybridsim cannot take that from an input yet")
-        self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
+    def _port_name(self, k):
+        """'block.port[j] (FMU variable name)' of flat input position ``k``, for messages."""
+        var = self.in_vars[self.in_elem[k]]
+        element = f"{var.name}[{self.in_part[k]}]" if _size(var) > 1 else var.name
+        for pname, vs in self.in_ports:
+            width = sum(map(_size, vs))
+            if k < width:
+                return f"{self.name}.{pname}[{k}] ({element})" if width > 1 else f"{self.name}.{pname} ({element})"
+            k -= width
+        return element  # pragma: no cover
 
     # -- block API ----------------------------------------------------------------
     def initial_state(self, u=None):
         fmu = self._instantiate()
         if self.mode == "me":
             x = np.zeros(self.nx)
+            if not self.nx:
+                return np.zeros(1)
             self._call("getContinuousStates", fmu.getContinuousStates, x.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
             return x
         return np.zeros(0)
@@ -428,188 +375,37 @@ class FMUBlock(Block):
         terminateSimulation / earlyReturn (FMI 3.0) ends the run cleanly at ``t``: a
         :class:`~hybridsim.errors.StopRequest` (hybridsim has no step-size control to retry,
         nor Co-Simulation event mode)."""
+        if self._pending_stop is not None:  # the row of the completed step is recorded: stop now
+            raise self._pending_stop
         self._set_inputs(u)
         try:
             res = self._fmu.doStep(t, self.T)
         except Exception as exc:  # noqa: BLE001 - fmpy raises its own exception per status
             if getattr(exc, "status", None) == 2:  # fmi2Discard
-                raise StopRequest(t, self.name, "doStep discarded the step (fmi2Discard)") from None
+                self._stop_after(t, self._last_time2(t), "doStep discarded the step (fmi2Discard)")
+                return x
             self._call(f"doStep at t={t:.6g}", _raise, exc)
         if self.fmi3 and res:
-            _event, terminate, early, _last = res
+            _event, terminate, early, last = res
             if terminate or early:
-                raise StopRequest(t, self.name, "terminateSimulation" if terminate else
-                                  "earlyReturn (Co-Simulation event mode is not supported)")
+                self._stop_after(t, float(last), "terminateSimulation" if terminate else
+                                 "earlyReturn (Co-Simulation event mode is not supported)")
         return x
 
-    def _me_set(self, t, x, u):
-        fmu = self._fmu
-        self._call(f"setTime({t:.9g})", fmu.setTime, t)
-        self._call(f"setContinuousStates at t={t:.9g}", fmu.setContinuousStates,
-                   np.ascontiguousarray(x, dtype=float).ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
-        self._set_inputs(u)
+    def _last_time2(self, t):
+        """FMI 2.0 after a discard: fmi2LastSuccessfulTime when the FMU tells it, else ``t``."""
+        from fmpy.fmi2 import fmi2LastSuccessfulTime, fmi2Terminated
 
-    def derivatives(self, t, x, u):
-        self._me_set(t, x, u)
-        dx = np.zeros(self.nx)
-        self._call("get derivatives", self._get_der, dx.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
-        return dx
+        try:
+            if self._fmu.getBooleanStatus(fmi2Terminated):
+                return float(self._fmu.getRealStatus(fmi2LastSuccessfulTime))
+        except Exception:  # noqa: BLE001 - the status functions are optional
+            pass
+        return t
 
-    # -- Model Exchange events (FMI 2.0 and 3.0) -----------------------------------
-    @property
-    def has_event_action(self):
-        """A Model Exchange FMU with event indicators: its events go through event mode."""
-        return self.mode == "me" and self.nz > 0
-
-    @property
-    def has_time_events(self):
-        return self.mode == "me"
-
-    def _event_update(self, t):
-        """The newDiscreteStates / updateDiscreteStates loop of event mode; returns whether the
-        continuous states changed. Remembers the next time event."""
-        update = self._fmu.updateDiscreteStates if self.fmi3 else self._fmu.newDiscreteStates
-        changed = False
-        for _ in range(100):
-            need, terminate, _nominals, values, time_defined, t_next = self._call(
-                f"{'updateDiscreteStates' if self.fmi3 else 'newDiscreteStates'} at t={t:.9g}", update)
-            changed |= bool(values)
-            self._next_event = float(t_next) if time_defined else np.inf
-            if terminate:
-                raise StopRequest(t, self.name, "terminateSimulation")
-            if not need:
-                return changed
-        raise FMUError(f"FMU block {self.name!r}: the event iteration at t={t:.9g} s does not settle "
-                       "(newDiscreteStatesNeeded after 100 updates)")
-
-    def next_event_time(self, t, x):
-        """The FMU's next time event (nextEventTime), or inf."""
-        return getattr(self, "_next_event", np.inf)
-
-    def event_action(self, t, x, u, fired):
-        """Event mode at a state or time event: update the discrete states, read back the
-        continuous ones if the FMU changed them, back to continuous-time mode."""
-        self._me_set(t, x, u)
-        fmu = self._fmu
-        self._call(f"enterEventMode at t={t:.9g}", fmu.enterEventMode)
-        changed = self._event_update(t)
-        self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
-        if not changed:
-            return None
-        x_new = np.zeros(self.nx)
-        self._call("getContinuousStates", fmu.getContinuousStates,
-                   x_new.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
-        return x_new
-
-    def zero_crossings(self, t, x, u):
-        if self.mode != "me" or not self.nz:
-            return np.zeros(0)
-        self._me_set(t, x, u)
-        z = np.zeros(self.nz)
-        self._call("getEventIndicators", self._fmu.getEventIndicators, z.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nz)
-        return z
-
-
-def _check_members(path):
-    """FMUError unless every member of the zip stays inside the folder it is extracted to."""
-    try:
-        with zipfile.ZipFile(path) as z:
-            names = z.namelist()
-    except (zipfile.BadZipFile, OSError) as exc:
-        raise FMUError(f"FMU {str(path)!r}: cannot read the archive: {exc}") from None
-    for n in names:
-        parts = n.replace("\\", "/").split("/")
-        if n.startswith(("/", "\\")) or ":" in n or "\\" in n or ".." in parts:
-            raise FMUError(f"FMU {str(path)!r}: unsafe member {n!r} in the archive (an absolute path, "
-                           "'..' or a drive letter); not extracted")
-
-
-# -- building -------------------------------------------------------------------------
-
-def find_compiler():
-    """Path of the system C compiler (cc or gcc), or raise FMUError."""
-    for name in (os.environ.get("CC"), "cc", "gcc"):
-        if name and shutil.which(name):
-            return shutil.which(name)
-    raise FMUError("no C compiler found (looked for $CC, cc, gcc): install gcc "
-                   "(Debian/Ubuntu: sudo apt-get install gcc)")
-
-
-def fmi_headers():
-    """The folder of the FMI 2.0 and 3.0 C headers that fmpy ships (``fmpy/c-code``).
-
-    Returns
-    -------
-    pathlib.Path
-        The folder with ``fmi2Functions.h``, ``fmi3Functions.h`` and their includes.
-    """
-    import fmpy
-
-    return Path(fmpy.__file__).parent / "c-code"
-
-
-def build_fmu(out, model_identifier, sources, model_description, headers, include_dirs=None,
-              extra_files=None):
-    """Compile ``sources`` into a shared library and pack an FMU at ``out``.
-
-    The binary goes where the model description's FMI version expects it
-    (``binaries/linux64`` for 2.0, ``binaries/x86_64-linux`` for 3.0, and the
-    matching folder and library suffix on macOS and Windows).
-
-    Parameters
-    ----------
-    out : path-like
-        The ``.fmu`` file to write (atomically).
-    model_identifier : str
-        The library's name, as in the model description.
-    sources : list of path-like
-        C files, compiled and packed into ``sources/``.
-    model_description : str
-        The text of ``modelDescription.xml``.
-    headers : dict
-        {file name: text} of generated headers, packed into ``sources/``.
-    include_dirs : list of path-like, optional
-        Folders whose ``*.h`` are packed and compiled against; default: the
-        FMI headers of :func:`fmi_headers`.
-    extra_files : dict, optional
-        {path in the archive: text}, e.g. ``sources/buildDescription.xml``.
-
-    Returns
-    -------
-    pathlib.Path
-        ``out``.
-    """
-    import fmpy
-
-    cc = find_compiler()
-    out = Path(out)
-    include_dirs = [fmi_headers()] if include_dirs is None else include_dirs
-    with tempfile.TemporaryDirectory(prefix="hybridsim-fmu-") as tmp:
-        tmp = Path(tmp)
-        src = tmp / "sources"
-        fmi3 = 'fmiVersion="3.0"' in model_description
-        binary = tmp / "binaries" / (fmpy.platform_tuple if fmi3 else fmpy.platform)
-        src.mkdir(parents=True)
-        binary.mkdir(parents=True)
-        for d in include_dirs:
-            for h in Path(d).glob("*.h"):
-                shutil.copy(h, src / h.name)
-        for name, text in headers.items():
-            (src / name).write_text(text)
-        for f in sources:
-            shutil.copy(f, src / Path(f).name)
-        for name, text in (extra_files or {}).items():
-            (tmp / name).parent.mkdir(parents=True, exist_ok=True)
-            (tmp / name).write_text(text)
-        (tmp / "modelDescription.xml").write_text(model_description)
-        lib = binary / (model_identifier + {"darwin": ".dylib", "win32": ".dll"}.get(sys.platform, ".so"))
-        cmd = [cc, "-std=c99", "-O2", "-fPIC", "-shared", "-Wall", "-I", str(src), "-o", str(lib)]
-        cmd += [str(src / Path(f).name) for f in sources] + ["-lm"]
-        proc = subprocess.run(cmd, capture_output=True, text=True)
-        if proc.returncode != 0:
-            raise FMUError(f"compiling {model_identifier} failed:\n{proc.stderr.strip()}")
-        with atomic_file(out, "wb") as fh, zipfile.ZipFile(fh, "w", zipfile.ZIP_DEFLATED) as z:
-            for f in sorted(tmp.rglob("*")):
-                if f.is_file():
-                    z.write(f, f.relative_to(tmp).as_posix())
-    return out
+    def _stop_after(self, t, last, reason):
+        """End the run: at ``t`` when the step did nothing, else after the completed step is recorded."""
+        if last >= t + self.T * (1 - 1e-9):  # the step completed: its row is recorded first
+            self._pending_stop = StopRequest(t + self.T, self.name, reason)
+            return
+        raise StopRequest(t, self.name, reason)

@@ -232,7 +232,7 @@ def test_fmu_errors_are_clear(plant, tmp_path):
 
 def test_fmu_call_error_carries_the_fmus_message_and_cleans_up(plant, capsys):
     code = main(["run", str(DIAGRAMS / "fig9_fmu_cs.yaml"), "-q", "--set", f"fmu={plant}",
-                 "--set", "rate=60", "--set", "plant.parameters={max_substep: -1}",
+                 "--set", "rate=60", "--set", "plant.parameters={stick_time: 0}",
                  "--set", "simulation.t_end=0.1", "-o", str(plant.parent / "out")])
     err = capsys.readouterr().err
     assert code == 4 and "exitInitializationMode failed" in err and "must be positive" in err
@@ -347,11 +347,14 @@ def _fmu_folders():
 
 
 @pytest.mark.parametrize("case", ["setup fails", "run diverges", "interrupted"])
-def test_no_instance_or_folder_is_left_after_a_failure(plant, case, monkeypatch):
+def test_no_instance_or_folder_is_left_after_a_failure(plant, case, monkeypatch, tmp_path):
+    import tempfile
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))  # a folder of its own: other runs share /tmp
     before = _fmu_folders()
     extra = {"rate": 60, "t_end": 0.5, "fmu": str(plant)}
     if case == "setup fails":
-        extra["plant.parameters"] = {"max_substep": -1.0}
+        extra["plant.parameters"] = {"stick_time": 0.0}  # min="0" passes; the FMU refuses 0
         expected = hs.FMUError
     elif case == "run diverges":  # the plant FMU reports the divergence itself: an FMU error mid-run
         extra["ctrl.fpi.Ki"] = [1e9, 1e9]
@@ -389,11 +392,11 @@ from fmpy.fmi2 import FMU2Slave
 from hybridsim.fmu import FMUBlock
 from hybridsim.errors import FMUError
 
-b = FMUBlock("p", path={str(plant)!r}, rate=60, parameters={{"max_substep": -1.0}})
+b = FMUBlock("p", path={str(plant)!r}, rate=60, parameters={{"stick_time": 0.0}})
 try:
     b._instantiate()  # the plant refuses the parameter: its message reaches the block
 except FMUError as e:
-    assert "max_substep" in str(e), e
+    assert "stick_time" in str(e), e
 b.close(); del b; gc.collect()
 md = read_model_description({str(plant)!r})
 vr = {{v.name: v.valueReference for v in md.modelVariables}}
@@ -451,3 +454,80 @@ def test_the_plant_fmu_has_the_stribeck_friction_of_the_python_arm(any_plant):
     finally:
         fmu.terminate()
         fmu.freeInstance()
+
+
+# -- the plant's model description and its checks (one test per item) ------------------------
+
+def _md(plant):
+    from fmpy.model_description import read_model_description
+
+    return read_model_description(str(plant))
+
+
+def test_plant_refuses_an_invalid_parameter_with_its_own_message(any_plant):
+    with pytest.raises(FMUError, match=r"exitInitializationMode failed.*stick_time = 0 must be positive"):
+        FMUBlock("p", path=str(any_plant), rate=60, parameters={"stick_time": 0.0})._instantiate()
+
+
+def test_plant_refuses_a_non_finite_input_with_its_own_message(any_plant):
+    from fmpy import extract
+    from fmpy.fmi2 import FMU2Slave
+    from fmpy.fmi3 import FMU3Slave
+
+    md = _md(any_plant)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    fmi3 = md.fmiVersion == "3.0"
+    said = []
+    fmu = (FMU3Slave if fmi3 else FMU2Slave)(guid=md.guid, unzipDirectory=extract(str(any_plant)),
+                                             modelIdentifier=md.coSimulation.modelIdentifier)
+    if fmi3:
+        fmu.instantiate(loggingOn=True, logMessage=lambda env, status, cat, msg: said.append(msg.decode()))
+        fmu.enterInitializationMode(startTime=0.0)
+    else:
+        fmu.instantiate(loggingOn=True)
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    try:
+        with pytest.raises(Exception, match="status 3|Error"):
+            (fmu.setFloat64 if fmi3 else fmu.setReal)([vr["tau[1]"]], [float("nan")])
+        if fmi3:
+            assert said == ["tau[1] = nan: not a finite number (refused)"]
+    finally:
+        fmu.terminate()
+        fmu.freeInstance()
+
+
+def test_plant_declares_base_units(any_plant):
+    units = {u.name: u.baseUnit for u in _md(any_plant).unitDefinitions}
+    n = units["N"]
+    assert (n.kg, n.m, n.s) == (1, 1, -2)
+    assert (units["N.m.s/rad"].kg, units["N.m.s/rad"].m, units["N.m.s/rad"].s, units["N.m.s/rad"].rad) == (1, 2, -1, -1)
+    assert all(u is not None for u in units.values())
+
+
+def test_plant_positive_parameters_have_a_min(any_plant, capsys):
+    by = {v.name: v for v in _md(any_plant).modelVariables}
+    for name in ("Kw", "Kr", "M2", "M3", "stick_time", "stick_band", "max_substep", "bw"):
+        assert float(by[name].min) == 0.0, name
+    with pytest.raises(hs.ParameterError, match=r"max_substep = -1.0 is outside its range: min = 0"):
+        FMUBlock("p", path=str(any_plant), rate=60, parameters={"max_substep": -1.0})
+
+
+def test_plant_default_experiment_has_a_tolerance(any_plant):
+    de = _md(any_plant).defaultExperiment
+    assert float(de.tolerance) == 1e-6 and float(de.stopTime) == 4.0
+
+
+def test_plant_names_its_generation_tool_date_and_version(any_plant):
+    md = _md(any_plant)
+    assert md.generationTool.startswith("hybridsim ") and md.generationDateAndTime.startswith("20")
+    assert md.version
+
+
+def test_plant_fmi2_model_exchange_needs_no_completed_integrator_step(plant):
+    import xml.etree.ElementTree as ET
+
+    with zipfile.ZipFile(plant) as z:
+        me = ET.fromstring(z.read("modelDescription.xml")).find("ModelExchange")
+    assert me.get("completedIntegratorStepNotNeeded") == "true"

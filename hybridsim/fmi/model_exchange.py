@@ -1,0 +1,105 @@
+"""Model Exchange through the FMI event protocol, for :class:`hybridsim.fmu.FMUBlock`.
+
+Continuous-time mode between events (states and inputs set, derivatives and
+event indicators read), event mode at state and time events and when a
+discrete-time input changes (the newDiscreteStates / updateDiscreteStates
+iteration). An FMU without continuous states has one dummy state of zero
+derivative on the hybridsim side (``nx == 0``): it is never sent to the FMU.
+"""
+import ctypes
+
+import numpy as np
+
+from ..errors import FMUError, StopRequest
+
+
+class ModelExchange:
+    """The Model Exchange half of :class:`hybridsim.fmu.FMUBlock` (a mixin: it uses the block's
+    ``_fmu``, ``_call``, ``_set_inputs``, ``nx``, ``nz`` and ``in_discrete``)."""
+
+    def _discrete_inputs(self, t, x, u):
+        """Model Exchange: discrete-time inputs that changed enter the FMU through event mode."""
+        values = np.concatenate(u)[self.in_discrete]
+        if self._last_discrete is not None and np.array_equal(values, self._last_discrete):
+            return
+        self._last_discrete = values.copy()
+        fmu = self._fmu
+        self._call(f"enterEventMode at t={t:.9g}", fmu.enterEventMode)
+        self._set_inputs(u, only=set(self.in_discrete))
+        if self._event_update(t):
+            raise FMUError(f"FMU block {self.name!r} changed its continuous states at t={t:.9g} s when a "
+                           "discrete input changed; hybridsim cannot take that from an input yet")
+        self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
+
+    def _me_set(self, t, x, u):
+        fmu = self._fmu
+        self._call(f"setTime({t:.9g})", fmu.setTime, t)
+        if self.nx:
+            self._call(f"setContinuousStates at t={t:.9g}", fmu.setContinuousStates,
+                       np.ascontiguousarray(x, dtype=float).ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
+        self._set_inputs(u)
+
+    def derivatives(self, t, x, u):
+        """The FMU's state derivatives at (t, x, u) (zero for the dummy state)."""
+        self._me_set(t, x, u)
+        dx = np.zeros(self.nx)
+        if not self.nx:
+            return np.zeros(1)  # the dummy state
+        self._call("get derivatives", self._get_der, dx.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
+        return dx
+
+    # -- Model Exchange events (FMI 2.0 and 3.0) -----------------------------------
+    @property
+    def has_event_action(self):
+        """A Model Exchange FMU with event indicators: its events go through event mode."""
+        return self.mode == "me" and self.nz > 0
+
+    @property
+    def has_time_events(self):
+        """A Model Exchange FMU may announce time events (nextEventTime)."""
+        return self.mode == "me"
+
+    def _event_update(self, t):
+        """The newDiscreteStates / updateDiscreteStates loop of event mode; returns whether the
+        continuous states changed. Remembers the next time event."""
+        update = self._fmu.updateDiscreteStates if self.fmi3 else self._fmu.newDiscreteStates
+        changed = False
+        for _ in range(100):
+            need, terminate, _nominals, values, time_defined, t_next = self._call(
+                f"{'updateDiscreteStates' if self.fmi3 else 'newDiscreteStates'} at t={t:.9g}", update)
+            changed |= bool(values)
+            self._next_event = float(t_next) if time_defined else np.inf
+            if terminate:
+                raise StopRequest(t, self.name, "terminateSimulation")
+            if not need:
+                return changed
+        raise FMUError(f"FMU block {self.name!r}: the event iteration at t={t:.9g} s does not settle "
+                       "(newDiscreteStatesNeeded after 100 updates)")
+
+    def next_event_time(self, t, x):
+        """The FMU's next time event (nextEventTime), or inf."""
+        return getattr(self, "_next_event", np.inf)
+
+    def event_action(self, t, x, u, fired):
+        """Event mode at a state or time event: update the discrete states, read back the
+        continuous ones if the FMU changed them, back to continuous-time mode."""
+        self._me_set(t, x, u)
+        fmu = self._fmu
+        self._call(f"enterEventMode at t={t:.9g}", fmu.enterEventMode)
+        changed = self._event_update(t)
+        self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
+        if not changed or not self.nx:
+            return None
+        x_new = np.zeros(self.nx)
+        self._call("getContinuousStates", fmu.getContinuousStates,
+                   x_new.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
+        return x_new
+
+    def zero_crossings(self, t, x, u):
+        """The FMU's event indicators at (t, x, u) (none in Co-Simulation)."""
+        if self.mode != "me" or not self.nz:
+            return np.zeros(0)
+        self._me_set(t, x, u)
+        z = np.zeros(self.nz)
+        self._call("getEventIndicators", self._fmu.getEventIndicators, z.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nz)
+        return z

@@ -1,0 +1,161 @@
+"""Advance a built diagram one communication step at a time: the engine of an exported FMU.
+
+A :class:`DiagramStepper` holds one context of a system whose inputs are
+:class:`ExternalInput` blocks (set from outside between steps, held over a
+step: zero-order hold) and advances it with the diagram's own solver, rates
+and events, hit by hit, as :class:`hybridsim.simulator.Simulator` does:
+
+1. at a time ``t`` the outputs of every block that is not discrete, and of the
+   discrete blocks due at ``t``, are computed with the inputs set for ``t``;
+2. the due discrete blocks update;
+3. the continuous states are integrated to the next sample hit or to the end
+   of the communication step, whichever is first.
+
+Outputs read at ``t`` (before :meth:`DiagramStepper.step` from ``t``) are those
+of step 1: a discrete block due at ``t`` shows its output for the inputs of
+``t`` (direct feedthrough, as inside a hybridsim diagram).
+"""
+from fractions import Fraction
+
+import numpy as np
+
+from .. import events as _events
+from ..block import Block
+from ..errors import StopRequest
+from ..schedule import Schedule
+
+
+class ExternalInput(Block):
+    """A source whose value is set from outside the diagram (an exported FMU's input port).
+
+    Parameters
+    ----------
+    name : str
+    value : sequence of float
+        The start value; its length is the port's width.
+    """
+
+    def __init__(self, name="input", value=(0.0,)):
+        super().__init__(name)
+        self.value = np.array(value, float).reshape(-1)
+        self.declare_output("y", self.value.size, depends_on=())
+        self.declare_output("dy", self.value.size, depends_on=())
+
+    def output(self, t, x, u):
+        return self.value, np.zeros_like(self.value)
+
+
+class DiagramStepper:
+    """One simulation of ``simulator.system``, advanced step by step.
+
+    Parameters
+    ----------
+    simulator : hybridsim.simulator.Simulator
+        Built from the diagram (its solver and rates are used).
+    inputs : dict
+        ``{block name: start values}``: the constant blocks that stand for the
+        input ports; they are replaced by :class:`ExternalInput` blocks.
+    outputs : list of str
+        ``block.port`` references read by :meth:`outputs`.
+    """
+
+    def __init__(self, simulator, inputs, outputs):
+        self.sim = sim = simulator
+        system = self.system = sim.system
+        blocks = list(system.blocks)
+        self.inputs = {}
+        for name, start in inputs.items():
+            i = next(k for k, b in enumerate(blocks) if b.name == name)
+            blocks[i] = self.inputs[name] = ExternalInput(name, start)
+        from ..context import Context
+
+        self.ctx = ctx = Context(system, blocks)
+        self.rhs, self.restarts = sim._bind(ctx)
+        self.out_ports = [system.port_ref(r) for r in outputs]
+        self.discrete = system.discrete
+        self.sched = Schedule([(system.blocks[i].period, system.blocks[i].time_offset) for i in self.discrete])
+        self.t = 0.0
+        self._fresh = False
+
+    # -- time grid -------------------------------------------------------------
+    def _tick(self, t):
+        """The tick at ``t`` (int) when ``t`` is a sample hit to 1e-9 of the base tick, else None."""
+        base = self.sched.base
+        k = round(Fraction(t) / base)
+        return int(k) if abs(float(k * base) - t) <= 1e-9 * float(base) else None
+
+    def _due(self, t):
+        n = self._tick(t)
+        if n is None or not self.discrete:
+            return frozenset()
+        return frozenset(self.discrete[j] for j in self.sched.due(n))
+
+    def _next_hit(self, t):
+        """The first sample hit after ``t`` (inf without discrete blocks)."""
+        if not self.discrete:
+            return np.inf
+        base = float(self.sched.base)
+        n = int(np.floor(t / base + 1e-9)) + 1
+        while not self.sched.due(n):
+            n += 1
+        return float(self.sched.time(n))
+
+    # -- the FMU's view ----------------------------------------------------------
+    def set_input(self, name, values):
+        """Set input block ``name`` to ``values`` (held until it is set again)."""
+        self.inputs[name].value[:] = values
+        self._fresh = False
+
+    def outputs(self):
+        """The output ports at the present time for the inputs set now, as one flat array."""
+        ctx = self.ctx
+        if not self._fresh:
+            self.sim.system.plan.outputs(ctx, self.t, ctx.xc, self._due(self.t))
+            self._fresh = True
+        return np.concatenate([ctx.y[i][o] for i, o in self.out_ports]) if self.out_ports else np.zeros(0)
+
+    def step(self, t, h):
+        """Advance from ``t`` (the present time) by ``h`` s.
+
+        Raises :class:`~hybridsim.errors.StopRequest` when a block ends the run
+        (the state is then that of the stop) and
+        :class:`~hybridsim.errors.SimulationError` when the run diverges.
+        """
+        ctx, plan, sysm = self.ctx, self.system.plan, self.system
+        t1 = t + h
+        tc, xc = t, ctx.xc
+        with np.errstate(over="ignore", invalid="ignore"):
+            while True:
+                due = self._due(tc)
+                plan.outputs(ctx, tc, xc, due)
+                for i, x in plan.updates(ctx, tc, due):
+                    ctx.xd[i] = x
+                    plan.check_discrete(i, x, tc)
+                t_next = min(self._next_hit(tc), t1)
+                if t1 - t_next <= 1e-9 * h:
+                    t_next = t1
+                if sysm.n_x:
+                    try:
+                        if ctx.events is not None:
+                            xc, _ = _events.integrate(self.sim._stepper(ctx), self.rhs, ctx.events, tc, t_next,
+                                                      xc, (), self.restarts, lambda tb, xb: None)
+                        else:
+                            xc, _ = self.sim.solver.advance(self.rhs, tc, t_next, xc, (), self.restarts)
+                    except StopRequest as stop:
+                        if stop.x is not None:
+                            ctx.xc = np.asarray(stop.x, float)
+                        self.t = stop.t
+                        self._fresh = False
+                        raise
+                    plan.check_continuous(xc, t_next, self.sim.max_state)
+                ctx.xc = xc
+                tc = t_next
+                if tc >= t1:
+                    break
+        self.t = t1
+        self._fresh = False
+
+    def release(self):
+        """Free what the blocks hold (FMU instances inside the diagram)."""
+        for b in self.ctx.blocks:
+            b.release()

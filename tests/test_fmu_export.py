@@ -1,0 +1,229 @@
+"""Diagrams exported as Co-Simulation FMUs (hybridsim.fmi.export, pythonfmu / pythonfmu3).
+
+Oracles: fmpy's validate_fmu; the Fig 6 controller FMU closed around the plant FMU by a
+Gauss-Seidel master on fmpy's FMU classes, against the same loop built in hybridsim from
+the controller's YAML; and hybridsim importing the controller FMU it exported.
+"""
+import shutil
+
+import numpy as np
+import pytest
+
+import hybridsim as hs
+from hybridsim.cli import main
+
+from conftest import DIAGRAMS
+
+pytest.importorskip("pythonfmu")
+pytest.importorskip("pythonfmu3")
+pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
+                                reason="no C compiler (the plant FMU is compiled)")
+
+CTRL = DIAGRAMS / "subsystems" / "fig6_controller.yaml"
+H = 1 / 60  # the controller's rate
+PLANT = {"balance": 1.0, "surface_x0": 0.5, "preload": 10.0, "max_substep": 1e-4}
+X_D, F_D = [0.5, 0.0], [20.0, 0.0]  # hold Y at 0, push with 20 N (from the 10 N preload)
+
+
+@pytest.fixture(scope="module")
+def fmus(tmp_path_factory):
+    from hybridsim.fmi.export import export_fmu
+    from hybridsim.fmus.build import build_plant_fmu
+
+    d = tmp_path_factory.mktemp("export")
+    return {"plant2": build_plant_fmu(d / "plant.fmu"), "plant3": build_plant_fmu(d / "plant3.fmu", fmi=3),
+            "ctrl2": export_fmu(CTRL, d / "ctrl2.fmu", fmi=2), "ctrl3": export_fmu(CTRL, d / "ctrl3.fmu", fmi=3)}
+
+
+def test_the_exported_fmus_validate_and_show_the_subsystems_ports(fmus):
+    from fmpy import read_model_description
+    from fmpy.validation import validate_fmu
+
+    for v in (2, 3):
+        path = str(fmus[f"ctrl{v}"])
+        assert validate_fmu(path) == []
+        md = read_model_description(path)
+        by = {c: sorted(x.name for x in md.modelVariables if x.causality == c) for c in ("input", "output", "parameter")}
+        assert by["input"] == sorted(f"{p}[{k}]" for p in ("q", "qd", "F", "X_d", "Xd_d", "F_d") for k in (1, 2))
+        assert by["output"] == sorted(f"{p}[{k}]" for p in ("tau", "CF", "X") for k in (1, 2))
+        assert by["parameter"] == ["S[1]", "S[2]", "rate"]  # the subsystem's params
+        assert md.coSimulation.needsExecutionTool  # it needs a Python with hybridsim
+
+
+def loop_diagram(tmp_path, plant, ctrl_fmu=None):
+    """The controller closed around the plant FMU, in hybridsim (the controller from YAML or its FMU)."""
+    ctrl = (f"{{type: fmu, path: {ctrl_fmu}, mode: cs, rate: 60}}" if ctrl_fmu else
+            f"{{type: subsystem, file: {CTRL}}}")
+    text = f"""
+blocks:
+  plant: {{type: fmu, path: {plant}, mode: cs, rate: 60, parameters: {PLANT}}}
+  ctrl: {ctrl}
+  xd: {{type: constant, value: {X_D}}}
+  fd: {{type: constant, value: {F_D}}}
+  xs: {{type: constant, value: 0.5}}
+wires:
+  - plant.q -> ctrl.q
+  - plant.qd -> ctrl.qd
+  - plant.F -> ctrl.F
+  - xd.y -> ctrl.X_d
+  - xd.dy -> ctrl.Xd_d
+  - fd.y -> ctrl.F_d
+  - ctrl.tau -> plant.tau
+  - xs.y -> plant.x_surface
+  - xs.dy -> plant.v_surface
+simulation: {{t_end: 1.0, log_period: {H}}}
+log: [ctrl.CF, plant.F]
+"""
+    path = tmp_path / f"loop_{'fmu' if ctrl_fmu else 'yaml'}.yaml"
+    path.write_text(text)
+    return path
+
+
+def master(plant, ctrl, t_end=1.0):
+    """Gauss-Seidel co-simulation on fmpy: at t_k the plant's outputs feed the controller, whose
+    torques (direct feedthrough) feed the plant; then both step. Returns (t, CF) at every t_k."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+    from fmpy.fmi3 import FMU3Slave
+
+    units = []
+    for path in (plant, ctrl):
+        md = read_model_description(str(path))
+        cls = FMU3Slave if md.fmiVersion == "3.0" else FMU2Slave
+        fmu = cls(guid=md.guid, unzipDirectory=extract(str(path)), modelIdentifier=md.coSimulation.modelIdentifier)
+        fmu.instantiate()
+        if md.fmiVersion == "3.0":
+            fmu.enterInitializationMode(startTime=0.0)
+        else:
+            fmu.setupExperiment(startTime=0.0)
+            fmu.enterInitializationMode()
+        vr = {v.name: v.valueReference for v in md.modelVariables}
+        get, put = (fmu.getFloat64, fmu.setFloat64) if md.fmiVersion == "3.0" else (fmu.getReal, fmu.setReal)
+        units.append((fmu, vr, get, put, md.fmiVersion == "3.0"))
+    (p, pv, pget, pput, p3), (c, cv, cget, cput, _) = units
+    for name, value in PLANT.items():
+        pput([pv[name]], [value])
+    pput([pv["x_surface"], pv["v_surface"]], [0.5, 0.0])
+    cput([cv["X_d[1]"], cv["X_d[2]"], cv["Xd_d[1]"], cv["Xd_d[2]"], cv["F_d[1]"], cv["F_d[2]"]], X_D + [0, 0] + F_D)
+    p.exitInitializationMode()
+    c.exitInitializationMode()
+    names = ["q[1]", "q[2]", "qd[1]", "qd[2]", "F[1]", "F[2]"]
+    ts, cf = [], []
+    try:
+        for k in range(round(t_end / H)):
+            t = k / 60
+            cput([cv[n] for n in names], pget([pv[n] for n in names]))
+            tau = cget([cv["tau[1]"], cv["tau[2]"]])
+            ts.append(t)
+            cf.append(cget([cv["CF[1]"], cv["CF[2]"]]))
+            pput([pv["tau[1]"], pv["tau[2]"]], tau)
+            p.doStep(t, H)
+            c.doStep(t, H)
+    finally:
+        for fmu, *_ in units:
+            fmu.terminate()
+            fmu.freeInstance()
+    return np.array(ts), np.array(cf)
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_the_exported_controller_around_the_plant_fmu_equals_the_loop_in_hybridsim(fmus, fmi, tmp_path):
+    ref = hs.simulate(loop_diagram(tmp_path, fmus[f"plant{fmi}"]))
+    t, cf = master(fmus[f"plant{fmi}"], fmus[f"ctrl{fmi}"])
+    assert np.allclose(ref.t[:len(t)], t, atol=1e-12, rtol=0)
+    got, want = cf[:, 0], ref["ctrl.ft.CF[0]"][:len(t)]  # the subsystem's CF is its ft.CF
+    assert np.max(np.abs(got - want)) < 1e-9  # N
+    assert abs(want[-1] - 20.0) < 3.0 and abs(want[0] - 10.0) < 0.1  # it did push from 10 N toward 20 N
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_hybridsim_imports_the_controller_it_exported(fmus, fmi, tmp_path):
+    ref = hs.simulate(loop_diagram(tmp_path, fmus[f"plant{fmi}"]))
+    res = hs.simulate(loop_diagram(tmp_path, fmus[f"plant{fmi}"], ctrl_fmu=fmus[f"ctrl{fmi}"]))
+    assert np.max(np.abs(res["ctrl.CF[0]"][:-1] - ref["ctrl.ft.CF[0]"][:-1])) < 1e-9
+
+
+def test_a_closed_diagram_exports_with_its_logged_signals_as_outputs(tmp_path):
+    import fmpy
+    from fmpy.validation import validate_fmu
+
+    from hybridsim.fmi.export import export_fmu
+
+    fmu = export_fmu(DIAGRAMS / "bouncing_ball.yaml", tmp_path / "ball.fmu", fmi=2)
+    assert validate_fmu(str(fmu)) == []
+    ref = hs.simulate(DIAGRAMS / "bouncing_ball.yaml", t_end=1.0, log_period=0.01)
+    name = next(k for k in ref.signals if ref.signals[k].shape[1] == 1)
+    col = name.replace(".", "_")
+    r = fmpy.simulate_fmu(str(fmu), stop_time=1.0, output_interval=0.01, output=[col])
+    n = min(len(r), len(ref.t))
+    assert np.max(np.abs(r[col][:n] - ref.signals[name][:n, 0])) < 1e-9
+
+
+def test_cli_exports_and_refuses_a_bad_version(tmp_path, capsys):
+    from fmpy import read_model_description
+
+    assert main(["fmu", "export", str(CTRL), "--fmi", "3", "-o", str(tmp_path / "c.fmu")]) == 0
+    assert read_model_description(str(tmp_path / "c.fmu")).fmiVersion == "3.0"
+    with pytest.raises(SystemExit) as e:
+        main(["fmu", "export", str(CTRL), "--fmi", "4", "-o", str(tmp_path / "c4.fmu")])
+    assert e.value.code == 2
+
+
+def test_a_missing_diagram_is_a_clear_error(tmp_path, capsys):
+    code = main(["fmu", "export", str(tmp_path / "nope.yaml"), "-o", str(tmp_path / "n.fmu")])
+    err = capsys.readouterr().err
+    assert code == 2 and "nope.yaml" in err and "Traceback" not in err
+    assert not (tmp_path / "n.fmu").exists()
+
+
+def test_a_diagram_with_an_fmu_inside_is_refused(tmp_path, capsys):
+    code = main(["fmu", "export", str(DIAGRAMS / "fig9_fmu_cs.yaml"), "-o", str(tmp_path / "x.fmu")])
+    err = capsys.readouterr().err
+    assert code == 4 and "block type fmu inside an exported diagram is not supported" in err
+
+
+def test_a_bad_parameter_fails_initialization_in_the_fmus_own_words(fmus):
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    path = str(fmus["ctrl2"])
+    md = read_model_description(path)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier)
+    said = []
+    from fmpy.fmi2 import fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+    from fmpy.fmi2 import defaultCallbacks as cb
+
+    def log(env, name, status, category, message):
+        said.append(message.decode())
+
+    cbs = fmi2CallbackFunctions()
+    cbs.logger = fmi2CallbackLoggerTYPE(log)
+    cbs.allocateMemory, cbs.freeMemory = cb.allocateMemory, cb.freeMemory
+    fmu.instantiate(callbacks=cbs, loggingOn=True)
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.setInteger([vr["rate"]], [0])
+    with pytest.raises(Exception):
+        fmu.exitInitializationMode()
+    assert any("cannot build the diagram" in m and "rate" in m for m in said), said
+    fmu.freeInstance()
+
+
+def test_the_controller_keeps_its_own_rate_whatever_the_communication_step(fmus):
+    """60 Hz inside: stepped at 1/240 s or 1/20 s, its outputs at common times are those of 1/60 s
+    steps (constant inputs; between its sample hits the outputs hold)."""
+    import fmpy
+
+    start = {"q[1]": 0.3, "q[2]": 0.5, "F[1]": 9.0, "X_d[1]": 0.5, "F_d[1]": 10.0}
+    runs = {h: fmpy.simulate_fmu(str(fmus["ctrl2"]), stop_time=0.5, step_size=h, output_interval=h,
+                                 start_values=start, output=["tau[1]", "tau[2]"]) for h in (1 / 60, 1 / 240, 1 / 20)}
+    base = runs[1 / 60]
+    for h in (1 / 240, 1 / 20):
+        r = runs[h]
+        k = np.round(r["time"] * 60, 6)
+        on = k == np.round(k)  # the times that are 60 Hz sample hits
+        want = dict(zip(np.round(base["time"] * 60).astype(int), base["tau[1]"]))
+        got = r["tau[1]"][on]
+        assert np.max(np.abs(got - [want[int(round(x))] for x in k[on]])) < 1e-12, h
+    assert np.ptp(base["tau[1]"]) > 0.1  # the integrators move it
