@@ -34,10 +34,12 @@ class Integrator(Block):
 
     Notes
     -----
-    Reaching a limit is a located event: x is set to the limit and the
-    integrator stops (a mode state m = +1 at the upper limit, -1 at the
-    lower) while u pushes outward; it leaves the limit, another located event,
-    when u turns back. Ports: in ``u``, ``reset`` (optional: unwired it is 0;
+    A mode state m (0 free, +1 at the upper limit, -1 at the lower) has
+    explicit enter and leave conditions, each a located event: a free
+    integrator enters a limit when x reaches it (x set to the limit, then
+    x' = 0); a held one leaves when K u changes sign to point back inside
+    (one event, whatever the step). Only the functions of the current mode
+    are armed (the others read a constant that never fires). Ports: in ``u``, ``reset`` (optional: unwired it is 0;
     x resets when it rises through 0.5); out ``y``. Example: K = 2, u = 1
     from x(0) = 0 gives y(1 s) = 2; with upper = 1.5 it stops at 1.5 at
     t = 0.75 s.
@@ -83,14 +85,18 @@ def integrator_output(p, t, x, u):
 def integrator_derivatives(p, t, x, u):
     m = np.asarray(x)[p.n:]
     du = p.K * np.asarray(u[0])
-    stopped = ((m > 0.5) & (du > 0.0)) | ((m < -0.5) & (du < 0.0))
-    return np.concatenate((np.where(stopped, 0.0, du), np.zeros(p.n)))
+    return np.concatenate((np.where(np.abs(m) > 0.5, 0.0, du), np.zeros(p.n)))  # held: x' = 0
 
 
 @kernel
 def integrator_crossings(p, t, x, u):
-    xa = np.asarray(x)[:p.n]
-    return np.concatenate((np.asarray(u[1]) - 0.5, xa - p.upper, xa - p.lower, xa - p.upper, xa - p.lower))
+    xa, m = np.asarray(x)[:p.n], np.asarray(x)[p.n:]
+    du = p.K * np.asarray(u[0])
+    free, up, down = np.abs(m) < 0.5, m > 0.5, m < -0.5
+    # reset; enter upper (rising), enter lower (falling); leave upper (K u falls below 0),
+    # leave lower (K u rises above 0); a function of another mode reads -1 / +1: never fires
+    return np.concatenate((np.asarray(u[1]) - 0.5, np.where(free, xa - p.upper, -1.0),
+                           np.where(free, xa - p.lower, 1.0), np.where(up, du, 1.0), np.where(down, du, -1.0)))
 
 
 @kernel
@@ -259,10 +265,14 @@ def first_order_derivatives(p, t, x, u):
 class Relay(Block):
     """A relay with hysteresis: switches on when u rises through ``switch_on``, off when it falls through ``switch_off``.
 
-    y = ``y_on`` when on, ``y_off`` when off (``switch_off <= switch_on``); starts on when
-    ``initial`` is true. The switches are located state events; the state is
-    the relay's position (0 or 1), constant between them.
+    y = ``y_on`` when on, ``y_off`` when off (``switch_off <= switch_on``). It starts on
+    when u(0) > ``switch_on``, off when u(0) < ``switch_off``, else as ``initial`` says.
+    The switches are located state events; the state is the relay's position (0 or 1),
+    constant between them. Only the switch of the current position is armed: off, it
+    waits for u to rise through ``switch_on``; on, for u to fall through ``switch_off``.
     """
+
+    init_needs_inputs = True
 
     def __init__(self, name="relay", switch_on=0.0, switch_off=0.0, y_on=1.0, y_off=0.0, initial=False, width=1):
         super().__init__(name)
@@ -279,7 +289,10 @@ class Relay(Block):
         self.declare_continuous_state(n)
 
     def initial_state(self, u=None):
-        return self.x0.copy()
+        if u is None:
+            return self.x0.copy()
+        ua = np.asarray(u[0], float)
+        return np.where(ua > self.params.on, 1.0, np.where(ua < self.params.off, 0.0, self.x0))
 
 
 class RelayParams(NamedTuple):
@@ -302,8 +315,9 @@ def relay_derivatives(p, t, x, u):
 
 @kernel
 def relay_crossings(p, t, x, u):
-    ua = np.asarray(u[0])
-    return np.concatenate((ua - p.on, ua - p.off))
+    ua, on = np.asarray(u[0]), np.asarray(x) > 0.5
+    # switch on (rising) while off, switch off (falling) while on; the other reads -1 / +1
+    return np.concatenate((np.where(on, -1.0, ua - p.on), np.where(on, ua - p.off, 1.0)))
 
 
 @kernel

@@ -29,6 +29,9 @@ MAX_ITERATIONS = 100
 MAX_EVENTS = 100_000
 #: events in a row, each within 10 TIME_TOL of the one before, before the run counts as Zeno
 MAX_STALLS = 50
+#: a switch without an action (stick/slip, contact) located more often than this between two
+#: hits slides along its surface: it is stepped over for the rest of that interval
+MAX_REPEATS = 20
 
 
 def crossed(g0, g1, directions):
@@ -90,14 +93,18 @@ class EventSet:
             dirs += list(d)
         self.cuts = np.cumsum([0] + sizes)
         self.directions = np.array(dirs, float)
+        #: functions of blocks without an action (switches that only restart the integration)
+        self.switches = np.repeat([not ctx.blocks[i].has_event_action for i, _ in self.blocks], sizes).astype(bool)
+        self.muted = np.zeros(len(dirs), dtype=bool)
         self.log = []  # (t, block names) of every event, in order
 
     def g(self, t, x):
-        """Every action block's event functions at (t, x)."""
+        """Every located block's event functions at (t, x) (a muted switch reads +1: never fires)."""
         self.outputs(t, x)
         blocks, u = self.ctx.blocks, self.ctx.u
         vals = [np.atleast_1d(np.asarray(blocks[i].zero_crossings(t, x[s], u[i]), float)) for i, s in self.blocks]
-        return np.concatenate(vals) if vals else np.zeros(0)
+        out = np.concatenate(vals) if vals else np.zeros(0)
+        return np.where(self.muted, 1.0, out) if self.muted.any() else out
 
     def next_time(self, t, x):
         """The earliest time event after ``t`` (inf: none); remembers which blocks ask for it."""
@@ -169,27 +176,29 @@ def chatter_error(t, names):
                            f"actions (chattering) in block(s) {', '.join(names)}")
 
 
-def integrate(solver, f, events, t0, t1, x, t_out, restarts=None, observe=None):
+def integrate(solver, f, events, t0, t1, x, t_out, observe=None, check=None):
     """Integrate from hit ``t0`` to hit ``t1`` stopping at time events and located state events.
 
-    ``solver`` gives ``advance_to_event(f, t0, t1, x, t_out, g, directions)``
+    ``solver`` gives ``advance_to_event(f, t0, t1, x, t_out, g, directions, check=check)``
     returning ``(t_stop, x_stop, fired, outs)``; ``fired`` None means it
-    reached ``t1``. ``restarts``: zero crossings without actions (the scipy
-    solvers restart at them). ``observe(t, x)``: called for each log time as
+    reached ``t1``. ``observe(t, x)``: called for each log time as
     soon as its segment is integrated, before the next event's actions (a
     block with hidden discrete state, an FMU, then shows the value of that
-    time); without it the states come back in ``outs``. Returns ``(x, outs)``
-    like ``solver.advance``.
+    time); without it the states come back in ``outs``. ``check(t, x)``: the
+    divergence check, after every accepted step. Returns ``(x, outs)`` like
+    ``solver.advance``.
     """
     outs, pending = [], list(t_out)
     count = stalls = 0
+    events.muted[:] = False
+    repeats = np.zeros(len(events.directions), dtype=np.int64)
     while True:
         te = events.next_time(t0, x)
         stop = min(t1, te) if te > t0 + TIME_TOL else t1
         here = [tb for tb in pending if tb < stop]
         g = events.g if events.blocks else None
-        extra = {"events": restarts} if restarts is not None and not hasattr(solver, "dense") else {}
-        t_stop, x_stop, fired, got = solver.advance_to_event(f, t0, stop, x, here, g, events.directions, **extra)
+        t_stop, x_stop, fired, got = solver.advance_to_event(f, t0, stop, x, here, g, events.directions,
+                                                             check=check)
         if observe is not None:
             for tb, xb in zip(pending, got):
                 observe(tb, xb)
@@ -202,6 +211,8 @@ def integrate(solver, f, events, t0, t1, x, t_out, restarts=None, observe=None):
             if count > MAX_EVENTS or stalls > MAX_STALLS:
                 raise zeno_error(t_stop, events.names(fired), count > MAX_EVENTS, stalls)
             x = events.settle(t_stop, x_stop, events.g(t_stop, x_stop), fired)
+            repeats += fired & events.switches
+            events.muted |= repeats > MAX_REPEATS
         elif stop < t1:
             events.log.append((stop, tuple(sorted(events.system.blocks[i].name for i, _ in events.due))))
             x = events.act(stop, x_stop, None)

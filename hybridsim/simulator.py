@@ -92,9 +92,10 @@ class Simulator:
         from . import fused as _fused
         from .solvers import ExplicitRK
 
-        # events a fixed-step method locates: those with resets, and with locate_switches every switch
+        # events a fixed-step method locates: those with resets, and with locate_switches every
+        # switch; the scipy solvers locate every zero crossing
         self.located = list(system.action_events)
-        if locate_switches and isinstance(self.solver, ExplicitRK):
+        if locate_switches or not isinstance(self.solver, ExplicitRK):
             self.located += [i for i in system.events if i not in self.located]
 
         self._fused = (_fused.build(system, self.solver, self.located)
@@ -273,6 +274,11 @@ class Simulator:
         """The hits of :meth:`_loop` in order (a :class:`StopRequest` ends them)."""
         sysm = self.system
         xc = ctx.xc
+        max_state = self.max_state
+
+        def check(tb, xb):  # after every accepted step
+            if not np.max(np.abs(xb)) <= max_state:
+                plan.check_continuous(xb, tb, max_state)
 
         def observe(tb, xb):  # with events: recorded in order, before the next event's actions
             ctx.evaluate(self.log_path, tb, xb)
@@ -290,12 +296,12 @@ class Simulator:
                 if sysm.n_x:
                     if ctx.events is not None:
                         xc, _ = _events.integrate(self._stepper(ctx), rhs, ctx.events, t, t_next, xc, t_out,
-                                                  events, observe)
+                                                  observe, check)
                         xs, t_out = [], ()
                     elif self._fused is not None:
-                        xc, xs = self._advance_fused(ctx, t, t_next, xc, t_out)
+                        xc, xs = self._advance_fused(ctx, t, t_next, xc, t_out, check)
                     else:
-                        xc, xs = self.solver.advance(rhs, t, t_next, xc, t_out, events)
+                        xc, xs = self.solver.advance(rhs, t, t_next, xc, t_out, events, check=check)
                     plan.check_continuous(xc, t_next, self.max_state)
                 else:
                     xs = [xc] * len(t_out)
@@ -338,9 +344,11 @@ class Simulator:
         advance, held = self._fused
         return FusedStepper(self.solver, advance, tuple(tuple(ctx.y[a][o].tolist()) for a, o in held), ctx.params)
 
-    def _advance_fused(self, ctx, t0, t1, x, t_out):
+    def _advance_fused(self, ctx, t0, t1, x, t_out, check=None):
         """The solver's steps over [t0, t1] with the generated fused stepper; states at t_out
-        from its dense output (the same step grid whatever is logged)."""
+        from its dense output (the same step grid whatever is logged). ``check``: the
+        divergence check, on the final state; when it fails the interval is stepped again
+        one step at a time (the same numbers) so that it fails at the first bad step."""
         from .solvers import observation, steps
 
         (advance, advance_obs), held = self._fused
@@ -366,6 +374,11 @@ class Simulator:
             if after is not None:
                 X, k = after, k + 1
             X = advance(t0, h, k, n, X, H, P)
+            if check is not None and not all(abs(v) <= self.max_state for v in X):
+                X = tuple(x.tolist())
+                for k in range(n):
+                    X = advance(t0, h, k, k + 1, X, H, P)
+                    check(t0 + (k + 1) * h, np.array(X))
         return np.array(X), outs
 
 
