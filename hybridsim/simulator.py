@@ -218,8 +218,16 @@ class Simulator:
         wall0 = _time.perf_counter()
         try:
             if self._compiled is not None:
-                rows_t, rows, hits = self._compiled.run(ctx, stops, t_end, self._final_record(t_end),
-                                                        self.max_state)
+                saved = _snapshot(ctx)
+                try:
+                    rows_t, rows, hits = self._compiled.run(ctx, stops, t_end, self._final_record(t_end),
+                                                            self.max_state)
+                    failed = not np.isfinite(rows).all()
+                except SimulationError:
+                    failed = True
+                if failed:  # the Python loop (the same numbers) says where and why, at its step
+                    _restore(ctx, saved)
+                    rows_t, rows, hits = self._loop(ctx, self._walk(stops, t_end), rhs, events, bar, t_end)
                 hits = dict(hits)
             else:
                 rows_t, rows, hits = self._loop(ctx, self._walk(stops, t_end), rhs, events, bar, t_end)
@@ -278,15 +286,21 @@ class Simulator:
 
         def check(tb, xb):  # after every accepted step
             if not np.max(np.abs(xb)) <= max_state:
-                plan.check_continuous(xb, tb, max_state)
+                plan.check_continuous(xb, tb, max_state, ctx)
+
+        check.blame = lambda tb, xb: plan.blame(ctx, tb, xb)
+
+        log_checked = plan.checked_outputs(self.log_path)
 
         def observe(tb, xb):  # with events: recorded in order, before the next event's actions
             ctx.evaluate(self.log_path, tb, xb)
+            plan.check_outputs(ctx, log_checked, tb)
             record(tb)
 
         with np.errstate(over="ignore", invalid="ignore"):
             for t, due, log_here, t_out, t_next in walk:
                 plan.outputs(ctx, t, xc, due)
+                plan.check_outputs(ctx, plan.hit_checked(due), t)
                 if log_here:
                     record(t)
                 for i, x in plan.updates(ctx, t, due):
@@ -302,18 +316,16 @@ class Simulator:
                         xc, xs = self._advance_fused(ctx, t, t_next, xc, t_out, check)
                     else:
                         xc, xs = self.solver.advance(rhs, t, t_next, xc, t_out, events, check=check)
-                    plan.check_continuous(xc, t_next, self.max_state)
+                    plan.check_continuous(xc, t_next, self.max_state, ctx)
                 else:
                     xs = [xc] * len(t_out)
                 for tb, xb in zip(t_out, xs):
-                    ctx.evaluate(self.log_path, tb, xb)
-                    record(tb)
+                    observe(tb, xb)
                 ctx.xc = xc
                 if bar is not None:
                     bar.update(t_next - bar.n)
             if self._final_record(t_end):
-                ctx.evaluate(self.log_path, t_end, xc)
-                record(t_end)
+                observe(t_end, xc)
 
     def _final_record(self, t_end):
         """A row at t_end when it lies on the log grid (the hits stop before it)."""
@@ -380,6 +392,22 @@ class Simulator:
                     X = advance(t0, h, k, k + 1, X, H, P)
                     check(t0 + (k + 1) * h, np.array(X))
         return np.array(X), outs
+
+
+def _snapshot(ctx):
+    """Copies of a context's numbers (states, wires, event log)."""
+    return (ctx.xc.copy(), [x.copy() for x in ctx.xd], [[v.copy() for v in vals] for vals in ctx.y])
+
+
+def _restore(ctx, saved):
+    """Put back what :func:`_snapshot` took (the wire buffers in place: inputs alias them)."""
+    xc, xd, y = saved
+    ctx.xc, ctx.xd = xc.copy(), [x.copy() for x in xd]
+    for vals, old in zip(ctx.y, y):
+        for v, o in zip(vals, old):
+            v[:] = o
+    if ctx.events is not None:
+        ctx.events.log = []
 
 
 class Stops(NamedTuple):

@@ -269,12 +269,28 @@ class ScipySolver:
             outs.append(x.copy())
         if t1 <= t0:
             return t1, x, None, outs
-        solver = METHODS[self.method](f, t0, x, t1, rtol=self.rtol, atol=self.atol, max_step=self.max_step)
+        seen = []  # the first (t, x) where the right-hand side was not finite
+
+        def fun(t, y):
+            dx = f(t, y)
+            if not seen and not np.isfinite(dx).all():
+                seen.append((t, np.array(y, float)))
+            return dx
+
+        solver = METHODS[self.method](fun, t0, x, t1, rtol=self.rtol, atol=self.atol, max_step=self.max_step)
         g_a = np.asarray(g(t0, x), float) if g is not None else None
         while solver.status == "running":
-            message = solver.step()
+            try:
+                message = solver.step()
+            except (ValueError, np.linalg.LinAlgError) as exc:  # scipy's linear algebra on NaN
+                if not seen:
+                    raise
+                solver.status, message = "failed", str(exc)
             if solver.status == "failed":
-                raise SimulationError(f"solver {self.method} failed at t={solver.t:.9g} s: {message}")
+                if seen and hasattr(check, "blame"):
+                    check.blame(*seen[0])  # the block whose output was not finite, when one was
+                why = f" (the right-hand side is not finite at t={seen[0][0]:.9g} s)" if seen else ""
+                raise SimulationError(f"solver {self.method} failed at t={solver.t:.9g} s: {message}{why}")
             ta, tb, xb = solver.t_old, solver.t, solver.y.copy()
             dense = solver.dense_output() if (pending and pending[0] <= tb) or g is not None else None
             if g is not None:
