@@ -83,26 +83,37 @@ def integrator_output(p, t, x, u):
 
 @kernel
 def integrator_derivatives(p, t, x, u):
-    m = np.asarray(x)[p.n:]
-    du = p.K * np.asarray(u[0])
-    return np.concatenate((np.where(np.abs(m) > 0.5, 0.0, du), np.zeros(p.n)))  # held: x' = 0
+    n = p.n
+    dx = np.zeros(2 * n)
+    for i in range(n):
+        if abs(x[n + i]) < 0.5:  # free; held at a limit: x' = 0
+            dx[i] = p.K[i] * u[0][i]
+    return dx
 
 
 @kernel
 def integrator_crossings(p, t, x, u):
-    xa, m = np.asarray(x)[:p.n], np.asarray(x)[p.n:]
-    du = p.K * np.asarray(u[0])
-    free, up, down = np.abs(m) < 0.5, m > 0.5, m < -0.5
     # reset; enter upper (rising), enter lower (falling); leave upper (K u falls below 0),
     # leave lower (K u rises above 0); a function of another mode reads -1 / +1: never fires
-    return np.concatenate((np.asarray(u[1]) - 0.5, np.where(free, xa - p.upper, -1.0),
-                           np.where(free, xa - p.lower, 1.0), np.where(up, du, 1.0), np.where(down, du, -1.0)))
+    n = p.n
+    g = np.empty(5 * n)
+    for i in range(n):
+        m, du = x[n + i], p.K[i] * u[0][i]
+        free = abs(m) < 0.5
+        g[i] = u[1][i] - 0.5
+        g[n + i] = x[i] - p.upper[i] if free else -1.0
+        g[2 * n + i] = x[i] - p.lower[i] if free else 1.0
+        g[3 * n + i] = du if m > 0.5 else 1.0
+        g[4 * n + i] = du if m < -0.5 else -1.0
+    return g
 
 
 @kernel
 def integrator_event(p, t, x, u, fired):
     n = p.n
-    out = np.asarray(x).copy()
+    out = np.empty(2 * n)
+    for i in range(2 * n):
+        out[i] = x[i]
     for i in range(n):
         if fired[3 * n + i] or fired[4 * n + i]:  # left a limit: integrate again
             out[n + i] = 0.0
@@ -315,9 +326,14 @@ def relay_derivatives(p, t, x, u):
 
 @kernel
 def relay_crossings(p, t, x, u):
-    ua, on = np.asarray(u[0]), np.asarray(x) > 0.5
     # switch on (rising) while off, switch off (falling) while on; the other reads -1 / +1
-    return np.concatenate((np.where(on, -1.0, ua - p.on), np.where(on, ua - p.off, 1.0)))
+    n = p.n
+    g = np.empty(2 * n)
+    for i in range(n):
+        on = x[i] > 0.5
+        g[i] = -1.0 if on else u[0][i] - p.on[i]
+        g[n + i] = u[0][i] - p.off[i] if on else 1.0
+    return g
 
 
 @kernel

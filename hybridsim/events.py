@@ -176,7 +176,7 @@ def chatter_error(t, names):
                            f"actions (chattering) in block(s) {', '.join(names)}")
 
 
-def integrate(solver, f, events, t0, t1, x, t_out, observe=None, check=None):
+def integrate(solver, f, events, t0, t1, x, t_out, observe=None, check=None, mute=False):
     """Integrate from hit ``t0`` to hit ``t1`` stopping at time events and located state events.
 
     ``solver`` gives ``advance_to_event(f, t0, t1, x, t_out, g, directions, check=check)``
@@ -185,8 +185,10 @@ def integrate(solver, f, events, t0, t1, x, t_out, observe=None, check=None):
     soon as its segment is integrated, before the next event's actions (a
     block with hidden discrete state, an FMU, then shows the value of that
     time); without it the states come back in ``outs``. ``check(t, x)``: the
-    divergence check, after every accepted step. Returns ``(x, outs)`` like
-    ``solver.advance``.
+    divergence check, after every accepted step. ``mute``: a switch without an
+    action located more than :data:`MAX_REPEATS` times is stepped over until
+    ``t1`` (the scipy solvers: a sliding friction surface). Returns ``(x, outs)``
+    like ``solver.advance``.
     """
     outs, pending = [], list(t_out)
     count = stalls = 0
@@ -211,8 +213,9 @@ def integrate(solver, f, events, t0, t1, x, t_out, observe=None, check=None):
             if count > MAX_EVENTS or stalls > MAX_STALLS:
                 raise zeno_error(t_stop, events.names(fired), count > MAX_EVENTS, stalls)
             x = events.settle(t_stop, x_stop, events.g(t_stop, x_stop), fired)
-            repeats += fired & events.switches
-            events.muted |= repeats > MAX_REPEATS
+            if mute:
+                repeats += fired & events.switches
+                events.muted |= repeats > MAX_REPEATS
         elif stop < t1:
             events.log.append((stop, tuple(sorted(events.system.blocks[i].name for i, _ in events.due))))
             x = events.act(stop, x_stop, None)

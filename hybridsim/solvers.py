@@ -135,8 +135,6 @@ class ExplicitRK:
                 outs.append(st.array(X))
                 j += 1
             X_next, token = st.step(t0, h, k, X)
-            if check is not None:
-                check(t0 + (k + 1) * h, st.array(X_next))
             event = None
             if g is not None:
                 g_next = g(t0 + (k + 1) * h, st.array(X_next))
@@ -151,9 +149,26 @@ class ExplicitRK:
                 j += 1
             if event:
                 theta, x_ev, fired = event
-                return (t + theta * h if theta < 1.0 else t0 + (k + 1) * h), x_ev, fired, outs
+                t_ev = t + theta * h if theta < 1.0 else t0 + (k + 1) * h
+                if check is not None:
+                    self._check_steps(st, t0, h, k, x, X, check)
+                    check(t_ev, x_ev)
+                return t_ev, x_ev, fired, outs
             X = X_next
+        if check is not None:
+            self._check_steps(st, t0, h, n, x, X, check)
         return t1, st.array(X), None, outs
+
+    @staticmethod
+    def _check_steps(st, t0, h, n, x, X, check):
+        """``check`` the state after each of the first ``n`` steps from ``x`` at ``t0`` (``X``
+        after the last): when ``X`` fails ``check.ok``, the steps are taken again (the same
+        numbers) so that ``check`` raises at the first bad one."""
+        if n and not check.ok(st.array(X)):
+            X = st.first(x)
+            for k in range(n):
+                X = st.step(t0, h, k, X)[0]
+                check(t0 + (k + 1) * h, st.array(X))
 
     def __repr__(self):
         return f"{type(self).__name__}(step={self.step:g})"
@@ -295,28 +310,42 @@ class ScipySolver:
             dense = solver.dense_output() if (pending and pending[0] <= tb) or g is not None else None
             if g is not None:
                 m = max(1, math.ceil((tb - ta) / self.scan - 1e-9))
-                for j in range(1, m + 1):
-                    sa = ta + (j - 1) * (tb - ta) / m
-                    sb = tb if j == m else ta + j * (tb - ta) / m
-                    x_s = xb if j == m else dense(sb)
-                    g_b = np.asarray(g(sb, x_s), float)
+                ts = [ta + j * (tb - ta) / m for j in range(1, m)] + [tb]
+                xs = np.column_stack([dense(np.array(ts[:-1])), xb]) if m > 1 else xb[:, None]
+                sa = ta
+                for j, sb in enumerate(ts):
+                    g_b = np.asarray(g(sb, xs[:, j]), float)
                     if crossed(g_a, g_b, directions).any():
                         h = sb - sa
                         theta, x_ev, fired = bisect(g, directions, sa, h, lambda th: dense(sa + th * h),
-                                                    g_a, x_s, g_b)
+                                                    g_a, xs[:, j], g_b)
                         t_ev = float(sb if theta >= 1.0 else sa + theta * h)
-                        while pending and pending[0] < t_ev:
-                            outs.append(dense(pending.pop(0)))
+                        self._observe(pending, outs, dense, t_ev, None, inclusive=False)
                         if check is not None:
                             check(t_ev, x_ev)
                         return t_ev, np.array(x_ev, float), fired, outs
-                    g_a = g_b
+                    g_a, sa = g_b, sb
             if check is not None:
                 check(tb, xb)
-            while pending and pending[0] <= tb:
-                tp = pending.pop(0)
-                outs.append(xb.copy() if tp == tb else dense(tp))
+            self._observe(pending, outs, dense, tb, xb)
         return t1, solver.y.copy(), None, outs
+
+    @staticmethod
+    def _observe(pending, outs, dense, t, x, inclusive=True):
+        """Move the log times up to ``t`` (and at ``t`` when ``inclusive``: the state ``x``) from
+        ``pending`` to ``outs``, their states from one call of the step's dense output."""
+        k = 0
+        while k < len(pending) and (pending[k] < t or inclusive and pending[k] == t):
+            k += 1
+        if not k:
+            return
+        times, pending[:k] = pending[:k], []
+        at_end = inclusive and times[-1] == t
+        inner = times[:-1] if at_end else times
+        if inner:
+            outs += list(dense(np.array(inner)).T)
+        if at_end:
+            outs.append(x.copy())
 
     def __repr__(self):
         return f"ScipySolver({self.method}, rtol={self.rtol:g})"
