@@ -3,8 +3,9 @@
 A block with ``event_action`` (see :mod:`hybridsim.block`) has its events
 located by every solver, to :data:`TIME_TOL`: the fixed-step methods check the
 sign of the event functions after each step of their grid, bisect the step's
-dense output and re-step to the root; the scipy solvers use ``solve_ivp``'s
-event location. At
+dense output and re-step to the root; the scipy solvers check them after each
+accepted step (and at scan points inside it) and bisect its dense output
+(docs/events-and-solvers.md). At
 the event the actions run (x+ = h(x-, u)), then again while an action makes
 another event function cross (event iteration, at most
 :data:`MAX_ITERATIONS` times at one instant), and the integration restarts

@@ -41,8 +41,9 @@ class Simulator:
         Recording interval in s (default 0.5 ms). Sample hits do not add
         extra rows; every row is on this grid.
     max_state : float
-        A continuous state larger than this in magnitude (or not finite)
-        stops the run with :class:`SimulationError`.
+        A continuous state larger than this in magnitude (or not finite) after
+        any accepted step stops the run with :class:`SimulationError`; so does
+        a non-finite block output (unless the block sets ``may_be_nonfinite``).
     progress : bool
         Show a progress bar (tqdm) on runs that last more than a second.
     fused : bool
@@ -53,7 +54,7 @@ class Simulator:
         With a fixed-step method, also locate every zero crossing without a
         reset (stick/slip, contact make/break) and restart the step grid
         there, as events with resets always are (default False: stepped over;
-        the scipy solvers always restart at them).
+        the scipy solvers always locate them).
     compiled : bool
         Run the whole loop compiled with numba (:mod:`hybridsim.compiled`):
         RK4 only, every block with kernels; raises

@@ -2,11 +2,12 @@
 
 Both solvers share one method::
 
-    x1, xs_out = solver.advance(f, t0, t1, x0, t_out, events=None)
+    x1, xs_out = solver.advance(f, t0, t1, x0, t_out, events=None, check=None)
 
 ``f(t, x)`` is the diagram's fused right-hand side; ``t_out`` are times in
-``(t0, t1)`` at which states are wanted (logging); ``events(t, x)`` returns the
-zero-crossing functions of the diagram (or is None).
+``(t0, t1)`` at which states are wanted (logging); ``check(t, x)`` the
+divergence check. ``advance_to_event`` also stops at the first located event
+of given event functions (see docs/events-and-solvers.md).
 
 * :class:`RK4` (and :class:`Heun`, any :class:`ExplicitRK` tableau) -
   fixed-step explicit Runge-Kutta. Each interval between sample hits is cut
@@ -16,11 +17,12 @@ zero-crossing functions of the diagram (or is None).
   mode, neither damps nor amplifies it noticeably (the default 1e-4 s gives
   < 1e-4 relative amplitude error per period). Discontinuities are stepped
   over; their effect is checked by the step-convergence tests.
-* :class:`ScipySolver` - ``scipy.integrate.solve_ivp`` with any of its
-  methods (Radau, BDF, LSODA, RK45, DOP853, ...), relative and per-state
-  absolute tolerances, and event location: integration stops at each zero
-  crossing and restarts there, so a stiff method never steps across a friction
-  or contact switch.
+* :class:`ScipySolver` - scipy's ``OdeSolver`` classes (Radau, BDF, LSODA,
+  RK45, RK23, DOP853) stepped one accepted step at a time, with relative and
+  per-state absolute tolerances; the event functions are compared between
+  accepted steps and bisected on the step's dense output, and the
+  integration restarts at each event, so a stiff method never steps across a
+  friction or contact switch.
 """
 import math
 
