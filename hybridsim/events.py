@@ -88,7 +88,7 @@ class EventSet:
         sizes, dirs = [], []
         for i, s in self.blocks:
             b = ctx.blocks[i]
-            n = len(np.atleast_1d(b.zero_crossings(0.0, ctx.xc[s], ctx.u[i])))
+            n = len(np.atleast_1d(b.zero_crossings(0.0, ctx.xc[s] if s is not None else ctx.xd[i], ctx.u[i])))
             d = b.event_directions if b.event_directions is not None else (0,) * n
             sizes.append(n)
             dirs += list(d)
@@ -103,7 +103,9 @@ class EventSet:
         """Every located block's event functions at (t, x) (a muted switch reads +1: never fires)."""
         self.outputs(t, x)
         blocks, u = self.ctx.blocks, self.ctx.u
-        vals = [np.atleast_1d(np.asarray(blocks[i].zero_crossings(t, x[s], u[i]), float)) for i, s in self.blocks]
+        xd = self.ctx.xd
+        vals = [np.atleast_1d(np.asarray(blocks[i].zero_crossings(t, x[s] if s is not None else xd[i], u[i]), float))
+                for i, s in self.blocks]
         out = np.concatenate(vals) if vals else np.zeros(0)
         return np.where(self.muted, 1.0, out) if self.muted.any() else out
 
@@ -137,7 +139,7 @@ class EventSet:
             return x
         for k, (i, s) in enumerate(self.blocks):
             mine = fired[self.cuts[k]:self.cuts[k + 1]]
-            if mine.any():
+            if mine.any() and s is not None:  # a stateless block's switch only restarts
                 new = blocks[i].event_action(t, x[s].copy(), u[i], tuple(bool(f) for f in mine))
                 if new is not None:
                     x[s] = new

@@ -91,13 +91,8 @@ class Simulator:
         self._log_ports = [system.port_ref(r) for r in refs]
         self.log_path = system.evaluation_path({i for i, _ in self._log_ports})
         from . import fused as _fused
-        from .solvers import ExplicitRK
 
-        # events a fixed-step method locates: those with resets, and with locate_switches every
-        # switch; the scipy solvers locate every zero crossing
-        self.located = list(system.action_events)
-        if locate_switches or not isinstance(self.solver, ExplicitRK):
-            self.located += [i for i in system.events if i not in self.located]
+        self.located = located_events(system, self.solver, locate_switches)
 
         self._fused = (_fused.build(system, self.solver, self.located)
                        if fused and _fused.eligible(system, self.solver) else None)
@@ -394,6 +389,17 @@ class Simulator:
                     X = advance(t0, h, k, k + 1, X, H, P)
                     check(t0 + (k + 1) * h, np.array(X))
         return np.array(X), outs
+
+
+def located_events(system, solver, locate_switches=False):
+    """The blocks whose events ``solver`` locates: those with resets, and on the scipy solvers
+    (or with ``locate_switches``) every block with zero crossings."""
+    from .solvers import ExplicitRK
+
+    located = list(system.action_events)
+    if locate_switches or not isinstance(solver, ExplicitRK):
+        located += [i for i in system.events if i not in located]
+    return located
 
 
 def _snapshot(ctx):
