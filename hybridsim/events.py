@@ -38,9 +38,8 @@ MAX_REPEATS = 20
 def crossed(g0, g1, directions):
     """Boolean mask: which functions crossed zero from ``g0`` to ``g1`` in their direction."""
     g0, g1 = np.asarray(g0, float), np.asarray(g1, float)
-    rising = (g0 <= 0) & (g1 > 0)
-    falling = (g0 >= 0) & (g1 < 0)
-    return np.where(directions > 0, rising, np.where(directions < 0, falling, rising | falling))
+    rising = (g0 <= 0) & (g1 > 0) & (directions >= 0)
+    return rising | ((g0 >= 0) & (g1 < 0) & (directions <= 0))
 
 
 def bisect(g, directions, t, h, state_at, g_lo, x_hi, g_hi, restep=None):

@@ -49,6 +49,7 @@ def build(system, method, located=None):
     code = compile(source, f"<fused rhs of {system.name}>", "exec")
     exec(code, env)  # noqa: S102 - our own generated source, no user text in it
     env["advance"].source = source
+    env["advance"].stages = env["step_stages"], env["dense_at"]
     return (env["advance"], env["advance_obs"]), held
 
 
@@ -193,13 +194,12 @@ class FusedStepper:
         return np.array(X)
 
     def step(self, t0, h, k, X):
-        """Step ``k`` of size ``h`` from ``t0`` with the generated code: ``(X_next, None)``."""
-        return self.advance(t0, h, k, k + 1, X, self.H, self.P), None
+        """Step ``k`` of size ``h`` from ``t0`` with the generated code: ``(X_next, stages)``."""
+        return self.advance.stages[0](t0 + k * h, h, X, self.H, self.P)
 
-    def dense(self, t0, h, k, X, _stages, theta):
-        """The state at ``theta`` (0..1) inside step ``k``, from the generated dense output."""
-        w = self.method.dense_weights(theta)
-        return self.array(self.advance_obs(t0, h, k, k + 1, X, self.H, k, w, self.P)[2])
+    def dense(self, t0, h, k, X, stages, theta):
+        """The state at ``theta`` (0..1) inside step ``k``, from its stages (the generated dense output)."""
+        return self.array(self.advance.stages[1](X, stages, h, self.method.dense_weights(theta)))
 
     def restep(self, t, hh, X):
         """One step of size ``hh`` from ``t`` (to land on an event)."""

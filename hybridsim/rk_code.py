@@ -148,5 +148,13 @@ def unrolled_lines(method, n, rhs, extra=""):
               "            Xs = X",
               f"            Xo = {dense}",
               f"        X = {final}",
-              "    return X, Xs, Xo"]
+              "    return X, Xs, Xo", ""]
+    # one step that keeps its stages, and the dense output from them: the same expressions
+    ks = tuple_source(f"k{i + 1}" for i in range(len(method.c)))
+    lines += [f"def step_stages(t, h, X, H{extra}):"] + scaled
+    lines += ["    " + b for b in body]
+    lines += [f"    return {final}, {ks}", "",
+              "def dense_at(X, K, h, w):",
+              "    " + ", ".join(f"k{i + 1}" for i in range(len(method.c))) + ", = K",
+              f"    return {dense}"]
     return lines

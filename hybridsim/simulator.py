@@ -263,8 +263,9 @@ class Simulator:
 
         def record(t):
             rows_t.append(t)
-            rows.append(np.concatenate([ctx.y[i][o] for i, o in self._log_ports])
-                        if self._log_ports else np.zeros(0))
+            row = np.concatenate([ctx.y[i][o] for i, o in self._log_ports]) if self._log_ports else np.zeros(0)
+            rows.append(row)
+            return row
 
         try:
             self._hits(ctx, walk, rhs, events, bar, t_end, plan, blocks, hits, record)
@@ -291,8 +292,8 @@ class Simulator:
 
         def observe(tb, xb):  # with events: recorded in order, before the next event's actions
             ctx.evaluate(self.log_path, tb, xb)
-            plan.check_outputs(ctx, log_checked, tb)
-            record(tb)
+            if not np.isfinite(record(tb)).all():  # a logged value: name the block it came from
+                plan.check_outputs(ctx, log_checked, tb)
 
         with np.errstate(over="ignore", invalid="ignore"):
             for t, due, log_here, t_out, t_next in walk:
