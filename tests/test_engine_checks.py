@@ -146,3 +146,16 @@ def test_implicit_solvers_run_an_me_fmu_next_to_sampled_blocks(plant_fmu):
         assert len(res.meta["events"]) == len(rk4.meta["events"]) == 1  # contact made once
         assert abs(res.meta["events"][0][0] - rk4.meta["events"][0][0]) < 1e-5  # rk4's 0.1 ms step
         assert abs(res.meta["events"][0][0] - runs[0].meta["events"][0][0]) < 1e-8
+
+
+def test_check_refuses_for_the_compiled_path_with_the_reason_and_takes_many_states(tmp_path, capsys):
+    n = 31
+    A = (-np.eye(n)).tolist()
+    text = (f"name: many\nblocks:\n  c: {{type: constant, value: 1.0}}\n"
+            f"  ss: {{type: state_space, A: {A}, B: {np.ones((n, 1)).tolist()}, C: {np.ones((1, n)).tolist()}, "
+            "D: [[0.0]]}\nwires: [c.y -> ss.u]\nsimulation: {t_end: 0.1}\nlog: [ss.y]\n")
+    p = write(tmp_path, text)
+    assert main(["check", str(p), "--set", "simulation.compiled=true"]) == 0  # 31 states: no limit
+    code = main(["check", str(p), "--set", "simulation.compiled=true", "--set", "simulation.solver=radau"])
+    _, err = capsys.readouterr()
+    assert code == 2 and "compiled path integrates with a fixed-step Runge-Kutta" in err
