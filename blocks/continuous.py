@@ -34,10 +34,12 @@ class Integrator(Block):
 
     Notes
     -----
-    Reaching a limit is a located event: x is set to the limit and the
-    integrator stops (a mode state m = +1 at the upper limit, -1 at the
-    lower) while u pushes outward; it leaves the limit, another located event,
-    when u turns back. Ports: in ``u``, ``reset`` (optional: unwired it is 0;
+    A mode state m (0 free, +1 at the upper limit, -1 at the lower) has
+    explicit enter and leave conditions, each a located event: a free
+    integrator enters a limit when x reaches it (x set to the limit, then
+    x' = 0); a held one leaves when K u changes sign to point back inside
+    (one event, whatever the step). Only the functions of the current mode
+    are armed (the others read a constant that never fires). Ports: in ``u``, ``reset`` (optional: unwired it is 0;
     x resets when it rises through 0.5); out ``y``. Example: K = 2, u = 1
     from x(0) = 0 gives y(1 s) = 2; with upper = 1.5 it stops at 1.5 at
     t = 0.75 s.
@@ -81,22 +83,37 @@ def integrator_output(p, t, x, u):
 
 @kernel
 def integrator_derivatives(p, t, x, u):
-    m = np.asarray(x)[p.n:]
-    du = p.K * np.asarray(u[0])
-    stopped = ((m > 0.5) & (du > 0.0)) | ((m < -0.5) & (du < 0.0))
-    return np.concatenate((np.where(stopped, 0.0, du), np.zeros(p.n)))
+    n = p.n
+    dx = np.zeros(2 * n)
+    for i in range(n):
+        if abs(x[n + i]) < 0.5:  # free; held at a limit: x' = 0
+            dx[i] = p.K[i] * u[0][i]
+    return dx
 
 
 @kernel
 def integrator_crossings(p, t, x, u):
-    xa = np.asarray(x)[:p.n]
-    return np.concatenate((np.asarray(u[1]) - 0.5, xa - p.upper, xa - p.lower, xa - p.upper, xa - p.lower))
+    # reset; enter upper (rising), enter lower (falling); leave upper (K u falls below 0),
+    # leave lower (K u rises above 0); a function of another mode reads -1 / +1: never fires
+    n = p.n
+    g = np.empty(5 * n)
+    for i in range(n):
+        m, du = x[n + i], p.K[i] * u[0][i]
+        free = abs(m) < 0.5
+        g[i] = u[1][i] - 0.5
+        g[n + i] = x[i] - p.upper[i] if free else -1.0
+        g[2 * n + i] = x[i] - p.lower[i] if free else 1.0
+        g[3 * n + i] = du if m > 0.5 else 1.0
+        g[4 * n + i] = du if m < -0.5 else -1.0
+    return g
 
 
 @kernel
 def integrator_event(p, t, x, u, fired):
     n = p.n
-    out = np.asarray(x).copy()
+    out = np.empty(2 * n)
+    for i in range(2 * n):
+        out[i] = x[i]
     for i in range(n):
         if fired[3 * n + i] or fired[4 * n + i]:  # left a limit: integrate again
             out[n + i] = 0.0
@@ -259,10 +276,14 @@ def first_order_derivatives(p, t, x, u):
 class Relay(Block):
     """A relay with hysteresis: switches on when u rises through ``switch_on``, off when it falls through ``switch_off``.
 
-    y = ``y_on`` when on, ``y_off`` when off (``switch_off <= switch_on``); starts on when
-    ``initial`` is true. The switches are located state events; the state is
-    the relay's position (0 or 1), constant between them.
+    y = ``y_on`` when on, ``y_off`` when off (``switch_off <= switch_on``). It starts on
+    when u(0) > ``switch_on``, off when u(0) < ``switch_off``, else as ``initial`` says.
+    The switches are located state events; the state is the relay's position (0 or 1),
+    constant between them. Only the switch of the current position is armed: off, it
+    waits for u to rise through ``switch_on``; on, for u to fall through ``switch_off``.
     """
+
+    init_needs_inputs = True
 
     def __init__(self, name="relay", switch_on=0.0, switch_off=0.0, y_on=1.0, y_off=0.0, initial=False, width=1):
         super().__init__(name)
@@ -279,7 +300,10 @@ class Relay(Block):
         self.declare_continuous_state(n)
 
     def initial_state(self, u=None):
-        return self.x0.copy()
+        if u is None:
+            return self.x0.copy()
+        ua = np.asarray(u[0], float)
+        return np.where(ua > self.params.on, 1.0, np.where(ua < self.params.off, 0.0, self.x0))
 
 
 class RelayParams(NamedTuple):
@@ -302,8 +326,14 @@ def relay_derivatives(p, t, x, u):
 
 @kernel
 def relay_crossings(p, t, x, u):
-    ua = np.asarray(u[0])
-    return np.concatenate((ua - p.on, ua - p.off))
+    # switch on (rising) while off, switch off (falling) while on; the other reads -1 / +1
+    n = p.n
+    g = np.empty(2 * n)
+    for i in range(n):
+        on = x[i] > 0.5
+        g[i] = -1.0 if on else u[0][i] - p.on[i]
+        g[n + i] = u[0][i] - p.off[i] if on else 1.0
+    return g
 
 
 @kernel

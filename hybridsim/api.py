@@ -75,7 +75,9 @@ def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
         from .compiled import problems
         from .errors import CompiledPathError
 
-        why = problems(system, solver)
+        from .simulator import located_events
+
+        why = problems(system, solver, located_events(system, solver, bool(sim.get("locate_switches", False))))
         if why:
             raise CompiledPathError("cannot use the compiled path: " + "; ".join(why))
     simulator = Simulator(system, solver, log=log,

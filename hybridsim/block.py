@@ -122,6 +122,8 @@ class Block:
     init_needs_inputs = False
     #: the simulator records every input of this block (a scope / recorder)
     log_inputs = False
+    #: the block's outputs may be NaN or infinite (else such an output stops the run)
+    may_be_nonfinite = False
     #: the block's equations as pure functions f(p, t, x, u) (hybridsim.kernels);
     #: the methods below call them with ``params``. Blocks with kernels run on
     #: the fused and compiled paths as well as the generic one.

@@ -40,6 +40,7 @@ from .errors import CompiledPathError, SimulationError
 from .fused import event_kernels, event_sizes, has_kernels, rk_source
 from .solvers import ExplicitRK, observations, steps_between
 from .kernels import marked
+from .rk_code import tuple_source
 
 log = logging.getLogger(__name__)
 _loaded = {}        # source hash -> compiled run function (this process)
@@ -251,7 +252,7 @@ def _module_source(system, solver, log_ports, log_path, located, dense_logs=True
     blocks = sysm.blocks
     y = lambda i, o: [f"y{i}_{o}_{j}" for j in range(blocks[i].outputs[o].width)]  # noqa: E731
     z = lambda i: [f"z{i}_{j}" for j in range(blocks[i].n_discrete)]  # noqa: E731
-    tup = lambda names: "(" + "".join(n + ", " for n in names) + ")"  # noqa: E731
+    tup = tuple_source
     due_col = {i: c for c, i in enumerate(sysm.discrete)}
 
     def state(i, xname="X"):
@@ -383,7 +384,7 @@ def _interval_source(sysm, solver, located):
     for i, m in zip(located, event_sizes(sysm, located)):
         d = sysm.blocks[i].event_directions
         dirs += list(d) if d is not None else [0] * m
-    tup = lambda items: "(" + "".join(f"{x}, " for x in items) + ")"  # noqa: E731
+    tup = tuple_source
 
     def cross(j, d):
         rising, falling = f"(a[{j}] <= 0.0 and b[{j}] > 0.0)", f"(a[{j}] >= 0.0 and b[{j}] < 0.0)"

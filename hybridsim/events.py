@@ -3,8 +3,9 @@
 A block with ``event_action`` (see :mod:`hybridsim.block`) has its events
 located by every solver, to :data:`TIME_TOL`: the fixed-step methods check the
 sign of the event functions after each step of their grid, bisect the step's
-dense output and re-step to the root; the scipy solvers use ``solve_ivp``'s
-event location. At
+dense output and re-step to the root; the scipy solvers check them after each
+accepted step (and at scan points inside it) and bisect its dense output
+(docs/events-and-solvers.md). At
 the event the actions run (x+ = h(x-, u)), then again while an action makes
 another event function cross (event iteration, at most
 :data:`MAX_ITERATIONS` times at one instant), and the integration restarts
@@ -29,14 +30,16 @@ MAX_ITERATIONS = 100
 MAX_EVENTS = 100_000
 #: events in a row, each within 10 TIME_TOL of the one before, before the run counts as Zeno
 MAX_STALLS = 50
+#: a switch without an action (stick/slip, contact) located more often than this between two
+#: hits slides along its surface: it is stepped over for the rest of that interval
+MAX_REPEATS = 20
 
 
 def crossed(g0, g1, directions):
     """Boolean mask: which functions crossed zero from ``g0`` to ``g1`` in their direction."""
     g0, g1 = np.asarray(g0, float), np.asarray(g1, float)
-    rising = (g0 <= 0) & (g1 > 0)
-    falling = (g0 >= 0) & (g1 < 0)
-    return np.where(directions > 0, rising, np.where(directions < 0, falling, rising | falling))
+    rising = (g0 <= 0) & (g1 > 0) & (directions >= 0)
+    return rising | ((g0 >= 0) & (g1 < 0) & (directions <= 0))
 
 
 def bisect(g, directions, t, h, state_at, g_lo, x_hi, g_hi, restep=None):
@@ -84,20 +87,26 @@ class EventSet:
         sizes, dirs = [], []
         for i, s in self.blocks:
             b = ctx.blocks[i]
-            n = len(np.atleast_1d(b.zero_crossings(0.0, ctx.xc[s], ctx.u[i])))
+            n = len(np.atleast_1d(b.zero_crossings(0.0, ctx.xc[s] if s is not None else ctx.xd[i], ctx.u[i])))
             d = b.event_directions if b.event_directions is not None else (0,) * n
             sizes.append(n)
             dirs += list(d)
         self.cuts = np.cumsum([0] + sizes)
         self.directions = np.array(dirs, float)
+        #: functions of blocks without an action (switches that only restart the integration)
+        self.switches = np.repeat([not ctx.blocks[i].has_event_action for i, _ in self.blocks], sizes).astype(bool)
+        self.muted = np.zeros(len(dirs), dtype=bool)
         self.log = []  # (t, block names) of every event, in order
 
     def g(self, t, x):
-        """Every action block's event functions at (t, x)."""
+        """Every located block's event functions at (t, x) (a muted switch reads +1: never fires)."""
         self.outputs(t, x)
         blocks, u = self.ctx.blocks, self.ctx.u
-        vals = [np.atleast_1d(np.asarray(blocks[i].zero_crossings(t, x[s], u[i]), float)) for i, s in self.blocks]
-        return np.concatenate(vals) if vals else np.zeros(0)
+        xd = self.ctx.xd
+        vals = [np.atleast_1d(np.asarray(blocks[i].zero_crossings(t, x[s] if s is not None else xd[i], u[i]), float))
+                for i, s in self.blocks]
+        out = np.concatenate(vals) if vals else np.zeros(0)
+        return np.where(self.muted, 1.0, out) if self.muted.any() else out
 
     def next_time(self, t, x):
         """The earliest time event after ``t`` (inf: none); remembers which blocks ask for it."""
@@ -129,7 +138,7 @@ class EventSet:
             return x
         for k, (i, s) in enumerate(self.blocks):
             mine = fired[self.cuts[k]:self.cuts[k + 1]]
-            if mine.any():
+            if mine.any() and s is not None:  # a stateless block's switch only restarts
                 new = blocks[i].event_action(t, x[s].copy(), u[i], tuple(bool(f) for f in mine))
                 if new is not None:
                     x[s] = new
@@ -169,27 +178,31 @@ def chatter_error(t, names):
                            f"actions (chattering) in block(s) {', '.join(names)}")
 
 
-def integrate(solver, f, events, t0, t1, x, t_out, restarts=None, observe=None):
+def integrate(solver, f, events, t0, t1, x, t_out, observe=None, check=None, mute=False):
     """Integrate from hit ``t0`` to hit ``t1`` stopping at time events and located state events.
 
-    ``solver`` gives ``advance_to_event(f, t0, t1, x, t_out, g, directions)``
+    ``solver`` gives ``advance_to_event(f, t0, t1, x, t_out, g, directions, check=check)``
     returning ``(t_stop, x_stop, fired, outs)``; ``fired`` None means it
-    reached ``t1``. ``restarts``: zero crossings without actions (the scipy
-    solvers restart at them). ``observe(t, x)``: called for each log time as
+    reached ``t1``. ``observe(t, x)``: called for each log time as
     soon as its segment is integrated, before the next event's actions (a
     block with hidden discrete state, an FMU, then shows the value of that
-    time); without it the states come back in ``outs``. Returns ``(x, outs)``
+    time); without it the states come back in ``outs``. ``check(t, x)``: the
+    divergence check, after every accepted step. ``mute``: a switch without an
+    action located more than :data:`MAX_REPEATS` times is stepped over until
+    ``t1`` (the scipy solvers: a sliding friction surface). Returns ``(x, outs)``
     like ``solver.advance``.
     """
     outs, pending = [], list(t_out)
     count = stalls = 0
+    events.muted[:] = False
+    repeats = np.zeros(len(events.directions), dtype=np.int64)
     while True:
         te = events.next_time(t0, x)
         stop = min(t1, te) if te > t0 + TIME_TOL else t1
         here = [tb for tb in pending if tb < stop]
         g = events.g if events.blocks else None
-        extra = {"events": restarts} if restarts is not None and not hasattr(solver, "dense") else {}
-        t_stop, x_stop, fired, got = solver.advance_to_event(f, t0, stop, x, here, g, events.directions, **extra)
+        t_stop, x_stop, fired, got = solver.advance_to_event(f, t0, stop, x, here, g, events.directions,
+                                                             check=check)
         if observe is not None:
             for tb, xb in zip(pending, got):
                 observe(tb, xb)
@@ -202,6 +215,9 @@ def integrate(solver, f, events, t0, t1, x, t_out, restarts=None, observe=None):
             if count > MAX_EVENTS or stalls > MAX_STALLS:
                 raise zeno_error(t_stop, events.names(fired), count > MAX_EVENTS, stalls)
             x = events.settle(t_stop, x_stop, events.g(t_stop, x_stop), fired)
+            if mute:
+                repeats += fired & events.switches
+                events.muted |= repeats > MAX_REPEATS
         elif stop < t1:
             events.log.append((stop, tuple(sorted(events.system.blocks[i].name for i, _ in events.due))))
             x = events.act(stop, x_stop, None)

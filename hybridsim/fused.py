@@ -14,7 +14,7 @@ It performs exactly the operations of the generic path in the same order, so
 both give the same numbers (a test checks it bit for bit); the generic path
 remains the reference. Discontinuities are stepped over.
 """
-from .rk_code import unrolled_lines
+from .rk_code import tuple_source, unrolled_lines
 from .solvers import ExplicitRK
 
 
@@ -49,6 +49,7 @@ def build(system, method, located=None):
     code = compile(source, f"<fused rhs of {system.name}>", "exec")
     exec(code, env)  # noqa: S102 - our own generated source, no user text in it
     env["advance"].source = source
+    env["advance"].stages = env["step_stages"], env["dense_at"]
     return (env["advance"], env["advance_obs"]), held
 
 
@@ -92,7 +93,7 @@ def rk_source(system, method, params_arg=False, located=None):
     for i in path:
         env[f"out{i}"] = sysm.blocks[i].kernels.output
         args = [arg(i, a, o, k, done) for k, (a, o) in enumerate(sysm.sources[i])]
-        lines.append(f"    o{i} = out{i}({params(i)}, t, {state(i)}, ({''.join(x + ', ' for x in args)}))")
+        lines.append(f"    o{i} = out{i}({params(i)}, t, {state(i)}, {tuple_source(args)})")
         done.add(i)
     done = on_path
     parts = []
@@ -100,9 +101,9 @@ def rk_source(system, method, params_arg=False, located=None):
     for i in stateful:
         env[f"der{i}"] = sysm.blocks[i].kernels.derivatives
         args = [arg(i, a, o, k, done) for k, (a, o) in enumerate(sysm.sources[i])]
-        lines.append(f"    d{i} = der{i}({params(i)}, t, {state(i)}, ({''.join(x + ', ' for x in args)}))")
+        lines.append(f"    d{i} = der{i}({params(i)}, t, {state(i)}, {tuple_source(args)})")
         parts += [f"d{i}[{j}]" for j in range(sysm.blocks[i].n_continuous)]
-    lines.append(f"    return ({''.join(p + ', ' for p in parts)})")
+    lines.append(f"    return {tuple_source(parts)}")
     lines += [""] + unrolled_lines(method, n, "rhs", extra)
     located = sysm.action_events if located is None else located
     if located and all(event_kernels(sysm.blocks[i]) for i in located):
@@ -136,9 +137,9 @@ def _event_lines(sysm, located, outputs, params, arg, state, env, extra):
     for i, m in zip(located, sizes):
         env[f"zcf{i}"] = sysm.blocks[i].kernels.zero_crossings
         args = [arg(i, a, o, k, on_path) for k, (a, o) in enumerate(sysm.sources[i])]
-        lines.append(f"    z{i} = zcf{i}({params(i)}, t, {state(i)}, ({''.join(x + ', ' for x in args)}))")
+        lines.append(f"    z{i} = zcf{i}({params(i)}, t, {state(i)}, {tuple_source(args)})")
         parts += [f"z{i}[{j}]" for j in range(m)]
-    lines.append(f"    return ({''.join(p + ', ' for p in parts)})")
+    lines.append(f"    return {tuple_source(parts)}")
     lines += ["", f"def act(t, X, H, F{extra}):"] + outputs
     new = [f"X[{j}]" for j in range(sysm.n_x)]
     c = 0
@@ -149,18 +150,18 @@ def _event_lines(sysm, located, outputs, params, arg, state, env, extra):
             continue
         env[f"actf{i}"] = sysm.blocks[i].kernels.event_action
         args = [arg(i, a, o, k, on_path) for k, (a, o) in enumerate(sysm.sources[i])]
-        fired = "(" + "".join(f"F[{c + j}], " for j in range(m)) + ")"
+        fired = tuple_source(f"F[{c + j}]" for j in range(m))
         # element by element: an action may return a tuple or an array (numba unifies floats only)
         names = [f"a{i}_{j - s.start}" for j in range(s.start, s.stop)]
         lines += [f"    if {' or '.join(f'F[{c + j}]' for j in range(m))}:",
-                  f"        a{i} = actf{i}({params(i)}, t, {state(i)}, ({''.join(x + ', ' for x in args)}), {fired})"]
+                  f"        a{i} = actf{i}({params(i)}, t, {state(i)}, {tuple_source(args)}, {fired})"]
         lines += [f"        {n} = a{i}[{k}]" for k, n in enumerate(names)]
         lines.append("    else:")
         lines += [f"        {n} = X[{j}]" for n, j in zip(names, range(s.start, s.stop))]
         for j, n in zip(range(s.start, s.stop), names):
             new[j] = n
         c += m
-    lines.append(f"    return ({''.join(x + ', ' for x in new)})")
+    lines.append(f"    return {tuple_source(new)}")
     return lines
 
 
@@ -176,9 +177,9 @@ class FusedStepper:
     def __init__(self, method, advance, H, P):
         self.method, (self.advance, self.advance_obs), self.H, self.P = method, advance, H, P
 
-    def advance_to_event(self, f, t0, t1, x, t_out, g, directions):
+    def advance_to_event(self, f, t0, t1, x, t_out, g, directions, check=None):
         """See :meth:`hybridsim.solvers.ExplicitRK.advance_to_event` (``f`` is not used)."""
-        return self.method.advance_to_event(f, t0, t1, x, t_out, g, directions, steps_with=self)
+        return self.method.advance_to_event(f, t0, t1, x, t_out, g, directions, steps_with=self, check=check)
 
     def first(self, x):
         """The state in this stepper's form (a tuple of floats)."""
@@ -193,13 +194,12 @@ class FusedStepper:
         return np.array(X)
 
     def step(self, t0, h, k, X):
-        """Step ``k`` of size ``h`` from ``t0`` with the generated code: ``(X_next, None)``."""
-        return self.advance(t0, h, k, k + 1, X, self.H, self.P), None
+        """Step ``k`` of size ``h`` from ``t0`` with the generated code: ``(X_next, stages)``."""
+        return self.advance.stages[0](t0 + k * h, h, X, self.H, self.P)
 
-    def dense(self, t0, h, k, X, _stages, theta):
-        """The state at ``theta`` (0..1) inside step ``k``, from the generated dense output."""
-        w = self.method.dense_weights(theta)
-        return self.array(self.advance_obs(t0, h, k, k + 1, X, self.H, k, w, self.P)[2])
+    def dense(self, t0, h, k, X, stages, theta):
+        """The state at ``theta`` (0..1) inside step ``k``, from its stages (the generated dense output)."""
+        return self.array(self.advance.stages[1](X, stages, h, self.method.dense_weights(theta)))
 
     def restep(self, t, hh, X):
         """One step of size ``hh`` from ``t`` (to land on an event)."""

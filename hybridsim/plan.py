@@ -43,6 +43,13 @@ class Plan:
             self._passes[key] = [i for i, disc in self.hit_sequence() if not disc or i in key]
         return self._passes[key]
 
+    def hit_checked(self, due):
+        """:meth:`checked_outputs` of :meth:`hit_pass` (kept per set of due blocks)."""
+        key = ("checked", frozenset(due))
+        if key not in self._passes:
+            self._passes[key] = self.checked_outputs(self.hit_pass(due))
+        return self._passes[key]
+
     def update_order(self, due):
         """The due discrete blocks in the order their updates run."""
         return sorted(due)
@@ -80,11 +87,48 @@ class Plan:
             raise SimulationError(f"simulation diverged at t={t:.6g} s: discrete state of block "
                                   f"{self.system.blocks[i].name!r} is not finite")
 
-    def check_continuous(self, x, t, max_state):
-        """Raise :class:`SimulationError` when a continuous state is not finite or beyond ``max_state``."""
+    def checked_outputs(self, path):
+        """The blocks of ``path`` whose outputs :meth:`check_outputs` checks (those that do not
+        declare ``may_be_nonfinite``)."""
+        blocks = self.system.blocks
+        return [i for i in path if blocks[i].outputs and not blocks[i].may_be_nonfinite]
+
+    def check_outputs(self, ctx, checked, t):
+        """Raise :class:`SimulationError` naming the first block of ``checked`` (see
+        :meth:`checked_outputs`) whose output at ``t`` is NaN or infinite."""
+        y = ctx.y
+        if not checked or np.isfinite(np.concatenate([v for i in checked for v in y[i]])).all():
+            return
+        for i in checked:
+            for o, v in enumerate(y[i]):
+                if not np.isfinite(v).all():
+                    b = self.system.blocks[i]
+                    raise SimulationError(
+                        f"block {b.name!r} ({type(b).__name__}) gave a non-finite output at t={t:.9g} s: "
+                        f"{b.outputs[o].name} = {np.array2string(v, precision=4)} (a division by zero, the "
+                        "log of a negative number, an overflow?)")
+
+    def blame(self, ctx, t, x):
+        """The first block on the right-hand side whose output at (t, x) is not finite although
+        its inputs and state are: raises its :class:`SimulationError` (else returns)."""
+        sysm = self.system
+        for i in sysm.rhs_path:
+            b = ctx.blocks[i]
+            ctx.evaluate((i,), t, x)
+            own = ctx.block_state(i, x)
+            fine_in = all(np.isfinite(v).all() for v in ctx.u[i]) and np.isfinite(own).all()
+            if fine_in and not b.may_be_nonfinite:
+                self.check_outputs(ctx, [i], t)
+
+    def check_continuous(self, x, t, max_state, ctx=None):
+        """Raise :class:`SimulationError` when a continuous state is not finite or beyond
+        ``max_state`` (with ``ctx``: naming the block whose output made it so, when one did)."""
         bad = ~np.isfinite(x) | (np.abs(x) > max_state)
         if bad.any():
             k = int(np.argmax(bad))
+            if ctx is not None and not np.isfinite(x[k]):
+                with np.errstate(all="ignore"):
+                    self.blame(ctx, t, x)
             name, j = self.system.state_owner(k)
             raise SimulationError(
                 f"simulation diverged at t={t:.6g} s: state {j} of block {name!r} "

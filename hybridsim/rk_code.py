@@ -18,6 +18,21 @@ non-zero coefficients, each coefficient times ``h`` computed once per call
 """
 
 
+#: the most items one generated tuple display holds: CPython builds a longer one through a
+#: list, which numba's bytecode reader does not always take (AssertionError in its peephole)
+TUPLE_CHUNK = 30
+
+
+def tuple_source(items):
+    """Source of a tuple of the expressions ``items``: ``(a, b, )``, written as a sum of
+    displays of at most :data:`TUPLE_CHUNK` items when longer (the same tuple)."""
+    items = list(items)
+    if not items:
+        return "()"
+    chunks = [items[k:k + TUPLE_CHUNK] for k in range(0, len(items), TUPLE_CHUNK)]
+    return " + ".join("(" + "".join(f"{x}, " for x in c) + ")" for c in chunks)
+
+
 def _terms(coefs):
     return [(c, j) for j, c in enumerate(coefs) if c != 0.0]
 
@@ -107,7 +122,7 @@ def unrolled_lines(method, n, rhs, extra=""):
     dense-output weights ``w`` inside it (one call per log point).
     """
     def tup(expr):
-        return "(" + "".join(expr(f"[{j}]") + ", " for j in range(n)) + ")"
+        return tuple_source(expr(f"[{j}]") for j in range(n))
 
     body = []
     for i, (c, row) in enumerate(zip(method.c, method.A)):
@@ -133,5 +148,13 @@ def unrolled_lines(method, n, rhs, extra=""):
               "            Xs = X",
               f"            Xo = {dense}",
               f"        X = {final}",
-              "    return X, Xs, Xo"]
+              "    return X, Xs, Xo", ""]
+    # one step that keeps its stages, and the dense output from them: the same expressions
+    ks = tuple_source(f"k{i + 1}" for i in range(len(method.c)))
+    lines += [f"def step_stages(t, h, X, H{extra}):"] + scaled
+    lines += ["    " + b for b in body]
+    lines += [f"    return {final}, {ks}", "",
+              "def dense_at(X, K, h, w):",
+              "    " + ", ".join(f"k{i + 1}" for i in range(len(method.c))) + ", = K",
+              f"    return {dense}"]
     return lines

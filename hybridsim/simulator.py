@@ -41,8 +41,9 @@ class Simulator:
         Recording interval in s (default 0.5 ms). Sample hits do not add
         extra rows; every row is on this grid.
     max_state : float
-        A continuous state larger than this in magnitude (or not finite)
-        stops the run with :class:`SimulationError`.
+        A continuous state larger than this in magnitude (or not finite) after
+        any accepted step stops the run with :class:`SimulationError`; so does
+        a non-finite block output (unless the block sets ``may_be_nonfinite``).
     progress : bool
         Show a progress bar (tqdm) on runs that last more than a second.
     fused : bool
@@ -53,7 +54,7 @@ class Simulator:
         With a fixed-step method, also locate every zero crossing without a
         reset (stick/slip, contact make/break) and restart the step grid
         there, as events with resets always are (default False: stepped over;
-        the scipy solvers always restart at them).
+        the scipy solvers always locate them).
     compiled : bool
         Run the whole loop compiled with numba (:mod:`hybridsim.compiled`):
         RK4 only, every block with kernels; raises
@@ -90,12 +91,8 @@ class Simulator:
         self._log_ports = [system.port_ref(r) for r in refs]
         self.log_path = system.evaluation_path({i for i, _ in self._log_ports})
         from . import fused as _fused
-        from .solvers import ExplicitRK
 
-        # events a fixed-step method locates: those with resets, and with locate_switches every switch
-        self.located = list(system.action_events)
-        if locate_switches and isinstance(self.solver, ExplicitRK):
-            self.located += [i for i in system.events if i not in self.located]
+        self.located = located_events(system, self.solver, locate_switches)
 
         self._fused = (_fused.build(system, self.solver, self.located)
                        if fused and _fused.eligible(system, self.solver) else None)
@@ -217,8 +214,16 @@ class Simulator:
         wall0 = _time.perf_counter()
         try:
             if self._compiled is not None:
-                rows_t, rows, hits = self._compiled.run(ctx, stops, t_end, self._final_record(t_end),
-                                                        self.max_state)
+                saved = _snapshot(ctx)
+                try:
+                    rows_t, rows, hits = self._compiled.run(ctx, stops, t_end, self._final_record(t_end),
+                                                            self.max_state)
+                    failed = not np.isfinite(rows).all()
+                except SimulationError:
+                    failed = True
+                if failed:  # the Python loop (the same numbers) says where and why, at its step
+                    _restore(ctx, saved)
+                    rows_t, rows, hits = self._loop(ctx, self._walk(stops, t_end), rhs, events, bar, t_end)
                 hits = dict(hits)
             else:
                 rows_t, rows, hits = self._loop(ctx, self._walk(stops, t_end), rhs, events, bar, t_end)
@@ -258,8 +263,9 @@ class Simulator:
 
         def record(t):
             rows_t.append(t)
-            rows.append(np.concatenate([ctx.y[i][o] for i, o in self._log_ports])
-                        if self._log_ports else np.zeros(0))
+            row = np.concatenate([ctx.y[i][o] for i, o in self._log_ports]) if self._log_ports else np.zeros(0)
+            rows.append(row)
+            return row
 
         try:
             self._hits(ctx, walk, rhs, events, bar, t_end, plan, blocks, hits, record)
@@ -273,14 +279,26 @@ class Simulator:
         """The hits of :meth:`_loop` in order (a :class:`StopRequest` ends them)."""
         sysm = self.system
         xc = ctx.xc
+        max_state = self.max_state
+
+        def check(tb, xb):  # after every accepted step
+            if not np.max(np.abs(xb)) <= max_state:
+                plan.check_continuous(xb, tb, max_state, ctx)
+
+        check.blame = lambda tb, xb: plan.blame(ctx, tb, xb)
+        check.ok = lambda xb: np.max(np.abs(xb)) <= max_state  # False for NaN
+
+        log_checked = plan.checked_outputs(self.log_path)
 
         def observe(tb, xb):  # with events: recorded in order, before the next event's actions
             ctx.evaluate(self.log_path, tb, xb)
-            record(tb)
+            if not np.isfinite(record(tb)).all():  # a logged value: name the block it came from
+                plan.check_outputs(ctx, log_checked, tb)
 
         with np.errstate(over="ignore", invalid="ignore"):
             for t, due, log_here, t_out, t_next in walk:
                 plan.outputs(ctx, t, xc, due)
+                plan.check_outputs(ctx, plan.hit_checked(due), t)
                 if log_here:
                     record(t)
                 for i, x in plan.updates(ctx, t, due):
@@ -290,24 +308,22 @@ class Simulator:
                 if sysm.n_x:
                     if ctx.events is not None:
                         xc, _ = _events.integrate(self._stepper(ctx), rhs, ctx.events, t, t_next, xc, t_out,
-                                                  events, observe)
+                                                  observe, check, mute=not hasattr(self.solver, "dense"))
                         xs, t_out = [], ()
                     elif self._fused is not None:
-                        xc, xs = self._advance_fused(ctx, t, t_next, xc, t_out)
+                        xc, xs = self._advance_fused(ctx, t, t_next, xc, t_out, check)
                     else:
-                        xc, xs = self.solver.advance(rhs, t, t_next, xc, t_out, events)
-                    plan.check_continuous(xc, t_next, self.max_state)
+                        xc, xs = self.solver.advance(rhs, t, t_next, xc, t_out, events, check=check)
+                    plan.check_continuous(xc, t_next, self.max_state, ctx)
                 else:
                     xs = [xc] * len(t_out)
                 for tb, xb in zip(t_out, xs):
-                    ctx.evaluate(self.log_path, tb, xb)
-                    record(tb)
+                    observe(tb, xb)
                 ctx.xc = xc
                 if bar is not None:
                     bar.update(t_next - bar.n)
             if self._final_record(t_end):
-                ctx.evaluate(self.log_path, t_end, xc)
-                record(t_end)
+                observe(t_end, xc)
 
     def _final_record(self, t_end):
         """A row at t_end when it lies on the log grid (the hits stop before it)."""
@@ -338,9 +354,11 @@ class Simulator:
         advance, held = self._fused
         return FusedStepper(self.solver, advance, tuple(tuple(ctx.y[a][o].tolist()) for a, o in held), ctx.params)
 
-    def _advance_fused(self, ctx, t0, t1, x, t_out):
+    def _advance_fused(self, ctx, t0, t1, x, t_out, check=None):
         """The solver's steps over [t0, t1] with the generated fused stepper; states at t_out
-        from its dense output (the same step grid whatever is logged)."""
+        from its dense output (the same step grid whatever is logged). ``check``: the
+        divergence check, on the final state; when it fails the interval is stepped again
+        one step at a time (the same numbers) so that it fails at the first bad step."""
         from .solvers import observation, steps
 
         (advance, advance_obs), held = self._fused
@@ -366,7 +384,39 @@ class Simulator:
             if after is not None:
                 X, k = after, k + 1
             X = advance(t0, h, k, n, X, H, P)
+            if check is not None and not check.ok(np.array(X)):
+                X = tuple(x.tolist())
+                for k in range(n):
+                    X = advance(t0, h, k, k + 1, X, H, P)
+                    check(t0 + (k + 1) * h, np.array(X))
         return np.array(X), outs
+
+
+def located_events(system, solver, locate_switches=False):
+    """The blocks whose events ``solver`` locates: those with resets, and on the scipy solvers
+    (or with ``locate_switches``) every block with zero crossings."""
+    from .solvers import ExplicitRK
+
+    located = list(system.action_events)
+    if locate_switches or not isinstance(solver, ExplicitRK):
+        located += [i for i in system.events if i not in located]
+    return located
+
+
+def _snapshot(ctx):
+    """Copies of a context's numbers (states, wires, event log)."""
+    return (ctx.xc.copy(), [x.copy() for x in ctx.xd], [[v.copy() for v in vals] for vals in ctx.y])
+
+
+def _restore(ctx, saved):
+    """Put back what :func:`_snapshot` took (the wire buffers in place: inputs alias them)."""
+    xc, xd, y = saved
+    ctx.xc, ctx.xd = xc.copy(), [x.copy() for x in xd]
+    for vals, old in zip(ctx.y, y):
+        for v, o in zip(vals, old):
+            v[:] = o
+    if ctx.events is not None:
+        ctx.events.log = []
 
 
 class Stops(NamedTuple):

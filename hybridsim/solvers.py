@@ -2,11 +2,12 @@
 
 Both solvers share one method::
 
-    x1, xs_out = solver.advance(f, t0, t1, x0, t_out, events=None)
+    x1, xs_out = solver.advance(f, t0, t1, x0, t_out, events=None, check=None)
 
 ``f(t, x)`` is the diagram's fused right-hand side; ``t_out`` are times in
-``(t0, t1)`` at which states are wanted (logging); ``events(t, x)`` returns the
-zero-crossing functions of the diagram (or is None).
+``(t0, t1)`` at which states are wanted (logging); ``check(t, x)`` the
+divergence check. ``advance_to_event`` also stops at the first located event
+of given event functions (see docs/events-and-solvers.md).
 
 * :class:`RK4` (and :class:`Heun`, any :class:`ExplicitRK` tableau) -
   fixed-step explicit Runge-Kutta. Each interval between sample hits is cut
@@ -16,27 +17,20 @@ zero-crossing functions of the diagram (or is None).
   mode, neither damps nor amplifies it noticeably (the default 1e-4 s gives
   < 1e-4 relative amplitude error per period). Discontinuities are stepped
   over; their effect is checked by the step-convergence tests.
-* :class:`ScipySolver` - ``scipy.integrate.solve_ivp`` with any of its
-  methods (Radau, BDF, LSODA, RK45, DOP853, ...), relative and per-state
-  absolute tolerances, and event location: integration stops at each zero
-  crossing and restarts there, so a stiff method never steps across a friction
-  or contact switch.
+* :class:`ScipySolver` - scipy's ``OdeSolver`` classes (Radau, BDF, LSODA,
+  RK45, RK23, DOP853) stepped one accepted step at a time, with relative and
+  per-state absolute tolerances; the event functions are compared between
+  accepted steps and bisected on the step's dense output, and the
+  integration restarts at each event, so a stiff method never steps across a
+  friction or contact switch.
 """
 import math
 
 import numpy as np
-from scipy.integrate import solve_ivp
+from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
 
 from .errors import SimulationError
 
-#: restarts at zero crossings allowed within one interval between sample hits
-MAX_RESTARTS = 10000
-#: after a crossing, that switch is re-armed this fraction of the interval later,
-#: once its function is at least REARM_LEVEL away from zero
-REARM = 1e-4
-REARM_LEVEL = 1e-12
-#: a switch located more often than this in one interval is stepped over for the rest of it
-MAX_REPEATS = 20
 
 
 def steps(t0, t1, step):
@@ -110,13 +104,13 @@ class ExplicitRK:
             return np.stack(cols, axis=-1)
         return tuple(float(w) for w in cols)
 
-    def advance(self, f, t0, t1, x, t_out=(), events=None):
+    def advance(self, f, t0, t1, x, t_out=(), events=None, check=None):
         """Integrate ``x`` from ``t0`` to ``t1``; also return the states at ``t_out``
         (``events``, zero crossings without resets, are stepped over)."""
-        _, x, _, outs = self.advance_to_event(f, t0, t1, x, t_out, None, None)
+        _, x, _, outs = self.advance_to_event(f, t0, t1, x, t_out, None, None, check=check)
         return x, outs
 
-    def advance_to_event(self, f, t0, t1, x, t_out, g, directions, steps_with=None):
+    def advance_to_event(self, f, t0, t1, x, t_out, g, directions, steps_with=None, check=None):
         """Like :meth:`advance`, stopping at the first located event of ``g``.
 
         Returns ``(t_stop, x_stop, fired, outs)``: ``fired`` (a mask over the
@@ -126,6 +120,7 @@ class ExplicitRK:
         comes from re-stepping to it (one step of ``theta h``: the method's order)
         when that state is past the surface too. ``steps_with``: what takes the
         steps (:class:`Steps` by default; the fused path gives its generated ones).
+        ``check(t, x)``: called with the state after every step (it raises on divergence).
         """
         from .events import bisect, crossed
 
@@ -156,9 +151,26 @@ class ExplicitRK:
                 j += 1
             if event:
                 theta, x_ev, fired = event
-                return (t + theta * h if theta < 1.0 else t0 + (k + 1) * h), x_ev, fired, outs
+                t_ev = t + theta * h if theta < 1.0 else t0 + (k + 1) * h
+                if check is not None:
+                    self._check_steps(st, t0, h, k, x, X, check)
+                    check(t_ev, x_ev)
+                return t_ev, x_ev, fired, outs
             X = X_next
+        if check is not None:
+            self._check_steps(st, t0, h, n, x, X, check)
         return t1, st.array(X), None, outs
+
+    @staticmethod
+    def _check_steps(st, t0, h, n, x, X, check):
+        """``check`` the state after each of the first ``n`` steps from ``x`` at ``t0`` (``X``
+        after the last): when ``X`` fails ``check.ok``, the steps are taken again (the same
+        numbers) so that ``check`` raises at the first bad one."""
+        if n and not check.ok(st.array(X)):
+            X = st.first(x)
+            for k in range(n):
+                X = st.step(t0, h, k, X)[0]
+                check(t0 + (k + 1) * h, st.array(X))
 
     def __repr__(self):
         return f"{type(self).__name__}(step={self.step:g})"
@@ -219,153 +231,127 @@ FIXED_STEP = {cls.name: cls for cls in (RK4, Heun)}
 
 
 class ScipySolver:
-    """``solve_ivp`` with restarts at sample hits and at zero crossings."""
+    """A scipy ``OdeSolver`` (Radau, BDF, LSODA, RK45, RK23, DOP853) stepped one accepted step at
+    a time, with the event functions checked between steps.
 
-    def __init__(self, method="Radau", rtol=1e-8, atol=1e-10, max_step=np.inf):
+    Each interval between stops starts a fresh solver (a sample hit or an
+    event restarts the integration cleanly: no step straddles it). After each
+    accepted step the event functions are compared, by
+    :func:`~hybridsim.events.crossed`, at the step's ends and at points of its
+    dense output no more than ``scan`` s apart; the first sign change is
+    bisected on the dense output to :data:`~hybridsim.events.TIME_TOL`. A
+    change and change back between two such points is not seen.
+
+    Parameters
+    ----------
+    method : str
+        ``solve_ivp``'s name of the method.
+    rtol, atol : float or array
+        Relative and (per state) absolute tolerance.
+    max_step : float
+        Longest step, s (default unlimited).
+    scan : float
+        Longest stretch, s, between two checks of the event functions inside
+        one step (default 1 ms): event functions driven by time rather than by
+        the states (a relay on a sine source) do not shorten the solver's steps.
+    """
+
+    def __init__(self, method="Radau", rtol=1e-8, atol=1e-10, max_step=np.inf, scan=1e-3):
+        if method not in METHODS:
+            raise ValueError(f"unknown scipy method {method!r}; one of {', '.join(METHODS)}")
+        if not scan > 0:
+            raise ValueError(f"scan must be positive, got {scan!r}")
         self.method, self.rtol, self.max_step = method, float(rtol), float(max_step)
-        self.atol = atol
+        self.atol, self.scan = atol, float(scan)
         self.name = method.lower()
 
-    def advance(self, f, t0, t1, x, t_out=(), events=None):
-        """Integrate from ``t0`` to ``t1`` restarting at every zero crossing of ``events``;
-        returns ``(x, states at t_out)``."""
-        return self.advance_to_event(f, t0, t1, x, t_out, None, None, events)[1::2]
+    def advance(self, f, t0, t1, x, t_out=(), events=None, check=None):
+        """Integrate from ``t0`` to ``t1``; returns ``(x, states at t_out)``. (``events``: not
+        used; the simulator locates every zero crossing on these solvers.)"""
+        return self.advance_to_event(f, t0, t1, x, t_out, None, None, check=check)[1::2]
 
-    def advance_to_event(self, f, t0, t1, x, t_out, g, directions, events=None):
-        """Like :meth:`advance`, stopping at the first event of ``g`` (located by solve_ivp).
+    def advance_to_event(self, f, t0, t1, x, t_out, g, directions, check=None):
+        """Like :meth:`ExplicitRK.advance_to_event`: ``(t_stop, x_stop, fired, outs)``.
 
-        Returns ``(t_stop, x_stop, fired, outs)`` as :meth:`ExplicitRK.advance_to_event`;
-        ``events`` (restart-only zero crossings) restart the solver without stopping.
-        """
-        pending = sorted(t_out)
-        outs = []
-        while pending and pending[0] <= t0:  # a log time at the start (after an event): its state
-            pending.pop(0)
-            outs.append(np.array(x, float))
-        if g is not None:
-            g0 = np.asarray(g(t0, x), float)
-            if (np.abs(g0) <= REARM_LEVEL).any():  # a function on its surface (just reset to 0)
-                got = self._leave_surface(f, t0, t1, x, pending, outs, g, g0, directions)
-                if got is not None:
-                    return got
-        actions = _action_functions(g, directions) if g is not None else []
-        skip = None  # the event just located is not armed again at its own root
-        stretch = REARM * (t1 - t0)
-        hits, muted = {}, set()  # a switch that fires over and over (sliding along it) is muted
-        for _ in range(MAX_RESTARTS):
-            off = muted | ({skip} if skip is not None else set())
-            funs = (_event_functions(events, t0, x, off) if events is not None else []) + actions
-            # the event just located stays disarmed only until its function has left
-            # zero, so a quick second crossing of the same switch is not stepped over
-            t_end = t1 if skip is None else min(t1, t0 + stretch)
-            sol = solve_ivp(
-                f, (t0, t_end), x, method=self.method, rtol=self.rtol, atol=self.atol,
-                max_step=self.max_step, dense_output=bool(pending), events=funs or None,
-            )
-            if sol.status == -1:
-                raise SimulationError(
-                    f"solver {self.method} failed at t={sol.t[-1]:.6g} s: {sol.message}"
-                )
-            if sol.status == 1:  # stopped at a zero crossing
-                k = next(k for k, te in enumerate(sol.t_events) if len(te))
-                t_stop, x_stop = sol.t_events[k][0], sol.y_events[k][0]
-                if hasattr(funs[k], "a"):  # an event with an action: the caller takes over here
-                    while pending and pending[0] <= t_stop:
-                        outs.append(sol.sol(pending.pop(0)))
-                    fired = np.zeros(len(actions), dtype=bool)
-                    fired[funs[k].a] = True
-                    return t_stop, x_stop, fired, outs
-                skip, stretch = funs[k].j, REARM * (t1 - t0)
-                hits[skip] = hits.get(skip, 0) + 1
-                if hits[skip] > MAX_REPEATS:
-                    muted.add(skip)  # stepped over from here to the next sample hit
-            else:
-                t_stop, x_stop = t_end, sol.y[:, -1]
-                if skip is not None and abs(np.asarray(events(t_stop, x_stop))[skip]) < REARM_LEVEL:
-                    stretch *= 2  # still at its root: keep it disarmed a while longer
-                else:
-                    skip = None
-            while pending and pending[0] <= t_stop:
-                outs.append(sol.sol(pending.pop(0)))
-            if t_stop >= t1:
-                return t1, x_stop, None, outs
-            t0, x = t_stop, x_stop
-        raise SimulationError(
-            f"more than {MAX_RESTARTS} zero crossings before t={t1:.6g} s "
-            "(a switch is chattering)"
-        )
-
-    def _leave_surface(self, f, t0, t1, x, pending, outs, g, g0, directions):
-        """The first stretch after a start on an event surface, as a fixed-step method sees it.
-
-        solve_ivp would find a root at ``t0`` itself and stop there for ever; instead the
-        solver runs a short stretch without events, compares the functions' signs at its
-        ends (as :func:`~hybridsim.events.crossed` defines a crossing) and bisects its
-        dense output for the first. Returns ``(t_stop, x_stop, fired, outs)`` for an
-        event in the stretch, else None (then ``x``/``t0`` are not advanced: the caller
-        integrates from the start, the function now armed once it has left zero).
+        ``check(t, x)``: called with the state after every accepted step (it
+        raises on divergence).
         """
         from .events import bisect, crossed
 
-        t_s = min(t1, t0 + REARM * (t1 - t0))
-        sol = solve_ivp(f, (t0, t_s), x, method=self.method, rtol=self.rtol, atol=self.atol,
-                        max_step=self.max_step, dense_output=True)
-        if sol.status == -1:
-            raise SimulationError(f"solver {self.method} failed at t={sol.t[-1]:.6g} s: {sol.message}")
-        g_s = np.asarray(g(t_s, sol.y[:, -1]), float)
-        if not crossed(g0, g_s, directions).any():
-            return None
-        h = t_s - t0
-        theta, x_ev, fired = bisect(g, directions, t0, h, lambda th: sol.sol(t0 + th * h), g0, sol.y[:, -1], g_s)
-        t_stop = t0 + theta * h
-        while pending and pending[0] < t_stop:
-            outs.append(sol.sol(pending.pop(0)))
-        return t_stop, x_ev, fired, outs
+        pending = sorted(t_out)
+        outs = []
+        x = np.array(x, float)
+        while pending and pending[0] <= t0:  # a log time at the start (after an event): its state
+            pending.pop(0)
+            outs.append(x.copy())
+        if t1 <= t0:
+            return t1, x, None, outs
+        seen = []  # the first (t, x) where the right-hand side was not finite
+
+        def fun(t, y):
+            dx = f(t, y)
+            if not seen and not np.isfinite(dx).all():
+                seen.append((t, np.array(y, float)))
+            return dx
+
+        solver = METHODS[self.method](fun, t0, x, t1, rtol=self.rtol, atol=self.atol, max_step=self.max_step)
+        g_a = np.asarray(g(t0, x), float) if g is not None else None
+        while solver.status == "running":
+            try:
+                message = solver.step()
+            except (ValueError, np.linalg.LinAlgError) as exc:  # scipy's linear algebra on NaN
+                if not seen:
+                    raise
+                solver.status, message = "failed", str(exc)
+            if solver.status == "failed":
+                if seen and hasattr(check, "blame"):
+                    check.blame(*seen[0])  # the block whose output was not finite, when one was
+                why = f" (the right-hand side is not finite at t={seen[0][0]:.9g} s)" if seen else ""
+                raise SimulationError(f"solver {self.method} failed at t={solver.t:.9g} s: {message}{why}")
+            ta, tb, xb = solver.t_old, solver.t, solver.y.copy()
+            dense = solver.dense_output() if (pending and pending[0] <= tb) or g is not None else None
+            if g is not None:
+                m = max(1, math.ceil((tb - ta) / self.scan - 1e-9))
+                ts = [ta + j * (tb - ta) / m for j in range(1, m)] + [tb]
+                xs = np.column_stack([dense(np.array(ts[:-1])), xb]) if m > 1 else xb[:, None]
+                sa = ta
+                for j, sb in enumerate(ts):
+                    g_b = np.asarray(g(sb, xs[:, j]), float)
+                    if crossed(g_a, g_b, directions).any():
+                        h = sb - sa
+                        theta, x_ev, fired = bisect(g, directions, sa, h, lambda th: dense(sa + th * h),
+                                                    g_a, xs[:, j], g_b)
+                        t_ev = float(sb if theta >= 1.0 else sa + theta * h)
+                        self._observe(pending, outs, dense, t_ev, None, inclusive=False)
+                        if check is not None:
+                            check(t_ev, x_ev)
+                        return t_ev, np.array(x_ev, float), fired, outs
+                    g_a, sa = g_b, sb
+            if check is not None:
+                check(tb, xb)
+            self._observe(pending, outs, dense, tb, xb)
+        return t1, solver.y.copy(), None, outs
+
+    @staticmethod
+    def _observe(pending, outs, dense, t, x, inclusive=True):
+        """Move the log times up to ``t`` (and at ``t`` when ``inclusive``: the state ``x``) from
+        ``pending`` to ``outs``, their states from one call of the step's dense output."""
+        k = 0
+        while k < len(pending) and (pending[k] < t or inclusive and pending[k] == t):
+            k += 1
+        if not k:
+            return
+        times, pending[:k] = pending[:k], []
+        at_end = inclusive and times[-1] == t
+        inner = times[:-1] if at_end else times
+        if inner:
+            outs += list(dense(np.array(inner)).T)
+        if at_end:
+            outs.append(x.copy())
 
     def __repr__(self):
         return f"ScipySolver({self.method}, rtol={self.rtol:g})"
 
 
-def _last_value(fun):
-    """``fun(t, x)`` as a float array, remembered for the last (t, x): scipy asks every event
-    function at the same point, and one evaluation serves them all."""
-    cache = {}
-
-    def values(t, x):
-        key = (t, x.tobytes())
-        if cache.get("key") != key:
-            cache["key"], cache["val"] = key, np.asarray(fun(t, x), float)
-        return cache["val"]
-
-    return values
-
-
-def _action_functions(g, directions):
-    """One terminal scipy event function, with its direction, per function of ``g``."""
-    values = _last_value(g)
-    funs = []
-    for a, d in enumerate(directions):
-        def fun(t, x, a=a):
-            return values(t, x)[a]
-
-        fun.terminal, fun.direction, fun.a = True, float(d), a
-        funs.append(fun)
-    return funs
-
-
-def _event_functions(events, t0, x0, off):
-    """One terminal scipy event function per zero-crossing component not in ``off``."""
-    values = _last_value(events)
-    m = values(t0, x0).size
-    funs = []
-    for j in range(m):
-        if j in off:
-            continue
-
-        def g(t, x, j=j):
-            return values(t, x)[j]
-
-        g.terminal = True
-        g.j = j
-        funs.append(g)
-    return funs
+#: scipy's solvers by the name ``solve_ivp`` gives them
+METHODS = {"Radau": Radau, "BDF": BDF, "LSODA": LSODA, "RK45": RK45, "RK23": RK23, "DOP853": DOP853}

@@ -1,0 +1,161 @@
+"""Divergence and non-finite values where they happen, any number of states on every path,
+and sampled blocks next to a Model Exchange FMU on the implicit solvers."""
+import math
+
+import numpy as np
+import pytest
+
+import hybridsim as hs
+from hybridsim.cli import main
+from hybridsim.errors import SimulationError
+from hybridsim.registry import lookup
+
+from conftest import DIAGRAMS, write
+
+UNSTABLE = """
+name: unstable
+blocks:
+  c: {type: constant, value: 1.0}
+  tf: {type: transfer_function, num: [1.0], den: [1.0, -5.0]}
+wires: [c.y -> tf.u]
+simulation: {t_end: 10.0, step: 1.0e-3}
+log: [tf.y]
+"""
+#: x' = 5 x + 1 from 0: x = (exp(5 t) - 1) / 5 passes 1e6 at ln(5e6 + 1) / 5
+T_DIVERGE = math.log(5e6 + 1) / 5
+
+NAN = """
+name: nan
+blocks:
+  c: {type: ramp, slope: -1.0, initial: 0.5}
+  f: {type: math_function, function: sqrt}
+  i: {type: integrator}
+wires: [c.y -> f.u, f.y -> i.u]
+simulation: {t_end: 1.0, step: 1.0e-3}
+log: [i.y]
+"""
+
+SOLVER_PATHS = [("rk4", {"fused": False}), ("rk4", {}), ("heun", {}), ("radau", {}), ("bdf", {}),
+                ("lsoda", {}), ("rk45", {}), ("dop853", {})]
+
+
+@pytest.mark.parametrize("solver, kw", SOLVER_PATHS)
+def test_divergence_is_caught_at_the_step_where_it_happens(tmp_path, solver, kw):
+    p = write(tmp_path, UNSTABLE)
+    with pytest.raises(SimulationError, match=r"diverged at t=(\S+) s: state 0 of block 'tf'") as err:
+        hs.simulate(p, solver=solver, **kw)
+    t = float(str(err.value).split("t=")[1].split(" ")[0])
+    assert T_DIVERGE - 1e-6 <= t <= T_DIVERGE + 0.02  # within one step (scipy: its own step)
+
+
+@pytest.mark.parametrize("solver, kw", SOLVER_PATHS)
+def test_a_non_finite_block_output_names_the_block_and_time(tmp_path, solver, kw):
+    p = write(tmp_path, NAN)  # sqrt of 0.5 - t: NaN from t = 0.5 s
+    with pytest.raises(SimulationError, match=r"block 'f' \(MathFunction\) gave a non-finite output "
+                                              r"at t=(\S+) s: y = \[nan\]") as err:
+        hs.simulate(p, solver=solver, **kw)
+    t = float(str(err.value).split("t=")[1].split(" ")[0])
+    assert 0.5 < t <= 0.502
+
+
+def test_the_cli_exits_3_on_divergence(tmp_path, capsys):
+    code = main(["run", str(write(tmp_path, UNSTABLE)), "-q", "-o", str(tmp_path / "out")])
+    _, err = capsys.readouterr()
+    assert code == 3 and "diverged at t=3.08" in err and "Traceback" not in err
+
+
+def test_a_block_may_declare_non_finite_outputs():
+    from hybridsim.block import Block
+
+    class Inf(Block):
+        may_be_nonfinite = True
+
+        def __init__(self, name):
+            super().__init__(name)
+            self.declare_output("y", 1)
+
+        def output(self, t, x, u):
+            return (np.array([np.inf]),)
+
+    d = hs.Diagram("inf")
+    d.add(Inf("s"))
+    d.add(lookup("constant")("c", value=1.0))
+    d.add(lookup("integrator")("i"))
+    d.connect("c.y", "i.u")
+    res = hs.Simulator(d.build(), hs.RK4(1e-2), log=["s.y", "i.y"], log_period=0.1).run(0.5)
+    assert np.isinf(res["s.y"]).all() and res["i.y"][-1, 0] == pytest.approx(0.5)
+
+
+def many_states(n):
+    d = hs.Diagram("many")
+    d.add(lookup("constant")("c", value=1.0))
+    d.add(lookup("state_space")("ss", A=(-np.eye(n) * np.arange(1, n + 1)).tolist(), B=np.ones((n, 1)).tolist(),
+                                C=np.ones((1, n)).tolist(), D=[[0.0]]))
+    d.connect("c.y", "ss.u")
+    return d.build()
+
+
+def _many(path, n=200):
+    system = many_states(n)
+    res = hs.Simulator(system, hs.RK4(1e-3), log=["ss.y"], log_period=0.05, fused=path != "generic",
+                       compiled=path == "compiled").run(0.5)
+    exact = sum((1 - math.exp(-k * 0.5)) / k for k in range(1, n + 1))  # x_k' = -k x_k + 1
+    assert res["ss.y"][-1, 0] == pytest.approx(exact, rel=1e-6)
+    return res
+
+
+@pytest.mark.parametrize("path", ["generic", "fused"])
+def test_two_hundred_states(path):
+    a, b = _many(path), _many("generic")
+    assert np.array_equal(a.table(), b.table())
+
+
+@pytest.mark.slow
+def test_two_hundred_states_compiled():
+    # 31 and more states stopped numba (a tuple display it did not take); now one more test case
+    assert np.array_equal(_many("compiled").table(), _many("generic").table())
+
+
+@pytest.mark.slow
+def test_thirty_one_states_pass_check_and_run_compiled(tmp_path):
+    a, b = _many("compiled", 31), _many("generic", 31)
+    assert np.array_equal(a.table(), b.table())
+
+
+@pytest.fixture(scope="module")
+def plant_fmu(tmp_path_factory):
+    from hybridsim.errors import FMUError
+    from hybridsim.fmu import find_compiler
+    from hybridsim.fmus.build import build_plant_fmu
+
+    try:
+        find_compiler()
+    except FMUError:
+        pytest.skip("no C compiler")
+    return build_plant_fmu(tmp_path_factory.mktemp("fmu") / "plant.fmu")
+
+
+def test_implicit_solvers_run_an_me_fmu_next_to_sampled_blocks(plant_fmu):
+    # Fig 9 with the plant as an ME FMU and the 120 Hz controller: a hit restarts the solver
+    # (it failed with "required step size is less than spacing between numbers" at rtol 1e-10)
+    kw = dict(fmu=str(plant_fmu), rtol=1e-10, atol=1e-12, t_end=0.06, rate=120)
+    rk4 = hs.simulate(DIAGRAMS / "fig9_fmu_me.yaml", solver="rk4", **kw)
+    runs = [hs.simulate(DIAGRAMS / "fig9_fmu_me.yaml", solver=s, **kw) for s in ("radau", "bdf", "lsoda")]
+    for res in runs:
+        assert np.max(np.abs(res["plant.q"] - rk4["plant.q"])) < 1e-7
+        assert len(res.meta["events"]) == len(rk4.meta["events"]) == 1  # contact made once
+        assert abs(res.meta["events"][0][0] - rk4.meta["events"][0][0]) < 1e-5  # rk4's 0.1 ms step
+        assert abs(res.meta["events"][0][0] - runs[0].meta["events"][0][0]) < 1e-8
+
+
+def test_check_refuses_for_the_compiled_path_with_the_reason_and_takes_many_states(tmp_path, capsys):
+    n = 31
+    A = (-np.eye(n)).tolist()
+    text = (f"name: many\nblocks:\n  c: {{type: constant, value: 1.0}}\n"
+            f"  ss: {{type: state_space, A: {A}, B: {np.ones((n, 1)).tolist()}, C: {np.ones((1, n)).tolist()}, "
+            "D: [[0.0]]}\nwires: [c.y -> ss.u]\nsimulation: {t_end: 0.1}\nlog: [ss.y]\n")
+    p = write(tmp_path, text)
+    assert main(["check", str(p), "--set", "simulation.compiled=true"]) == 0  # 31 states: no limit
+    code = main(["check", str(p), "--set", "simulation.compiled=true", "--set", "simulation.solver=radau"])
+    _, err = capsys.readouterr()
+    assert code == 2 and "compiled path integrates with a fixed-step Runge-Kutta" in err
