@@ -5,16 +5,26 @@
 * An output folder may be the user's own: hybridsim writes the files of this
   run into it and touches nothing else (no deleting, no mode change). A path
   that exists and is not a folder is refused (:class:`OutputError`).
-* Temporary names carry the writer's process id
-  (``.NAME.hybridsim-PID-XXXX.tmp``); they are removed on errors, Ctrl-C and
+* Temporaries live in hybridsim's own subfolder of the output folder,
+  ``.hybridsim/`` (``tmp-PID-XXXX``); they are removed on errors, Ctrl-C and
   SIGTERM, and the next run into the folder removes those whose process is gone
-  (after a SIGKILL). Nothing else is ever removed.
+  (after a SIGKILL). Nothing outside ``.hybridsim/`` is ever removed, and no
+  name in the user's folder is matched against a pattern.
+* ``.hybridsim/written.json`` records a hash of each file hybridsim wrote there,
+  so a default output name (``hybridsim draw d.yaml`` without ``-o``) replaces
+  only a file hybridsim wrote (:func:`default_output_file`).
+* One writer per folder at a time: :func:`output_lock` (``.hybridsim/lock``);
+  a second is refused before it changes anything.
+* Every destination is checked before the first file moves into place, so a
+  refused write leaves the folder as it was.
 * Names that come from a diagram become file names only through
   :func:`safe_name` (no separators, no ``..``).
 * Files get the mode the user's umask gives (as ``open`` would), not 0600.
 """
 import contextlib
 import errno
+import hashlib
+import json
 import os
 import re
 import shutil
@@ -23,7 +33,8 @@ from pathlib import Path
 
 from .errors import OutputError
 
-_TMP = re.compile(r"^\..*\.hybridsim-(\d+)-[A-Za-z0-9_]+\.tmp$")
+OWN = ".hybridsim"  # hybridsim's own subfolder of an output folder
+_TMP = re.compile(r"^tmp-(\d+)-[A-Za-z0-9_]+$")
 
 
 def safe_name(name, default="diagram"):
@@ -43,8 +54,97 @@ def _umask():
     return mask
 
 
-def _tmp_prefix(name):
-    return f".{name}.hybridsim-{os.getpid()}-"
+def _tmp_prefix():
+    return f"tmp-{os.getpid()}-"
+
+
+def own_folder(folder):
+    """``folder/.hybridsim``, created if needed (OutputError when a user's file has that name)."""
+    own = Path(folder) / OWN
+    if own.exists() and not own.is_dir():
+        raise OutputError(f"{str(own)!r} exists and is not a folder; hybridsim keeps its temporaries "
+                          "there: move it, or choose another output folder")
+    own.mkdir(exist_ok=True)
+    return own
+
+
+def _digest(path):
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def _record(folder, names):
+    """Note in ``folder/.hybridsim/written.json`` the hashes of the files ``names`` just written."""
+    own = own_folder(folder)
+    book = own / "written.json"
+    try:
+        data = json.loads(book.read_text())
+        if not isinstance(data, dict):
+            data = {}
+    except (OSError, ValueError):
+        data = {}
+    for n in names:
+        with contextlib.suppress(OSError):
+            data[n] = _digest(Path(folder) / n)
+    fd, tmp = tempfile.mkstemp(dir=own, prefix=_tmp_prefix())
+    with os.fdopen(fd, "w") as fh:
+        json.dump(data, fh, indent=0, sort_keys=True)
+    os.replace(tmp, book)
+
+
+def written_by_hybridsim(path):
+    """Whether the file ``path`` is, byte for byte, one hybridsim wrote (see ``.hybridsim/written.json``)."""
+    path = Path(path)
+    try:
+        data = json.loads((path.parent / OWN / "written.json").read_text())
+        return isinstance(data, dict) and data.get(path.name) == _digest(path)
+    except (OSError, ValueError):
+        return False
+
+
+def default_output_file(path):
+    """``(path, note)``: the file a default output name may write, never a file hybridsim did not write.
+
+    ``path`` itself when it does not exist or hybridsim wrote it; else the
+    first free ``NAME-2.EXT``, ``NAME-3.EXT``, ... with a note saying so.
+    """
+    path = Path(path)
+    if not path.exists() or (path.is_file() and written_by_hybridsim(path)):
+        return path, None
+    for k in range(2, 1000):
+        alt = path.with_name(f"{path.stem}-{k}{path.suffix}")
+        if not alt.exists() or (alt.is_file() and written_by_hybridsim(alt)):
+            return alt, (f"note: {path} exists and hybridsim did not write it; writing {alt} instead "
+                         "(-o chooses the name)")
+    raise OutputError(f"{path} and its numbered alternatives exist; choose a name with -o")
+
+
+@contextlib.contextmanager
+def output_lock(folder):
+    """Hold ``folder``'s lock (``.hybridsim/lock``) for the block: one writer per folder at a time.
+
+    Raises OutputError (exit 2) at once, having changed nothing, while
+    another process holds it.
+    """
+    import fcntl
+
+    own = own_folder(folder)
+    fd = os.open(own / "lock", os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "?"
+            raise OutputError(f"another hybridsim (process {holder}) is writing into {str(folder)!r}; "
+                              "wait for it to finish or choose another output folder (-o)") from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, str(os.getpid()).encode(), 0)
+        yield Path(folder)
+    finally:
+        os.close(fd)  # releases the lock
 
 
 def check_output_dir(path):
@@ -91,14 +191,22 @@ def make_output_dir(path):
         path.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise OutputError(f"cannot create output folder {str(path)!r}: {exc.strerror}") from None
-    remove_stale(path)
     return path
 
 
+@contextlib.contextmanager
+def locked_output_dir(path):
+    """:func:`make_output_dir` and :func:`output_lock` together; our stale temporaries removed."""
+    path = make_output_dir(path)
+    with output_lock(path):
+        remove_stale(path)
+        yield path
+
+
 def remove_stale(folder):
-    """Remove temporaries hybridsim left in ``folder`` from a process that no longer runs."""
+    """Remove temporaries hybridsim left in ``folder/.hybridsim`` from a process that no longer runs."""
     try:
-        entries = list(os.scandir(folder))
+        entries = list(os.scandir(Path(folder) / OWN))
     except OSError:
         return
     for e in entries:
@@ -128,13 +236,14 @@ def _alive(pid):
 
 @contextlib.contextmanager
 def atomic_file(path, mode="w"):
-    """Open a temporary file that replaces ``path`` when the block succeeds."""
+    """Open a temporary file (in ``.hybridsim/`` beside ``path``) that replaces ``path`` when the block succeeds."""
     path = Path(path)
     if path.exists() and not path.is_file():
         raise OutputError(f"{str(path)!r} exists and is not a file; not replaced")
     if not path.parent.is_dir():
         make_output_dir(path.parent)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=_tmp_prefix(path.name), suffix=".tmp")
+    own = own_folder(path.parent)
+    fd, tmp = tempfile.mkstemp(dir=own, prefix=_tmp_prefix())
     try:
         with os.fdopen(fd, mode) as fh:
             yield fh
@@ -144,39 +253,90 @@ def atomic_file(path, mode="w"):
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
         raise
+    _record(path.parent, [path.name])
+
+
+def _check_destinations(tmp, path, only_ours):
+    """Refuse before anything moves: a file whose place is a folder (or the reverse), and with
+    ``only_ours`` a file there that hybridsim did not write."""
+    for src in sorted(tmp.rglob("*")):
+        dst = path / src.relative_to(tmp)
+        if src.is_dir():
+            if dst.exists() and not dst.is_dir():
+                raise OutputError(f"{str(dst)!r} exists and is not a folder; not replaced (nothing was written)")
+        elif dst.is_dir():
+            raise OutputError(f"{str(dst)!r} is a folder; hybridsim does not replace it with a file "
+                              "(nothing was written)")
+        elif only_ours and dst.exists() and not written_by_hybridsim(dst):
+            raise OutputError(f"{str(dst)!r} exists and hybridsim did not write it; give -o to write "
+                              "into this folder anyway, or choose another (nothing was written)")
 
 
 @contextlib.contextmanager
-def atomic_dir(path):
+def atomic_dir(path, only_ours=False):
     """Yield a temporary folder whose files go into folder ``path`` when the block succeeds.
 
     The folder is created if needed; files already in it that this run does
-    not write are left alone. Each file arrives by an atomic rename. On any
-    error (or Ctrl-C, SIGTERM) nothing is moved and the temporary folder is
-    removed; a folder created for nothing is removed too.
+    not write are left alone. Every destination is checked first, then each
+    file arrives by an atomic rename, under the folder's lock. On any error
+    (or Ctrl-C, SIGTERM) nothing is moved and the temporary folder is
+    removed; a folder created for nothing is removed too. ``only_ours``
+    (a default output folder): refuse to replace a file hybridsim did not write.
     """
     path = Path(path)
     existed = path.is_dir()
+    own_existed = (path / OWN).is_dir()
     make_output_dir(path)
-    tmp = Path(tempfile.mkdtemp(dir=path, prefix=_tmp_prefix("out"), suffix=".tmp"))
+    moved = []
+    try:
+        own = own_folder(path)
+        tmp = Path(tempfile.mkdtemp(dir=own, prefix=_tmp_prefix()))
+    except BaseException:
+        if not existed:
+            shutil.rmtree(path / OWN, ignore_errors=True)
+            with contextlib.suppress(OSError):
+                path.rmdir()
+        raise
     try:
         yield tmp
-        mode = 0o666 & ~_umask()
-        for src in sorted(tmp.rglob("*")):
-            dst = path / src.relative_to(tmp)
-            if src.is_dir():
-                if dst.exists() and not dst.is_dir():
-                    raise OutputError(f"{str(dst)!r} exists and is not a folder; not replaced")
-                dst.mkdir(exist_ok=True)
-                continue
-            if dst.is_dir():
-                raise OutputError(f"{str(dst)!r} is a folder; hybridsim does not replace it with a file")
-            os.chmod(src, mode)
-            os.replace(src, dst)
+        with output_lock(path):
+            remove_stale(path)
+            _check_destinations(tmp, path, only_ours)
+            mode = 0o666 & ~_umask()
+            for src in sorted(tmp.rglob("*")):
+                dst = path / src.relative_to(tmp)
+                if src.is_dir():
+                    dst.mkdir(exist_ok=True)
+                    continue
+                os.chmod(src, mode)
+                os.replace(src, dst)
+                moved.append(str(dst.relative_to(path)))
+            _record(path, [m for m in moved if "/" not in m])
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
+        if not own_existed:
+            shutil.rmtree(path / OWN, ignore_errors=True)
         if not existed:
             with contextlib.suppress(OSError):
                 path.rmdir()  # only if empty: ours, made for this run
         raise
     shutil.rmtree(tmp, ignore_errors=True)
+
+
+def unique_names(labels, stem, default="run"):
+    """File stems for ``labels`` (run labels) that cannot collide: ``stem_slug``, with a short hash of
+    the label where two slugs (or a slug and ``stem`` itself) would be the same name (case-folded)."""
+    slugs = [(stem + "_" + _slug(lab, default)) if lab else stem for lab in labels]
+    seen = {}
+    for s in slugs:
+        seen[s.lower()] = seen.get(s.lower(), 0) + 1
+    out = []
+    for lab, s in zip(labels, slugs):
+        if seen[s.lower()] > 1:
+            s = f"{s}_{hashlib.sha1(str(lab).encode()).hexdigest()[:6]}"
+        out.append(s)
+    return out
+
+
+def _slug(label, default="run"):
+    return safe_name("".join(c if c.isalnum() or c in "-." else "-" for c in str(label).replace("=", "")), default)

@@ -42,7 +42,7 @@ import numpy as np
 
 from . import limits
 from .errors import HybridsimError, InputError, LoaderError
-from .files import atomic_file, make_output_dir
+from .files import atomic_file, locked_output_dir
 from .loader import parse_file
 
 #: seconds to wait for a Dask scheduler to answer
@@ -309,10 +309,10 @@ def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False,
     sw.fixed = fixed_run
     client = _dask_client(dask) if isinstance(dask, str) else dask
     try:
-        outdir = make_output_dir(outdir)
-        jsonl = outdir / "points.jsonl"
-        _claim(outdir, jsonl, fp, sw, force)
-        return _run(sw, pts, outdir, jsonl, jobs, client, progress, batch)
+        with locked_output_dir(outdir) as outdir:  # one sweep per folder at a time
+            jsonl = outdir / "points.jsonl"
+            _claim(outdir, jsonl, fp, sw, force)
+            return _run(sw, pts, outdir, jsonl, jobs, client, progress, batch)
     finally:
         if client is not None and isinstance(dask, str):
             client.close()

@@ -219,6 +219,14 @@ class ExpandMixin:
             problems.append(f"{context}{spec.locs.get(exc.param, blocks.locs[bname])}: block {bname!r} ({tname}): {exc}")
         except (ValueError, TypeError, ArithmeticError) as exc:
             problems.append(f"{here}: block {bname!r} ({tname}): {exc}")
+        except Exception as exc:  # noqa: BLE001 - a plugin's constructor may raise anything: its fault
+            from ..errors import PluginFault
+            from ..registry import _is_ours
+
+            if _is_ours(cls.__module__):
+                raise
+            raise PluginFault(f"plugin {cls.__module__!r}: block {prefix + bname!r} ({tname}): its constructor "
+                              f"raised {type(exc).__name__}: {exc}", cls.__module__, prefix + bname) from None
 
 
 def count_blocks(f, memo=None, chain=None):

@@ -36,7 +36,7 @@ class Kind:
 class Number(Kind):
     """A real number in a range; ``integer`` for whole numbers; ``inf`` allows +infinity."""
 
-    def __init__(self, low=None, high=None, low_open=False, integer=False, inf=False, unit=""):
+    def __init__(self, low=None, high=None, low_open=False, integer=False, inf=False, unit="", text=None):
         self.low, self.high, self.low_open, self.integer, self.inf, self.unit = low, high, low_open, integer, inf, unit
         what = "a whole number" if integer else "a number"
         if low == 0 and high is None and not integer:
@@ -45,7 +45,7 @@ class Number(Kind):
             what += f" from {low:g} to {high:g}"
         elif low is not None:
             what += f" {'>' if low_open else '>='} {low:g}"
-        self.text = what + (f" ({unit})" if unit else "") + (" or .inf" if inf else "")
+        self.text = text or (what + (f" ({unit})" if unit else "") + (" or .inf" if inf else ""))
 
     def problem(self, v):
         if not _is_number(v) or (self.integer and not float(v).is_integer()):

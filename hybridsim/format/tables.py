@@ -81,7 +81,7 @@ ANALYSIS = [
     Setting("scales", ListOf(_POS), [0.125, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0], "factors of the gain sweep"),
     Setting("cases", MapOf(_OVERRIDES), {}, "other branches: {name: {parameter path: value}}"),
     Setting("hand_mode_hz", Number(0, low_open=True, unit="Hz"), None, "report the plant mode nearest this"),
-    Setting("at", Number(0, unit="s"), None, "linearize about the state at this time (default: the initial)"),
+    Setting("at", Number(0, unit="s", text="a time in seconds >= 0"), None, "linearize about the state at this time (default: the initial)"),
     Setting("compare", MapOf(_OVERRIDES), {}, "the report's other settings: {name: {parameter path: value}}"),
     Setting("step", Record(ANALYSIS_STEP, "analysis.step"), None,
             "the report's linear vs nonlinear closed-loop step"),
