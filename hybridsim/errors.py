@@ -26,6 +26,21 @@ The CLI maps these to a one-paragraph message and the exit status; the Python
 API lets them propagate so callers can catch exactly what they expect.
 """
 
+#: (exit status, origin, what) of the ``hybridsim`` command (docs/settings.md shows it)
+EXIT_CODES = [
+    (0, "success", "the command did what was asked"),
+    (2, "bad input", "a bad diagram, sweep, option, value or output path, found before any run; "
+                     "another hybridsim writing into the same output folder"),
+    (3, "the model", "a run diverged or its solver failed"),
+    (4, "an FMU", "an FMU cannot be loaded or one of its calls failed"),
+    (5, "the environment", "disk full, no permission, a name too long, a file system that refuses "
+                           "the write, no memory, a missing package (named with its pip extra)"),
+    (6, "a plugin", "a plugin module's import or one of its blocks raised or broke the block contract"),
+    (70, "a bug", "an internal error of hybridsim: please report it with the output of --debug"),
+    (130, "interrupted", "Ctrl-C; earlier results are left as they were"),
+    (143, "terminated", "SIGTERM; earlier results are left as they were"),
+]
+
 
 class HybridsimError(Exception):
     """Base class of every error hybridsim reports to a user (never raised itself)."""

@@ -6,15 +6,17 @@
   run into it and touches nothing else (no deleting, no mode change). A path
   that exists and is not a folder is refused (:class:`OutputError`).
 * Temporaries live in hybridsim's own subfolder of the output folder,
-  ``.hybridsim/`` (``tmp-PID-XXXX``); they are removed on errors, Ctrl-C and
-  SIGTERM, and the next run into the folder removes those whose process is gone
-  (after a SIGKILL). Nothing outside ``.hybridsim/`` is ever removed, and no
-  name in the user's folder is matched against a pattern.
-* ``.hybridsim/written.json`` records a hash of each file hybridsim wrote there,
-  so a default output name (``hybridsim draw d.yaml`` without ``-o``) replaces
-  only a file hybridsim wrote (:func:`default_output_file`).
-* One writer per folder at a time: :func:`output_lock` (``.hybridsim/lock``);
-  a second is refused before it changes anything.
+  ``.hybridsim/`` (``tmp-PID-XXXX``), removed (with the subfolder, once
+  empty) when the write ends, on errors, Ctrl-C and SIGTERM; the next write
+  into the folder removes those whose process is gone (after a SIGKILL).
+  Nothing outside ``.hybridsim/`` is ever removed, and no name in the user's
+  folder is matched against a pattern.
+* hybridsim's state folder (``$HYBRIDSIM_CACHE``, else ``~/.cache/hybridsim``)
+  records a hash of each file hybridsim wrote, so a default output name
+  (``hybridsim draw d.yaml`` without ``-o``) replaces only a file hybridsim
+  wrote (:func:`default_output_file`), and holds the output folders' locks:
+  one writer per folder at a time (:func:`output_lock`); a second is refused
+  before it changes anything.
 * Every destination is checked before the first file moves into place, so a
   refused write leaves the folder as it was.
 * Names that come from a diagram become file names only through
@@ -24,7 +26,6 @@
 import contextlib
 import errno
 import hashlib
-import json
 import os
 import re
 import shutil
@@ -68,6 +69,44 @@ def own_folder(folder):
     return own
 
 
+def _own_temp(folder, folder_too=False):
+    """A new temporary (file: ``(fd, path)``; folder: its path) in ``folder/.hybridsim``; another
+    writer's removal of the empty subfolder at that moment is retried."""
+    for attempt in range(3):
+        own = own_folder(folder)
+        try:
+            if folder_too:
+                return tempfile.mkdtemp(dir=own, prefix=_tmp_prefix())
+            return tempfile.mkstemp(dir=own, prefix=_tmp_prefix())
+        except FileNotFoundError:
+            if attempt == 2:
+                raise
+
+
+def _drop_own(folder):
+    """Remove ``folder/.hybridsim`` when nothing is left in it."""
+    with contextlib.suppress(OSError):
+        (Path(folder) / OWN).rmdir()
+
+
+def state_dir(kind):
+    """hybridsim's state folder ``kind`` (``written``, ``locks``): under ``$HYBRIDSIM_CACHE``, else
+    ``$XDG_CACHE_HOME/hybridsim`` or ``~/.cache/hybridsim``; a private temporary folder if none is writable."""
+    root = os.environ.get("HYBRIDSIM_CACHE") or Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "hybridsim"
+    for base in (Path(root), Path(tempfile.gettempdir()) / f"hybridsim-{os.getuid()}"):
+        try:
+            (base / kind).mkdir(parents=True, exist_ok=True)
+            if os.access(base / kind, os.W_OK):
+                return base / kind
+        except OSError:
+            continue
+    raise OutputError("hybridsim has no writable state folder: set HYBRIDSIM_CACHE to a writable folder")
+
+
+def _key(path):
+    return hashlib.sha256(str(Path(path).resolve()).encode()).hexdigest()[:32]
+
+
 def _digest(path):
     h = hashlib.sha256()
     with open(path, "rb") as fh:
@@ -77,31 +116,25 @@ def _digest(path):
 
 
 def _record(folder, names):
-    """Note in ``folder/.hybridsim/written.json`` the hashes of the files ``names`` just written."""
-    own = own_folder(folder)
-    book = own / "written.json"
+    """Note (in the state folder) the hashes of the files ``names`` just written into ``folder``."""
     try:
-        data = json.loads(book.read_text())
-        if not isinstance(data, dict):
-            data = {}
-    except (OSError, ValueError):
-        data = {}
+        book = state_dir("written")
+    except OutputError:
+        return
     for n in names:
         with contextlib.suppress(OSError):
-            data[n] = _digest(Path(folder) / n)
-    fd, tmp = tempfile.mkstemp(dir=own, prefix=_tmp_prefix())
-    with os.fdopen(fd, "w") as fh:
-        json.dump(data, fh, indent=0, sort_keys=True)
-    os.replace(tmp, book)
+            target = Path(folder) / n
+            fd, tmp = tempfile.mkstemp(dir=book, prefix=_tmp_prefix())
+            with os.fdopen(fd, "w") as fh:
+                fh.write(_digest(target))
+            os.replace(tmp, book / _key(target))
 
 
 def written_by_hybridsim(path):
-    """Whether the file ``path`` is, byte for byte, one hybridsim wrote (see ``.hybridsim/written.json``)."""
-    path = Path(path)
+    """Whether the file ``path`` is, byte for byte, the one hybridsim last wrote there."""
     try:
-        data = json.loads((path.parent / OWN / "written.json").read_text())
-        return isinstance(data, dict) and data.get(path.name) == _digest(path)
-    except (OSError, ValueError):
+        return (state_dir("written") / _key(path)).read_text().strip() == _digest(path)
+    except (OSError, OutputError):
         return False
 
 
@@ -124,15 +157,14 @@ def default_output_file(path):
 
 @contextlib.contextmanager
 def output_lock(folder):
-    """Hold ``folder``'s lock (``.hybridsim/lock``) for the block: one writer per folder at a time.
+    """Hold ``folder``'s lock (in the state folder) for the block: one writer per folder at a time.
 
     Raises OutputError (exit 2) at once, having changed nothing, while
     another process holds it.
     """
     import fcntl
 
-    own = own_folder(folder)
-    fd = os.open(own / "lock", os.O_RDWR | os.O_CREAT, 0o666)
+    fd = os.open(state_dir("locks") / f"{_key(folder)}.lock", os.O_RDWR | os.O_CREAT, 0o666)
     try:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -218,6 +250,7 @@ def remove_stale(folder):
                 shutil.rmtree(e.path)
             else:
                 os.unlink(e.path)
+    _drop_own(folder)
 
 
 def _alive(pid):
@@ -242,8 +275,7 @@ def atomic_file(path, mode="w"):
         raise OutputError(f"{str(path)!r} exists and is not a file; not replaced")
     if not path.parent.is_dir():
         make_output_dir(path.parent)
-    own = own_folder(path.parent)
-    fd, tmp = tempfile.mkstemp(dir=own, prefix=_tmp_prefix())
+    fd, tmp = _own_temp(path.parent)
     try:
         with os.fdopen(fd, mode) as fh:
             yield fh
@@ -252,7 +284,9 @@ def atomic_file(path, mode="w"):
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
+        _drop_own(path.parent)
         raise
+    _drop_own(path.parent)
     _record(path.parent, [path.name])
 
 
@@ -285,15 +319,13 @@ def atomic_dir(path, only_ours=False):
     """
     path = Path(path)
     existed = path.is_dir()
-    own_existed = (path / OWN).is_dir()
     make_output_dir(path)
     moved = []
     try:
-        own = own_folder(path)
-        tmp = Path(tempfile.mkdtemp(dir=own, prefix=_tmp_prefix()))
+        tmp = Path(_own_temp(path, folder_too=True))
     except BaseException:
+        _drop_own(path)
         if not existed:
-            shutil.rmtree(path / OWN, ignore_errors=True)
             with contextlib.suppress(OSError):
                 path.rmdir()
         raise
@@ -314,13 +346,13 @@ def atomic_dir(path, only_ours=False):
             _record(path, [m for m in moved if "/" not in m])
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
-        if not own_existed:
-            shutil.rmtree(path / OWN, ignore_errors=True)
+        _drop_own(path)
         if not existed:
             with contextlib.suppress(OSError):
                 path.rmdir()  # only if empty: ours, made for this run
         raise
     shutil.rmtree(tmp, ignore_errors=True)
+    _drop_own(path)
 
 
 def unique_names(labels, stem, default="run"):

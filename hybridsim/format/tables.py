@@ -224,6 +224,11 @@ def markdown():
             "| variable | default | bounds |", "|---|---|---|"]
     for name, (value, doc) in limits.LIMITS.items():
         out.append(f"| `{limits.env_name(name)}` | {value:,} | {doc} |")
+    from ..errors import EXIT_CODES
+
+    out += ["", "## Exit status", "", "By origin (`hybridsim/errors.py`):", "",
+            "| status | origin | when |", "|---|---|---|"]
+    out += [f"| {code} | {origin} | {what} |" for code, origin, what in EXIT_CODES]
     out.append("")
     return "\n".join(out)
 
