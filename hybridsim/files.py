@@ -180,25 +180,45 @@ def output_lock(folder):
 
 
 def check_output_dir(path):
-    """Raise :class:`OutputError` unless hybridsim can create or write folder ``path``.
+    """Raise unless hybridsim can create or write folder ``path``: :class:`OutputError` (exit 2) for
+    a path that cannot be a folder or no permission, :class:`EnvironmentProblem` (exit 5) when the
+    operating system refuses (a read-only or special file system, a name too long).
 
-    Nothing is created: a run that fails leaves no folder behind.
+    Probed by creating what is missing and removing it again, and a nameless
+    temporary file: a run that fails leaves no folder behind.
     """
+    from .errors import from_os_error
+
     path = Path(path)
-    if path.exists() and not path.is_dir():
-        raise OutputError(f"output folder {str(path)!r} exists and is not a folder "
-                          "(hybridsim never replaces a file with a folder); choose another -o")
-    probe = path
-    while not probe.exists():
-        if probe.parent == probe:
-            break
-        probe = probe.parent
-    if probe.exists() and not probe.is_dir():
-        raise OutputError(f"cannot create output folder {str(path)!r}: {str(probe)!r} is not a folder")
-    if not os.access(probe, os.W_OK | os.X_OK):
-        what = "write into" if probe == path else "create"
-        raise OutputError(f"cannot {what} output folder {str(path)!r}: "
-                          f"no permission to write in {str(probe)!r}")
+    try:
+        if path.exists() and not path.is_dir():
+            raise OutputError(f"output folder {str(path)!r} exists and is not a folder "
+                              "(hybridsim never replaces a file with a folder); choose another -o")
+        probe, missing = path, []
+        while not probe.exists():
+            if probe.parent == probe:
+                break
+            missing.append(probe)
+            probe = probe.parent
+        if probe.exists() and not probe.is_dir():
+            raise OutputError(f"cannot create output folder {str(path)!r}: {str(probe)!r} is not a folder")
+        if not os.access(probe, os.W_OK | os.X_OK):
+            what = "write into" if probe == path else "create"
+            raise OutputError(f"cannot {what} output folder {str(path)!r}: "
+                              f"no permission to write in {str(probe)!r}")
+        made = []
+        try:
+            for folder in reversed(missing):
+                folder.mkdir()
+                made.append(folder)
+            with tempfile.TemporaryFile(dir=path):
+                pass
+        finally:
+            for folder in reversed(made):
+                with contextlib.suppress(OSError):
+                    folder.rmdir()
+    except OSError as exc:
+        raise from_os_error(exc, f"cannot write output folder {str(path)!r}") from None
     return path
 
 
@@ -222,7 +242,9 @@ def make_output_dir(path):
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise OutputError(f"cannot create output folder {str(path)!r}: {exc.strerror}") from None
+        from .errors import from_os_error
+
+        raise from_os_error(exc, f"cannot create output folder {str(path)!r}") from None
     return path
 
 
