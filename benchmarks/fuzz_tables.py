@@ -14,9 +14,11 @@ import sys
 import time
 from pathlib import Path
 
-from hypothesis import HealthCheck, given, seed, settings
+ROOT = Path(__file__).resolve().parents[1]
+TESTS = ROOT / "tests"
+sys.path.insert(0, str(ROOT))  # this checkout's hybridsim, not an installed one
 
-TESTS = Path(__file__).resolve().parents[1] / "tests"
+from hypothesis import HealthCheck, given, seed, settings  # noqa: E402
 
 
 def _module():
@@ -24,6 +26,14 @@ def _module():
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
+
+
+def _counting(case, codes, slowest):
+    def one(x):
+        t0 = time.perf_counter()
+        codes[case(x)] += 1
+        slowest[0] = max(slowest[0], time.perf_counter() - t0)
+    return one
 
 
 def main():
@@ -41,14 +51,8 @@ def main():
     total = 0
     for name, (strategy, case) in families.items():
         codes, slowest = collections.Counter(), [0.0]
-
-        def one(x, case=case, codes=codes, slowest=slowest):
-            t0 = time.perf_counter()
-            codes[case(x)] += 1
-            slowest[0] = max(slowest[0], time.perf_counter() - t0)
-
         test = seed(a.seed)(settings(max_examples=a.examples, deadline=None, database=None,
-                                     suppress_health_check=list(HealthCheck))(given(strategy)(one)))
+                                     suppress_health_check=list(HealthCheck))(given(strategy)(_counting(case, codes, slowest))))
         t0 = time.perf_counter()
         test()
         n = sum(codes.values())

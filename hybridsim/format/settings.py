@@ -43,7 +43,7 @@ class SettingsMixin:
         shown = {**lines, **{k: loc for k, loc in locs.items() if str(loc).startswith("--set")}}
         got = tables.problems(tables.SECTIONS[name], resolved, name, self.path, shown,
                               getattr(raw, "line", None))
-        return resolved, lines, got
+        return {k: v for k, v in resolved.items() if v is not None}, lines, got  # null: the default
 
     def _raise(self, problems):
         if problems:
@@ -87,7 +87,7 @@ class SettingsMixin:
                 groups = {"": cfg.get(key, {})} if key == "set" else cfg.get(key, {})
                 for name, ov in groups.items():
                     problems += self._override_problems(ov, line(key), f"analysis {key} {name}".rstrip())
-            if "step" in cfg:
+            if isinstance(cfg.get("step"), dict):
                 problems += self._override_problems(cfg["step"].get("set", {}), line("step"), "analysis step set")
             for gname, ref in cfg.get("gains", {}).items():
                 path = ParamPath.parse(ref)
@@ -99,7 +99,7 @@ class SettingsMixin:
                                 f"name in 'params'{closest(cfg['rate_param'], self.params)}")
         self._raise(problems)
         out = tables.defaults(tables.ANALYSIS)
-        out.update(cfg)
+        out.update({k: v for k, v in cfg.items() if v is not None})
         if isinstance(out.get("step"), dict):
             out["step"] = {**tables.defaults(tables.ANALYSIS_STEP), **out["step"]}
         out["_lines"] = lines

@@ -151,6 +151,8 @@ def check_values(table, data, section, lines=None):
     out = []
     for key, value in data.items():
         s = by_key.get(key)
+        if s is not None and value is None and not s.required:
+            continue  # 'key: null' of an optional setting: its default (a file can undo what it extends)
         if s is None:
             out.append((f"unknown {section} setting {key!r}{closest(key, by_key)}; settings: "
                         f"{', '.join(by_key)}", key))
