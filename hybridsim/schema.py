@@ -86,6 +86,10 @@ def block_schema(type_name):
             if shown is not _NO_JSON:
                 entry = {**entry, "default": shown}
         props[name] = entry
+    if cls.__module__.startswith("hybridsim."):
+        for s in tables.BLOCK_SETTINGS.get(type_name, ()):  # a table says more than a default does
+            if s.key in props:
+                props[s.key] = {"anyOf": [s.kind.schema(), _REF], "description": s.doc}
     doc = (inspect.getdoc(cls) or "").splitlines()
     return {"type": "object", "title": type_name, "description": doc[0] if doc else type_name,
             "properties": props, "required": ["type"] + required, "additionalProperties": False}

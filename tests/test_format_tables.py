@@ -183,3 +183,19 @@ def test_a_bad_sweep_file_is_exit_2_from_its_table(tmp_path, capsys, text, messa
     s = write(tmp_path, text, "s.yaml")
     code, err = run(capsys, "sweep", s, "-q", "-o", tmp_path / "o")
     assert code == 2 and message in err, err
+
+
+@pytest.mark.parametrize("spec, message", [
+    ("{type: fmu, path: 5}", "parameter 'path' must be a non-empty text"),
+    ("{type: fmu, path: p.fmu, mode: xx}", "parameter 'mode' must be one of cs, me"),
+    ("{type: fmu, path: p.fmu, rate: -1}", "parameter 'rate' must be a positive"),
+    ("{type: robot_arm, robot: fig3_arm, friction: yes-please}", "parameter 'friction' must be true or false"),
+    ("{type: robot_arm, robot: fig3_arm, gravity: [1, 2]}", "parameter 'gravity' must be a list of 3"),
+    ("{type: robot_kinematics, urdf: 7}", "parameter 'urdf' must be a non-empty text"),
+])
+def test_fmu_and_robot_parameters_are_checked_from_their_tables(tmp_path, capsys, spec, message):
+    code, err = run(capsys, "check", write(tmp_path, f"blocks:\n  b: {spec}\n"))
+    assert code == 2 and "d.yaml:2" in err and message in err, err
+    schema = diagram_schema()
+    fmu = next(b for b in schema["properties"]["blocks"]["additionalProperties"]["anyOf"] if b.get("title") == "fmu")
+    assert fmu["properties"]["mode"]["anyOf"][0] == {"enum": ["cs", "me"]}

@@ -10,6 +10,7 @@ from pathlib import Path
 from .. import limits
 from ..errors import LoaderError, ParameterError, RateError
 from ..registry import closest, lookup, parameters, types
+from . import tables
 from .values import _has_nan, _is_subsystem, subsystem_path
 
 _BAD_NAME = re.compile(r"[.\[\]\s:=]")  # a '.' separates a subsystem's name from its blocks' names
@@ -184,6 +185,7 @@ class ExpandMixin:
         required, optional = parameters(cls)
         kwargs = {}
         bad = False
+        table = tables.BLOCK_SETTINGS.get(str(tname)) if str(cls.__module__).startswith("hybridsim.") else None
         for pname, pval in spec.items():
             if pname == "type":
                 continue
@@ -200,6 +202,14 @@ class ExpandMixin:
                 problems.append(f"{context}{exc}")
                 bad = True
                 continue
+            by_key = {t.key: t for t in table or ()}
+            if pname in by_key and kwargs[pname] is not None:
+                why = by_key[pname].kind.problem(kwargs[pname])
+                if why:
+                    problems.append(f"{context}{spec.locs[pname]}: block {bname!r} ({tname}): parameter {pname!r} "
+                                    + (why if why.startswith("must") else f"must be {by_key[pname].kind.text}: {why}"))
+                    bad = True
+                    continue
             if _has_nan(kwargs[pname]):
                 problems.append(f"{context}{spec.locs[pname]}: block {bname!r} ({tname}): parameter "
                                 f"{pname!r} is not a number (NaN)")

@@ -126,6 +126,44 @@ DIAGRAM = [
     Setting("outputs", MapOf(Signal()), {}, "a subsystem's outputs: {name: inner output}"),
 ]
 
+_VEC = Either(Number(), ListOf(Number()))
+_NONNEG_VEC = Either(Number(0), ListOf(Number(0)))
+_ROBOT = [
+    Setting("urdf", Text(nonempty=True), None, "a robot model file (relative: to the working folder)"),
+    Setting("robot", Text(nonempty=True), None, "a shipped robot: fig3_arm, ur3, ur5, ur10, panda, kinova, iiwa"),
+    Setting("frame", Text(nonempty=True), None, "the tool frame (default: the model's last frame)"),
+]
+
+#: parameters of the shipped FMU and robot block types, checked before the block is built
+BLOCK_SETTINGS = {
+    "fmu": [
+        Setting("path", Text(nonempty=True), None, "the .fmu file (relative: to the working folder)", required=True),
+        Setting("mode", Choice(["cs", "me"]), "cs", "Co-Simulation (needs rate or period) or Model Exchange"),
+        Setting("parameters", MapOf(Kind()), None, "start values to set, by variable name"),
+        Setting("rate", Number(0, low_open=True, unit="Hz"), None, "sample rate of a Co-Simulation FMU"),
+        Setting("period", Number(0, low_open=True, unit="s"), None, "sample period of a Co-Simulation FMU"),
+    ],
+    "robot_arm": _ROBOT + [
+        Setting("q0", _VEC, None, "initial joint positions (rad or m; default the neutral pose)"),
+        Setting("qd0", _VEC, None, "initial joint speeds"),
+        Setting("damping", _NONNEG_VEC, 0.0, "viscous joint damping (scalar or one per joint)"),
+        Setting("friction", Bool(), False, "joint friction on"),
+        Setting("tau_c", _NONNEG_VEC, 0.0, "Coulomb friction per joint"),
+        Setting("tau_s", _NONNEG_VEC, 0.0, "static friction per joint"),
+        Setting("stick_band", Number(0, low_open=True), 1e-4, "Karnopp capture band (rad/s or m/s)"),
+        Setting("stick_time", Number(0, low_open=True, unit="s"), 1e-3, "time constant of a stuck joint"),
+        Setting("gravity", ListOf(Number(), exact=3), [0.0, 0.0, -9.81], "gravity in the base frame (m/s^2)"),
+        Setting("start_position", ListOf(Number(), exact=3), None, "start with the tool frame's origin here (m)"),
+        Setting("friction_model", Choice(["karnopp", "stribeck", "lugre"]), "karnopp", "the friction law"),
+        Setting("stribeck_velocity", Either(_POS, ListOf(_POS)), 1e-3, "speed scale of the Stribeck decay"),
+        Setting("bristle_stiffness", _POS, 1e5, "LuGre sigma0"),
+        Setting("bristle_damping", Number(0), None, "LuGre sigma1 (default critical)"),
+    ],
+    "robot_kinematics": list(_ROBOT),
+    "gravity_torque": _ROBOT[:2] + [
+        Setting("gravity", ListOf(Number(), exact=3), [0.0, 0.0, -9.81], "gravity in the base frame (m/s^2)")],
+}
+
 SECTIONS = {"diagram": DIAGRAM, "simulation": SIMULATION, "metrics": METRICS, "plot": PLOT,
             "analysis": ANALYSIS, "analysis.step": ANALYSIS_STEP, "sweep": SWEEP, "random": SWEEP_RANDOM}
 
@@ -215,6 +253,13 @@ def markdown():
               "sweep": "A sweep file", "random": "sweep: random"}
     for name, table in SECTIONS.items():
         out += [f"## {titles[name]}", "", "| key | value | default | meaning |", "|---|---|---|---|"]
+        for s in table:
+            cells = [f"`{s.key}`" + (" (required)" if s.required else ""), s.kind.text,
+                     _default_text(s.default), s.doc]
+            out.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+        out.append("")
+    for tname, table in BLOCK_SETTINGS.items():
+        out += [f"## Block type {tname}", "", "| key | value | default | meaning |", "|---|---|---|---|"]
         for s in table:
             cells = [f"`{s.key}`" + (" (required)" if s.required else ""), s.kind.text,
                      _default_text(s.default), s.doc]
