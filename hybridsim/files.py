@@ -217,8 +217,8 @@ def check_output_dir(path):
             for folder in reversed(made):
                 with contextlib.suppress(OSError):
                     folder.rmdir()
-    except OSError as exc:
-        raise from_os_error(exc, f"cannot write output folder {str(path)!r}") from None
+    except OSError as exc:  # the probe's own names are not worth showing
+        raise from_os_error(OSError(exc.errno, exc.strerror), f"cannot write output folder {str(path)!r}") from None
     return path
 
 

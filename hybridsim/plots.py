@@ -122,7 +122,8 @@ def experiment_figure(f, runs, settings):
             pad = 0.1 * (hi - lo or 1.0)
             ax.set_ylim(lo - pad, hi + pad)
         ax.grid(True, alpha=0.3)
-        if p in ("position", "force", "surface", "oscillation") and (len(runs) > 1 or p == "surface"):
+        if p in ("position", "force", "surface", "oscillation") and (len(runs) > 1 or p == "surface") \
+                and len(runs) <= limits.get("MAX_PLOT_LINES"):
             ax.legend(fontsize=7, loc="best", ncol=2 if len(runs) > 4 else 1)
     axes[-1].set_xlabel("time (ms)" if panels[-1] == "oscillation" else "time (s)")
     fig.suptitle(_title(f, settings), fontsize=10)
@@ -140,8 +141,8 @@ def _grid_axes(runs):
     if len(keys) != 2:
         return None
     values = [list(dict.fromkeys(repr(r["overrides"][k]) for r in runs)) for k in keys]
-    if len(values[0]) * len(values[1]) != len(runs):
-        return None
+    if len(values[0]) * len(values[1]) != len(runs) or len(runs) > limits.get("MAX_PLOT_LINES"):
+        return None  # not a full grid, or too many panels for one figure
     return keys[0], values[0], keys[1], values[1]
 
 

@@ -112,7 +112,7 @@ def load_plugin(module):
     _load_libraries()
     if _find(module) is None:
         raise PluginError(f"cannot import plugin module {module!r}: no such module on the Python path "
-                          "(PYTHONPATH, or an installed package)")
+                          "(a dotted name like my_package.blocks, on PYTHONPATH or installed)")
     PLUGIN_MODULES.add(module.split(".")[0])
     try:
         importlib.import_module(module)
@@ -130,6 +130,8 @@ def _find(module):
     """The import spec of ``module``, or None (a parent package that fails to import counts as found)."""
     import importlib.util
 
+    if not module or module.startswith(".") or any(not part.isidentifier() for part in module.split(".")):
+        return None
     try:
         return importlib.util.find_spec(module)
     except ModuleNotFoundError:

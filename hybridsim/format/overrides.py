@@ -49,7 +49,7 @@ class OverridesMixin:
                     self.data["variants"].pop(name, None)  # a fixed value ends that sweep
             elif path.kind == "simulation":
                 if path.name not in SIM_KEYS:
-                    self._fail(f"--set {key}: unknown simulation setting{closest(path.name, SIM_KEYS)}; "
+                    self._fail(f"--set {key}: unknown simulation setting {path.name!r}{closest(path.name, SIM_KEYS)}; "
                                f"settings: {', '.join(SIM_KEYS)}")
                 if not isinstance(self.data.get("simulation"), dict):
                     self.data["simulation"] = _Dict()

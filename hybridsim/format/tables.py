@@ -226,7 +226,8 @@ def section_schema(table):
     props = {}
     for s in table:
         sch = s.kind.schema()
-        props[s.key] = {"anyOf": [sch, REF_SCHEMA]} if sch else {}
+        kinds = [sch, REF_SCHEMA] + ([] if s.required else [{"type": "null"}])  # null: the default
+        props[s.key] = {"anyOf": kinds} if sch else {}
         props[s.key]["description"] = s.doc
     return {"type": "object", "properties": props, "additionalProperties": False,
             "required": [s.key for s in table if s.required]}
