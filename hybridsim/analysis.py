@@ -149,7 +149,7 @@ def largest_abs_z(path, overrides, at=None):
     reached at ``at`` s of simulation when given (as :func:`linearization`)."""
     try:
         return linearization(path, at=at, **overrides).closed_loop().growth
-    except LinearizationError:
+    except (LinearizationError, np.linalg.LinAlgError):  # no finite model there (e.g. expm overflowed): no verdict
         return None
 
 
@@ -243,6 +243,11 @@ def analyze(path, at=None, sweeps=True, **overrides):
     return out
 
 
+def _z(value, digits):
+    """A largest |z| for people; 'n/a' where no finite model was found."""
+    return "n/a" if value is None else f"{value:.{digits}f}"
+
+
 def summary_lines(res):
     """Human-readable lines for the terminal."""
     lines = [f"{res['diagram']}: closed loop at period {res['period_s'] * 1000:.3f} ms "
@@ -266,11 +271,11 @@ def summary_lines(res):
         pm = "inf" if m["phase_margin_deg"] is None else f"{m['phase_margin_deg']:.1f} deg"
         lines.append(f"  loop {name} ({m['signal']}): gain margin {gm}, phase margin {pm}")
     for cname, c in res.get("cases", {}).items():
-        lines.append(f"  case {cname} {c['set']}: largest |z| {c['spectral_radius']:.4f}"
+        lines.append(f"  case {cname} {c['set']}: largest |z| {_z(c['spectral_radius'], 4)}"
                      f" ({'stable' if c['stable'] else 'not stable'})")
     if res.get("rates"):
         lines.append("  servo rate (Hz): " + "  ".join(
-            f"{r['rate_hz']}:{r['spectral_radius']:.3f}{'' if r['stable'] else '!'}" for r in res["rates"]))
+            f"{r['rate_hz']}:{_z(r['spectral_radius'], 3)}{'' if r['stable'] else '!'}" for r in res["rates"]))
     for g, d in res.get("gains", {}).items():
         cs = d["critical_scale"]
         lines.append(f"  {g} ({d['param']}): unstable from x{cs:.3g}" if cs else

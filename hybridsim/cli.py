@@ -539,6 +539,11 @@ def _origin(exc):
         return missing_dependency(exc)
     if isinstance(exc, OSError) and exc.errno:
         return from_os_error(exc)
+    if type(exc).__name__ == "LinAlgError":  # numpy's: a model whose matrices are not finite
+        from .errors import SimulationError
+
+        return SimulationError(f"the linearized model has no finite solution ({exc}): the model, or a "
+                               "setting of the analysis (a rate, a gain scale), makes it overflow")
     if isinstance(exc, MemoryError):
         return EnvironmentProblem("out of memory (the machine refused an allocation); lower the "
                                   "run's size or free memory")

@@ -328,3 +328,18 @@ signals: {force: 'p$x.y[0]', force_desired: 'z.y[0]'}
     assert (out / "d.png").stat().st_size > 0
     code, _, err = run(capsys, "draw", write(tmp_path, text), "-o", tmp_path / "x.png")
     assert code == 0, err
+
+
+def test_a_linearisation_that_overflows_is_the_models_not_a_bug():
+    import numpy as np
+
+    from hybridsim import analysis
+    from hybridsim.cli import _origin
+
+    exc = _origin(np.linalg.LinAlgError("Array must not contain infs or NaNs"))
+    assert exc.exit_code == 3 and "no finite solution" in str(exc)
+    res = {"diagram": "d", "period_s": 0.01, "branch": {}, "growth": 0.5, "integrator_modes": 0, "stable": True,
+           "poles": [], "loops": {}, "cases": {"a": {"set": {}, "spectral_radius": None, "stable": False}},
+           "rates": [{"rate_hz": 1e-3, "spectral_radius": None, "stable": False}], "gains": {}}
+    text = "\n".join(analysis.summary_lines(res))
+    assert "largest |z| n/a" in text and "0.001:n/a!" in text

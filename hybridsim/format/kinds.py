@@ -155,7 +155,8 @@ class ListOf(Kind):
         return None
 
     def schema(self):
-        s = {"type": "array", "items": self.item.schema()}
+        item = self.item.schema()
+        s = {"type": "array", "items": {"anyOf": [item, REF_SCHEMA]} if item else {}}  # '$name' items too
         if self.exact:
             s["minItems"] = s["maxItems"] = self.exact
         elif self.min_len:
@@ -198,7 +199,8 @@ class MapOf(Kind):
         return None
 
     def schema(self):
-        return {"type": "object", "additionalProperties": self.value.schema()}
+        value = self.value.schema()
+        return {"type": "object", "additionalProperties": {"anyOf": [value, REF_SCHEMA]} if value else {}}
 
 
 class Record(Kind):
