@@ -20,29 +20,19 @@ import copy
 import control
 import numpy as np
 
-from . import loader
+from .format import tables
+from .format.settings import horizon_problems
 from .api import build, load
 from .linearize import Linearization, LinearizationError, hand_modes
-from .registry import default, lookup
 
-DEFAULTS = {
-    "set": {},
-    "points": {},
-    "rate_param": "rate",
-    "rates": [30, 45, 60, 80, 120, 240, 480],
-    "gains": {},
-    "scales": [0.125, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0],
-    "cases": {},
-    "hand_mode_hz": None,
-    "at": None,  # the operating point: the state after this many seconds (None: the initial state)
-}
-KEYS = loader.ANALYSIS_KEYS  # checked by the loader; "compare" and "step" are read by hybridsim.report
+DEFAULTS = {k: v for k, v in tables.defaults(tables.ANALYSIS).items() if k not in ("compare", "step")}
+KEYS = tables.keys(tables.ANALYSIS)  # the table checks the section; "compare" and "step" are read by hybridsim.report
 
 
 def settings_of(f):
-    """The diagram's analysis settings merged over the defaults (the loader has checked its keys)."""
-    cfg = copy.deepcopy(DEFAULTS)
-    cfg.update(dict(f.data.get("analysis") or {}))
+    """The diagram's analysis settings, checked against their table, over the defaults."""
+    cfg = f.analysis_settings()
+    cfg.pop("_lines", None)
     return cfg
 
 
@@ -52,38 +42,20 @@ def linearization(path, at=None, **overrides):
     system, sim, settings = build(path, **overrides)
     ctx, t = None, 0.0
     if at:
+        why = horizon_problems(system.blocks, settings["simulation"], at, 0, "linearize at")
+        if why:
+            from .errors import InputError
+
+            raise InputError(f"{path}: " + "; ".join(why))
         res = sim.run(float(at))
         ctx, t = res.context, float(at)
     return Linearization(system, ctx, t)
 
 
 def param_value(f, ref):
-    """Current value of 'block.param' (from the file or the block's default).
-
-    ``ref`` may reach into subsystems (``ctrl.fpi.Kp``): an override the
-    subsystem block gives wins, else the subsystem's file says.
-    """
-    from .errors import LoaderError
-    from .loader import DiagramFile, subsystem_path
-
-    bname, _, pname = ref.partition(".")
-    spec = f.data["blocks"].get(bname)
-    if not isinstance(spec, dict) or "type" not in spec or not pname:
-        raise LoaderError(f"{ref!r}: no block {bname!r} with parameter {pname!r}", f.path)
-    if spec["type"] == "subsystem":
-        if pname in spec:  # the subsystem block sets it
-            return np.asarray(f._resolve(spec[pname], str(f.path), f.params), float)
-        sub = DiagramFile(subsystem_path(spec, "."))
-        sub.apply({k: f._resolve(v, str(f.path), f.params) for k, v in spec.items() if k not in ("type", "file")})
-        return param_value(sub, pname)
-    if "." in pname:
-        raise LoaderError(f"{ref!r}: block {bname!r} is not a subsystem", f.path)
-    if pname in spec:
-        val = spec[pname]
-        if isinstance(val, str) and val.startswith("$"):
-            val = f.params[val[1:]]
-        return np.asarray(val, float)
-    return np.asarray(default(lookup(spec["type"]), pname), float)
+    """Current value of 'block.param' (from the file or the block's default); see
+    :meth:`DiagramFile.param_value <hybridsim.format.diagram_file.DiagramFile.param_value>`."""
+    return f.param_value(ref)
 
 
 def least_damping(poles):
@@ -177,7 +149,7 @@ def largest_abs_z(path, overrides, at=None):
     reached at ``at`` s of simulation when given (as :func:`linearization`)."""
     try:
         return linearization(path, at=at, **overrides).closed_loop().growth
-    except LinearizationError:
+    except (LinearizationError, np.linalg.LinAlgError):  # no finite model there (e.g. expm overflowed): no verdict
         return None
 
 
@@ -271,6 +243,11 @@ def analyze(path, at=None, sweeps=True, **overrides):
     return out
 
 
+def _z(value, digits):
+    """A largest |z| for people; 'n/a' where no finite model was found."""
+    return "n/a" if value is None else f"{value:.{digits}f}"
+
+
 def summary_lines(res):
     """Human-readable lines for the terminal."""
     lines = [f"{res['diagram']}: closed loop at period {res['period_s'] * 1000:.3f} ms "
@@ -294,11 +271,11 @@ def summary_lines(res):
         pm = "inf" if m["phase_margin_deg"] is None else f"{m['phase_margin_deg']:.1f} deg"
         lines.append(f"  loop {name} ({m['signal']}): gain margin {gm}, phase margin {pm}")
     for cname, c in res.get("cases", {}).items():
-        lines.append(f"  case {cname} {c['set']}: largest |z| {c['spectral_radius']:.4f}"
+        lines.append(f"  case {cname} {c['set']}: largest |z| {_z(c['spectral_radius'], 4)}"
                      f" ({'stable' if c['stable'] else 'not stable'})")
     if res.get("rates"):
         lines.append("  servo rate (Hz): " + "  ".join(
-            f"{r['rate_hz']}:{r['spectral_radius']:.3f}{'' if r['stable'] else '!'}" for r in res["rates"]))
+            f"{r['rate_hz']}:{_z(r['spectral_radius'], 3)}{'' if r['stable'] else '!'}" for r in res["rates"]))
     for g, d in res.get("gains", {}).items():
         cs = d["critical_scale"]
         lines.append(f"  {g} ({d['param']}): unstable from x{cs:.3g}" if cs else

@@ -12,7 +12,8 @@ import os
 from pathlib import Path
 
 from . import metrics as _metrics
-from .files import atomic_dir, safe_name
+from .files import atomic_dir, safe_name, unique_names
+from .format import tables
 from .loader import DiagramFile
 from .simulator import Simulator, on_terminal
 from .solvers import FIXED_STEP, ScipySolver
@@ -22,25 +23,74 @@ def make_solver(sim):
     """Solver object from a diagram's ``simulation`` settings."""
     name = str(sim.get("solver", "rk4")).lower()
     if name in FIXED_STEP:
-        return FIXED_STEP[name](float(sim.get("step", 1e-4)))
+        return FIXED_STEP[name](float(sim.get("step", _SIM["step"])))
     method = {"radau": "Radau", "bdf": "BDF", "lsoda": "LSODA", "rk45": "RK45",
               "rk23": "RK23", "dop853": "DOP853"}[name]
-    return ScipySolver(method, rtol=float(sim.get("rtol", 1e-8)),
-                       atol=sim.get("atol", 1e-10), max_step=float(sim.get("max_step", float("inf"))))
+    atol = sim.get("atol", _SIM["atol"])
+    return ScipySolver(method, rtol=float(sim.get("rtol", _SIM["rtol"])),
+                       atol=atol if not isinstance(atol, list) else _SIM["atol"], max_step=float(sim.get("max_step", _SIM["max_step"])))
 
 
 def _atol_vector(system, sim):
-    """Per-state absolute tolerances: a block's own where it declares them."""
+    """Per-state absolute tolerances: ``atol`` given one per state, else a block's own where it
+    declares them and ``atol`` (a number) elsewhere."""
     import numpy as np
 
-    default = float(sim.get("atol", 1e-10))
+    from .errors import InputError
+
+    given = sim.get("atol", _SIM["atol"])
+    if isinstance(given, (list, tuple)):
+        if len(given) != system.n_x:
+            raise InputError(f"simulation setting 'atol' has {len(given)} value(s); one per continuous "
+                             f"state needs {system.n_x} (or give one number)")
+        return np.asarray(given, float)
     a = system.atol.copy()
-    a[np.isnan(a)] = default
+    a[np.isnan(a)] = float(given)
     return a
 
 
-SIMULATION_KEYS = {"t_end", "solver", "step", "rtol", "atol", "max_step", "log_period", "max_state", "fused", "compiled",
-                   "locate_switches"}
+SIMULATION_KEYS = set(tables.keys(tables.SIMULATION))
+_SIM = tables.defaults(tables.SIMULATION)  # the defaults of every simulation setting, from its table
+
+
+def check_plugin_blocks(system):
+    """Evaluate each plugin block's outputs once, at t = 0, and check them against its declared ports.
+
+    Raises :class:`~hybridsim.errors.PluginFault` naming the plugin, the block
+    and what it did (raised, or returned the wrong number or width of outputs),
+    before the run starts.
+    """
+    import numpy as np
+
+    from .errors import PluginFault
+    from .registry import _is_ours, plugin_fault
+
+    plugin = [i for i, b in enumerate(system.blocks) if not _is_ours(type(b).__module__)]
+    if not plugin:
+        return
+    try:
+        ctx = system.create_context()
+    except Exception as exc:  # noqa: BLE001 - a plugin's initial state or outputs may raise anything
+        raise (plugin_fault(exc) or exc) from None
+    for i in plugin:
+        b = system.blocks[i]
+        who = (f"plugin {type(b).__module__!r}: block {b.name!r} "
+               f"({getattr(type(b), 'type_name', type(b).__name__)})")
+        try:
+            outs = tuple(b.output(0.0, ctx.block_state(i, ctx.xc), ctx.u[i]))
+        except Exception as exc:  # noqa: BLE001
+            raise PluginFault(f"{who}: output() raised {type(exc).__name__}: {exc}", type(b).__module__,
+                              b.name) from None
+        if b.outputs and len(outs) != len(b.outputs):
+            raise PluginFault(f"{who}: output() returned {len(outs)} value(s); the block declares "
+                              f"{len(b.outputs)} output(s) ({', '.join(p.name for p in b.outputs)})",
+                              type(b).__module__, b.name)
+        for port, v in zip(b.outputs, outs):
+            try:
+                np.broadcast_to(np.asarray(v, float), (port.width,))
+            except (ValueError, TypeError):
+                raise PluginFault(f"{who}: output {port.name!r} returned shape {np.shape(v)}; the block "
+                                  f"declares width {port.width}", type(b).__module__, b.name) from None
 
 
 def load(path, **overrides):
@@ -64,6 +114,7 @@ def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
     f = path_or_file if isinstance(path_or_file, DiagramFile) else load(path_or_file, **overrides)
     diagram, settings = f.build(variant)
     system = diagram.build()
+    check_plugin_blocks(system)
     sim = settings["simulation"]
     solver = make_solver(sim)
     if isinstance(solver, ScipySolver):
@@ -81,10 +132,10 @@ def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
         if why:
             raise CompiledPathError("cannot use the compiled path: " + "; ".join(why))
     simulator = Simulator(system, solver, log=log,
-                          log_period=sim.get("log_period", 0.0005),
-                          max_state=sim.get("max_state", 1e6), fused=bool(sim.get("fused", True)),
+                          log_period=sim.get("log_period", _SIM["log_period"]),
+                          max_state=sim.get("max_state", _SIM["max_state"]), fused=bool(sim.get("fused", _SIM["fused"])),
                           compiled=compiled and not check_only,
-                          locate_switches=bool(sim.get("locate_switches", False)))
+                          locate_switches=bool(sim.get("locate_switches", _SIM["locate_switches"])))
     return system, simulator, settings
 
 
@@ -156,15 +207,19 @@ def run_experiment(path_or_file, progress=False, jobs=None, **overrides):
     return f, [r for r, _ in out], out[-1][1]
 
 
-def write_outputs(f, runs, settings, outdir):
-    """Write CSV per variant, the figure (PNG, SVG) and metrics.json, atomically."""
+def write_outputs(f, runs, settings, outdir, only_ours=False):
+    """Write CSV per variant, the figure (PNG, SVG) and metrics.json, atomically.
+
+    CSV names cannot collide (a short hash where two labels slug alike);
+    ``only_ours`` (a default folder): replace no file hybridsim did not write.
+    """
     from .plots import experiment_figure
 
     outdir = Path(outdir)
     name = safe_name(f.name)
-    with atomic_dir(outdir) as tmp:
-        for r in runs:
-            stem = name + (("_" + _slug(r["label"])) if r["label"] else "")
+    with atomic_dir(outdir, only_ours=only_ours) as tmp:
+        for r, stem in zip(runs, unique_names([r["label"] for r in runs], name)):
+            r["csv"] = f"{stem}.csv"
             r["result"].to_csv(tmp / f"{stem}.csv")
         fig = experiment_figure(f, runs, settings)
         fig.savefig(tmp / f"{name}.png", dpi=130)
@@ -173,12 +228,9 @@ def write_outputs(f, runs, settings, outdir):
 
         plt.close(fig)
         doc = {"diagram": f.name, "file": str(f.path), "description": f.description,
-               "runs": [{"label": r["label"], "overrides": r["overrides"],
+               "runs": [{"label": r["label"], "csv": r["csv"], "overrides": r["overrides"],
                          "solver": r["result"].meta["solver"], "metrics": r["metrics"]}
                         for r in runs]}
         (tmp / "metrics.json").write_text(json.dumps(doc, indent=2, default=float) + "\n")
     return outdir
 
-
-def _slug(label):
-    return safe_name("".join(c if c.isalnum() or c in "-." else "-" for c in label.replace("=", "")), "run")

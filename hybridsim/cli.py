@@ -1,7 +1,9 @@
 """The ``hybridsim`` command: a thin layer over :mod:`hybridsim.api`.
 
-Exit status: 0 success; 2 bad diagram / bad input; 3 simulation diverged;
-4 FMU problem; 70 internal error (please report it, with ``--debug``).
+Exit status by origin (the table in :mod:`hybridsim.errors`): 0 success; 2 bad
+input; 3 the model diverged or its solver failed; 4 an FMU; 5 the environment
+(disk full, permission, a missing package); 6 a plugin's fault; 70 an internal
+error (please report it, with ``--debug``).
 """
 import argparse
 import json
@@ -11,11 +13,10 @@ import signal
 import sys
 from pathlib import Path
 
-import yaml
-
 from .errors import HybridsimError, InputError
-from .files import check_output_dir, check_output_file, safe_name
-from .loader import NumberLoader
+from .files import check_output_dir, check_output_file, default_output_file, safe_name
+from .format import tables
+from .format.yamlio import parse_value
 
 EPILOG = """\
 examples:
@@ -34,11 +35,17 @@ examples:
   hybridsim blocks                                               # the block library
 
 --set PATH=VALUE: PATH is a name in the diagram's 'params', a block
-parameter 'block.param' ('sub.block.param' inside a subsystem), or
-'simulation.key' (t_end, solver, step, rtol,
-atol, log_period). VALUE is read as YAML: 10, 1e-4, [5, 50], true.
+parameter 'block.param' ('sub.block.param' inside a subsystem, 'block.param[i]'
+for one element), or 'simulation.key' ({sim}).
+VALUE is read as YAML: 10, 1e-4, [5, 50], true.
 A --set of a parameter that 'variants' sweeps fixes it to one run.
-"""
+Every setting of every section: docs/settings.md. Limits checked before a
+run (steps, log size, blocks, sweep points) are raised with environment
+variables, e.g. HYBRIDSIM_MAX_STEPS=1e9.
+
+exit status: 0 ok, 2 bad input, 3 the model diverged, 4 an FMU, 5 the
+environment (disk, permission, a missing package), 6 a plugin's fault.
+""".format(sim=tables.help_text(tables.SIMULATION))
 
 
 def _overrides(items):
@@ -49,14 +56,7 @@ def _overrides(items):
         key, val = item.split("=", 1)
         if not key.strip():
             raise InputError(f"--set expects PATH=VALUE, got {item!r} (no PATH)")
-        if len(val) > 10_000:
-            raise InputError(f"--set {key}: the value is longer than 10000 characters")
-        try:
-            value = yaml.load(val, Loader=NumberLoader)
-        except yaml.YAMLError as exc:
-            raise InputError(f"--set {key}: cannot read value {val!r}: "
-                             f"{getattr(exc, 'problem', None) or exc}") from None
-        out[key.strip()] = value
+        out[key.strip()] = parse_value(val, f"--set {key.strip()}")
     return out
 
 
@@ -97,7 +97,7 @@ def cmd_run(args):
     n = len(f.variants())
     print(f"running {f.name} ({n} run{'s' if n > 1 else ''}) ...", file=sys.stderr)
     f, runs, settings = api.run_experiment(f, progress=not args.quiet)
-    api.write_outputs(f, runs, settings, outdir)
+    api.write_outputs(f, runs, settings, outdir, only_ours=not args.output)
     for r in runs:
         m = r["metrics"]
         head = r["label"] or f.name
@@ -145,6 +145,10 @@ def cmd_draw(args):
 
     f = _load(args.diagram, args.set)
     out = check_output_file(args.output or f"{safe_name(f.name)}.png", _image_formats())
+    if not args.output:
+        out, note = default_output_file(out)
+        if note:
+            print(note, file=sys.stderr)
     diagram, _ = f.build(f.variants()[0][1])
     system = diagram.build()
     fig = draw_diagram(system, f.description or f.name, expand=args.expand)
@@ -255,7 +259,15 @@ def cmd_fmu_build(args):
     """`hybridsim fmu build`: export the plant FMU (FMI 2.0 or 3.0). Returns the exit status."""
     from .fmus.build import build_plant_fmu
 
-    out = build_plant_fmu(check_output_file(args.output, ["fmu"]), fmi=args.fmi)
+    from .files import _record
+
+    out = check_output_file(args.output or "plant.fmu", ["fmu"])
+    if not args.output:
+        out, note = default_output_file(out)
+        if note:
+            print(note, file=sys.stderr)
+    out = build_plant_fmu(out, fmi=args.fmi)
+    _record(Path(out).parent, [Path(out).name])
     print(f"wrote {out} (FMI {args.fmi}.0, Co-Simulation and Model Exchange, sources included)")
     return 0
 
@@ -311,7 +323,8 @@ def _describe(name, cls, verbose):
     from .registry import parameters
 
     req, opt = parameters(cls)
-    doc = (cls.__doc__ or "").strip().splitlines()[0]
+    lines = (cls.__doc__ or "").strip().splitlines()
+    doc = lines[0] if lines else f"(no description: {cls.__module__}.{cls.__qualname__} has no docstring)"
     print(f"  {name:26s} {doc}")
     if not verbose:
         return
@@ -414,7 +427,9 @@ def build_parser():
     c.set_defaults(func=cmd_check)
     d = sub.add_parser("draw", help="render the diagram as a picture (one colour per rate)")
     with_diagram(d)
-    d.add_argument("-o", "--output", metavar="FILE", help="image file (.png, .svg, .pdf)")
+    d.add_argument("-o", "--output", metavar="FILE",
+                   help="image file (.png, .svg, .pdf; default NAME.png, never replacing a file hybridsim "
+                        "did not write: then NAME-2.png, ...)")
     d.add_argument("--expand", action="store_true",
                    help="draw every block inside subsystems (default: a subsystem is one box)")
     d.set_defaults(func=cmd_draw)
@@ -471,7 +486,9 @@ def build_parser():
                                      "fmus/plant.c for FMI 2.0, fmus/plant3.c for FMI 3.0) with the "
                                      "system C compiler (cc or gcc, or $CC) against fmpy's FMI headers, "
                                      "and pack the FMU (Model Exchange and Co-Simulation) with its sources.")
-    fb.add_argument("-o", "--output", default="plant.fmu", metavar="FILE", help="the FMU to write (default plant.fmu)")
+    fb.add_argument("-o", "--output", metavar="FILE",
+                    help="the FMU to write (default plant.fmu; a plant.fmu hybridsim did not write is kept "
+                         "and the next free name plant-2.fmu, ... is used)")
     fb.add_argument("--fmi", type=int, choices=(2, 3), default=2,
                     help="FMI version: 2 (FMI 2.0, the default) or 3 (FMI 3.0)")
     fb.set_defaults(func=cmd_fmu_build)
@@ -512,6 +529,47 @@ def build_parser():
     return p
 
 
+def _report(exc):
+    """Print a HybridsimError as one message; its family's exit status."""
+    print(f"error: {exc}", file=sys.stderr)
+    return exc.exit_code
+
+
+def _warn_replaced():
+    """The warning every command gives while a plugin replaces a block type."""
+    from .registry import _load_libraries, replacement_warnings
+
+    _load_libraries()
+    for line in replacement_warnings():
+        print(line, file=sys.stderr)
+
+
+def _origin(exc):
+    """The HybridsimError that says where ``exc`` came from: a plugin's code (exit 6), the
+    environment (exit 5: an OSError, no memory, a missing package), or None (a bug: exit 70)."""
+    from .errors import EnvironmentProblem, from_os_error, missing_dependency
+    from .registry import plugin_fault
+
+    fault = plugin_fault(exc)
+    if fault is not None:
+        return fault
+    if isinstance(exc, SystemExit):
+        return None
+    if isinstance(exc, ImportError):
+        return missing_dependency(exc)
+    if isinstance(exc, OSError) and exc.errno:
+        return from_os_error(exc)
+    if type(exc).__name__ == "LinAlgError":  # numpy's: a model whose matrices are not finite
+        from .errors import SimulationError
+
+        return SimulationError(f"the linearized model has no finite solution ({exc}): the model, or a "
+                               "setting of the analysis (a rate, a gain scale), makes it overflow")
+    if isinstance(exc, MemoryError):
+        return EnvironmentProblem("out of memory (the machine refused an allocation); lower the "
+                                  "run's size or free memory")
+    return None
+
+
 def main(argv=None):
     """Run the ``hybridsim`` command with ``argv`` (default: sys.argv); returns the exit status (see README)."""
     parser = build_parser()
@@ -530,19 +588,27 @@ def main(argv=None):
             from .registry import load_plugin
 
             load_plugin(module)
+        _warn_replaced()
         return args.func(args)
     except HybridsimError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return exc.exit_code
+        return _report(exc)
     except KeyboardInterrupt:
         print("interrupted; earlier results left as they were", file=sys.stderr)
         return 130
     except Terminated:
         print("terminated; earlier results left as they were", file=sys.stderr)
         return 143
+    except SystemExit as exc:  # a plugin's code called sys.exit: not the command's status
+        fault = _origin(exc)
+        if fault is None:
+            raise
+        return _report(fault)
     except Exception as exc:  # noqa: BLE001 - last line of defence, see --debug
         if args.debug:
             raise
+        fault = _origin(exc)
+        if fault is not None:
+            return _report(fault)
         print(f"internal error: {type(exc).__name__}: {exc}\n"
               "(this is a bug in hybridsim; run again with --debug for the traceback)", file=sys.stderr)
         return 70

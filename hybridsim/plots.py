@@ -10,7 +10,35 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 
+from . import limits  # noqa: E402
 from .metrics import display_filter  # noqa: E402
+
+
+def _literal(fig):
+    """Show every title, label, legend entry and note of ``fig`` as written: a '$' in a diagram's
+    name, description or label is a character, not the start of mathtext (which may not parse)."""
+    texts = list(fig.texts) + ([fig._suptitle] if fig._suptitle is not None else [])
+    for ax in fig.axes:
+        texts += [ax.title, ax._left_title, ax._right_title, ax.xaxis.label, ax.yaxis.label, *ax.texts]
+        leg = ax.get_legend()
+        if leg is not None:
+            texts += leg.get_texts() + [leg.get_title()]
+    for t in texts:
+        t.set_parse_math(False)
+    return fig
+
+
+def _thin(t, y):
+    """(t, y) with at most ``MAX_PLOT_POINTS`` rows (every k-th): a figure of a very long log stays small."""
+    k = -(-len(t) // limits.get("MAX_PLOT_POINTS"))
+    return (t[::k], y[::k]) if k > 1 else (t, y)
+
+
+def _span(values):
+    """(lo, hi) of the finite values, or None (all NaN or infinite: the axis keeps its own limits)."""
+    v = np.asarray(values, float)
+    v = v[np.isfinite(v)]
+    return (float(v.min()), float(v.max())) if v.size else None
 
 
 def _col(result, ref):
@@ -69,7 +97,7 @@ def experiment_figure(f, runs, settings):
                 filt = display_filter(r.t, raw)
                 ax.plot(r.t, raw, color=c, lw=0.4, alpha=0.25)
                 ax.plot(r.t, filt, color=c, lw=1.4, label=label)
-                force_range.extend([np.min(filt), np.max(filt)])
+                force_range.extend(_span(filt) or [])
                 if "force_desired" in sig:
                     ax.plot(r.t, _col(r, sig["force_desired"]), "--", color="k" if len(runs) == 1 else c, lw=1)
                 ax.set_ylabel(f"{name['force']} (N)\n12 Hz filtered")
@@ -94,10 +122,12 @@ def experiment_figure(f, runs, settings):
             pad = 0.1 * (hi - lo or 1.0)
             ax.set_ylim(lo - pad, hi + pad)
         ax.grid(True, alpha=0.3)
-        if p in ("position", "force", "surface", "oscillation") and (len(runs) > 1 or p == "surface"):
+        if p in ("position", "force", "surface", "oscillation") and (len(runs) > 1 or p == "surface") \
+                and len(runs) <= limits.get("MAX_PLOT_LINES"):
             ax.legend(fontsize=7, loc="best", ncol=2 if len(runs) > 4 else 1)
     axes[-1].set_xlabel("time (ms)" if panels[-1] == "oscillation" else "time (s)")
     fig.suptitle(_title(f, settings), fontsize=10)
+    _literal(fig)
     fig.tight_layout()
     return fig
 
@@ -111,8 +141,8 @@ def _grid_axes(runs):
     if len(keys) != 2:
         return None
     values = [list(dict.fromkeys(repr(r["overrides"][k]) for r in runs)) for k in keys]
-    if len(values[0]) * len(values[1]) != len(runs):
-        return None
+    if len(values[0]) * len(values[1]) != len(runs) or len(runs) > limits.get("MAX_PLOT_LINES"):
+        return None  # not a full grid, or too many panels for one figure
     return keys[0], values[0], keys[1], values[1]
 
 
@@ -131,7 +161,8 @@ def _grid_figure(f, runs, sig, rkey, rvals, ckey, cvals, force_label="force", ti
         ax.plot(r.t, raw, color="C0", lw=0.4, alpha=0.25)
         ax.plot(r.t, filt, color="C0", lw=1.2)
         lo, hi = ranges.get(i, (0.0, 0.0))
-        ranges[i] = (min(lo, float(np.min(filt))), max(hi, float(np.max(filt))))
+        span = _span(filt) or (lo, hi)
+        ranges[i] = (min(lo, span[0]), max(hi, span[1]))
         if "force_desired" in sig:
             ax.plot(r.t, _col(r, sig["force_desired"]), "k--", lw=0.9)
         ax.grid(True, alpha=0.3)
@@ -146,6 +177,7 @@ def _grid_figure(f, runs, sig, rkey, rvals, ckey, cvals, force_label="force", ti
         pad = 0.1 * (hi - lo or 1.0)
         axes[i, 0].set_ylim(lo - pad, hi + pad)
     fig.suptitle((title or f.description or f.name) + " (12 Hz filtered, raw faint, desired dashed)", fontsize=9)
+    _literal(fig)
     fig.tight_layout()
     return fig
 
@@ -160,10 +192,17 @@ def _scope_figure(f, runs, title=None, most=8):
     for k, run in enumerate(runs):
         r, c = run["result"], colors[k % len(colors)]
         for ax, ref in zip(axes, refs):
-            v = r.signals[ref]
-            for j in range(v.shape[1]):
-                ax.plot(r.t, v[:, j], color=c, lw=1.2, ls=("-", "--", ":", "-.")[j % 4],
-                        label=f"{run['label'] or f.name} [{j}]" if v.shape[1] > 1 or len(runs) > 1 else None)
+            t, v = _thin(r.t, r.signals[ref])
+            shown = min(v.shape[1], limits.get("MAX_PLOT_LINES"))
+            many = shown > 8  # no legend entry per element then
+            for j in range(shown):
+                ax.plot(t, v[:, j], color=c, lw=1.2 if not many else 0.5, ls=("-", "--", ":", "-.")[j % 4],
+                        label=None if many else (f"{run['label'] or f.name} [{j}]"
+                                                 if v.shape[1] > 1 or len(runs) > 1 else None))
+            if k == 0 and (shown < v.shape[1] or len(t) < len(r.t)):
+                ax.text(0.01, 0.97, f"elements 0..{shown - 1} of {v.shape[1]} drawn"
+                        + (f", every {-(-len(r.t) // len(t))}th row" if len(t) < len(r.t) else "")
+                        + " (the CSV has all)", transform=ax.transAxes, fontsize=6, va="top")
             ax.set_ylabel(ref, fontsize=8)
     for ax in axes:
         ax.grid(True, alpha=0.3)
@@ -171,6 +210,7 @@ def _scope_figure(f, runs, title=None, most=8):
             ax.legend(fontsize=7, loc="best")
     axes[-1].set_xlabel("time (s)")
     fig.suptitle(title or f.description or f.name, fontsize=10)
+    _literal(fig)
     fig.tight_layout()
     return fig
 
@@ -342,6 +382,7 @@ def draw_diagram(system, title=None, expand=False):
     ax.set_ylim(min(ys) - 0.8, max(ys) + 0.8)
     ax.set_axis_off()
     ax.set_title(title or system.name)
+    _literal(fig)
     fig.tight_layout()
     return fig
 

@@ -7,12 +7,13 @@ Attach it with the first line of a diagram::
     # yaml-language-server: $schema=hybridsim-diagram.schema.json
 
 The schema knows what a schema can: sections, block types and their parameter
-names and kinds (number, list, true/false, text), simulation keys, signal roles.
-Widths, wiring, units and ranges are checked by ``hybridsim check``.
+names and kinds (number, list, true/false, text), and every settings section
+from its table in :mod:`hybridsim.format.tables` (keys, kinds, ranges, docs).
+Widths and wiring are checked by ``hybridsim check``.
 """
 import inspect
 
-from . import analysis, loader
+from .format import tables
 from .registry import lookup, parameters, types
 
 SCHEMA_ID = "https://hybridsim.invalid/diagram.schema.json"
@@ -36,6 +37,31 @@ def _kind(default):
     return {"anyOf": kinds + [_REF]}
 
 
+_NO_JSON = object()
+
+
+def _json_default(value):
+    """``value`` as JSON data (tuples as lists), or _NO_JSON when JSON cannot hold it (an object,
+    NaN): such a default is not shown, and the schema stays valid JSON."""
+    import json
+
+    def plain(v):
+        if isinstance(v, (list, tuple)):
+            return [plain(x) for x in v]
+        if isinstance(v, dict):
+            return {str(k): plain(x) for k, x in v.items()}
+        if hasattr(v, "tolist"):  # numpy arrays and scalars
+            return plain(v.tolist())
+        return v
+
+    try:
+        out = plain(value)
+        json.dumps(out, allow_nan=False)
+        return out
+    except (TypeError, ValueError):
+        return _NO_JSON
+
+
 def block_schema(type_name):
     """The schema of one block type's mapping (``{type: ..., parameter: value, ...}``).
 
@@ -56,12 +82,14 @@ def block_schema(type_name):
         default = sig[name].default
         entry = _kind(None if default is inspect.Parameter.empty else default)
         if default is not inspect.Parameter.empty:
-            try:
-                entry = {**entry, "default": loader._plain(default) if not isinstance(default, tuple)
-                         else list(default)}
-            except Exception:  # noqa: BLE001 - a default JSON cannot hold is simply not shown
-                pass
+            shown = _json_default(default)
+            if shown is not _NO_JSON:
+                entry = {**entry, "default": shown}
         props[name] = entry
+    if cls.__module__.startswith("hybridsim."):
+        for s in tables.BLOCK_SETTINGS.get(type_name, ()):  # a table says more than a default does
+            if s.key in props:
+                props[s.key] = {"anyOf": [s.kind.schema(), _REF], "description": s.doc}
     doc = (inspect.getdoc(cls) or "").splitlines()
     return {"type": "object", "title": type_name, "description": doc[0] if doc else type_name,
             "properties": props, "required": ["type"] + required, "additionalProperties": False}
@@ -81,13 +109,7 @@ def diagram_schema():
                  "required": ["type", "file"], "additionalProperties": True}
     partial = {"type": "object", "not": {"required": ["type"]},
                "description": "without 'type': changes parameters of the block of the file this one extends"}
-    sim = {k: {} for k in loader.SIM_KEYS}
-    for k in ("t_end", "step", "rtol", "max_step", "log_period", "max_state"):
-        sim[k] = {"anyOf": [_NUMBER, _REF]}
-    sim["atol"] = {"anyOf": [_NUMBER, _NUMBERS, _REF]}
-    sim["solver"] = {"enum": loader.SOLVERS}
-    for k in ("fused", "compiled", "locate_switches"):
-        sim[k] = {"type": "boolean"}
+    sim = tables.section_schema(tables.SIMULATION)
     ref = {"type": "string", "pattern": r"^[^\s\[\]]+\.[^.\s\[\]]+(\[\d+\])?$"}
     wire = {"anyOf": [{"type": "string", "pattern": r"^\s*\S+\.\S+\s*->\s*\S+\.\S+\s*$"},
                       {"type": "array", "items": ref, "minItems": 2, "maxItems": 2}]}
@@ -104,18 +126,24 @@ def diagram_schema():
             "blocks": {"type": "object", "propertyNames": {"pattern": r"^[^.\[\]\s:=]+$"},
                        "additionalProperties": {"anyOf": blocks + [subsystem, partial, {"type": "null"}]}},
             "wires": {"type": "array", "items": wire},
-            "simulation": {"type": "object", "properties": sim, "additionalProperties": False},
+            "simulation": sim,
             "log": {"type": "array", "items": ref},
-            "signals": {"type": "object", "propertyNames": {"enum": loader.SIGNAL_ROLES},
+            "signals": {"type": "object", "propertyNames": {"enum": tables.SIGNAL_ROLES},
                         "additionalProperties": ref},
-            "metrics": {"type": "object", "propertyNames": {"enum": loader.METRIC_KEYS}},
+            "metrics": tables.section_schema(tables.METRICS),
             "variants": {"type": "object", "additionalProperties": {"type": "array", "minItems": 1}},
-            "plot": {"type": "object", "propertyNames": {"enum": loader.PLOT_KEYS},
-                     "additionalProperties": {"type": "string"}},
-            "analysis": {"type": "object", "propertyNames": {"enum": analysis.KEYS}},
+            "plot": tables.section_schema(tables.PLOT),
+            "analysis": tables.section_schema(tables.ANALYSIS),
             "inputs": {"type": "object", "additionalProperties": {"anyOf": [ref, {"type": "array", "items": ref}]}},
             "outputs": {"type": "object", "additionalProperties": ref},
         },
         "required": ["blocks"],
         "additionalProperties": False,
     }
+
+
+def sweep_schema():
+    """The JSON Schema of a sweep file, from its table."""
+    out = tables.section_schema(tables.SWEEP)
+    out.update({"$schema": "https://json-schema.org/draft/2020-12/schema", "title": "hybridsim sweep"})
+    return out

@@ -25,8 +25,8 @@ Resuming: each finished point is appended as one JSON line to
 second run of the same sweep skips the points already there, so an
 interrupted sweep loses and duplicates nothing. The folder's
 ``sweep-manifest.json`` holds a fingerprint of everything else a point's
-numbers depend on (the diagram and every file it extends, ``set``, ``stability``,
-the hybridsim version): a different sweep into the same folder is refused, or
+numbers depend on (every file its runs read, ``set``, ``stability``, the hybridsim version:
+:mod:`hybridsim.format.identity`): a different sweep into the same folder is refused, or
 with ``force`` starts afresh (the old points kept as ``points.jsonl.old``).
 A point whose run diverges is recorded as failed, with the message, and the
 sweep carries on. Every point's parameters are checked before any runs.
@@ -42,7 +42,8 @@ import numpy as np
 
 from . import limits
 from .errors import HybridsimError, InputError, LoaderError
-from .files import atomic_file, make_output_dir
+from .files import atomic_file, locked_output_dir
+from .format.identity import check_sweep
 from .loader import parse_file
 
 #: seconds to wait for a Dask scheduler to answer
@@ -56,6 +57,7 @@ class Sweep:
     def __init__(self, path):
         self.path = Path(path)
         data, _ = parse_file(self.path, what="a sweep file is a mapping with at least 'diagram'")
+        check_sweep(data, self.path)  # the sweep table; one parameter under two spellings refused
         if "diagram" not in data:
             raise LoaderError("a sweep file is a mapping with at least 'diagram'", self.path, 1)
         lines = data.lines
@@ -183,17 +185,12 @@ class Sweep:
                 raise InputError(f"{self.path}: swept value {key} = {value!r}: {exc}") from None
 
     def fingerprint(self):
-        """A hash of everything a point's numbers depend on besides its own overrides."""
-        from . import __version__
-        from .api import load
+        """A hash of everything a point's numbers depend on besides its own overrides: every file
+        the runs read (diagram, extends, subsystems, URDFs and meshes, FMUs, plugins, files named
+        in the sweep), ``set``, ``stability`` and hybridsim's version (:mod:`hybridsim.format.identity`)."""
+        from .format.identity import sweep_identity
 
-        f = load(self.diagram, **self.fixed)
-        h = hashlib.sha256()
-        for p in f.files:
-            h.update(Path(p).read_bytes())
-        h.update(json.dumps({"set": self.fixed, "stability": self.stability, "version": __version__},
-                            sort_keys=True, default=str).encode())
-        return h.hexdigest()[:24]
+        return sweep_identity(self)
 
 
 def _number(v):
@@ -309,10 +306,10 @@ def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False,
     sw.fixed = fixed_run
     client = _dask_client(dask) if isinstance(dask, str) else dask
     try:
-        outdir = make_output_dir(outdir)
-        jsonl = outdir / "points.jsonl"
-        _claim(outdir, jsonl, fp, sw, force)
-        return _run(sw, pts, outdir, jsonl, jobs, client, progress, batch)
+        with locked_output_dir(outdir) as outdir:  # one sweep per folder at a time
+            jsonl = outdir / "points.jsonl"
+            _claim(outdir, jsonl, fp, sw, force)
+            return _run(sw, pts, outdir, jsonl, jobs, client, progress, batch)
     finally:
         if client is not None and isinstance(dask, str):
             client.close()
@@ -342,7 +339,8 @@ def _claim(outdir, jsonl, fp, sw, force):
     has_points = jsonl.exists() and jsonl.stat().st_size > 0
     if has_points and old != fp:
         why = ("no sweep-manifest.json says which sweep they belong to" if old is None else
-               "the diagram (or a file it extends), 'set', 'stability' or the hybridsim version changed")
+               "a file its runs read (the diagram, a file it extends, a subsystem, URDF, FMU, plugin or a "
+               "file the sweep names), 'set', 'stability' or the hybridsim version changed")
         if not force:
             raise InputError(f"{outdir} holds points of a different sweep ({why}); they would "
                              "not match this one. Use another -o, or --force to start afresh "

@@ -154,19 +154,23 @@ def test_sigterm_while_writing_leaves_no_temporaries(tmp_path, capsys, monkeypat
 
 
 def test_stale_temporaries_of_a_killed_run_are_removed_and_nothing_else(tmp_path, capsys):
+    """Temporaries live in hybridsim's own subfolder: a user's names that look like them are never touched."""
     dead = subprocess.Popen([sys.executable, "-c", "pass"])
     dead.wait()
     out = tmp_path / "o"
-    (out / f".out.hybridsim-{dead.pid}-ab12.tmp").mkdir(parents=True)
-    (out / f".out.hybridsim-{dead.pid}-ab12.tmp" / "partial.csv").write_text("time\n0")
-    (out / f".d.csv.hybridsim-{dead.pid}-x9.tmp").write_text("half")
+    own = out / ".hybridsim"
+    (own / f"tmp-{dead.pid}-ab12").mkdir(parents=True)
+    (own / f"tmp-{dead.pid}-ab12" / "partial.csv").write_text("time\n0")
+    (own / f"tmp-{dead.pid}-x9").write_text("half")
+    (own / f"tmp-{os.getppid()}-zz").write_text("a live process's")
     (out / ".mine.tmp").write_text("not ours")
-    (out / f".other.hybridsim-{os.getppid()}-zz.tmp").write_text("a live process's")
+    (out / f".d.csv.hybridsim-{dead.pid}-x9.tmp").write_text("a user's file named like an old temporary")
     code, _, _ = run(capsys, "run", write(tmp_path, GOOD), "-q", "-o", out)
     assert code == 0
     names = {p.name for p in out.iterdir()}
-    assert names == {"d.csv", "d.png", "d.svg", "metrics.json", ".mine.tmp",
-                     f".other.hybridsim-{os.getppid()}-zz.tmp"}
+    assert names == {"d.csv", "d.png", "d.svg", "metrics.json", ".mine.tmp", ".hybridsim",
+                     f".d.csv.hybridsim-{dead.pid}-x9.tmp"}
+    assert {p.name for p in own.iterdir()} == {f"tmp-{os.getppid()}-zz"}
 
 
 def test_diverging_run_leaves_no_folder(tmp_path, capsys):

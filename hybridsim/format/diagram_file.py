@@ -1,0 +1,147 @@
+"""A parsed diagram file: its sections checked, overrides applied, built into a Diagram."""
+import copy
+import logging
+from pathlib import Path
+
+from .. import limits
+from ..diagram import Diagram
+from ..errors import DiagramError, LoaderError
+from ..registry import closest
+from . import tables
+from .expand import ExpandMixin, count_blocks
+from .extends import read_merged
+from .kinds import ListOf, MapOf, Record, Text
+from .overrides import OverridesMixin
+from .settings import SettingsMixin
+from .values import _plain
+from .yamlio import _Dict
+
+TOP_KEYS = tables.keys(tables.DIAGRAM)
+_log = logging.getLogger("hybridsim")
+_SAID = set()  # notes already given in this process
+
+
+def _shape(kind):
+    """The Python type a top-level section must have (its contents are checked by their own tables)."""
+    if isinstance(kind, (MapOf, Record)):
+        return dict, "a mapping"
+    if isinstance(kind, ListOf):
+        return list, "a list"
+    if isinstance(kind, Text):
+        return (str, int, float), "a text"
+    return object, "a value"
+
+
+class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
+    """A parsed diagram file. ``build(overrides)`` makes Diagram + settings.
+
+    Parameters
+    ----------
+    path : str or Path
+    overrides : dict, optional
+        ``{"rate": 80, "arm.damping": [10, 100], "simulation.t_end": 1}``:
+        a bare name sets ``params``; ``block.param`` a block parameter;
+        ``simulation.key`` a setting (see :class:`~.paths.ParamPath`).
+    """
+
+    def __init__(self, path, overrides=None):
+        self.path = Path(path)
+        self.files = []  # this file and every file it extends, resolved
+        data = read_merged(self.path, files=self.files)
+        self.data = data
+        for key in data:
+            if key not in TOP_KEYS:
+                self._fail(f"unknown section {key!r}{closest(key, TOP_KEYS)}; "
+                           f"sections: {', '.join(TOP_KEYS)}", data.lines[key])
+        if "blocks" not in data:
+            self._fail("missing required section 'blocks'", 1)
+        for s in tables.DIAGRAM:
+            kind, what = _shape(s.kind)
+            if s.key in data and data[s.key] is not None and not isinstance(data[s.key], kind):
+                self._fail(f"section {s.key!r} must be {what}", data.lines[s.key])
+            if s.key in data and data[s.key] is None and s.key == "blocks":
+                self._fail("section 'blocks' must be a mapping", data.lines[s.key])
+        self.name = str(data.get("name", self.path.stem))
+        self.description = str(data.get("description", ""))
+        self.params = _Dict(data.get("params") or {})
+        self.params.lines = getattr(data.get("params"), "lines", {}) or {}
+        self.apply(overrides or {})
+
+    def _fail(self, message, line=None):
+        raise LoaderError(message, self.path, line)
+
+    def _resolve(self, value, loc, params):
+        """Substitute '$name' references; ``loc`` is 'file:line' for errors."""
+        if isinstance(value, str) and value.startswith("$"):
+            name = value[1:]
+            if name not in params:
+                raise LoaderError(f"undefined parameter reference {value!r}{closest(name, params)}", loc)
+            return copy.deepcopy(_plain(params[name]))
+        if isinstance(value, dict):
+            locs = getattr(value, "locs", None) or {}
+            return {k: self._resolve(v, locs.get(k, loc), params) for k, v in value.items()}
+        if isinstance(value, list):
+            locs = getattr(value, "locs", None) or [loc] * len(value)
+            return [self._resolve(v, ln, params) for v, ln in zip(value, locs)]
+        return value
+
+    def subsystem_files(self):
+        """Every subsystem file this diagram reads (with the files they extend), resolved."""
+        return sorted(count_blocks(self)[1])
+
+    def check_block_budget(self):
+        """Refuse a hierarchy of more than ``MAX_BLOCKS`` blocks, counted before expanding anything."""
+        n, _ = count_blocks(self)
+        if n > limits.get("MAX_BLOCKS"):
+            self._fail(f"the diagram expands to more than {limits.get('MAX_BLOCKS')} blocks (its subsystems "
+                       "use subsystems in turn); nothing was expanded" + limits.raise_hint("MAX_BLOCKS"),
+                       self.data.lines.get("blocks"))
+        return n
+
+    def build(self, overrides=None):
+        """Return ``(diagram, settings)`` for this file with ``overrides`` applied.
+
+        ``settings`` is a dict with keys simulation, log, signals, metrics, plot,
+        params and analysis. Every section is checked first, then the block
+        budget, then the blocks are built. Raises :class:`DiagramError`
+        listing every problem found in the blocks and wires.
+        """
+        params = dict(self.params)
+        for k, v in (overrides or {}).items():
+            if k not in params:
+                self._fail(f"no parameter {k!r} in 'params'{closest(k, params)}")
+            params[k] = v
+        settings = self._settings(params)
+        self.check_block_budget()
+        diagram = Diagram(self.name, source=str(self.path))
+        problems = diagram.problems
+        self.aliases = {}
+        self._cut = set()  # inputs whose wire was left out because its other end has a problem
+        self._broken = set()  # flat names of the blocks and subsystems that had a problem
+        self._expand(diagram, params, "", (self.path.resolve(),), "")
+        problems += [p for p in diagram.check() if p not in problems
+                     and not any(p.startswith(f"input {ref} (") for ref in self._cut)]
+        if self.data.get("inputs") and any("is not connected" in p for p in problems):
+            problems.insert(0, f"{self.path} declares 'inputs': it is a subsystem, used from a diagram as "
+                               "'{type: subsystem, file: ...}'; on its own its inputs are not wired")
+        if problems:
+            raise DiagramError(problems, str(self.path))
+        diagram.problems = []
+        for bname, pname in diagram.unwired_defaults():
+            if diagram.blocks[bname].input_port(pname).optional:
+                continue
+            if (str(self.path), bname, pname) not in _SAID:  # once per process
+                _SAID.add((str(self.path), bname, pname))
+                _log.info("%s: input %s.%s is not wired: it takes its default %s", self.path, bname, pname,
+                          list(diagram.blocks[bname].input_port(pname).default))
+        if self.aliases:  # a subsystem's output named as 'sub.port' is the inner block's output
+            settings["log"] = [self._alias(r) for r in settings["log"]]
+            settings["signals"] = {k: self._alias(v) for k, v in settings["signals"].items()}
+        widths = self._check_refs(diagram, settings)
+        self._check_size(diagram, settings, widths)
+        return diagram, settings
+
+    def _alias(self, ref):
+        """'ctrl.tau[1]' -> 'ctrl.sum.y[1]' when ctrl.tau is a subsystem's output."""
+        base, bracket, rest = str(ref).partition("[")
+        return self.aliases.get(base, base) + bracket + rest

@@ -1,0 +1,90 @@
+"""``extends``: a diagram file read over the file it starts from, key by key."""
+from pathlib import Path
+
+from .. import limits
+from ..errors import LoaderError
+from .yamlio import _List, parse_file
+
+#: sections merged key by key when a file extends another
+MERGED_BY_KEY = ("params", "simulation", "signals", "metrics", "plot", "variants", "analysis")
+
+def read_merged(path, chain=(), budget=None, files=None):
+    """Parse ``path`` and merge it over the file it ``extends`` (if any).
+
+    Merging: ``params``, ``simulation``, ``signals``, ``metrics``, ``plot``,
+    ``variants`` and ``analysis`` are updated key by key; a block given again
+    with a ``type`` replaces the base block, without one it updates the base
+    block's parameters, and ``name: null`` removes it with its wires;
+    ``wires`` and ``log`` are appended; other keys replace.
+    """
+    budget = limits.get("MAX_FILE_BYTES") if budget is None else budget
+    data, used = parse_file(path, budget)
+    if files is not None:
+        files.append(Path(path).resolve())
+    base_name = data.get("extends")
+    if base_name is None:
+        return data
+    line = data.lines["extends"]
+    if not isinstance(base_name, str) or not base_name:
+        raise LoaderError(f"'extends' must be a file name, got {base_name!r}", path, line)
+    if Path(base_name).suffix.lower() not in limits.YAML_SUFFIXES:
+        raise LoaderError(f"'extends': {base_name!r} is not a YAML file (it must end in "
+                          f"{' or '.join(limits.YAML_SUFFIXES)})", path, line)
+    base_path = (path.parent / base_name).resolve()
+    if base_path in chain or base_path == path.resolve():
+        raise LoaderError(f"'extends' forms a cycle through {base_name!r}", path, line)
+    if not base_path.exists():
+        raise LoaderError(f"'extends': no such file {base_name!r}", path, line)
+    if len(chain) >= limits.get("MAX_EXTENDS"):
+        raise LoaderError(f"'extends' chains more than {limits.get('MAX_EXTENDS')} files" + limits.raise_hint('MAX_EXTENDS'), path, line)
+    base = read_merged(base_path, chain + (path.resolve(),), budget - used, files)
+    merged = base
+    for key, val in data.items():
+        if key == "extends":
+            continue
+        cur = merged.get(key)
+        if key == "blocks" and isinstance(cur, dict) and isinstance(val, dict):
+            for bname, spec in val.items():
+                if spec is None and bname in cur:  # 'name: null' removes a base block and its wires
+                    del cur[bname]
+                    _drop_wires(merged, bname)
+                    continue
+                if isinstance(spec, dict) and "type" not in spec and isinstance(cur.get(bname), dict):
+                    cur[bname].update(spec)
+                    cur[bname].lines.update(spec.lines)
+                    cur[bname].locs.update(spec.locs)
+                else:
+                    cur[bname] = spec
+                    cur.lines[bname] = val.lines[bname]
+                    cur.locs[bname] = val.locs[bname]
+        elif key in MERGED_BY_KEY and isinstance(cur, dict) and isinstance(val, dict):
+            cur.update(val)
+            cur.lines.update(val.lines)
+            cur.locs.update(val.locs)
+        elif key in ("wires", "log") and isinstance(cur, list) and isinstance(val, list):
+            cur.extend(val)
+            cur.lines.extend(val.lines)
+            cur.locs.extend(val.locs)
+        else:
+            merged[key] = val
+        merged.lines[key] = data.lines[key]
+    return merged
+
+
+def _drop_wires(data, bname):
+    """Remove the wires of ``data`` that touch block ``bname``."""
+    wires = data.get("wires")
+    if not isinstance(wires, list):
+        return
+    keep = [k for k, w in enumerate(wires)
+            if not any(str(e).strip().split(".")[0] == bname
+                       for e in (w.split("->") if isinstance(w, str) else w))]
+    new = _List(wires[k] for k in keep)
+    new.line, new.lines, new.locs = wires.line, [wires.lines[k] for k in keep], [wires.locs[k] for k in keep]
+    data["wires"] = new
+    log = data.get("log")
+    if isinstance(log, list):
+        keep = [k for k, r in enumerate(log) if str(r).split(".")[0] != bname]
+        new = _List(log[k] for k in keep)
+        new.line, new.lines, new.locs = log.line, [log.lines[k] for k in keep], [log.locs[k] for k in keep]
+        data["log"] = new

@@ -1,0 +1,163 @@
+"""A run's identity: a hash of everything it reads, and the checks of a sweep file.
+
+:func:`run_files` lists what a diagram's runs read: the diagram and every file
+it extends, every subsystem file (and what those extend), every file a block
+was built from (URDFs with the meshes they name, FMUs: any block attribute
+that is a path to a file), and the source files of the plugin modules loaded.
+:func:`identity` hashes their contents with hybridsim's version and any
+extra data. Sweep resume keys its manifest by it, so editing any of those
+files (or a file named in the grid) makes the old points another sweep's.
+"""
+import hashlib
+import json
+import re
+import sys
+from pathlib import Path
+
+from ..errors import LoaderError
+from . import tables
+from .paths import ParamPath
+
+_MESH = re.compile(r"""filename\s*=\s*["']([^"']+)["']""")
+
+
+def _urdf_meshes(urdf):
+    """The mesh files a URDF names that exist (``package://`` resolved by searching upward)."""
+    try:
+        text = Path(urdf).read_text(errors="replace")
+    except OSError:
+        return []
+    out = []
+    for name in _MESH.findall(text):
+        if name.startswith("package://"):
+            pkg, _, rest = name[len("package://"):].partition("/")
+            found = None
+            for folder in Path(urdf).resolve().parents:
+                if (folder / pkg / rest).is_file():
+                    found = folder / pkg / rest
+                    break
+                if folder.name == pkg and (folder / rest).is_file():
+                    found = folder / rest
+                    break
+            if found:
+                out.append(found)
+            continue
+        p = Path(name[len("file://"):] if name.startswith("file://") else name)
+        p = p if p.is_absolute() else Path(urdf).parent / p
+        if p.is_file():
+            out.append(p)
+    return out
+
+
+def block_files(blocks):
+    """Files the built ``blocks`` were made from: every attribute that is a path to an existing file."""
+    out = set()
+    for b in blocks:
+        for v in vars(b).values():
+            if isinstance(v, Path) and v.is_file():
+                out.add(v.resolve())
+                if v.suffix.lower() == ".urdf":
+                    out.update(m.resolve() for m in _urdf_meshes(v))
+    return out
+
+
+def plugin_files():
+    """Source files of the plugin modules imported in this process."""
+    from ..registry import PLUGIN_MODULES
+
+    out = set()
+    for name, mod in list(sys.modules.items()):
+        if name.split(".")[0] in PLUGIN_MODULES and getattr(mod, "__file__", None):
+            p = Path(mod.__file__)
+            if p.is_file():
+                out.add(p.resolve())
+    return out
+
+
+def named_files(values, *folders):
+    """Files named by texts anywhere in ``values`` (relative to the working folder or ``folders``)."""
+    out = set()
+
+    def walk(v):
+        if isinstance(v, str) and v and len(v) < 4096 and not v.startswith("$"):
+            for base in (Path("."), *folders):
+                try:
+                    p = (Path(base) / v).expanduser()
+                    if p.is_file():
+                        out.add(p.resolve())
+                        if p.suffix.lower() == ".urdf":
+                            out.update(m.resolve() for m in _urdf_meshes(p))
+                        break
+                except (OSError, ValueError):
+                    continue
+        elif isinstance(v, dict):
+            for x in v.values():
+                walk(x)
+        elif isinstance(v, (list, tuple)):
+            for x in v:
+                walk(x)
+
+    walk(values)
+    return out
+
+
+def run_files(f, built=None):
+    """Every file runs of DiagramFile ``f`` read (sorted, resolved); ``built``: its Diagram, if built."""
+    files = {Path(p).resolve() for p in f.files} | set(f.subsystem_files())
+    if built is None:
+        built, _ = f.build(f.variants()[0][1])
+    files |= block_files(built.blocks.values())
+    files |= plugin_files()
+    return sorted(files)
+
+
+def identity(files, extra=None):
+    """A hash of the contents of ``files``, hybridsim's version and the JSON of ``extra``."""
+    from .. import __version__
+
+    h = hashlib.sha256()
+    for p in sorted(Path(x) for x in files):
+        h.update(str(p).encode() + b"\0")
+        try:
+            h.update(hashlib.sha256(p.read_bytes()).digest())
+        except OSError:
+            h.update(b"<unreadable>")
+    h.update(json.dumps({"version": __version__, "extra": extra}, sort_keys=True, default=str).encode())
+    return h.hexdigest()[:24]
+
+
+def sweep_identity(sweep):
+    """The identity of a sweep's points besides their own overrides (its resume fingerprint)."""
+    from ..api import load
+
+    f = load(sweep.diagram, **sweep.fixed)
+    files = set(run_files(f))
+    axes = [sweep.fixed, sweep.grid, sweep.scale, (sweep.random or {}).get("ranges", {})]
+    files |= named_files(axes, sweep.path.parent, sweep.diagram.parent)
+    return identity(files, {"set": sweep.fixed, "stability": sweep.stability})
+
+
+def check_sweep(data, path):
+    """Check a parsed sweep file against its table; refuse one parameter given twice under two
+    spellings (``k`` and ``params.k``) across set, grid, scale and random. Raises LoaderError."""
+    got = tables.problems(tables.SWEEP, data, "sweep", path)
+    if got:
+        first = got[0].split(": ", 1)
+        where = first[0].rsplit(":", 1)
+        line = int(where[1]) if len(where) == 2 and where[1].isdigit() else None
+        raise LoaderError(first[-1] + "".join(f"\n  also: {g}" for g in got[1:]), path, line)
+    seen = {}
+    for section in ("set", "grid", "scale"):
+        for key in (data.get(section) or {}):
+            _once(seen, key, section, data, path)
+    for key in ((data.get("random") or {}).get("ranges") or {}):
+        _once(seen, key, "random", data, path)
+
+
+def _once(seen, key, section, data, path):
+    canon = ParamPath.parse(str(key)).key
+    if canon in seen and (seen[canon][1] != section or seen[canon][0] != key):
+        other, where = seen[canon]
+        raise LoaderError(f"{section} {key!r} and {where} {other!r} are the same parameter ({canon}); "
+                          "give it once", path, (getattr(data.get(section), "lines", None) or {}).get(key))
+    seen.setdefault(canon, (key, section))

@@ -1,0 +1,200 @@
+"""Overrides of a parsed diagram file: ``--set``, ``variants``, run-time parameters.
+
+Every override key is read as one :class:`~.paths.ParamPath`.
+"""
+import itertools
+import math
+
+import numpy as np
+
+from .. import limits
+from ..errors import LoaderError
+from ..registry import closest, default, lookup
+from .paths import ParamPath
+from .tables import SIMULATION, keys
+from .values import _is_subsystem, _plain, _references, subsystem_path
+from .yamlio import _Dict
+
+SIM_KEYS = keys(SIMULATION)
+
+
+class OverridesMixin:
+    """The override methods of :class:`~.diagram_file.DiagramFile`."""
+
+    def _path(self, key, what="--set"):
+        try:
+            return ParamPath.parse(str(key))
+        except ValueError as exc:
+            self._fail(f"{what} {key}: {exc}")
+
+    def apply(self, overrides):
+        """Apply ``{path: value}`` overrides in place (see class docstring).
+
+        Setting a parameter that ``variants`` sweeps fixes it: that sweep ends.
+        A path with an element index (``g.K[1]``) changes that element of the
+        parameter's current value (from the file, else the block's default).
+        """
+        for key, value in overrides.items():
+            path = self._path(key)
+            if path.index is not None:
+                value = self._element_set(path, value, key)
+                path = path.without_index()
+            if path.kind == "param":
+                name = path.name
+                if name not in self.params:
+                    self._fail(f"--set {key}: no parameter {name!r} in 'params'"
+                               f"{closest(name, self.params)}")
+                self.params[name] = value
+                if isinstance(self.data.get("variants"), dict):
+                    self.data["variants"].pop(name, None)  # a fixed value ends that sweep
+            elif path.kind == "simulation":
+                if path.name not in SIM_KEYS:
+                    self._fail(f"--set {key}: unknown simulation setting {path.name!r}{closest(path.name, SIM_KEYS)}; "
+                               f"settings: {', '.join(SIM_KEYS)}")
+                if not isinstance(self.data.get("simulation"), dict):
+                    self.data["simulation"] = _Dict()
+                    self.data["simulation"].lines, self.data["simulation"].locs = {}, {}
+                self.data["simulation"][path.name] = value
+                getattr(self.data["simulation"], "locs", {})[path.name] = f"--set {key}"
+            else:
+                bname, blocks = path.block, self.data["blocks"]
+                if _is_subsystem(blocks.get(bname)) and len(path.parts) >= 2:
+                    pname = path.inner  # ctrl.pid.Kp: the subsystem passes pid.Kp on
+                elif bname not in blocks or len(path.parts) > 2:
+                    self._fail(f"--set {key}: no block {bname!r}{closest(bname, blocks)}")
+                else:
+                    pname = path.name
+                if not isinstance(blocks[bname], dict):
+                    self._fail(f"--set {key}: block {bname!r} has no parameters to set")
+                blocks[bname][pname] = value
+                blocks[bname].lines[pname] = None
+                blocks[bname].locs[pname] = f"--set {key}"
+
+    def _element_set(self, path, value, key):
+        """The whole value of ``path`` (no index) with its element ``path.index`` set to ``value``."""
+        if path.kind != "block":
+            current = self.params.get(path.name) if path.kind == "param" else None
+            if not isinstance(current, list):
+                self._fail(f"--set {key}: an element index needs a list-valued parameter")
+        else:
+            try:
+                current = self.param_value(path.without_index().key).tolist()
+            except (LoaderError, KeyError, TypeError, ValueError) as exc:
+                self._fail(f"--set {key}: {exc}")
+        flat = np.ravel(np.asarray(current, dtype=object)).tolist() if not isinstance(current, list) \
+            else list(current)
+        if not 0 <= path.index < len(flat):
+            self._fail(f"--set {key}: index {path.index} is out of range; the parameter has "
+                       f"{len(flat)} element(s), 0..{len(flat) - 1}")
+        flat[path.index] = value
+        return flat
+
+    def param_value(self, ref):
+        """Current value of the block parameter ``ref`` ('block.param', 'sub.block.param') as an array.
+
+        From the file, else from the subsystem's file, else the block's default.
+        """
+        path = ParamPath.parse(ref) if not isinstance(ref, ParamPath) else ref
+        if path.kind != "block":
+            if path.kind == "param" and path.name in self.params:
+                return np.asarray(self._resolve(self.params[path.name], str(self.path), self.params), float)
+            raise LoaderError(f"{ref!r}: not a block parameter ('block.param')", self.path)
+        bname, pname = path.block, path.inner
+        spec = self.data["blocks"].get(bname)
+        if not isinstance(spec, dict) or "type" not in spec or not pname:
+            raise LoaderError(f"{ref!r}: no block {bname!r} with parameter {pname!r}"
+                              f"{closest(bname, self.data['blocks'])}", self.path)
+        if _is_subsystem(spec):
+            if pname in spec:  # the subsystem block sets it
+                return np.asarray(self._resolve(spec[pname], str(self.path), self.params), float)
+            from .diagram_file import DiagramFile
+
+            sub = DiagramFile(subsystem_path(spec, "."))
+            sub.apply({k: self._resolve(v, str(self.path), self.params) for k, v in spec.items()
+                       if k not in ("type", "file")})
+            return sub.param_value(pname)
+        if "." in pname:
+            raise LoaderError(f"{ref!r}: block {bname!r} is not a subsystem", self.path)
+        if pname in spec:
+            return np.asarray(self._resolve(spec[pname], str(self.path), self.params), float)
+        cls = lookup(str(spec["type"]))
+        try:
+            return np.asarray(default(cls, pname), float)
+        except (KeyError, AttributeError):
+            raise LoaderError(f"{ref!r}: block {bname!r} ({spec['type']}) has no parameter {pname!r}",
+                              self.path) from None
+
+    def variants(self):
+        """List of (label, overrides) for the grid in ``variants`` ([('', {})] if none)."""
+        spec = self.data.get("variants") or {}
+        if not spec:
+            return [("", {})]
+        names = list(spec)
+        for n in names:
+            if n not in self.params:
+                self._fail(f"variant {n!r} is not a parameter in 'params'{closest(n, self.params)}",
+                           spec.lines[n])
+            if not isinstance(spec[n], list) or not spec[n]:
+                self._fail(f"variant {n!r} must be a non-empty list of values", spec.lines[n])
+        count = math.prod(len(spec[n]) for n in names)
+        if count > limits.get("MAX_VARIANTS"):
+            self._fail(f"'variants' makes {count} runs; at most {limits.get('MAX_VARIANTS')} (use a sweep file "
+                       "for more points)" + limits.raise_hint("MAX_VARIANTS"), spec.line)
+        out = []
+        for combo in itertools.product(*(spec[n] for n in names)):
+            label = ", ".join(f"{n}={v}" for n, v in zip(names, combo))
+            out.append((label, dict(zip(names, combo))))
+        return out
+
+    def runtime_params(self, overrides, variant=None):
+        """``overrides`` (as :meth:`apply` takes them) as run-time block parameters.
+
+        Returns ``{"block.param": value}`` for :meth:`Simulator.run
+        <hybridsim.simulator.Simulator.run>`: a name in ``params`` becomes every
+        block parameter that refers to it (resolved again), ``block.param``
+        stays itself. Raises :class:`LoaderError` when an override cannot be
+        given at run time: a simulation setting, a swept variant, or a name
+        that the simulation, log, signals or metrics sections use.
+        """
+        params = {**self.params, **(variant or {})}
+        named = {}
+        out = {}
+        for key, value in overrides.items():
+            path = self._path(key, "run-time parameter")
+            if path.index is not None:
+                self._fail(f"{key!r}: an element index is not a run-time parameter (give the whole value)")
+            if path.kind == "param":
+                name = path.name
+                if name not in self.params:
+                    self._fail(f"no parameter {name!r} in 'params'{closest(name, self.params)}")
+                if name in (self.data.get("variants") or {}):
+                    self._fail(f"{name!r} is swept by 'variants': not a run-time parameter")
+                named[name] = value
+            elif path.kind == "simulation":
+                self._fail(f"{key!r} is a simulation setting: not a run-time parameter")
+            else:
+                bname = path.block
+                if bname not in self.data["blocks"] or (
+                        len(path.parts) > 2 and not _is_subsystem(self.data["blocks"][bname])):
+                    self._fail(f"{key!r}: no block {bname!r}{closest(bname, self.data['blocks'])}")
+                out[path.key] = value  # ctrl.pid.Kp: the flattened block ctrl.pid
+        if not named:
+            return out
+        for section in ("simulation", "log", "signals", "metrics"):
+            used = _references(self.data.get(section)) & set(named)
+            if used:
+                self._fail(f"{sorted(used)} used by '{section}': not a run-time parameter")
+        params.update(named)
+        for bname, spec in self.data["blocks"].items():
+            if not isinstance(spec, dict):
+                continue
+            if _is_subsystem(spec) and _references(spec) & set(named):
+                self._fail(f"{sorted(_references(spec) & set(named))} used by subsystem {bname!r}: not a "
+                           "run-time parameter (give it with --set, which rebuilds the diagram)")
+            for pname, raw in spec.items():
+                if pname != "type" and _references(raw) & set(named) and f"{bname}.{pname}" not in out:
+                    out[f"{bname}.{pname}"] = self._resolve(raw, spec.locs[pname], params)
+        return out
+
+
+__all__ = ["OverridesMixin", "SIM_KEYS", "_plain"]

@@ -1,0 +1,202 @@
+"""The settings sections of a diagram file, checked against their tables, and the budgets of a run.
+
+Every section (simulation, metrics, plot, analysis, signals, log) is checked
+here, with its '$name' references resolved first; signals that name outputs
+(log, signals, the analysis's loop points and step) are checked against the
+built diagram, elements in range; the size of the run (and of the analysis's
+linearisation horizon) is checked before any work starts.
+"""
+import logging
+
+from .. import limits
+from ..errors import DiagramError, LoaderError
+from ..registry import closest
+from . import tables
+from .kinds import SIGNAL
+from .paths import ParamPath
+from .values import _plain
+from .yamlio import _Dict, _List
+
+_log = logging.getLogger("hybridsim")
+
+
+def horizon_problems(diagram_blocks, sim, t_end, log_width=0, what="t_end"):
+    """Budget problems of simulating to ``t_end`` with settings ``sim`` (see :mod:`hybridsim.limits`)."""
+    step = sim.get("step", 1e-4) if sim.get("solver", "rk4") in tables.FIXED_STEP_SOLVERS else sim.get("max_step")
+    periods = [float(b.period) for b in diagram_blocks if getattr(b, "period", None)]
+    why = limits.run_size_problems(float(t_end), periods, float(sim.get("log_period", 0.0005)),
+                                   None if step is None else float(step), log_width, sim.get("solver", "rk4"))
+    if why and what != "t_end":
+        why[0] = f"{what} {float(t_end):g} s: {why[0]}"
+    return why
+
+
+class SettingsMixin:
+    """The settings methods of :class:`~.diagram_file.DiagramFile`."""
+
+    def _section(self, name, params):
+        """Section ``name`` with '$' references resolved, its lines, and its table's problems."""
+        raw = self.data.get(name) or _Dict()
+        lines = getattr(raw, "lines", None) or {}
+        locs = getattr(raw, "locs", None) or {}
+        resolved = {k: self._resolve(v, locs.get(k, str(self.path)), params) for k, v in raw.items()}
+        shown = {**lines, **{k: loc for k, loc in locs.items() if str(loc).startswith("--set")}}
+        got = tables.problems(tables.SECTIONS[name], resolved, name, self.path, shown,
+                              getattr(raw, "line", None))
+        return {k: v for k, v in resolved.items() if v is not None}, lines, got  # null: the default
+
+    def _raise(self, problems):
+        if problems:
+            first, rest = problems[0], problems[1:]
+            where, _, msg = first.partition(": ")
+            path, sep, line = where.rpartition(":")
+            if not sep:
+                path, line = where, ""
+            extra = "".join(f"\n  also: {p}" for p in rest)
+            if line.isdigit():
+                raise LoaderError(msg + extra, path, int(line))
+            if line:
+                raise LoaderError(f"{line}: {msg}{extra}", path)
+            raise LoaderError(msg + extra, where or self.path)
+
+    def _override_problems(self, overrides, where, what):
+        """Problems of an overrides mapping (analysis set, cases, compare): every path names something."""
+        out = []
+        for key in overrides:
+            path = ParamPath.parse(key)  # the table has checked the form
+            if path.kind == "param" and path.name not in self.params:
+                out.append(f"{where}: {what}: no parameter {path.name!r} in 'params'{closest(path.name, self.params)}")
+            elif path.kind == "simulation" and path.name not in tables.keys(tables.SIMULATION):
+                out.append(f"{where}: {what}: unknown simulation setting {path.name!r}"
+                           f"{closest(path.name, tables.keys(tables.SIMULATION))}")
+            elif path.kind == "block" and path.block not in self.data["blocks"]:
+                out.append(f"{where}: {what}: no block {path.block!r}{closest(path.block, self.data['blocks'])}")
+        return out
+
+    def analysis_settings(self, params=None):
+        """The ``analysis`` section checked against its table, '$' resolved, over the defaults.
+
+        Raises LoaderError (file:line) for an unknown key, a value of the wrong
+        kind or range, or a path that names no parameter, block or setting.
+        """
+        params = dict(self.params) if params is None else params
+        cfg, lines, problems = self._section("analysis", params)
+        if not problems:
+            line = lambda k: f"{self.path}:{lines.get(k)}"  # noqa: E731
+            for key in ("set", "cases", "compare"):
+                groups = {"": cfg.get(key, {})} if key == "set" else cfg.get(key, {})
+                for name, ov in groups.items():
+                    problems += self._override_problems(ov, line(key), f"analysis {key} {name}".rstrip())
+            if isinstance(cfg.get("step"), dict):
+                problems += self._override_problems(cfg["step"].get("set", {}), line("step"), "analysis step set")
+            for gname, ref in cfg.get("gains", {}).items():
+                path = ParamPath.parse(ref)
+                if path.kind != "block" or path.block not in self.data["blocks"]:
+                    problems.append(f"{line('gains')}: analysis gain {gname!r}: {ref!r} is not a block parameter "
+                                    f"of this diagram{closest(path.block or ref, self.data['blocks'])}")
+            if "rate_param" in cfg and cfg["rate_param"] not in self.params:
+                problems.append(f"{line('rate_param')}: analysis rate_param {cfg['rate_param']!r} is not a "
+                                f"name in 'params'{closest(cfg['rate_param'], self.params)}")
+        self._raise(problems)
+        out = tables.defaults(tables.ANALYSIS)
+        out.update({k: v for k, v in cfg.items() if v is not None})
+        if isinstance(out.get("step"), dict):
+            out["step"] = {**tables.defaults(tables.ANALYSIS_STEP), **out["step"]}
+        out["_lines"] = lines
+        return out
+
+    def _check_refs(self, diagram, settings):
+        """Every log entry, signal and analysis signal names an output (and an element in range).
+
+        Returns the total logged width (for the size check)."""
+        log = self.data.get("log") or _List()
+        items = [(ref, (log.locs[k] if getattr(log, "locs", None) else str(self.path)), "log entry")
+                 for k, ref in enumerate(settings["log"])]
+        items += [(ref, f"{self.path}:{settings['signal_lines'].get(role)}", f"signal {role!r}")
+                  for role, ref in settings["signals"].items()]
+        an = settings.get("analysis") or {}
+        an_lines = an.get("_lines", {})
+        items += [(self._alias(ref), f"{self.path}:{an_lines.get('points')}", f"analysis point {name!r}")
+                  for name, ref in (an.get("points") or {}).items()]
+        if isinstance(an.get("step"), dict):
+            items += [(self._alias(an["step"][k]), f"{self.path}:{an_lines.get('step')}", f"analysis step {k}")
+                      for k in ("input", "output") if k in an["step"]]
+        problems, logged = [], {}
+        for ref, where, what in items:
+            m = SIGNAL.match(ref)
+            if not m:
+                problems.append(f"{where}: {what} {ref!r} is not of the form block.port or block.port[i]")
+                continue
+            bname, pname, idx = m.group(1), m.group(2), m.group(3)
+            block = diagram.blocks.get(bname)
+            if block is None:
+                problems.append(f"{where}: {what} {ref!r}: no block {bname!r}{closest(bname, diagram.blocks)}")
+                continue
+            port = next((p for p in block.outputs if p.name == pname), None)
+            if port is None:
+                names = [p.name for p in block.outputs]
+                problems.append(f"{where}: {what} {ref!r}: block {bname!r} has no output {pname!r}"
+                                f"{closest(pname, names)}; its outputs: {', '.join(names) or 'none'}")
+                continue
+            if idx is not None and not 0 <= int(idx) < port.width:
+                problems.append(f"{where}: {what} {ref!r}: index {idx} is out of range; "
+                                f"{bname}.{pname} has {port.width} element(s), 0..{port.width - 1}")
+                continue
+            if what.startswith("analysis"):
+                continue
+            logged[f"{bname}.{pname}"] = port.width
+        if problems:
+            raise DiagramError(problems, str(self.path))
+        return sum(logged.values())
+
+    def _check_size(self, diagram, settings, log_width):
+        """Refuse a run too large for memory or time before it starts (see :mod:`hybridsim.limits`)."""
+        sim = settings["simulation"]
+        why = horizon_problems(diagram.blocks.values(), sim, sim["t_end"], log_width)
+        lines = getattr(self.data.get("simulation"), "lines", None) or {}
+        if why:
+            raise LoaderError("; ".join(why), self.path, lines.get("t_end"))
+        at = (settings.get("analysis") or {}).get("at")
+        if at:
+            why = horizon_problems(diagram.blocks.values(), sim, at, 0, "analysis at")
+            if why:
+                raise LoaderError("; ".join(why), self.path, settings["analysis"]["_lines"].get("at"))
+
+    def _settings(self, params):
+        simr, sim_lines, problems = self._section("simulation", params)
+        metrics, _, more = self._section("metrics", params)
+        problems += more
+        plot, _, more = self._section("plot", params)
+        problems += more
+        signals = self.data.get("signals") or _Dict()
+        for role, ref in signals.items():
+            if role not in tables.SIGNAL_ROLES:
+                problems.append(f"{self.path}:{signals.lines[role]}: unknown signal role {role!r}"
+                                f"{closest(role, tables.SIGNAL_ROLES)}; roles: {', '.join(tables.SIGNAL_ROLES)}")
+            elif not isinstance(ref, str):
+                problems.append(f"{self.path}:{signals.lines[role]}: signal {role!r} must be a signal "
+                                f"'block.port[i]', got {ref!r}")
+        log = self.data.get("log") or _List()
+        for k, ref in enumerate(log):
+            if not isinstance(ref, str):
+                where = log.locs[k] if getattr(log, "locs", None) else str(self.path)
+                problems.append(f"{where}: log entry must be a signal 'block.port[i]', got {ref!r}")
+        self._raise(problems)
+        analysis = self.analysis_settings(params)
+        simr.setdefault("t_end", 1.0)
+        simr.setdefault("solver", "rk4")
+        simr["solver"] = simr["solver"].lower()
+        step = simr.get("step") if simr["solver"] in tables.FIXED_STEP_SOLVERS else None
+        if step is not None and step > simr["t_end"]:
+            _log.warning("%s: the step %g s is longer than t_end %g s: %s takes one step of %g s",
+                         self.path, step, simr["t_end"], simr["solver"], simr["t_end"])
+        return {
+            "simulation": simr,
+            "log": [str(x) for x in log],
+            "signals": {k: str(v) for k, v in signals.items()},
+            "signal_lines": dict(signals.lines or {}),
+            "metrics": metrics,
+            "plot": _plain(plot),
+            "params": _plain(params),
+            "analysis": analysis,
+        }

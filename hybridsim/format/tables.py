@@ -1,0 +1,286 @@
+"""One declarative table per section of the file formats: key, kind (type and range), default, doc.
+
+The same tables drive validation (:func:`problems`, with file:line and "did
+you mean"), the JSON Schema (:mod:`hybridsim.schema`), the Python API's
+defaults (:func:`defaults`), ``hybridsim --help`` and ``docs/settings.md``
+(:func:`markdown`).
+"""
+from dataclasses import dataclass
+
+from .. import limits
+from ..registry import closest
+from .kinds import (Bool, Choice, Either, Kind, ListOf, MapOf, Number, PathText, Record, Signal, Text)
+
+SOLVERS = ["rk4", "heun", "radau", "bdf", "lsoda", "rk45", "rk23", "dop853"]
+FIXED_STEP_SOLVERS = ("rk4", "heun")
+SIGNAL_ROLES = ["force", "force_desired", "position", "position_desired", "contact",
+                "surface", "hand", "oscillation"]
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One key of a section: its kind (type and range), default and a one-line doc."""
+
+    key: str
+    kind: Kind
+    default: object
+    doc: str
+    required: bool = False
+
+
+_POS = Number(0, low_open=True)
+_TIME = Number(0, low_open=True, unit="s")
+_OVERRIDES = MapOf(Kind(), keys=PathText(), what="parameter path")
+
+SIMULATION = [
+    Setting("t_end", _TIME, 1.0, "end time of a run"),
+    Setting("solver", Choice(SOLVERS), "rk4", "integrator: fixed-step rk4/heun, or a scipy solve_ivp method"),
+    Setting("step", _TIME, 1e-4, "fixed step of rk4 and heun"),
+    Setting("rtol", _POS, 1e-8, "relative tolerance of the scipy solvers"),
+    Setting("atol", Either(_POS, ListOf(_POS)), 1e-10,
+            "absolute tolerance of the scipy solvers (a number, or one per state)"),
+    Setting("max_step", Number(0, low_open=True, inf=True, unit="s"), float("inf"),
+            "largest step of the scipy solvers"),
+    Setting("log_period", _TIME, 0.0005, "interval of the logged rows"),
+    Setting("max_state", _POS, 1e6, "a state larger than this in magnitude ends the run as diverged"),
+    Setting("fused", Bool(), True, "evaluate the continuous blocks as one generated function"),
+    Setting("compiled", Bool(), False, "run the whole loop compiled with numba (rk4; blocks need kernels)"),
+    Setting("locate_switches", Bool(), False, "locate the switches of piecewise blocks within a step"),
+]
+
+METRICS = [
+    Setting("step_time", Number(0, unit="s"), 0.0, "when the force command steps"),
+    Setting("ss_window", _TIME, 0.5, "the span at the end of a run taken as steady state"),
+    Setting("error_window", ListOf(Number(unit="s"), exact=2, increasing=True), None,
+            "[t0, t1]: the span of the force tracking error"),
+    Setting("filter_cutoff", Number(0, low_open=True, unit="Hz"), 12.0, "cutoff of the display filter"),
+]
+
+PLOT = [
+    Setting("title", Text(), None, "the figure's title (default: the description, else the name)"),
+    Setting("position_label", Text(), "position", "name of the position panel"),
+    Setting("force_label", Text(), "force", "name of the force panel"),
+    Setting("surface_label", Text(), "surface", "name of the surface trace"),
+]
+
+ANALYSIS_STEP = [
+    Setting("input", Signal(), None, "the input of the step (a source's output)", required=True),
+    Setting("output", Signal(), None, "the signal whose response is shown", required=True),
+    Setting("size", Number(), 1.0, "size of the step (units of the input)"),
+    Setting("ticks", Number(1, 100_000, integer=True), 40, "sample periods shown"),
+    Setting("set", _OVERRIDES, {}, "overrides of the nonlinear run that make the same step"),
+]
+
+ANALYSIS = [
+    Setting("set", _OVERRIDES, {}, "the branch to linearize on: {parameter path: value}"),
+    Setting("points", MapOf(Signal()), {}, "loop openings: {name: signal}"),
+    Setting("rate_param", Text(nonempty=True), "rate", "the name in 'params' that sets the servo rate"),
+    Setting("rates", ListOf(Number(0, low_open=True, unit="Hz")), [30, 45, 60, 80, 120, 240, 480],
+            "servo rates of the rate sweep"),
+    Setting("gains", MapOf(PathText()), {}, "gains of the gain sweep: {name: block parameter path}"),
+    Setting("scales", ListOf(_POS), [0.125, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0], "factors of the gain sweep"),
+    Setting("cases", MapOf(_OVERRIDES), {}, "other branches: {name: {parameter path: value}}"),
+    Setting("hand_mode_hz", Number(0, low_open=True, unit="Hz"), None, "report the plant mode nearest this"),
+    Setting("at", Number(0, unit="s", text="a time in seconds >= 0"), None, "linearize about the state at this time (default: the initial)"),
+    Setting("compare", MapOf(_OVERRIDES), {}, "the report's other settings: {name: {parameter path: value}}"),
+    Setting("step", Record(ANALYSIS_STEP, "analysis.step"), None,
+            "the report's linear vs nonlinear closed-loop step"),
+]
+
+SWEEP_RANDOM = [
+    Setting("n", Number(1, limits.MAX_RUNS, integer=True), 10, "points drawn"),
+    Setting("seed", Number(0, integer=True), 0, "seed of numpy's generator"),
+    Setting("ranges", MapOf(ListOf(Number(), exact=2), keys=PathText(), what="parameter path"), None,
+            "{parameter path: [low, high]}, uniform", required=True),
+]
+
+SWEEP = [
+    Setting("diagram", Text(nonempty=True), None, "the diagram file, relative to the sweep file", required=True),
+    Setting("set", _OVERRIDES, {}, "overrides fixed for every point"),
+    Setting("grid", MapOf(ListOf(Kind()), keys=PathText(), what="parameter path"), {},
+            "full factorial: {parameter path: [values]}"),
+    Setting("scale", MapOf(ListOf(Number()), keys=PathText(), what="parameter path"), {},
+            "multiples of a parameter's value: {parameter path: [factors]}"),
+    Setting("random", Record(SWEEP_RANDOM, "random"), None, "seeded uniform samples"),
+    Setting("traces", Bool(), False, "also keep each run's CSV"),
+    Setting("stability", Bool(), False, "also the linearized closed loop's largest |z|"),
+]
+
+#: the top-level sections of a diagram file (the kind checks only the shape; each has its own check)
+DIAGRAM = [
+    Setting("extends", Text(nonempty=True), None, "a diagram file this one starts from (relative to it)"),
+    Setting("name", Text(), None, "the diagram's name (default: the file's stem)"),
+    Setting("description", Text(), "", "one line shown in figures and reports"),
+    Setting("params", MapOf(), {}, "named values; '$name' anywhere below refers to one"),
+    Setting("blocks", MapOf(), None, "{name: {type: ..., parameter: value}}", required=True),
+    Setting("wires", ListOf(Kind(), min_len=0), [], "'a.out -> b.in' or [a.out, b.in]"),
+    Setting("simulation", Record(SIMULATION, "simulation"), {}, "how a run is integrated and logged"),
+    Setting("log", ListOf(Signal(), min_len=0), [], "signals logged"),
+    Setting("signals", MapOf(Signal(), what="role"), {}, "roles for plots and metrics: {role: signal}"),
+    Setting("metrics", Record(METRICS, "metrics"), {}, "settings of the figures of merit"),
+    Setting("variants", MapOf(ListOf(Kind())), {}, "a grid of runs: {name in params: [values]}"),
+    Setting("plot", Record(PLOT, "plot"), {}, "the figure's title and panel names"),
+    Setting("analysis", Record(ANALYSIS, "analysis"), {}, "settings of analyze and report"),
+    Setting("inputs", MapOf(Either(Signal(), ListOf(Signal()))), {},
+            "a subsystem's inputs: {name: inner input or [inputs]}"),
+    Setting("outputs", MapOf(Signal()), {}, "a subsystem's outputs: {name: inner output}"),
+]
+
+_VEC = Either(Number(), ListOf(Number()))
+_NONNEG_VEC = Either(Number(0), ListOf(Number(0)))
+_ROBOT = [
+    Setting("urdf", Text(nonempty=True), None, "a robot model file (relative: to the working folder)"),
+    Setting("robot", Text(nonempty=True), None, "a shipped robot: fig3_arm, ur3, ur5, ur10, panda, kinova, iiwa"),
+    Setting("frame", Text(nonempty=True), None, "the tool frame (default: the model's last frame)"),
+]
+
+#: parameters of the shipped FMU and robot block types, checked before the block is built
+BLOCK_SETTINGS = {
+    "fmu": [
+        Setting("path", Text(nonempty=True), None, "the .fmu file (relative: to the working folder)", required=True),
+        Setting("mode", Choice(["cs", "me"]), "cs", "Co-Simulation (needs rate or period) or Model Exchange"),
+        Setting("parameters", MapOf(Kind()), None, "start values to set, by variable name"),
+        Setting("rate", Number(0, low_open=True, unit="Hz"), None, "sample rate of a Co-Simulation FMU"),
+        Setting("period", Number(0, low_open=True, unit="s"), None, "sample period of a Co-Simulation FMU"),
+    ],
+    "robot_arm": _ROBOT + [
+        Setting("q0", _VEC, None, "initial joint positions (rad or m; default the neutral pose)"),
+        Setting("qd0", _VEC, None, "initial joint speeds"),
+        Setting("damping", _NONNEG_VEC, 0.0, "viscous joint damping (scalar or one per joint)"),
+        Setting("friction", Bool(), False, "joint friction on"),
+        Setting("tau_c", _NONNEG_VEC, 0.0, "Coulomb friction per joint"),
+        Setting("tau_s", _NONNEG_VEC, 0.0, "static friction per joint"),
+        Setting("stick_band", Number(0, low_open=True), 1e-4, "Karnopp capture band (rad/s or m/s)"),
+        Setting("stick_time", Number(0, low_open=True, unit="s"), 1e-3, "time constant of a stuck joint"),
+        Setting("gravity", ListOf(Number(), exact=3), [0.0, 0.0, -9.81], "gravity in the base frame (m/s^2)"),
+        Setting("start_position", ListOf(Number(), exact=3), None, "start with the tool frame's origin here (m)"),
+        Setting("friction_model", Choice(["karnopp", "stribeck", "lugre"]), "karnopp", "the friction law"),
+        Setting("stribeck_velocity", Either(_POS, ListOf(_POS)), 1e-3, "speed scale of the Stribeck decay"),
+        Setting("bristle_stiffness", _POS, 1e5, "LuGre sigma0"),
+        Setting("bristle_damping", Number(0), None, "LuGre sigma1 (default critical)"),
+    ],
+    "robot_kinematics": list(_ROBOT),
+    "gravity_torque": _ROBOT[:2] + [
+        Setting("gravity", ListOf(Number(), exact=3), [0.0, 0.0, -9.81], "gravity in the base frame (m/s^2)")],
+}
+
+SECTIONS = {"diagram": DIAGRAM, "simulation": SIMULATION, "metrics": METRICS, "plot": PLOT,
+            "analysis": ANALYSIS, "analysis.step": ANALYSIS_STEP, "sweep": SWEEP, "random": SWEEP_RANDOM}
+
+
+def keys(table):
+    return [s.key for s in table]
+
+
+def defaults(table):
+    """``{key: default}`` of a table (the Python API's defaults)."""
+    import copy
+
+    return {s.key: copy.deepcopy(s.default) for s in table}
+
+
+def check_values(table, data, section, lines=None):
+    """Problems of mapping ``data`` against ``table``: a list of (message, key).
+
+    Unknown keys (with the closest known one), missing required keys and
+    values of the wrong kind or out of range.
+    """
+    by_key = {s.key: s for s in table}
+    out = []
+    for key, value in data.items():
+        s = by_key.get(key)
+        if s is not None and value is None and not s.required:
+            continue  # 'key: null' of an optional setting: its default (a file can undo what it extends)
+        if s is None:
+            out.append((f"unknown {section} setting {key!r}{closest(key, by_key)}; settings: "
+                        f"{', '.join(by_key)}", key))
+            continue
+        why = s.kind.problem(value)
+        if why and isinstance(s.kind, Choice):
+            out.append((f"unknown {s.key} {value!r}{closest(str(value).lower(), s.kind.options)}; "
+                        f"{s.key}s: {', '.join(s.kind.options)}", key))
+        elif why:
+            out.append((f"{section} setting {key!r} {why}" if why.startswith("must") else
+                        f"{section} setting {key!r}: {why}", key))
+    for s in table:
+        if s.required and s.key not in data:
+            out.append((f"{section} needs {s.key!r} ({s.doc})", None))
+    return out
+
+
+def problems(table, data, section, path, lines=None, line0=None):
+    """:func:`check_values` as 'file:line: message' texts (the line of each key where known)."""
+    lines = lines if lines is not None else (getattr(data, "lines", None) or {})
+    line0 = line0 if line0 is not None else getattr(data, "line", None)
+    out = []
+    for msg, key in check_values(table, data, section):
+        line = lines.get(key, line0) if key is not None else line0
+        out.append(f"{path}{f':{line}' if line else ''}: {msg}")
+    return out
+
+
+def section_schema(table):
+    """The JSON Schema of one section (closed: unknown keys are refused)."""
+    from .kinds import REF_SCHEMA
+
+    props = {}
+    for s in table:
+        sch = s.kind.schema()
+        kinds = [sch, REF_SCHEMA] + ([] if s.required else [{"type": "null"}])  # null: the default
+        props[s.key] = {"anyOf": kinds} if sch else {}
+        props[s.key]["description"] = s.doc
+    return {"type": "object", "properties": props, "additionalProperties": False,
+            "required": [s.key for s in table if s.required]}
+
+
+def _default_text(v):
+    if v is None:
+        return "-"
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if v == float("inf"):
+        return ".inf"
+    return f"`{v}`" if not isinstance(v, str) else f"`{v!r}`"
+
+
+def markdown():
+    """The text of ``docs/settings.md``: every table, and the limits."""
+    out = ["# Settings", "",
+           "Every section of a diagram file and of a sweep file, generated from the tables in",
+           "`hybridsim/format/tables.py` (the same tables check a file, give the JSON Schema and",
+           "the Python API's defaults). A test checks that this page is current.", ""]
+    titles = {"diagram": "Sections of a diagram file", "simulation": "simulation", "metrics": "metrics",
+              "plot": "plot", "analysis": "analysis", "analysis.step": "analysis: step",
+              "sweep": "A sweep file", "random": "sweep: random"}
+    for name, table in SECTIONS.items():
+        out += [f"## {titles[name]}", "", "| key | value | default | meaning |", "|---|---|---|---|"]
+        for s in table:
+            cells = [f"`{s.key}`" + (" (required)" if s.required else ""), s.kind.text,
+                     _default_text(s.default), s.doc]
+            out.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+        out.append("")
+    for tname, table in BLOCK_SETTINGS.items():
+        out += [f"## Block type {tname}", "", "| key | value | default | meaning |", "|---|---|---|---|"]
+        for s in table:
+            cells = [f"`{s.key}`" + (" (required)" if s.required else ""), s.kind.text,
+                     _default_text(s.default), s.doc]
+            out.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+        out.append("")
+    out += ["## Limits", "",
+            "Checked before any work starts. Each can be changed for one command with its environment",
+            "variable, e.g. `HYBRIDSIM_MAX_STEPS=1e9 hybridsim run d.yaml`.", "",
+            "| variable | default | bounds |", "|---|---|---|"]
+    for name, (value, doc) in limits.LIMITS.items():
+        out.append(f"| `{limits.env_name(name)}` | {value:,} | {doc} |")
+    from ..errors import EXIT_CODES
+
+    out += ["", "## Exit status", "", "By origin (`hybridsim/errors.py`):", "",
+            "| status | origin | when |", "|---|---|---|"]
+    out += [f"| {code} | {origin} | {what} |" for code, origin, what in EXIT_CODES]
+    out.append("")
+    return "\n".join(out)
+
+
+def help_text(table):
+    """'t_end, solver, ...' for --help."""
+    return ", ".join(keys(table))

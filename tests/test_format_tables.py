@@ -1,0 +1,201 @@
+"""One table per section drives validation, the schema, the API's defaults, --help and the docs page."""
+import re
+from pathlib import Path
+
+import pytest
+
+from hybridsim import api
+from hybridsim.cli import build_parser, main
+from hybridsim.format import tables
+from hybridsim.format.paths import ParamPath
+from hybridsim.schema import diagram_schema, sweep_schema
+
+from conftest import DIAGRAMS, write
+from test_loader import GOOD
+
+ROOT = Path(__file__).resolve().parents[1]
+HC = DIAGRAMS / "hybrid_controller.yaml"
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    assert "Traceback" not in out + err
+    return code, err
+
+
+# -- the analysis section: each bad value is exit 2 at its file:line, from the table -----------------
+
+ANALYSIS_CASES = [
+    ("scales: [1, x]", "'scales': item 1: must be a positive, finite number"),
+    ("set: [1, 2]", "'set' must be a mapping"),
+    ("points: 5", "'points' must be a mapping"),
+    ("hand_mode_hz: fast", "'hand_mode_hz' must be a positive, finite number"),
+    ("points: {force: 'ctrl.dF.y[7]'}", "index 7 is out of range"),
+    ("points: {force: 'ctrl.nope.y[0]'}", "no block 'ctrl.nope'"),
+    ("compare: yes-please", "'compare' must be a mapping"),
+    ("step: {input: 'force_cmd.y[0]'}", "needs 'output'"),
+    ("step: {input: 'force_cmd.y[0]', output: 'ctrl.ft.CF[0]', ticks: 0.5}", "'ticks' must be a whole number"),
+    ("atol: [1, 2]", "unknown analysis setting 'atol' (did you mean 'at'?)"),
+    ("at: -1", "'at' must be a time in seconds >= 0"),
+    ("rates: []", "'rates' must be a list of at least 1"),
+    ("gains: {K: nope.K}", "'nope.K' is not a block parameter"),
+    ("set: {nope: 1}", "no parameter 'nope' in 'params'"),
+    ("cases: {a: {simulation.stepp: 1}}", "unknown simulation setting 'stepp'"),
+    ("rate_param: rte", "'rte' is not a name in 'params' (did you mean 'rate'?)"),
+    ("gains: {K: 'a b'}", "is not a parameter path"),
+]
+
+
+@pytest.mark.parametrize("line, message", ANALYSIS_CASES)
+def test_a_bad_analysis_value_is_exit_2_at_its_line(tmp_path, capsys, line, message):
+    p = write(tmp_path, f"extends: {HC}\nanalysis:\n  {line}\n")
+    code, err = run(capsys, "check", p)
+    assert code == 2, err
+    assert "d.yaml:3" in err and message in err, err
+
+
+def test_analyze_and_report_read_the_checked_section(tmp_path, capsys):
+    p = write(tmp_path, f"extends: {HC}\nanalysis:\n  hand_mode_hz: fast\n")
+    for cmd in ("analyze", "report"):
+        code, err = run(capsys, cmd, p, "-o", tmp_path / cmd)
+        assert code == 2 and "d.yaml:3" in err and "hand_mode_hz" in err
+        assert not (tmp_path / cmd).exists()
+
+
+@pytest.mark.parametrize("section, line, message", [
+    ("simulation", "atol: [1.0e-9, x]", "'atol' must be a positive, finite number or a list"),
+    ("simulation", "solver: radua", "unknown solver 'radua' (did you mean 'radau'?)"),
+    ("simulation", "fused: yes-please", "'fused' must be true or false"),
+    ("simulation", "max_step: -.inf", "'max_step' must be a positive"),
+    ("metrics", "error_window: [2, 1]", "'error_window' must be a list of 2"),
+    ("metrics", "ss_windw: 1", "unknown metrics setting 'ss_windw' (did you mean 'ss_window'?)"),
+    ("plot", "title: [1]", "'title' must be a text"),
+])
+def test_every_section_is_checked_from_its_table(tmp_path, capsys, section, line, message):
+    text = GOOD.replace("simulation: {t_end: 0.2, log_period: 1.0e-2}\n", "") + f"{section}:\n  {line}\n"
+    code, err = run(capsys, "check", write(tmp_path, text))
+    assert code == 2 and message in err and re.search(r"d\.yaml:\d+", err), err
+
+
+def test_atol_one_per_state_is_used_and_a_wrong_count_is_exit_2(tmp_path, capsys):
+    base = GOOD.replace("simulation: {t_end: 0.2, log_period: 1.0e-2}", "simulation: {t_end: 0.2, log_period: 1.0e-2, "
+                        "solver: radau, atol: [1.0e-9, 2.0e-9]}")
+    base = base.replace("  zoh:  {type: zoh, rate: 100}", "  zoh:  {type: zoh, rate: 100}\n  lp: {type: lowpass, cutoff: 5.0}")
+    base = base.replace("  - g.y -> zoh.u\n", "  - g.y -> zoh.u\n  - g.y -> lp.u\n")
+    system, sim, _ = api.build(write(tmp_path, base))
+    assert system.n_x == 2 and list(sim.solver.atol) == [1e-9, 2e-9]  # the lowpass's two states
+    code, err = run(capsys, "check", write(tmp_path, base.replace("atol: [1.0e-9, 2.0e-9]", "atol: [1.0e-9, 1.0e-9, 1.0e-9]"), "e.yaml"))
+    assert code == 2 and "'atol' has 3 value(s)" in err
+
+
+def test_the_docs_page_is_current():
+    page = (ROOT / "docs" / "settings.md").read_text()
+    assert page == tables.markdown(), "run: python3 -c \"from hybridsim.format.tables import markdown; " \
+                                      "open('docs/settings.md','w').write(markdown())\""
+    for table in tables.SECTIONS.values():
+        for s in table:
+            assert f"`{s.key}`" in page
+
+
+def test_the_schema_and_the_api_defaults_come_from_the_tables():
+    schema = diagram_schema()
+    sim = schema["properties"]["simulation"]
+    assert set(sim["properties"]) == set(tables.keys(tables.SIMULATION))
+    assert sim["properties"]["solver"]["anyOf"][0] == {"enum": tables.SOLVERS}
+    assert set(schema["properties"]["analysis"]["properties"]) == set(tables.keys(tables.ANALYSIS))
+    assert schema["properties"]["analysis"]["properties"]["step"]["anyOf"][0]["required"] == ["input", "output"]
+    assert set(sweep_schema()["properties"]) == set(tables.keys(tables.SWEEP))
+    assert api._SIM == tables.defaults(tables.SIMULATION)
+    from hybridsim.analysis import DEFAULTS
+
+    assert DEFAULTS["scales"] == tables.defaults(tables.ANALYSIS)["scales"]
+
+
+def test_help_lists_the_simulation_settings_and_exit_codes():
+    text = build_parser().format_help()
+    assert tables.help_text(tables.SIMULATION) in text
+    assert "5 the" in text and "6 a plugin" in text
+
+
+def test_the_schema_refuses_what_the_table_refuses():
+    import jsonschema
+
+    schema = diagram_schema()
+    good = {"blocks": {}, "analysis": {"scales": [1, 2], "step": {"input": "a.y[0]", "output": "b.y"}}}
+    jsonschema.validate(good, schema)
+    for bad in ({"blocks": {}, "analysis": {"scales": ["x"]}}, {"blocks": {}, "analysis": {"step": {"input": "a.y"}}},
+                {"blocks": {}, "simulation": {"fused": "yes"}}, {"blocks": {}, "metrics": {"nope": 1}}):
+        with pytest.raises(jsonschema.ValidationError):
+            jsonschema.validate(bad, schema)
+
+
+# -- one parsed type for a parameter path ---------------------------------------------------------
+
+@pytest.mark.parametrize("text, kind, key", [
+    ("k", "param", "k"), ("params.k", "param", "k"), ("g.K", "block", "g.K"), ("blocks.g.K", "block", "g.K"),
+    ("ctrl.pid.Kp[2]", "block", "ctrl.pid.Kp[2]"), ("simulation.t_end", "simulation", "simulation.t_end"),
+    (" k ", "param", "k"),
+])
+def test_param_path_spellings_have_one_key(text, kind, key):
+    p = ParamPath.parse(text)
+    assert (p.kind, p.key) == (kind, key)
+
+
+@pytest.mark.parametrize("text", ["", "a..b", "a b", "g.K[x]", "params.a.b", "simulation.a.b", "blocks.g", "a=b"])
+def test_a_bad_param_path_is_refused(text):
+    with pytest.raises(ValueError):
+        ParamPath.parse(text)
+
+
+def test_set_one_element_of_a_vector_parameter(tmp_path, capsys):
+    p = write(tmp_path, GOOD.replace("K: $k", "K: [[1.0]]").replace("rate: 100", "rate: 100, initial: [0.0]"))
+    f = api.load(p, **{"zoh.initial[0]": 3.0})
+    assert f.data["blocks"]["zoh"]["initial"] == [3.0]
+    code, err = run(capsys, "check", p, "--set", "zoh.initial[4]=1")
+    assert code == 2 and "index 4 is out of range" in err
+    arm = DIAGRAMS / "fig9_force_and_position.yaml"
+    f = api.load(arm, **{"ctrl.fpi.Ki[1]": 7.0})
+    assert f.param_value("ctrl.fpi.Ki").tolist()[1] == 7.0
+
+
+def test_a_sweep_naming_one_parameter_twice_is_refused(tmp_path, capsys):
+    d = write(tmp_path, GOOD)
+    s = write(tmp_path, f"diagram: {d}\ngrid: {{k: [1, 2], params.k: [3, 4]}}\n", "s.yaml")
+    code, err = run(capsys, "sweep", s, "-q", "-o", tmp_path / "o")
+    assert code == 2 and "s.yaml:2" in err and "are the same parameter (k)" in err
+    assert not (tmp_path / "o").exists()
+    s.write_text(f"diagram: {d}\nset: {{g.K: 2}}\nscale: {{blocks.g.K: [1, 2]}}\n")
+    code, err = run(capsys, "sweep", s, "-q", "-o", tmp_path / "o")
+    assert code == 2 and "same parameter (g.K)" in err
+
+
+@pytest.mark.parametrize("text, message", [
+    ("diagram: d.yaml\ngrid: {k: 5}\n", "'grid': 'k': must be a list"),
+    ("diagram: d.yaml\ntraces: maybe\n", "'traces' must be true or false"),
+    ("diagram: d.yaml\nrandom: {n: 0, ranges: {k: [1, 2]}}\n", "'n' must be a whole number from 1"),
+    ("diagram: d.yaml\nrandom: {n: 3}\n", "needs 'ranges'"),
+    ("diagram: d.yaml\ngrd: {k: [1]}\n", "unknown sweep setting 'grd' (did you mean 'grid'?)"),
+    ("grid: {k: [1]}\n", "sweep needs 'diagram'"),
+])
+def test_a_bad_sweep_file_is_exit_2_from_its_table(tmp_path, capsys, text, message):
+    write(tmp_path, GOOD)
+    s = write(tmp_path, text, "s.yaml")
+    code, err = run(capsys, "sweep", s, "-q", "-o", tmp_path / "o")
+    assert code == 2 and message in err, err
+
+
+@pytest.mark.parametrize("spec, message", [
+    ("{type: fmu, path: 5}", "parameter 'path' must be a non-empty text"),
+    ("{type: fmu, path: p.fmu, mode: xx}", "parameter 'mode' must be one of cs, me"),
+    ("{type: fmu, path: p.fmu, rate: -1}", "parameter 'rate' must be a positive"),
+    ("{type: robot_arm, robot: fig3_arm, friction: yes-please}", "parameter 'friction' must be true or false"),
+    ("{type: robot_arm, robot: fig3_arm, gravity: [1, 2]}", "parameter 'gravity' must be a list of 3"),
+    ("{type: robot_kinematics, urdf: 7}", "parameter 'urdf' must be a non-empty text"),
+])
+def test_fmu_and_robot_parameters_are_checked_from_their_tables(tmp_path, capsys, spec, message):
+    code, err = run(capsys, "check", write(tmp_path, f"blocks:\n  b: {spec}\n"))
+    assert code == 2 and "d.yaml:2" in err and message in err, err
+    schema = diagram_schema()
+    fmu = next(b for b in schema["properties"]["blocks"]["additionalProperties"]["anyOf"] if b.get("title") == "fmu")
+    assert fmu["properties"]["mode"]["anyOf"][0] == {"enum": ["cs", "me"]}
