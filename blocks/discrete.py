@@ -1,4 +1,4 @@
-"""Sampled control blocks: discrete integrator, transfer function, state space, N-sample delay, PID, rate limiter.
+"""Sampled control blocks: discrete integrator (limits, reset), transfer function, state space, N-sample delay, PID, rate limiter.
 
 Every block here runs at its own ``rate`` (Hz) or ``period`` (s); hit k is at
 t = k T. At a hit the output is computed from the state and the current
@@ -36,40 +36,70 @@ _METHODS = ("forward", "backward", "trapezoidal")
 
 @register("discrete_integrator")
 class DiscreteIntegrator(_Sampled):
-    """y[k] = x[k] + c K T u[k], x[k+1] = y[k] + (1 - c) K T u[k].
+    """y[k] = sat(x[k] + c K T u[k]), x[k+1] = sat(y[k] + (1 - c) K T u[k]); a rising ``reset`` restarts it.
 
     ``method``: forward Euler (c = 0: K T / (z - 1)), backward Euler (c = 1:
     K T z / (z - 1), the paper's rectangle rule) or trapezoidal (c = 1/2:
-    K T (z + 1) / (2 (z - 1))). Starts at x[0] = ``initial``.
+    K T (z + 1) / (2 (z - 1))); K in 1/s. Starts at x[0] = ``initial``;
+    sat clips to [``lower``, ``upper``] (default unlimited: the plain
+    z-domain integrator). Ports: in ``u``, ``reset`` (optional; at a hit where
+    it has risen through 0.5 since the last hit, x is set to ``initial``
+    before y is computed, as Simulink's rising external reset); out ``y``.
     """
 
     def __init__(self, name="dintegrator", K=1.0, method="forward", initial=0.0, rate=None, period=None,
-                 width=1):
+                 width=1, lower=-math.inf, upper=math.inf):
         super().__init__(name, rate, period)
         if method not in _METHODS:
             raise ParameterError("method", f"must be one of {', '.join(_METHODS)}; got {method!r}")
         n = count(width, "width")
         c = {"forward": 0.0, "backward": 1.0, "trapezoidal": 0.5}[method]
-        self.params = (vector(K, "K", n) * self.T, c)
+        lo, hi = vector(lower, "lower", n, inf_ok=True), vector(upper, "upper", n, inf_ok=True)
+        if np.any(lo > hi):
+            raise ParameterError("lower", f"must not exceed upper ({lower!r} > {upper!r})")
         self.x0 = vector(initial, "initial", n)
-        self.declare_discrete_state(n)
+        if np.any((self.x0 < lo) | (self.x0 > hi)):
+            raise ParameterError("initial", f"must lie within [lower, upper], got {initial!r}")
+        self.params = DIntegratorParams(vector(K, "K", n) * self.T, c, lo, hi, self.x0.copy(), n)
+        self.declare_discrete_state(2 * n)  # x, and the reset input at the last hit
         self.declare_input("u", n)
-        self.declare_output("y", n, depends_on=() if c == 0.0 else None)
+        self.declare_input("reset", n, default=[0.0] * n, optional=True)
+        self.declare_output("y", n, depends_on=("reset",) if c == 0.0 else None)
 
     def initial_state(self, u=None):
-        return self.x0.copy()
+        return np.concatenate((self.x0, np.zeros(self.params.n)))
+
+
+class DIntegratorParams(NamedTuple):
+    KT: np.ndarray     # gain times period
+    c: float           # weight of u[k] in y[k]
+    lower: np.ndarray  # limits of y and x
+    upper: np.ndarray
+    x0: np.ndarray     # initial state, also what a reset restores
+    n: int             # width
+
+
+@kernel
+def dintegrator_state(p, x, u):
+    """x[k] after a reset at this hit (if the reset input rose through 0.5 since the last hit)."""
+    xa, r = np.asarray(x), np.asarray(u[1])
+    rose = (r > 0.5) & (xa[p.n:] <= 0.5)
+    return np.where(rose, p.x0, xa[:p.n])
 
 
 @kernel
 def dintegrator_output(p, t, x, u):
-    KT, c = p
-    return (np.asarray(x) + c * KT * np.asarray(u[0]),)
+    xk = dintegrator_state(p, x, u)
+    return (np.minimum(np.maximum(xk + p.c * p.KT * np.asarray(u[0]), p.lower), p.upper),)
 
 
 @kernel
 def dintegrator_update(p, t, x, u):
-    KT, c = p
-    return np.asarray(x) + KT * np.asarray(u[0])
+    xk = dintegrator_state(p, x, u)
+    ua = np.asarray(u[0])
+    y = np.minimum(np.maximum(xk + p.c * p.KT * ua, p.lower), p.upper)
+    nxt = np.minimum(np.maximum(y + (1.0 - p.c) * p.KT * ua, p.lower), p.upper)
+    return np.concatenate((nxt, np.asarray(u[1]) * 1.0))
 
 
 class _LTI(_Sampled):
