@@ -1,4 +1,4 @@
-"""Lookup tables: 1-D (element-wise) and n-D on a rectangular grid, linear interpolation.
+"""Lookup tables on a rectangular grid, linear interpolation: the n-D table and the kernels of lookup_1d.
 
 Beyond the breakpoints a table either holds its end values (``extrapolation:
 hold``, Simulink's "clip") or continues the end segments' slopes
@@ -82,33 +82,9 @@ def _params(bps, table, linear, n):
     return LookupParams(np.concatenate(bps), starts, table.ravel(), strides, linear, corners, n)
 
 
-@register("lookup_1d")
-class Lookup1D(Block):
-    """y = f(u) element-wise, f piecewise linear through (breakpoints[k], values[k]).
-
-    Parameters
-    ----------
-    breakpoints : list   strictly increasing, units of u
-    values : list        f at the breakpoints, units of y
-    extrapolation : str  ``linear`` (default, as Simulink) or ``hold`` (the end values)
-    width : int          elements, each looked up in the same table
-
-    Example: breakpoints [0, 1], values [0, 2]: f(0.25) = 0.5, f(2) = 4 (linear) or 2 (hold).
-    """
-
-    def __init__(self, name="lookup", breakpoints=(0.0, 1.0), values=(0.0, 1.0), extrapolation="linear",
-                 width=1):
-        super().__init__(name)
-        b = _breakpoints(breakpoints, "breakpoints")
-        v = vector(values, "values", b.size)
-        n = count(width, "width")
-        self.params = _params([b], v, _extrapolation(extrapolation), n)
-        self.declare_input("u", n)
-        self.declare_output("y", n)
-
-
 @kernel
 def lookup_1d_output(p, t, x, u):
+    """lookup_1d (:mod:`hybridsim.blocks.nonlinear`): each element of u in the same 1-D table."""
     ua = np.asarray(u[0])
     y = np.empty(p.n)
     q = np.empty(1)
@@ -116,6 +92,11 @@ def lookup_1d_output(p, t, x, u):
         q[0] = ua[i]
         y[i] = lookup_at(p, q)
     return (y,)
+
+
+def table_params(bps, table, extrapolation, n):
+    """The kernels' numbers of a table on the grid ``bps`` (a list of breakpoint arrays)."""
+    return _params(bps, table, _extrapolation(extrapolation), n)
 
 
 @register("lookup_nd")
@@ -126,7 +107,7 @@ class LookupND(Block):
     ----------
     breakpoints : list of lists   one strictly increasing list per dimension (units of u[j])
     table : nested list           values of shape (len(breakpoints[0]), ..., len(breakpoints[d-1]))
-    extrapolation : str           ``linear`` (default) or ``hold``
+    extrapolation : str           ``linear`` (default, as Simulink's n-D Lookup Table) or ``hold``
 
     Ports: in ``u`` of width d (one coordinate per dimension); out ``y`` (width 1).
     Example: breakpoints [[0, 1], [0, 1]], table [[0, 1], [2, 3]]: f(0.5, 0.5) = 1.5.
@@ -158,5 +139,4 @@ def lookup_nd_output(p, t, x, u):
     return (np.array([lookup_at(p, np.asarray(u[0]))]),)
 
 
-Lookup1D.kernels = Kernels(output=lookup_1d_output)
 LookupND.kernels = Kernels(output=lookup_nd_output)

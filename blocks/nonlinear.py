@@ -14,6 +14,7 @@ from hybridsim.kernels import Kernels, kernel, unroll
 from hybridsim.registry import register
 
 from ._util import count, vector
+from .lookup import lookup_1d_output, table_params
 
 
 GROUP = "math"  # where `hybridsim blocks` lists this module's blocks
@@ -222,22 +223,21 @@ def _breakpoints(values, name):
 
 @register("lookup_1d")
 class Lookup1D(Block):
-    """y = table(u), linear between breakpoints ``x`` and held at the ends (no extrapolation).
+    """y = table(u), linear between breakpoints ``x``; beyond them held (default) or extrapolated.
 
-    Example: x [0, 1, 2], y [0, 10, 0]: u = 0.5 gives 5, u = 3 gives 0.
+    ``extrapolation``: ``hold`` (the end values) or ``linear`` (the end
+    segments continued, Simulink's default); ``width`` elements, each looked up
+    in the same table. Example: x [0, 1, 2], y [0, 10, 0]: u = 0.5 gives 5,
+    u = 3 gives 0 (hold) or -10 (linear).
     """
 
-    def __init__(self, name="lookup", x=(0.0, 1.0), y=(0.0, 1.0)):
+    def __init__(self, name="lookup", x=(0.0, 1.0), y=(0.0, 1.0), extrapolation="hold", width=1):
         super().__init__(name)
         bx = _breakpoints(x, "x")
-        self.params = (bx, vector(y, "y", bx.size))
-        self.declare_input("u", 1)
-        self.declare_output("y", 1)
-
-
-@kernel
-def lookup_1d_output(p, t, x, u):
-    return (np.array([np.interp(u[0][0], p[0], p[1])]),)
+        n = count(width, "width")
+        self.params = table_params([bx], vector(y, "y", bx.size), extrapolation, n)
+        self.declare_input("u", n)
+        self.declare_output("y", n)
 
 
 @register("lookup_2d")
@@ -286,5 +286,6 @@ Switch.kernels = Kernels(output=switch_output)
 Product.kernels = Kernels(output=product_output)
 MathFunction.kernels = Kernels(output=math_function_output)
 Quantizer.kernels = Kernels(output=quantizer_output)
-Lookup1D.kernels = Kernels(output=lookup_1d_output)
 Lookup2D.kernels = Kernels(output=lookup_2d_output)
+
+Lookup1D.kernels = Kernels(output=lookup_1d_output)
