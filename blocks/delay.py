@@ -23,7 +23,7 @@ class TransportDelay(Block):
     Parameters
     ----------
     delay : float            the dead time tau (s), > 0
-    buffer : int             samples of u kept per delay, N (default 100)
+    buffer : int             samples of u kept per delay, N (default 20)
     initial : float or list  y before t = tau (units of u; Simulink's initial output)
     width : int
 
@@ -39,7 +39,7 @@ class TransportDelay(Block):
 
     init_needs_inputs = True
 
-    def __init__(self, name="dead_time", delay=0.1, buffer=100, initial=0.0, width=1):
+    def __init__(self, name="dead_time", delay=0.1, buffer=20, initial=0.0, width=1):
         super().__init__(name)
         n, N = count(width, "width"), count(buffer, "buffer")
         tau = scalar(delay, "delay", "positive")
