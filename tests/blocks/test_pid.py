@@ -5,9 +5,9 @@ import pytest
 import hybridsim as hs
 from hybridsim.blocks.discrete import DiscretePID
 
-from test_discrete import sequence  # noqa: E402 (the sibling module; rootdir-relative import)
+from test_discrete import sequence  # noqa: E402 (the sibling module)
+from paths import PATHS  # noqa: E402
 
-PATHS = (("generic", dict(fused=False)), ("fused", {}), ("compiled", dict(compiled=True)))
 
 
 @pytest.mark.parametrize("imethod, fmethod", [("forward", "forward"), ("backward", "trapezoidal"),
@@ -46,3 +46,49 @@ def test_a_mirrored_loop_clamps_as_its_original_does():
     wound = _loop(1.0, "none")
     over = lambda r: r["p.y[0]"].max() - 1.0  # noqa: E731
     assert over(mirror) < 0.8 * over(wound)  # clamping cuts the overshoot in both
+
+
+def _cloop(path, sign=1.0, limits=None, anti_windup="clamping", step=5e-4, **sim):
+    """A continuous PID around m x'' + c x' + k x = u (1 kg, 0.4 N s/m, 4 N/m), a unit setpoint step."""
+    from paths import block, run
+
+    lim = dict(lower=-limits, upper=limits) if limits else {}
+    blocks = [block("step", "r", final=1.0),
+              block("pid", "c", Kp=sign * 20.0, Ki=sign * 15.0, Kd=sign * 4.0, N=20.0, anti_windup=anti_windup, **lim),
+              block("transfer_function", "p", num=[sign * 1.0], den=[1.0, 0.4, 4.0])]
+    return run(path, blocks, [("r.y", "c.r"), ("p.y", "c.y"), ("c.u", "p.u")], 3.0, ["p.y", "c.u"], step=step,
+               **sim)
+
+
+@pytest.mark.parametrize("path", PATHS)
+def test_continuous_pid_equals_python_controls_closed_loop(path):
+    import control as ct
+    from paths import check
+
+    res = _cloop(path)
+    s = ct.tf("s")
+    C = 20.0 + 15.0 / s + 4.0 * 20.0 * s / (s + 20.0)
+    ref = ct.forced_response(ct.feedback(C / (s * s + 0.4 * s + 4.0), 1), T=res.t, U=np.ones(res.t.size)).outputs
+    check("pid", path, res["p.y[0]"], ref, 1e-8)
+
+
+@pytest.mark.slow  # 0.1 ms steps with located switches
+@pytest.mark.parametrize("path", PATHS)
+def test_continuous_pid_clamps_on_the_sign_of_ki_e(path):
+    from scipy.integrate import solve_ivp
+    from paths import check
+
+    res = _cloop(path, limits=3.0, locate_switches=True, step=1e-4)
+    mirror = _cloop(path, sign=-1.0, limits=3.0, locate_switches=True, step=1e-4)
+    check("pid", path, mirror["p.y[0]"], res["p.y[0]"], 1e-12)  # (-C)(-P) = C P
+
+    def f(t, z):  # the same loop written out: x, x', I, F
+        x, v, i, fs = z
+        e = 1.0 - x
+        u = 20.0 * e + i + 4.0 * 20.0 * (e - fs)
+        di = 0.0 if (u > 3.0 and 15.0 * e > 0) or (u < -3.0 and 15.0 * e < 0) else 15.0 * e
+        return [v, np.clip(u, -3.0, 3.0) - 0.4 * v - 4.0 * x, di, 20.0 * (e - fs)]
+
+    ref = solve_ivp(f, (0, 3.0), [0, 0, 0, 0], t_eval=res.t, method="LSODA", rtol=1e-10, atol=1e-12, max_step=1e-3)
+    check("pid", path, res["p.y[0]"], ref.y[0], 5e-7)  # RK4 at 0.1 ms; 4.5e-6 at 0.5 ms
+    assert res["c.u[0]"].max() == 3.0 and res["c.u[0]"].min() >= -3.0
