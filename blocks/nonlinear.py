@@ -198,20 +198,27 @@ def math_function_output(p, t, x, u):
 class Quantizer(Block):
     """y = q round(u / q): a converter of resolution ``q`` (e.g. a force sensor's ADC step, N).
 
-    Rounds halves to even. Example: q = 0.1, u = 0.26 gives 0.3.
+    ``rounding``: ``even`` (halves to even, numpy's and IEEE's default) or
+    ``away`` (halves away from zero, as Simulink's Quantizer). Example: q = 0.1,
+    u = 0.26 gives 0.3; u = 0.25 gives 0.2 (even) or 0.3 (away).
     """
 
-    def __init__(self, name="quantizer", q=0.01, width=1):
+    def __init__(self, name="quantizer", q=0.01, width=1, rounding="even"):
         super().__init__(name)
+        if rounding not in ("even", "away"):
+            raise ParameterError("rounding", f"must be even or away, got {rounding!r}")
         n = count(width, "width")
-        self.params = (vector(q, "q", n, "positive"),)
+        self.params = (vector(q, "q", n, "positive"), float(rounding == "away"))
         self.declare_input("u", n)
         self.declare_output("y", n)
 
 
 @kernel
 def quantizer_output(p, t, x, u):
-    return (p[0] * np.round(np.asarray(u[0]) / p[0]),)
+    v = np.asarray(u[0]) / p[0]
+    if p[1] == 1.0:
+        return (p[0] * (np.sign(v) * np.floor(np.abs(v) + 0.5)),)
+    return (p[0] * np.round(v),)
 
 
 def _breakpoints(values, name):
