@@ -82,7 +82,7 @@ def selection_output(p, t, x, u):
 
 @register("mux")
 class Mux(Block):
-    """Stack inputs u1 (widths[0]), u2 (widths[1]), ... into one vector y."""
+    """Stack inputs u1 (widths[0]), u2 (widths[1]), ... into one vector y = [u1; u2; ...]."""
 
     def __init__(self, name="mux", widths=(1, 1)):
         super().__init__(name)
@@ -90,14 +90,23 @@ class Mux(Block):
         for k, w in enumerate(widths):
             self.declare_input(f"u{k + 1}", w)
         self.declare_output("y", sum(widths))
+        self.params = (sum(widths),)
 
-    def output(self, t, x, u):
-        return (np.concatenate(u),)
+
+@kernel
+def mux_output(p, t, x, u):
+    y = np.empty(p[0])
+    k = 0
+    for v in unroll(u):  # the inputs may mix arrays and tuples (compiled: unrolled)
+        for e in v:
+            y[k] = e
+            k += 1
+    return (y,)
 
 
 @register("demux")
 class Demux(Block):
-    """Split u into y1 (widths[0]), y2 (widths[1]), ..."""
+    """Split u into y1 (widths[0]), y2 (widths[1]), ... (kernels for up to 8 outputs)."""
 
     def __init__(self, name="demux", widths=(1, 1)):
         super().__init__(name)
@@ -106,9 +115,63 @@ class Demux(Block):
         self.declare_input("u", int(self.cuts[-1]))
         for k, w in enumerate(widths):
             self.declare_output(f"y{k + 1}", int(w))
+        self.params = (tuple(int(c) for c in self.cuts),)
+        self.kernels = _DEMUX[len(widths)] if len(widths) in _DEMUX else None
 
     def output(self, t, x, u):
         return tuple(u[0][a:b] for a, b in zip(self.cuts[:-1], self.cuts[1:]))
+
+
+@kernel
+def demux_piece(p, u, k):
+    """Output k of a demux: the slice cuts[k]:cuts[k + 1] of its input."""
+    c = p[0]
+    return np.asarray(u[0])[c[k]:c[k + 1]].copy()
+
+
+@kernel
+def demux1_output(p, t, x, u):
+    return (demux_piece(p, u, 0),)
+
+
+@kernel
+def demux2_output(p, t, x, u):
+    return demux_piece(p, u, 0), demux_piece(p, u, 1)
+
+
+@kernel
+def demux3_output(p, t, x, u):
+    return demux_piece(p, u, 0), demux_piece(p, u, 1), demux_piece(p, u, 2)
+
+
+@kernel
+def demux4_output(p, t, x, u):
+    return demux_piece(p, u, 0), demux_piece(p, u, 1), demux_piece(p, u, 2), demux_piece(p, u, 3)
+
+
+@kernel
+def demux5_output(p, t, x, u):
+    return demux4_output(p, t, x, u) + (demux_piece(p, u, 4),)
+
+
+@kernel
+def demux6_output(p, t, x, u):
+    return demux4_output(p, t, x, u) + (demux_piece(p, u, 4), demux_piece(p, u, 5))
+
+
+@kernel
+def demux7_output(p, t, x, u):
+    return demux4_output(p, t, x, u) + (demux_piece(p, u, 4), demux_piece(p, u, 5), demux_piece(p, u, 6))
+
+
+@kernel
+def demux8_output(p, t, x, u):
+    return demux4_output(p, t, x, u) + demux4_output((p[0][4:],), t, x, u)
+
+
+_DEMUX = {k + 1: Kernels(output=f) for k, f in enumerate(
+    (demux1_output, demux2_output, demux3_output, demux4_output, demux5_output, demux6_output,
+     demux7_output, demux8_output))}
 
 
 def _widths(widths):
@@ -137,13 +200,17 @@ def zoh_output(p, t, x, u):
 
 @register("delay")
 class UnitDelay(Block):
-    """y[k] = u[k-1]: one sample of delay; breaks algebraic loops."""
+    """y[k] = u[k-1]: one sample of delay; breaks algebraic loops.
+
+    ``initial``: y[0], one number or one per element (then ``width`` defaults to its length).
+    """
 
     group = "control"
 
-    def __init__(self, name="delay", rate=None, period=None, width=1, initial=0.0):
+    def __init__(self, name="delay", rate=None, period=None, width=None, initial=0.0):
         super().__init__(name)
         self.declare_rate(period=period, rate=rate)
+        width = count(width, "width") if width is not None else max(np.size(initial), 1)
         self.declare_discrete_state(width)
         self.x0 = vector(initial, "initial", width)
         self.declare_input("u", width)
@@ -280,6 +347,7 @@ def state_space_derivatives(p, t, x, u):
 
 
 Sum.kernels = Kernels(output=sum_output)
+Mux.kernels = Kernels(output=mux_output)
 Gain.kernels = Kernels(output=gain_output)
 Selection.kernels = Kernels(output=selection_output)
 ZeroOrderHold.kernels = Kernels(output=zoh_output)

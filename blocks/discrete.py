@@ -1,4 +1,4 @@
-"""Sampled control blocks: discrete integrator, transfer function, state space, N-sample delay, PID, rate limiter.
+"""Sampled control blocks: discrete integrator (limits, reset), transfer function, state space, N-sample delay, PID, rate limiter.
 
 Every block here runs at its own ``rate`` (Hz) or ``period`` (s); hit k is at
 t = k T. At a hit the output is computed from the state and the current
@@ -36,40 +36,70 @@ _METHODS = ("forward", "backward", "trapezoidal")
 
 @register("discrete_integrator")
 class DiscreteIntegrator(_Sampled):
-    """y[k] = x[k] + c K T u[k], x[k+1] = y[k] + (1 - c) K T u[k].
+    """y[k] = sat(x[k] + c K T u[k]), x[k+1] = sat(y[k] + (1 - c) K T u[k]); a rising ``reset`` restarts it.
 
     ``method``: forward Euler (c = 0: K T / (z - 1)), backward Euler (c = 1:
     K T z / (z - 1), the paper's rectangle rule) or trapezoidal (c = 1/2:
-    K T (z + 1) / (2 (z - 1))). Starts at x[0] = ``initial``.
+    K T (z + 1) / (2 (z - 1))); K in 1/s. Starts at x[0] = ``initial``;
+    sat clips to [``lower``, ``upper``] (default unlimited: the plain
+    z-domain integrator). Ports: in ``u``, ``reset`` (optional; at a hit where
+    it has risen through 0.5 since the last hit, x is set to ``initial``
+    before y is computed, as Simulink's rising external reset); out ``y``.
     """
 
     def __init__(self, name="dintegrator", K=1.0, method="forward", initial=0.0, rate=None, period=None,
-                 width=1):
+                 width=1, lower=-math.inf, upper=math.inf):
         super().__init__(name, rate, period)
         if method not in _METHODS:
             raise ParameterError("method", f"must be one of {', '.join(_METHODS)}; got {method!r}")
         n = count(width, "width")
         c = {"forward": 0.0, "backward": 1.0, "trapezoidal": 0.5}[method]
-        self.params = (vector(K, "K", n) * self.T, c)
+        lo, hi = vector(lower, "lower", n, inf_ok=True), vector(upper, "upper", n, inf_ok=True)
+        if np.any(lo > hi):
+            raise ParameterError("lower", f"must not exceed upper ({lower!r} > {upper!r})")
         self.x0 = vector(initial, "initial", n)
-        self.declare_discrete_state(n)
+        if np.any((self.x0 < lo) | (self.x0 > hi)):
+            raise ParameterError("initial", f"must lie within [lower, upper], got {initial!r}")
+        self.params = DIntegratorParams(vector(K, "K", n) * self.T, c, lo, hi, self.x0.copy(), n)
+        self.declare_discrete_state(2 * n)  # x, and the reset input at the last hit
         self.declare_input("u", n)
-        self.declare_output("y", n, depends_on=() if c == 0.0 else None)
+        self.declare_input("reset", n, default=[0.0] * n, optional=True)
+        self.declare_output("y", n, depends_on=("reset",) if c == 0.0 else None)
 
     def initial_state(self, u=None):
-        return self.x0.copy()
+        return np.concatenate((self.x0, np.zeros(self.params.n)))
+
+
+class DIntegratorParams(NamedTuple):
+    KT: np.ndarray     # gain times period
+    c: float           # weight of u[k] in y[k]
+    lower: np.ndarray  # limits of y and x
+    upper: np.ndarray
+    x0: np.ndarray     # initial state, also what a reset restores
+    n: int             # width
+
+
+@kernel
+def dintegrator_state(p, x, u):
+    """x[k] after a reset at this hit (if the reset input rose through 0.5 since the last hit)."""
+    xa, r = np.asarray(x), np.asarray(u[1])
+    rose = (r > 0.5) & (xa[p.n:] <= 0.5)
+    return np.where(rose, p.x0, xa[:p.n])
 
 
 @kernel
 def dintegrator_output(p, t, x, u):
-    KT, c = p
-    return (np.asarray(x) + c * KT * np.asarray(u[0]),)
+    xk = dintegrator_state(p, x, u)
+    return (np.minimum(np.maximum(xk + p.c * p.KT * np.asarray(u[0]), p.lower), p.upper),)
 
 
 @kernel
 def dintegrator_update(p, t, x, u):
-    KT, c = p
-    return np.asarray(x) + KT * np.asarray(u[0])
+    xk = dintegrator_state(p, x, u)
+    ua = np.asarray(u[0])
+    y = np.minimum(np.maximum(xk + p.c * p.KT * ua, p.lower), p.upper)
+    nxt = np.minimum(np.maximum(y + (1.0 - p.c) * p.KT * ua, p.lower), p.upper)
+    return np.concatenate((nxt, np.asarray(u[1]) * 1.0))
 
 
 class _LTI(_Sampled):
@@ -184,27 +214,39 @@ _ANTI_WINDUP = ("none", "clamping", "back_calculation")
 class DiscretePID(_Sampled):
     """A sampled PID in parallel form with setpoint weights, a derivative filter and anti-windup.
 
-    u = Kp (b r - y) + I + D, output clipped to [lower, upper]:
+    u = Kp (b r - y) + I + D, output clipped to [lower, upper] (units of u; r, y in
+    units of the measurement; Ki in 1/s, Kd in s, N in rad/s):
 
-    * I[k] = I[k-1] + Ki T (r[k] - y[k])  (backward Euler: Ki T z / (z - 1));
-    * D: Kd s / (1 + s / N) on (c r - y), discretized by backward Euler:
-      D[k] = (D[k-1] + Kd N (e_d[k] - e_d[k-1])) / (1 + N T); with N = inf
-      (no filter) D[k] = Kd (e_d[k] - e_d[k-1]) / T;
-    * anti-windup: ``clamping`` stops integrating while the output is
-      saturated and the error drives it further; ``back_calculation`` feeds
-      Kb (u_sat - u) back into the integrator (Kb, 1/s, default Ki / Kp).
+    * I[k] = I[k-1] + Ki T (a e[k] + (1 - a) e[k-1]), e = r - y;
+      ``integrator_method``: backward Euler (a = 1: Ki T z / (z - 1), the default),
+      forward Euler (a = 0: Ki T / (z - 1), Simulink's default) or trapezoidal
+      (a = 1/2: Ki T (z + 1) / (2 (z - 1)));
+    * D: Kd N s / (s + N) on e_d = c r - y, with s replaced as ``filter_method``
+      says: backward (s = (z - 1) / (T z)): D[k] = (D[k-1] + Kd N de) / (1 + N T);
+      forward (s = (z - 1) / T): D[k] = (1 - N T) D[k-1] + Kd N de; trapezoidal
+      (s = 2 (z - 1) / (T (z + 1))): D[k] = ((2 - N T) D[k-1] + 2 Kd N de) / (2 + N T),
+      de = e_d[k] - e_d[k-1]; with N = inf (no filter) D[k] = Kd de / T;
+    * anti-windup: ``clamping`` holds the integrator while the output is
+      saturated and the integrator's input Ki e pushes it further out (the sign of
+      Ki e, so a reverse-acting loop with negative gains clamps as its mirror
+      does); ``back_calculation`` feeds Kb (u_sat - u) back into the
+      integrator (Kb, 1/s, default Ki / Kp).
 
     Ports: in ``r`` (setpoint), ``y`` (measurement); out ``u``. From rest it
     equals python-control's C(z) = Kp + Ki T z/(z-1) + Kd N (z-1)/((1+NT) z - 1)
-    (b = c = 1, no saturation).
+    (b = c = 1, no saturation, backward Euler).
     """
 
     def __init__(self, name="pid", Kp=1.0, Ki=0.0, Kd=0.0, N=math.inf, b=1.0, c=1.0, lower=-math.inf,
-                 upper=math.inf, anti_windup="clamping", Kb=None, rate=None, period=None, width=1):
+                 upper=math.inf, anti_windup="clamping", Kb=None, rate=None, period=None, width=1,
+                 integrator_method="backward", filter_method="backward"):
         super().__init__(name, rate, period)
         n = count(width, "width")
         if anti_windup not in _ANTI_WINDUP:
             raise ParameterError("anti_windup", f"must be one of {', '.join(_ANTI_WINDUP)}; got {anti_windup!r}")
+        for key, m in (("integrator_method", integrator_method), ("filter_method", filter_method)):
+            if m not in _METHODS:
+                raise ParameterError(key, f"must be one of {', '.join(_METHODS)}; got {m!r}")
         Kp_, Ki_, Kd_ = vector(Kp, "Kp", n), vector(Ki, "Ki", n), vector(Kd, "Kd", n)
         Nf = vector(N, "N", n, "positive", inf_ok=True)
         lo, hi = vector(lower, "lower", n, inf_ok=True), vector(upper, "upper", n, inf_ok=True)
@@ -214,15 +256,20 @@ class DiscretePID(_Sampled):
             Kb_ = np.where(Kp_ != 0.0, Ki_ / np.where(Kp_ != 0.0, Kp_, 1.0), 1.0)
         else:
             Kb_ = vector(Kb, "Kb", n, "nonnegative")
+        a = {"forward": 0.0, "backward": 1.0, "trapezoidal": 0.5}[integrator_method]
+        nt = np.where(np.isfinite(Nf), Nf, 0.0) * self.T
+        one = np.ones(n)
+        fa, fb, fg = {"forward": (1.0 - nt, one, one), "backward": (one, one, 1.0 + nt),
+                      "trapezoidal": (2.0 - nt, 2.0 * one, 2.0 + nt)}[filter_method]
         self.params = PIDParams(Kp_, Ki_, Kd_, Nf, vector(b, "b", n), vector(c, "c", n), lo, hi,
-                                float(_ANTI_WINDUP.index(anti_windup)), Kb_, self.T, n)
-        self.declare_discrete_state(3 * n)  # I, D, e_d of the last hit
+                                float(_ANTI_WINDUP.index(anti_windup)), Kb_, self.T, n, a, fa, fb, fg)
+        self.declare_discrete_state(4 * n)  # I, D, e_d and e of the last hit
         self.declare_input("r", n)
         self.declare_input("y", n)
         self.declare_output("u", n)
 
     def initial_state(self, u=None):
-        return np.zeros(3 * self.params.n)
+        return np.zeros(4 * self.params.n)
 
 
 class PIDParams(NamedTuple):
@@ -238,42 +285,47 @@ class PIDParams(NamedTuple):
     Kb: np.ndarray     # back-calculation gain, 1/s
     T: float           # period, s
     n: int             # width
+    a: float           # integrator: weight of e[k] (1 backward, 0 forward, 1/2 trapezoidal)
+    fa: np.ndarray     # filter recurrence D[k] = (fa D[k-1] + fb Kd N de) / fg
+    fb: np.ndarray
+    fg: np.ndarray
 
 
 @kernel
 def pid_terms(p, x, u):
-    """(unclipped u, clipped u, next I, next D, e_d) of one hit."""
+    """(unclipped u, clipped u, next I, next D, e_d, e) of one hit."""
     n = p.n
     xa, r, y = np.asarray(x), np.asarray(u[0]), np.asarray(u[1])
-    i_prev, d_prev, ed_prev = xa[:n], xa[n:2 * n], xa[2 * n:]
+    i_prev, d_prev, ed_prev, e_prev = xa[:n], xa[n:2 * n], xa[2 * n:3 * n], xa[3 * n:]
     e = r - y
     ed = p.c * r - y
     filt = np.isfinite(p.N)
     nf = np.where(filt, p.N, 0.0)
-    d = np.where(filt, (d_prev + p.Kd * nf * (ed - ed_prev)) / (1.0 + nf * p.T), p.Kd * (ed - ed_prev) / p.T)
-    integ = i_prev + p.Ki * p.T * e
+    d = np.where(filt, (p.fa * d_prev + p.fb * p.Kd * nf * (ed - ed_prev)) / p.fg, p.Kd * (ed - ed_prev) / p.T)
+    step = p.Ki * p.T * (p.a * e + (1.0 - p.a) * e_prev)  # the integrator's input over this period
+    integ = i_prev + step
     v = p.Kp * (p.b * r - y) + integ + d
     sat = np.minimum(np.maximum(v, p.lower), p.upper)
-    if p.mode == 1.0:  # clamping: no integration while saturated and e pushes further out
-        hold = ((v > p.upper) & (e > 0.0)) | ((v < p.lower) & (e < 0.0))
+    if p.mode == 1.0:  # clamping: no integration while saturated and Ki e pushes further out
+        hold = ((v > p.upper) & (step > 0.0)) | ((v < p.lower) & (step < 0.0))
         integ = np.where(hold, i_prev, integ)
         v = p.Kp * (p.b * r - y) + integ + d
         sat = np.minimum(np.maximum(v, p.lower), p.upper)
     elif p.mode == 2.0:  # back-calculation
         integ = integ + p.Kb * p.T * (sat - v)
-    return v, sat, integ, d, ed
+    return v, sat, integ, d, ed, e
 
 
 @kernel
 def discrete_pid_output(p, t, x, u):
-    v, sat, integ, d, ed = pid_terms(p, x, u)
+    v, sat, integ, d, ed, e = pid_terms(p, x, u)
     return (sat,)
 
 
 @kernel
 def discrete_pid_update(p, t, x, u):
-    v, sat, integ, d, ed = pid_terms(p, x, u)
-    return np.concatenate((integ, d, ed))
+    v, sat, integ, d, ed, e = pid_terms(p, x, u)
+    return np.concatenate((integ, d, ed, e))
 
 
 @register("rate_limiter")

@@ -14,6 +14,7 @@ from hybridsim.kernels import Kernels, kernel, unroll
 from hybridsim.registry import register
 
 from ._util import count, vector
+from .lookup import lookup_1d_output, table_params
 
 
 GROUP = "math"  # where `hybridsim blocks` lists this module's blocks
@@ -197,20 +198,27 @@ def math_function_output(p, t, x, u):
 class Quantizer(Block):
     """y = q round(u / q): a converter of resolution ``q`` (e.g. a force sensor's ADC step, N).
 
-    Rounds halves to even. Example: q = 0.1, u = 0.26 gives 0.3.
+    ``rounding``: ``even`` (halves to even, numpy's and IEEE's default) or
+    ``away`` (halves away from zero, as Simulink's Quantizer). Example: q = 0.1,
+    u = 0.26 gives 0.3; u = 0.25 gives 0.2 (even) or 0.3 (away).
     """
 
-    def __init__(self, name="quantizer", q=0.01, width=1):
+    def __init__(self, name="quantizer", q=0.01, width=1, rounding="even"):
         super().__init__(name)
+        if rounding not in ("even", "away"):
+            raise ParameterError("rounding", f"must be even or away, got {rounding!r}")
         n = count(width, "width")
-        self.params = (vector(q, "q", n, "positive"),)
+        self.params = (vector(q, "q", n, "positive"), float(rounding == "away"))
         self.declare_input("u", n)
         self.declare_output("y", n)
 
 
 @kernel
 def quantizer_output(p, t, x, u):
-    return (p[0] * np.round(np.asarray(u[0]) / p[0]),)
+    v = np.asarray(u[0]) / p[0]
+    if p[1] == 1.0:
+        return (p[0] * (np.sign(v) * np.floor(np.abs(v) + 0.5)),)
+    return (p[0] * np.round(v),)
 
 
 def _breakpoints(values, name):
@@ -222,22 +230,21 @@ def _breakpoints(values, name):
 
 @register("lookup_1d")
 class Lookup1D(Block):
-    """y = table(u), linear between breakpoints ``x`` and held at the ends (no extrapolation).
+    """y = table(u), linear between breakpoints ``x``; beyond them held (default) or extrapolated.
 
-    Example: x [0, 1, 2], y [0, 10, 0]: u = 0.5 gives 5, u = 3 gives 0.
+    ``extrapolation``: ``hold`` (the end values) or ``linear`` (the end
+    segments continued, Simulink's default); ``width`` elements, each looked up
+    in the same table. Example: x [0, 1, 2], y [0, 10, 0]: u = 0.5 gives 5,
+    u = 3 gives 0 (hold) or -10 (linear).
     """
 
-    def __init__(self, name="lookup", x=(0.0, 1.0), y=(0.0, 1.0)):
+    def __init__(self, name="lookup", x=(0.0, 1.0), y=(0.0, 1.0), extrapolation="hold", width=1):
         super().__init__(name)
         bx = _breakpoints(x, "x")
-        self.params = (bx, vector(y, "y", bx.size))
-        self.declare_input("u", 1)
-        self.declare_output("y", 1)
-
-
-@kernel
-def lookup_1d_output(p, t, x, u):
-    return (np.array([np.interp(u[0][0], p[0], p[1])]),)
+        n = count(width, "width")
+        self.params = table_params([bx], vector(y, "y", bx.size), extrapolation, n)
+        self.declare_input("u", n)
+        self.declare_output("y", n)
 
 
 @register("lookup_2d")
@@ -286,5 +293,6 @@ Switch.kernels = Kernels(output=switch_output)
 Product.kernels = Kernels(output=product_output)
 MathFunction.kernels = Kernels(output=math_function_output)
 Quantizer.kernels = Kernels(output=quantizer_output)
-Lookup1D.kernels = Kernels(output=lookup_1d_output)
 Lookup2D.kernels = Kernels(output=lookup_2d_output)
+
+Lookup1D.kernels = Kernels(output=lookup_1d_output)

@@ -12,6 +12,7 @@ def sequence(block, inputs):
     x, ys = block.initial_state(), []
     for k, u in enumerate(inputs):
         u = [np.atleast_1d(np.asarray(v, float)) for v in u]
+        u += [np.asarray(port.default) for port in block.inputs[len(u):]]  # unwired: the port's default
         ys.append(np.array(block.output(k * block.period, x, u)[0], float))
         x = block.update(k * block.period, x, u)
     return np.array(ys)

@@ -55,3 +55,11 @@ def test_lookup_tables():
         Lookup1D(x=[0, 0], y=[1, 2])
     with pytest.raises(hs.ParameterError, match="2x2"):
         Lookup2D(x1=[0, 1], x2=[0, 1], table=[[1, 2, 3]])
+
+
+def test_quantizer_rounds_halves_to_even_or_away_from_zero():
+    assert list(Quantizer(q=1.0).output(0, (), [np.array([2.5, -2.5, 3.5])])[0]) == [2.0, -2.0, 4.0]
+    assert list(Quantizer(q=1.0, rounding="away").output(0, (), [np.array([2.5, -2.5, 3.5])])[0]) == [3.0, -3.0, 4.0]
+    assert Quantizer(q=0.1, rounding="away").output(0, (), [np.array([0.26])])[0][0] == pytest.approx(0.3)
+    with pytest.raises(hs.ParameterError, match="rounding"):
+        Quantizer(rounding="up")

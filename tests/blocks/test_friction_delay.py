@@ -1,0 +1,64 @@
+"""Friction, backlash, transport delay and memory against closed forms and recurrences, on every path."""
+import numpy as np
+import pytest
+
+from paths import PATHS, block, check, run
+
+
+def play(u, h, y0):
+    """The play operator on a sampled input: y[k] = clip(y[k-1], u[k] - h, u[k] + h)."""
+    y, out = y0, []
+    for v in u:
+        y = min(max(y, v - h), v + h)
+        out.append(y)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("path", PATHS)
+def test_coulomb_viscous_friction_and_backlash(path):
+    blocks = [block("sine", "s", amplitude=1.0, frequency=0.5, bias=0.2),
+              block("coulomb_viscous", "f", coulomb=2.0, viscous=0.5),
+              block("backlash", "b", deadband=0.6)]
+    wires = [("s.y", "f.u"), ("s.y", "b.u"), ("s.dy", "b.du")]
+    res = run(path, blocks, wires, 4.0, ["f.y", "b.y"], log_period=0.001)
+    t = res.t
+    u = 0.2 + np.sin(np.pi * t)
+    check("coulomb_viscous", path, res["f.y[0]"], 2.0 * np.sign(u) + 0.5 * u, 1e-12)
+    fine = np.linspace(0, 4.0, 400_001)  # the recurrence on a 10 us grid; it holds the peaks at t = 0.5 + k
+    ref = play(0.2 + np.sin(np.pi * fine), 0.3, 0.2)[::100]
+    check("backlash", path, res["b.y[0]"], ref, 1e-9)
+    # contact from below when sin(pi t) = 0.3; then it leaves at each peak t = k + 1/2 and takes up the
+    # play again 0.6 lower, where sin(pi t) = 1 - 0.6 or -1 + 0.6: t = k + 1/2 + acos(0.4) / pi
+    times = [t for t, _ in res.meta["events"]]
+    ref = [np.arcsin(0.3) / np.pi] + sorted([k + 0.5 for k in range(4)] + [k + 0.5 + np.arccos(0.4) / np.pi
+                                                                       for k in range(4)])
+    check("backlash", path, times, ref, 1e-9)
+
+
+@pytest.mark.parametrize("path", PATHS)
+def test_transport_delay_and_memory(path):
+    tau, N = 0.3, 24  # the compiled path takes up to 30 continuous states in all
+    blocks = [block("sine", "s", amplitude=1.0, frequency=1.0), block("clock", "clk"),
+              block("transport_delay", "d", delay=tau, buffer=N, initial=0.25),
+              block("pulse", "p", period=0.4, duty=0.5, delay=0.055), block("memory", "m", initial=-1.0)]
+    wires = [("s.y", "d.u"), ("clk.y", "m.u"), ("p.y", "m.trigger")]
+    res = run(path, blocks, wires, 2.0, ["d.y", "m.y"], step=1e-3)
+    t = res.t
+    ref = np.where(t >= tau, np.sin(2 * np.pi * (t - tau)), 0.25)
+    # linear interpolation of samples Ts = tau / N apart: |err| <= Ts^2 / 8 max|u"| = 7.7e-4
+    bound = (tau / N) ** 2 / 8 * (2 * np.pi) ** 2
+    check("transport_delay", path, res["d.y[0]"], ref, bound)
+    edges = 0.055 + 0.4 * np.floor((t - 0.055) / 0.4)  # off the log grid
+    check("memory", path, res["m.y[0]"], np.where(t >= 0.055, edges, -1.0), 1e-11)
+
+
+def test_transport_delay_of_a_ramp_is_exact():
+    res = run("generic", [block("clock", "c"), block("transport_delay", "d", delay=0.1, buffer=7)],
+              [("c.y", "d.u")], 0.5, ["d.y"], step=1e-3)
+    check("transport_delay", "generic", res["d.y[0]"], np.maximum(res.t - 0.1, 0.0), 1e-12)
+
+
+def test_backlash_refuses_a_start_outside_the_play():
+    b = block("backlash", "b", deadband=0.2, initial=0.5)
+    with pytest.raises(Exception, match="initial"):
+        b.initial_state([np.array([0.0]), np.array([0.0])])

@@ -1,0 +1,90 @@
+"""Relational, logical, MinMax, hit crossing and lookup tables against numpy and scipy, on every path."""
+import numpy as np
+import pytest
+from scipy.interpolate import RegularGridInterpolator, interp1d
+
+from paths import PATHS, block, check, run
+
+
+@pytest.mark.parametrize("path", PATHS)
+def test_comparisons_logic_and_minmax(path):
+    blocks = [block("sine", "s", frequency=0.7, phase=0.1), block("cosine", "c", frequency=0.45),
+              block("relational", "gt", op=">"), block("relational", "le", op="<="),
+              block("logical", "and", op="and"), block("logical", "xor", op="xor", inputs=3),
+              block("logical", "nor", op="nor"), block("logical", "not", op="not"),
+              block("minmax", "mx", function="max"), block("minmax", "mn", function="min", inputs=3),
+              block("mux", "m", widths=[1, 1]), block("minmax", "over", function="max", inputs=1, width=2)]
+    wires = [("s.y", "gt.u1"), ("c.y", "gt.u2"), ("s.y", "le.u1"), ("c.y", "le.u2"),
+             ("gt.y", "and.u1"), ("s.y", "and.u2"), ("gt.y", "xor.u1"), ("le.y", "xor.u2"), ("c.y", "xor.u3"),
+             ("gt.y", "nor.u1"), ("le.y", "nor.u2"), ("gt.y", "not.u1"),
+             ("s.y", "mx.u1"), ("c.y", "mx.u2"), ("s.y", "mn.u1"), ("c.y", "mn.u2"), ("s.dy", "mn.u3"),
+             ("s.y", "m.u1"), ("c.y", "m.u2"), ("m.y", "over.u1")]
+    log = ["gt.y", "le.y", "and.y", "xor.y", "nor.y", "not.y", "mx.y", "mn.y", "over.y"]
+    res = run(path, blocks, wires, 2.0, log)
+    t = res.t
+    s, c = np.sin(2 * np.pi * 0.7 * t + 0.1), np.cos(2 * np.pi * 0.45 * t)
+    ds = 2 * np.pi * 0.7 * np.cos(2 * np.pi * 0.7 * t + 0.1)
+    gt, le = s > c, s <= c
+    check("relational", path, res["gt.y[0]"], gt, 0.0)
+    check("relational", path, res["le.y[0]"], le, 0.0)
+    check("logical", path, res["and.y[0]"], gt & (s != 0), 0.0)
+    check("logical", path, res["xor.y[0]"], (gt.astype(int) + le + (c != 0)) % 2 == 1, 0.0)
+    check("logical", path, res["nor.y[0]"], ~(gt | le), 0.0)
+    check("logical", path, res["not.y[0]"], ~gt, 0.0)
+    check("minmax", path, res["mx.y[0]"], np.maximum(s, c), 1e-12)
+    check("minmax", path, res["mn.y[0]"], np.minimum(np.minimum(s, c), ds), 1e-11)
+    check("minmax", path, res["over.y[0]"], np.maximum(s, c), 1e-12)
+
+
+@pytest.mark.parametrize("path", PATHS)
+def test_hit_crossing_counts_and_times_its_crossings(path):
+    blocks = [block("sine", "s", frequency=1.3, phase=0.2), block("hit_crossing", "up", offset=0.5, direction="rising"),
+              block("hit_crossing", "any", offset=0.5)]
+    res = run(path, blocks, [("s.y", "up.u"), ("s.y", "any.u")], 2.0, ["up.count", "up.time", "any.count"])
+    # sin(2 pi 1.3 t + 0.2) = 0.5 rising at 2 pi 1.3 t + 0.2 = pi/6 + 2 pi k, falling at 5 pi/6 + 2 pi k
+    rise = [(np.pi / 6 + 2 * np.pi * k - 0.2) / (2 * np.pi * 1.3) for k in range(1, 3)]
+    fall = [(5 * np.pi / 6 + 2 * np.pi * k - 0.2) / (2 * np.pi * 1.3) for k in range(0, 3)]
+    rise = [r for r in [(np.pi / 6 - 0.2) / (2 * np.pi * 1.3)] + rise if r <= 2.0]
+    fall = [f for f in fall if f <= 2.0]
+    t = res.t
+    check("hit_crossing", path, res["up.count[0]"], [sum(r <= tk for r in rise) for tk in t], 0.0)
+    check("hit_crossing", path, res["any.count[0]"], [sum(r <= tk for r in rise + fall) for tk in t], 0.0)
+    check("hit_crossing", path, res["up.time[0]"][-1], rise[-1], 1e-11)
+
+
+def test_relational_and_logical_refuse_unknown_operators():
+    for name in ("relational", "logical"):
+        with pytest.raises(Exception, match="op"):
+            block(name, "b", op="~~")
+
+
+@pytest.mark.parametrize("path", PATHS)
+def test_lookup_tables_with_hold_and_linear_extrapolation(path):
+    bp, vals = [0.0, 0.5, 1.5, 2.0], [1.0, 2.0, 0.0, 0.5]
+    grid = ([0.0, 1.0, 2.5], [-1.0, 0.0, 1.0])
+    table = [[0.0, 1.0, 3.0], [2.0, -1.0, 0.5], [4.0, 2.0, 1.0]]
+    blocks = [block("ramp", "r", initial=-1.0, slope=2.0), block("sine", "s", amplitude=1.5, frequency=0.6),
+              block("lookup_1d", "lin", x=bp, y=vals, extrapolation="linear"),
+              block("lookup_1d", "hold", x=bp, y=vals),
+              block("mux", "m", widths=[1, 1]),
+              block("lookup_nd", "nd", breakpoints=grid, table=table),
+              block("lookup_nd", "ndh", breakpoints=grid, table=table, extrapolation="hold")]
+    wires = [("r.y", "lin.u"), ("r.y", "hold.u"), ("r.y", "m.u1"), ("s.y", "m.u2"), ("m.y", "nd.u"), ("m.y", "ndh.u")]
+    res = run(path, blocks, wires, 2.0, ["lin.y", "hold.y", "nd.y", "ndh.y"])
+    u = -1.0 + 2.0 * res.t  # from -1 to 3: past both ends
+    w = 1.5 * np.sin(2 * np.pi * 0.6 * res.t)
+    check("lookup_1d", path, res["lin.y[0]"], interp1d(bp, vals, fill_value="extrapolate")(u), 1e-12)
+    check("lookup_1d", path, res["hold.y[0]"], np.interp(u, bp, vals), 1e-12)
+    rgi = RegularGridInterpolator(grid, np.array(table), bounds_error=False, fill_value=None)
+    check("lookup_nd", path, res["nd.y[0]"], rgi(np.stack([u, w], axis=1)), 1e-12)
+    clipped = np.stack([np.clip(u, 0.0, 2.5), np.clip(w, -1.0, 1.0)], axis=1)
+    check("lookup_nd", path, res["ndh.y[0]"], rgi(clipped), 1e-12)
+
+
+def test_lookup_refuses_bad_tables():
+    with pytest.raises(Exception, match="x"):
+        block("lookup_1d", "l", x=[0.0, 0.0], y=[1.0, 2.0])
+    with pytest.raises(Exception, match="shape"):
+        block("lookup_nd", "l", breakpoints=[[0, 1], [0, 1, 2]], table=[[0, 1], [2, 3]])
+    with pytest.raises(Exception, match="extrapolation"):
+        block("lookup_1d", "l", extrapolation="clip")
