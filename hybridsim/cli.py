@@ -28,6 +28,7 @@ examples:
   hybridsim report diagrams/fig9_force_and_position.yaml -o out/fig9_report
   hybridsim fmu build -o plant.fmu && hybridsim run diagrams/fig9_fmu_cs.yaml
   hybridsim sweep diagrams/sweeps/fig7_force_gains.yaml          # 5 x 5 gains, resumable
+  hybridsim tune diagrams/tune/msd_pid.yaml                      # PID gains: fastest settling, <= 5 % overshoot
   hybridsim run diagrams/fig9_force_and_position.yaml --set ctrl.fpi.Ki=[100,100]  # inside the Fig 6 subsystem
   hybridsim run diagrams/examples/msd_pid.yaml                   # a PID loop from library blocks
   hybridsim examples -o mydiagrams                               # the diagrams, to edit
@@ -274,6 +275,18 @@ def cmd_sweep(args):
     return 0
 
 
+def cmd_tune(args):
+    """`hybridsim tune`: search a diagram's parameters against objectives and constraints. Returns the exit status."""
+    from .tune import run_tune
+    from .tune.report import summary_lines
+
+    out = check_output_dir(Path(args.output or Path("out") / ("tune_" + safe_name(Path(args.tune).stem))))
+    res = run_tune(_find_diagram(args.tune), out, jobs=args.jobs, dask=args.dask, progress=not args.quiet,
+                   force=args.force, compiled=args.compiled)
+    print("\n".join(summary_lines(res)))
+    return 0
+
+
 def _num(v):
     """A number for people: 4 significant digits (or 'n/a')."""
     return f"{v:.4g}" if isinstance(v, (int, float)) else "n/a"
@@ -482,6 +495,22 @@ def build_parser():
                     help="when OUTDIR holds points of a different sweep (another diagram, set, "
                          "solver or hybridsim version), discard them and start afresh")
     sw.set_defaults(func=cmd_sweep)
+    tu = sub.add_parser("tune", help="search parameters for objectives under constraints (resumable)",
+                        description="Search the parameters a tune file names (bounds, log scale, integer or "
+                                    "choice) for its objectives (run metrics, step responses, loop margins, "
+                                    "largest |z|) under its constraints, with a seeded optimiser, on all local "
+                                    "cores or a Dask cluster. Writes best.yaml (a diagram that extends the "
+                                    "tuned one), best.json, evaluations.csv, convergence.png and, for two "
+                                    "objectives, pareto.png. Run it again to resume (evaluations.jsonl).")
+    tu.add_argument("tune", help="tune file (see diagrams/tune/)")
+    tu.add_argument("-o", "--output", metavar="OUTDIR", help="output folder (default out/tune_<name>)")
+    tu.add_argument("-j", "--jobs", type=_jobs, help="local processes (default: one per core)")
+    tu.add_argument("--dask", metavar="ADDRESS", help="run on a Dask distributed scheduler, e.g. tcp://host:8786")
+    tu.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    tu.add_argument("--compiled", action="store_true", help="run every point compiled with numba")
+    tu.add_argument("--force", action="store_true",
+                    help="when OUTDIR holds the points of a different search, discard them and start afresh")
+    tu.set_defaults(func=cmd_tune)
     b = sub.add_parser("blocks", help="list the block types")
     b.add_argument("-v", "--verbose", action="store_true", help="with their parameters")
     b.set_defaults(func=cmd_blocks)
