@@ -206,7 +206,7 @@ def cmd_reproduce(args):
     quick = dict(experiments=["eq 18"], grid=[16.0], bisections=1, sensitivities=[], hinges=False) \
         if args.quick else {}
     report = reproduce(out, jobs=args.jobs, progress=lambda m: print(f"  {m} ...", file=sys.stderr),
-                       compiled=args.compiled, **quick)
+                       compiled=args.compiled, joint=args.joint_search or 0, **quick)
     for exp, claim, ours, ok in summary_rows(report):
         print(f"  {'✓' if ok else '✗'} {exp}: {claim} - ours: {ours}")
     h = report.get("hinges")
@@ -218,6 +218,13 @@ def cmd_reproduce(args):
             model = " + ".join(f"{a} {v:.3g}" for a, v in h["best"]["model"])
             held = ", ".join(f"{k}/{n} at {rate} Hz" for rate, (k, n) in h["best"]["held"].items())
             print(f"  best stated model: {model}: {held}")
+    js = report.get("joint_search")
+    if js:
+        from .paper.joint_search import _fmt_model
+
+        held = ", ".join(f"{k}/{js['best']['total'][r]} at {r} Hz" for r, k in js["best"]["held"].items())
+        print(f"  joint search ({js['evaluations']} models, {js['wall_time_s']:.0f} s): best "
+              f"{_fmt_model(js['best']['model'])}: {held}, penalty {js['best']['penalty']:.2f}")
     print(f"wrote {out}/reproduce.html (+ figures, metrics.csv, reproduce.json) "
           f"in {report['wall_time_s']:.0f} s")
     return 0
@@ -360,6 +367,17 @@ def _jobs(text):
     return n
 
 
+def _count(text):
+    """A whole number >= 1 (argparse type)."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expects a whole number, got {text!r}") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"expects at least 1, got {n}")
+    return n
+
+
 def _seconds(text):
     try:
         t = float(text)
@@ -450,6 +468,9 @@ def build_parser():
                          "runs take about half a minute")
     rr.add_argument("--quick", action="store_true",
                     help="eq 18 only, one damping trial, no sensitivities: a smoke test in seconds")
+    rr.add_argument("--joint-search", type=_count, metavar="N",
+                    help="also search every unstated assumption jointly (Optuna TPE, seeded), judging N models "
+                         "at 60, 80 and 120 Hz; each model is ten experiment runs")
     rr.set_defaults(func=cmd_reproduce)
     ex = sub.add_parser("examples", help="copy the shipped diagrams into a folder you can edit",
                         description="Copy every shipped diagram (the paper's figures, the Fig 6 "
