@@ -225,3 +225,28 @@ def test_shipped_pid_example_meets_its_constraint_when_rerun(tmp_path):
     assert ref["Overshoot"] <= 5.0 + 0.05 and ref["SettlingTime"] == pytest.approx(info["SettlingTime"], abs=0.011)
     f = hs.load(tmp_path / "out" / "best.yaml")
     assert f.data["blocks"]["pid"]["Kp"] == pytest.approx(best["pid.Kp"])
+
+
+def test_tuned_for_a_phase_margin_meets_it_when_rerun(tmp_path):
+    """The cheaper analogue of the UR5 force-gain example: the fastest loop (the highest gain crossover)
+    with a phase margin of at least 45 deg and at most 5 % overshoot; the tuned gains' margin checked by
+    python-control on C(z) P(z), the overshoot on the step response run again through the plain API."""
+    p = tune_file(tmp_path, PARAMS + "objectives:\n"
+                  + "  - {name: crossover, analysis: gain_crossover_hz, loop: 'pid.u[0]', goal: maximize}\n"
+                  + OVER5 + "  - {name: pm, analysis: phase_margin_deg, loop: 'pid.u[0]', min: 45}\n"
+                  + "method: {name: tpe, seed: 0, trials: 16}\n")
+    res = run_tune(p, tmp_path / "out", jobs=2, progress=False)
+    assert res["best"]["feasible"] and res["best"]["quantities"]["crossover"] > 0.0
+    v = res["best"]["values"]
+    T = 0.01
+    Pd = control.sample_system(control.tf([1.0], [1.0, 0.4, 4.0]), T, "zoh")
+    z = control.tf([1, 0], [1], T)
+    C = v["pid.Kp"] + v["pid.Ki"] * T * z / (z - 1) + v["pid.Kd"] * 40.0 * (z - 1) / ((1 + 40.0 * T) * z - 1)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        _, pm, _, _, wc, _ = control.stability_margins(C * Pd)
+    assert pm >= 45.0 - 0.1 and wc / (2 * math.pi) == pytest.approx(res["best"]["quantities"]["crossover"], rel=1e-3)
+    r = hs.simulate(MSD, t_end=5.0, step=1e-3, **v)
+    assert control.step_info(r["plant.y"].ravel(), T=r.t, yfinal=1.0)["Overshoot"] <= 5.0

@@ -7,7 +7,7 @@ searches the whole space at once - the friction law (Karnopp, Stribeck, LuGre),
 the stick band, the Stribeck velocity, the joint and wrist damping families, the
 sensor filter, one tick of computation delay and the actuator lag - judging
 each candidate model with :func:`.hinges.judge_claims` (Figs 7, 8, 10 at each
-rate, Fig 9 over its own three) and maximising
+rate, Fig 9 over its own three) and maximising::
 
     score = claims held (summed over the three rates, at most 36)
             - PENALTY_PER_DOUBLING x log2(value / PLAUSIBLE[p]) for each p above its limit

@@ -2,7 +2,7 @@
 
 A tune file (beside the sweep format, :mod:`hybridsim.sweep`) names a diagram,
 the parameters to search with their bounds, the objectives (a run's metrics,
-a step response's measures, the linearized loop's |z| and margins) and the
+a step response's measures, the linearized loop's largest ``|z|`` and margins) and the
 constraints on the same quantities, and the optimiser. :func:`run_tune` does
 what ``hybridsim tune`` does; see docs/tune.md.
 
@@ -15,4 +15,3 @@ file), :mod:`.quantities` (what is measured at a point), :mod:`.store`
 from .run import evaluate_point, run_tune
 from .spec import TuneSpec, load_tune
 
-__all__ = ["run_tune", "load_tune", "TuneSpec", "evaluate_point"]
