@@ -92,3 +92,26 @@ def test_the_search_starts_from_the_printed_and_the_best_stated_model(tmp_path):
     assert {int(r): k for r, k in res["trials"][1]["held"].items()} == {r: k for r, (k, _) in counts.items()}
     again = joint_search(2, jobs=2, outdir=tmp_path / "js")
     assert again["wall_time_s"] < 5.0 and again["trials"] == res["trials"]
+
+
+def test_the_report_section_states_the_best_model_and_each_failing_claim():
+    from hybridsim.paper.joint_search import joint_html
+
+    base = {**PRINTED}
+    pts = [(-0.9, 0.9, 0.5), (-0.6, 0.6, 0.2), (-0.3, 0.3, 0.7), (-0.1, 0.1, 0.4), (-0.5, 0.8, 0.3)]
+    done = [_rec({**base, "joint damping s": 1.0 + k}, *p) for k, p in enumerate(pts)]
+    html = joint_html(summarize(done, 12.0))
+    assert "Best model found" in html and "joint damping s 4" in html  # the k = 3 model
+    assert "a=-0.1" in html and "Fig 7: B" in html and "Spearman rho = -0.90" in html
+    assert "joint damping s ≤ 3.5" in html
+
+
+@pytest.mark.slow
+def test_reproduce_adds_the_joint_search_to_its_report(tmp_path):
+    report = rp.reproduce(tmp_path / "r", jobs=2, experiments=["eq 18"], grid=[16.0], bisections=1,
+                          sensitivities=[], hinges=False, joint=1)
+    js = report["joint_search"]
+    assert js["evaluations"] == 1 and js["best"]["model"] == PRINTED
+    html = (tmp_path / "r" / "reproduce.html").read_text()
+    assert "The assumptions searched jointly" in html
+    assert (tmp_path / "r" / "joint_search" / "evaluations.jsonl").exists()
