@@ -206,6 +206,7 @@ def test_tpe_on_a_dask_cluster(tmp_path):
     assert res["evaluations"] == 6 and res["ran"] == 7  # the diagram as it is, then six trials
 
 
+@pytest.mark.slow
 def test_shipped_pid_example_meets_its_constraint_when_rerun(tmp_path):
     """diagrams/tune/msd_pid.yaml with a smaller budget: the best gains, run again through the plain API and
     judged by python-control, settle faster than the example's own and overshoot at most 5 %."""
@@ -227,6 +228,7 @@ def test_shipped_pid_example_meets_its_constraint_when_rerun(tmp_path):
     assert f.data["blocks"]["pid"]["Kp"] == pytest.approx(best["pid.Kp"])
 
 
+@pytest.mark.slow
 def test_tuned_for_a_phase_margin_meets_it_when_rerun(tmp_path):
     """The cheaper analogue of the UR5 force-gain example: the fastest loop (the highest gain crossover)
     with a phase margin of at least 45 deg and at most 5 % overshoot; the tuned gains' margin checked by
