@@ -29,6 +29,7 @@ examples:
   hybridsim report diagrams/fig9_force_and_position.yaml -o out/fig9_report
   hybridsim fmu build -o plant.fmu && hybridsim run diagrams/fig9_fmu_cs.yaml
   hybridsim sweep diagrams/sweeps/fig7_force_gains.yaml          # 5 x 5 gains, resumable
+  hybridsim tune diagrams/tune/msd_pid.yaml                      # PID gains: fastest settling, <= 5 % overshoot
   hybridsim run diagrams/fig9_force_and_position.yaml --set ctrl.fpi.Ki=[100,100]  # inside the Fig 6 subsystem
   hybridsim run diagrams/examples/msd_pid.yaml                   # a PID loop from library blocks
   hybridsim examples -o mydiagrams                               # the diagrams, to edit
@@ -209,7 +210,7 @@ def cmd_reproduce(args):
     quick = dict(experiments=["eq 18"], grid=[16.0], bisections=1, sensitivities=[], hinges=False) \
         if args.quick else {}
     report = reproduce(out, jobs=args.jobs, progress=lambda m: print(f"  {m} ...", file=sys.stderr),
-                       compiled=args.compiled, **quick)
+                       compiled=args.compiled, joint=args.joint_search or 0, **quick)
     for exp, claim, ours, ok in summary_rows(report):
         print(f"  {'✓' if ok else '✗'} {exp}: {claim} - ours: {ours}")
     h = report.get("hinges")
@@ -221,6 +222,13 @@ def cmd_reproduce(args):
             model = " + ".join(f"{a} {v:.3g}" for a, v in h["best"]["model"])
             held = ", ".join(f"{k}/{n} at {rate} Hz" for rate, (k, n) in h["best"]["held"].items())
             print(f"  best stated model: {model}: {held}")
+    js = report.get("joint_search")
+    if js:
+        from .paper.joint_search import _fmt_model
+
+        held = ", ".join(f"{k}/{js['best']['total'][r]} at {r} Hz" for r, k in js["best"]["held"].items())
+        print(f"  joint search ({js['evaluations']} models, {js['wall_time_s']:.0f} s): best "
+              f"{_fmt_model(js['best']['model'])}: {held}, penalty {js['best']['penalty']:.2f}")
     print(f"wrote {out}/reproduce.html (+ figures, metrics.csv, reproduce.json) "
           f"in {report['wall_time_s']:.0f} s")
     return 0
@@ -296,6 +304,18 @@ def cmd_sweep(args):
     return 0
 
 
+def cmd_tune(args):
+    """`hybridsim tune`: search a diagram's parameters against objectives and constraints. Returns the exit status."""
+    from .tune import run_tune
+    from .tune.report import summary_lines
+
+    out = check_output_dir(Path(args.output or Path("out") / ("tune_" + safe_name(Path(args.tune).stem))))
+    res = run_tune(_find_diagram(args.tune), out, jobs=args.jobs, dask=args.dask, progress=not args.quiet,
+                   force=args.force, compiled=args.compiled)
+    print("\n".join(summary_lines(res)))
+    return 0
+
+
 def _num(v):
     """A number for people: 4 significant digits (or 'n/a')."""
     return f"{v:.4g}" if isinstance(v, (int, float)) else "n/a"
@@ -367,6 +387,17 @@ def _jobs(text):
         raise argparse.ArgumentTypeError(f"expects a whole number of processes, got {text!r}") from None
     if n < 1:
         raise argparse.ArgumentTypeError(f"expects at least 1 process, got {n}")
+    return n
+
+
+def _count(text):
+    """A whole number >= 1 (argparse type)."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expects a whole number, got {text!r}") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"expects at least 1, got {n}")
     return n
 
 
@@ -462,6 +493,9 @@ def build_parser():
                          "runs take about half a minute")
     rr.add_argument("--quick", action="store_true",
                     help="eq 18 only, one damping trial, no sensitivities: a smoke test in seconds")
+    rr.add_argument("--joint-search", type=_count, metavar="N",
+                    help="also search every unstated assumption jointly (Optuna TPE, seeded), judging N models "
+                         "at 60, 80 and 120 Hz; each model is ten experiment runs")
     rr.set_defaults(func=cmd_reproduce)
     ex = sub.add_parser("examples", help="copy the shipped diagrams into a folder you can edit",
                         description="Copy every shipped diagram (the paper's figures, the Fig 6 "
@@ -519,6 +553,22 @@ def build_parser():
                     help="when OUTDIR holds points of a different sweep (another diagram, set, "
                          "solver or hybridsim version), discard them and start afresh")
     sw.set_defaults(func=cmd_sweep)
+    tu = sub.add_parser("tune", help="search parameters for objectives under constraints (resumable)",
+                        description="Search the parameters a tune file names (bounds, log scale, integer or "
+                                    "choice) for its objectives (run metrics, step responses, loop margins, "
+                                    "largest |z|) under its constraints, with a seeded optimiser, on all local "
+                                    "cores or a Dask cluster. Writes best.yaml (a diagram that extends the "
+                                    "tuned one), best.json, evaluations.csv, convergence.png and, for two "
+                                    "objectives, pareto.png. Run it again to resume (evaluations.jsonl).")
+    tu.add_argument("tune", help="tune file (see diagrams/tune/)")
+    tu.add_argument("-o", "--output", metavar="OUTDIR", help="output folder (default out/tune_<name>)")
+    tu.add_argument("-j", "--jobs", type=_jobs, help="local processes (default: one per core)")
+    tu.add_argument("--dask", metavar="ADDRESS", help="run on a Dask distributed scheduler, e.g. tcp://host:8786")
+    tu.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    tu.add_argument("--compiled", action="store_true", help="run every point compiled with numba")
+    tu.add_argument("--force", action="store_true",
+                    help="when OUTDIR holds the points of a different search, discard them and start afresh")
+    tu.set_defaults(func=cmd_tune)
     b = sub.add_parser("blocks", help="list the block types")
     b.add_argument("-v", "--verbose", action="store_true", help="with their parameters")
     b.set_defaults(func=cmd_blocks)

@@ -173,26 +173,32 @@ def stated_models(searches):
     return (models + [f + g for f in friction for g in lag])[:12]
 
 
-def judge_model(model, jobs, extra=None, names=tuple(JUDGED)):
-    """Claims held under ``model`` (((assumption, value), ...)) per servo rate: {rate: (held, total)}.
+def judge_claims(ov, jobs, extra=None, names=tuple(JUDGED)):
+    """The claims judged under overrides ``ov`` per servo rate: {rate: [(experiment, Claim), ...]}.
 
     Figs 7, 8 and 10 run at each rate; Fig 9 compares its own three rates, so its claims count at each.
     """
-    ov = {}
-    for assumption, value in model:
-        ov.update(ASSUMPTIONS[assumption][1](value))
     per_rate = [n for n in names if n != "Fig 9"]
     items = [(n, {**ov, "rate": rate}) for rate in (60, 80, 120) for n in per_rate]
     if "Fig 9" in names:
         items.append(("Fig 9", ov))
     results = _pool_map(items, jobs, extra)
-    fig9 = [c[3] for c in results[-1][0]] if "Fig 9" in names else []
+    fig9 = [("Fig 9", c) for c in results[-1][0]] if "Fig 9" in names else []
     out = {}
     for k, rate in enumerate((60, 80, 120)):
-        chunk = results[k * len(per_rate):(k + 1) * len(per_rate)]
-        held = [c[3] for claims, _, _ in chunk for c in claims] + fig9
-        out[rate] = (sum(held), len(held))
+        chunk = items[k * len(per_rate):(k + 1) * len(per_rate)]
+        got = results[k * len(per_rate):(k + 1) * len(per_rate)]
+        out[rate] = [(name, c) for (name, _), (claims, _, _) in zip(chunk, got) for c in claims] + fig9
     return out
+
+
+def judge_model(model, jobs, extra=None, names=tuple(JUDGED)):
+    """Claims held under ``model`` (((assumption, value), ...)) per servo rate: {rate: (held, total)}."""
+    ov = {}
+    for assumption, value in model:
+        ov.update(ASSUMPTIONS[assumption][1](value))
+    return {rate: (sum(c[3] for _, c in claims), len(claims))
+            for rate, claims in judge_claims(ov, jobs, extra, names).items()}
 
 
 #: the two-parameter searches: (assumption, values) x (assumption, values), on a coarse grid

@@ -1,0 +1,292 @@
+"""The tune file: one declarative table of what is searched, measured and required.
+
+::
+
+    diagram: ../examples/msd_pid.yaml        # relative to this file
+    set: {simulation.t_end: 4.0}              # fixed for every point
+    variants: {rate: [60, 80, 120]}           # optional: every point runs each; worst case counts
+    parameters:
+      pid.Kp: {low: 1, high: 200, scale: log}
+      pid.N:  {values: [10, 20, 40]}
+      delay_ticks: {low: 0, high: 2, integer: true}
+    objectives:
+      - {name: settling, metric: settling_time_s, of: plant.y, goal: minimize}
+    constraints:
+      - {metric: overshoot_pct, of: plant.y, max: 5}
+      - {analysis: phase_margin_deg, loop: force, min: 45}
+    method: {name: differential_evolution, seed: 1, maxiter: 8, popsize: 5}
+
+A quantity is a run's metric (``metric: NAME``: :func:`hybridsim.metrics.compute`
+from the diagram's ``signals``), a step-response measure of a logged signal
+(``metric: NAME, of: SIGNAL``: :func:`control.step_info`), or one of the
+linearized closed loop (``analysis: NAME``, with ``loop:`` for margins). Over
+several runs (variants) it is reduced to its worst case: the largest for a
+minimised objective or an upper bound, the smallest otherwise (``reduce:``
+max, min or mean says otherwise). Every mistake is an InputError naming the
+file and line.
+"""
+import itertools
+import math
+from pathlib import Path
+
+from .. import limits
+from ..errors import InputError, LoaderError
+from ..loader import parse_file
+from .space import SCALES, Parameter
+
+TUNE_KEYS = ("diagram", "set", "variants", "parameters", "objectives", "constraints", "method", "compiled")
+PARAM_KEYS = ("low", "high", "scale", "integer", "values", "repeat")
+QUANTITY_KEYS = ("name", "metric", "of", "analysis", "loop", "goal", "max", "min", "reduce", "after",
+                 "reference", "final", "settling")
+#: measures of a step response (control.step_info's keys) and of the linearized loop
+STEP_MEASURES = {"rise_time_s": "RiseTime", "settling_time_s": "SettlingTime", "overshoot_pct": "Overshoot",
+                 "undershoot_pct": "Undershoot", "peak": "Peak", "peak_time_s": "PeakTime",
+                 "steady_state": "SteadyStateValue", "steady_error": None}
+ANALYSIS_MEASURES = ("largest_abs_z", "gain_margin_db", "phase_margin_deg", "gain_crossover_hz",
+                     "phase_crossover_hz")
+METHODS = {"differential_evolution": ("seed", "maxiter", "popsize", "tol"),
+           "nelder_mead": ("maxiter",),
+           "tpe": ("seed", "trials"),
+           "nsga2": ("seed", "trials", "population")}
+GOALS = {"minimize": "min", "min": "min", "maximize": "max", "max": "max"}
+REDUCE = ("max", "min", "mean")
+
+
+class Quantity:
+    """A measured quantity: an objective (``goal``) or a constraint (``upper``/``lower`` bounds)."""
+
+    def __init__(self, **kw):
+        self.name = kw["name"]
+        self.metric, self.signal, self.analysis, self.loop = kw.get("metric"), kw.get("of"), kw.get("analysis"), \
+            kw.get("loop")
+        self.goal, self.upper, self.lower = kw.get("goal"), kw.get("max"), kw.get("min")
+        self.after = float(kw.get("after") or 0.0)
+        self.reference, self.final, self.settling = kw.get("reference"), kw.get("final"), kw.get("settling")
+        self.reduce = kw.get("reduce") or self._worst()
+        self.line = kw.get("line")
+
+    def _worst(self):
+        if self.goal is not None:
+            return "max" if self.goal == "min" else "min"
+        return "max" if self.upper is not None else "min"
+
+    @property
+    def source(self):
+        """'analysis', 'step' (a measure of a logged signal) or 'metric' (a run's metrics)."""
+        return "analysis" if self.analysis else ("step" if self.signal else "metric")
+
+    def violation(self, value):
+        """How far ``value`` is outside the bounds, relative to the bound (0 inside; inf for no value)."""
+        if value is None or (isinstance(value, float) and math.isnan(value)):
+            return math.inf
+        out = 0.0
+        if self.upper is not None and value > self.upper:
+            out += (value - self.upper) / max(abs(self.upper), 1e-12)
+        if self.lower is not None and value < self.lower:
+            out += (self.lower - value) / max(abs(self.lower), 1e-12)
+        return out
+
+    def describe(self):
+        """A short text: 'settling_time_s of plant.y (worst max)'."""
+        what = self.analysis or self.metric
+        where = f" of {self.signal}" if self.signal else (f" at loop {self.loop}" if self.loop else "")
+        return f"{what}{where}"
+
+
+class TuneSpec:
+    """A parsed tune file (see the module doc); raises LoaderError with file and line."""
+
+    def __init__(self, path):
+        self.path = Path(path)
+        data, _ = parse_file(self.path, what="a tune file is a mapping with 'diagram', 'parameters' and "
+                                             "'objectives'")
+        self.text = self.path.read_text()
+        lines = data.lines
+        for key in data:
+            if key not in TUNE_KEYS:
+                self._fail(f"unknown tune key {key!r}; keys: {', '.join(TUNE_KEYS)}", lines[key])
+        for key in ("diagram", "parameters", "objectives"):
+            if key not in data:
+                self._fail(f"a tune file needs {key!r}", 1)
+        if not isinstance(data["diagram"], str) or not data["diagram"]:
+            self._fail(f"'diagram' must be a file name, got {data['diagram']!r}", lines["diagram"])
+        self.diagram = (self.path.parent / data["diagram"]).resolve()
+        if not self.diagram.is_file():
+            self._fail(f"'diagram': no such file {data['diagram']!r}", lines["diagram"])
+        for key in ("set", "variants", "parameters", "method"):
+            if data.get(key) is not None and not isinstance(data[key], dict):
+                self._fail(f"'{key}' must be a mapping", lines[key])
+        for key in ("objectives", "constraints"):
+            if data.get(key) is not None and not isinstance(data[key], list):
+                self._fail(f"'{key}' must be a list of mappings", lines[key])
+        if "compiled" in data and not isinstance(data["compiled"], bool):
+            self._fail(f"'compiled' must be true or false, got {data['compiled']!r}", lines["compiled"])
+        self.fixed = {str(k): v for k, v in (data.get("set") or {}).items()}
+        if data.get("compiled"):
+            self.fixed["simulation.compiled"] = True
+        self.variants = self._variants(data.get("variants") or {}, lines.get("variants"))
+        self.parameters = self._parameters(data["parameters"], lines["parameters"])
+        self.objectives = self._quantities(data["objectives"], lines["objectives"], objective=True)
+        self.constraints = self._quantities(data.get("constraints") or [], lines.get("constraints"), objective=False)
+        if not 1 <= len(self.objectives) <= 2:
+            self._fail(f"give one or two objectives, got {len(self.objectives)}", lines["objectives"])
+        names = [q.name for q in self.objectives + self.constraints]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            self._fail(f"quantity names must differ: {dup} (give each a 'name')", lines["objectives"])
+        self.method, self.options = self._method(data.get("method") or {}, lines.get("method", 1))
+        if len(self.objectives) == 2 and self.method not in ("tpe", "nsga2"):
+            self._fail(f"two objectives need method tpe or nsga2 (Optuna), not {self.method!r}",
+                       lines.get("method", lines["objectives"]))
+
+    def _fail(self, message, line=None):
+        raise LoaderError(message, self.path, line)
+
+    def _variants(self, spec, line):
+        for k, v in spec.items():
+            if not isinstance(v, list) or not v:
+                self._fail(f"variants {k!r}: give a non-empty list of values", spec.lines[k])
+        combos = [dict(zip(spec, c)) for c in itertools.product(*spec.values())] if spec else [{}]
+        if len(combos) > limits.MAX_VARIANTS:
+            self._fail(f"'variants' makes {len(combos)} runs per point; at most {limits.MAX_VARIANTS}", line)
+        return combos
+
+    def _parameters(self, spec, line):
+        if not spec:
+            self._fail("'parameters' is empty: name at least one parameter to search", line)
+        out = []
+        for path, p in spec.items():
+            ln = spec.lines[path]
+            if not isinstance(p, dict):
+                self._fail(f"parameter {path!r}: give a mapping such as {{low: 1, high: 10}}", ln)
+            bad = sorted(set(p) - set(PARAM_KEYS))
+            if bad:
+                self._fail(f"parameter {path!r}: unknown keys {bad}; keys: {', '.join(PARAM_KEYS)}", ln)
+            rep = p.get("repeat")
+            if rep is not None and (isinstance(rep, bool) or not isinstance(rep, int) or rep < 1):
+                self._fail(f"parameter {path!r}: repeat must be a whole number >= 1, got {rep!r}", ln)
+            if "values" in p:
+                if set(p) & {"low", "high", "scale", "integer"}:
+                    self._fail(f"parameter {path!r}: give either 'values' or bounds, not both", ln)
+                if not isinstance(p["values"], list) or not p["values"]:
+                    self._fail(f"parameter {path!r}: 'values' must be a non-empty list", ln)
+                out.append(Parameter(str(path), values=list(p["values"]), repeat=rep))
+                continue
+            lo, hi = p.get("low"), p.get("high")
+            if not (_finite(lo) and _finite(hi) and lo < hi):
+                self._fail(f"parameter {path!r}: give finite bounds low < high, got low={lo!r}, high={hi!r}", ln)
+            scale = p.get("scale", "linear")
+            if scale not in SCALES:
+                self._fail(f"parameter {path!r}: scale must be one of {', '.join(SCALES)}, got {scale!r}", ln)
+            if scale == "log" and lo <= 0:
+                self._fail(f"parameter {path!r}: a log scale needs low > 0, got {lo!r}", ln)
+            integer = p.get("integer", False)
+            if not isinstance(integer, bool):
+                self._fail(f"parameter {path!r}: integer must be true or false, got {integer!r}", ln)
+            if integer and (lo != int(lo) or hi != int(hi)):
+                self._fail(f"parameter {path!r}: an integer parameter needs whole-number bounds", ln)
+            out.append(Parameter(str(path), float(lo), float(hi), scale, integer, repeat=rep))
+        return out
+
+    def _quantities(self, items, line, objective):
+        out = []
+        for k, q in enumerate(items):
+            ln = items.lines[k] if getattr(items, "lines", None) else line
+            if not isinstance(q, dict):
+                self._fail("each objective and constraint is a mapping such as {metric: overshoot_pct, max: 5}", ln)
+            bad = sorted(set(q) - set(QUANTITY_KEYS))
+            if bad:
+                self._fail(f"unknown keys {bad}; keys: {', '.join(QUANTITY_KEYS)}", ln)
+            if ("metric" in q) == ("analysis" in q):
+                self._fail("give exactly one of 'metric' (a run's) or 'analysis' (the linearized loop's)", ln)
+            kw = {k2: v for k2, v in q.items()}
+            if "analysis" in q:
+                if q["analysis"] not in ANALYSIS_MEASURES:
+                    self._fail(f"analysis {q['analysis']!r}: one of {', '.join(ANALYSIS_MEASURES)}", ln)
+                if q["analysis"] != "largest_abs_z" and not q.get("loop"):
+                    self._fail(f"analysis {q['analysis']!r} needs 'loop' (a name in the diagram's "
+                               "analysis.points, or a signal)", ln)
+                if "of" in q:
+                    self._fail("'of' (a signal) goes with 'metric', not 'analysis'", ln)
+            elif "of" in q and q["metric"] not in STEP_MEASURES:
+                self._fail(f"metric {q['metric']!r} of a signal: one of {', '.join(STEP_MEASURES)}", ln)
+            for key in ("max", "min", "after", "final", "settling"):
+                if key in q and not _finite(q[key]):
+                    self._fail(f"{key!r} must be a finite number, got {q[key]!r}", ln)
+            if objective:
+                if q.get("goal") not in GOALS:
+                    self._fail(f"an objective needs goal: minimize or maximize, got {q.get('goal')!r}", ln)
+                if "max" in q or "min" in q:
+                    self._fail("bounds ('max', 'min') go under 'constraints'", ln)
+                kw["goal"] = GOALS[q["goal"]]
+            else:
+                if "goal" in q:
+                    self._fail("a constraint has bounds ('max', 'min'), not a goal", ln)
+                if "max" not in q and "min" not in q:
+                    self._fail("a constraint needs 'max' or 'min'", ln)
+            if "reduce" in q and q["reduce"] not in REDUCE:
+                self._fail(f"reduce must be one of {', '.join(REDUCE)}, got {q['reduce']!r}", ln)
+            kw.setdefault("name", q.get("analysis") or (f"{q['metric']}:{q['of']}" if "of" in q else q["metric"]))
+            kw["line"] = ln
+            out.append(Quantity(**kw))
+        return out
+
+    def _method(self, spec, line):
+        name = spec.get("name", "differential_evolution")
+        if name not in METHODS:
+            self._fail(f"method {name!r}: one of {', '.join(METHODS)}", spec.lines.get("name", line)
+                       if hasattr(spec, "lines") else line)
+        opts = {k: v for k, v in spec.items() if k != "name"}
+        for k, v in opts.items():
+            if k not in METHODS[name]:
+                self._fail(f"method {name}: unknown option {k!r}; options: {', '.join(METHODS[name])}",
+                           spec.lines[k])
+            if k == "tol":
+                if not (_finite(v) and v > 0):
+                    self._fail(f"method {name}: tol must be a number > 0, got {v!r}", spec.lines[k])
+            elif isinstance(v, bool) or not isinstance(v, int) or v < (0 if k == "seed" else 1) \
+                    or v > limits.MAX_RUNS:
+                self._fail(f"method {name}: {k} must be a whole number from {0 if k == 'seed' else 1} to "
+                           f"{limits.MAX_RUNS}, got {v!r}", spec.lines[k])
+        return name, opts
+
+    def quantity_line(self, q):
+        """'file:line' of a quantity, for messages."""
+        return f"{self.path}:{q.line}" if q.line else str(self.path)
+
+    def validate(self):
+        """Check the diagram with ``set``, every variant and both ends (or every choice) of each parameter
+        as a run would (:func:`hybridsim.api.check`), before any point runs."""
+        from ..api import check, load
+
+        try:
+            check(load(self.diagram, **self.fixed))
+        except InputError as exc:
+            raise InputError(f"{self.path}: the diagram with 'set': {exc}") from None
+        for v in self.variants:
+            try:
+                check(load(self.diagram, **{**self.fixed, **v}))
+            except InputError as exc:
+                raise InputError(f"{self.path}: variant {v}: {exc}") from None
+        for p in self.parameters:
+            for value in p.ends():
+                try:
+                    check(load(self.diagram, **{**self.fixed, p.path: p.as_override(value)}))
+                except InputError as exc:
+                    raise LoaderError(f"parameter {p.path} = {value!r}: {exc}", self.path,
+                                      self._param_line(p)) from None
+
+    def _param_line(self, p):
+        data, _ = parse_file(self.path)
+        return data["parameters"].lines.get(p.path)
+
+
+def _finite(v):
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def load_tune(path):
+    """Parse and check a tune file; returns a :class:`TuneSpec` (LoaderError/InputError on a bad one)."""
+    spec = TuneSpec(path)
+    spec.validate()
+    return spec

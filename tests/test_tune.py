@@ -1,0 +1,254 @@
+"""hybridsim tune: the parameter space, the measured quantities, the optimisers, resuming, bad tune files,
+and the shipped PID example (its tuned gains re-run independently meet the constraints)."""
+import json
+import math
+
+import control
+import numpy as np
+import pytest
+import yaml
+
+import hybridsim as hs
+from hybridsim.cli import main
+from hybridsim.errors import InputError, LoaderError
+from hybridsim.tune import evaluate_point, load_tune, run_tune
+from hybridsim.tune.outputs import pareto
+from hybridsim.tune.quantities import step_measure
+from hybridsim.tune.space import Parameter
+from hybridsim.tune.spec import Quantity
+
+from conftest import DIAGRAMS
+
+MSD = DIAGRAMS / "examples" / "msd_pid.yaml"
+
+
+def tune_file(tmp_path, body, name="t.yaml"):
+    p = tmp_path / name
+    p.write_text(f"diagram: {MSD}\nset: {{simulation.t_end: 5.0, simulation.step: 1.0e-3}}\n" + body)
+    return p
+
+
+PARAMS = """\
+parameters:
+  pid.Kp: {low: 1.0, high: 200.0, scale: log}
+  pid.Ki: {low: 0.5, high: 200.0, scale: log}
+  pid.Kd: {low: 0.1, high: 40.0, scale: log}
+"""
+SETTLE = "  - {name: settling, metric: settling_time_s, of: plant.y, final: 1.0, goal: minimize}\n"
+OVER5 = "constraints:\n  - {name: overshoot, metric: overshoot_pct, of: plant.y, final: 1.0, max: 5.0}\n"
+
+
+def independent_step(values, t_end=5.0):
+    """The step response of the tuned loop from python-control alone: the plant sampled (ZOH) under the
+    discrete PID's C(z) (blocks/discrete.py's docstring), with the derivative on -y only when c = 0."""
+    T = 0.01
+    Pd = control.sample_system(control.tf([1.0], [1.0, 0.4, 4.0]), T, "zoh")
+    z = control.tf([1, 0], [1], T)
+    Kp, Ki, Kd, N = values["pid.Kp"], values["pid.Ki"], values["pid.Kd"], 40.0
+    C_e = Kp + Ki * T * z / (z - 1)  # on the error r - y
+    D = Kd * N * (z - 1) / ((1 + N * T) * z - 1)
+    c = values.get("pid.c", 1.0)
+    # u = C_e (r - y) + D (c r - y): y/r = Pd (C_e + c D) / (1 + Pd (C_e + D))
+    G = control.ss(control.feedback(control.ss(Pd), control.ss(C_e + D))) * control.ss(C_e + c * D)
+    t = np.arange(0, round(t_end / T) + 1) * T
+    return control.step_response(G, t).outputs.ravel(), t
+
+
+# -- the parameter space -----------------------------------------------------------------
+def test_log_scale_maps_the_unit_interval_geometrically():
+    p = Parameter("k", 1.0, 100.0, "log")
+    assert p.from_unit(0.0) == pytest.approx(1.0) and p.from_unit(1.0) == pytest.approx(100.0)
+    assert p.from_unit(0.5) == pytest.approx(10.0)  # the geometric middle
+    assert p.to_unit(10.0) == pytest.approx(0.5) and p.to_unit(1000.0) is None
+
+
+def test_integer_and_choice_parameters():
+    n = Parameter("n", 0.0, 3.0, integer=True)
+    assert [n.from_unit(u) for u in (0.0, 0.2, 0.5, 0.9, 1.0)] == [0, 1, 2, 3, 3]
+    c = Parameter("m", values=["coulomb", "stribeck", "lugre"])
+    assert [c.from_unit(u) for u in (0.0, 0.34, 0.99, 1.0)] == ["coulomb", "stribeck", "lugre", "lugre"]
+    assert c.from_unit(c.to_unit("stribeck")) == "stribeck"
+    assert Parameter("g", 1.0, 2.0, repeat=2).as_override(1.5) == [1.5, 1.5]
+
+
+# -- the measured quantities ----------------------------------------------------------------
+def test_step_measures_against_the_second_order_formulas():
+    zeta, wn = 0.5, 10.0
+    t = np.linspace(0, 3, 30001)
+    G = control.tf([wn ** 2], [1, 2 * zeta * wn, wn ** 2])
+    y = control.step_response(G, t).outputs.ravel()
+    over = Quantity(name="o", metric="overshoot_pct", of="y", goal="min")
+    peak_t = Quantity(name="p", metric="peak_time_s", of="y", goal="min")
+    # Mp = exp(-zeta pi / sqrt(1 - zeta^2)), tp = pi / (wn sqrt(1 - zeta^2))
+    assert step_measure(t, y, over) == pytest.approx(100 * math.exp(-zeta * math.pi / math.sqrt(1 - zeta ** 2)),
+                                                     rel=1e-3)
+    assert step_measure(t, y, peak_t) == pytest.approx(math.pi / (wn * math.sqrt(1 - zeta ** 2)), abs=2e-4)
+    # a step applied at 0.5 s: 'after' moves the origin
+    late = np.concatenate([np.zeros(5000), y[:-5000]])
+    over.after = 0.5
+    assert step_measure(t, late, over) == pytest.approx(100 * math.exp(-zeta * math.pi / math.sqrt(1 - zeta ** 2)),
+                                                        rel=1e-3)
+
+
+def test_a_response_that_never_settles_scores_the_run_length():
+    t = np.linspace(0, 2, 201)
+    y = 0.5 * (1 - np.exp(-t))  # never reaches 90 % of 1
+    q = Quantity(name="s", metric="settling_time_s", of="y", final=1.0, goal="min")
+    assert step_measure(t, y, q) == 2.0
+
+
+def test_point_quantities_match_python_control(tmp_path):
+    spec = load_tune(tune_file(tmp_path, PARAMS + "objectives:\n" + SETTLE + OVER5
+                               + "  - {name: pm, analysis: phase_margin_deg, loop: 'pid.u[0]', min: 30}\n"
+                               + "  - {name: gm, analysis: gain_margin_db, loop: 'pid.u[0]', min: 6}\n"))
+    values = {"pid.Kp": 20.0, "pid.Ki": 15.0, "pid.Kd": 4.0}  # the example's own gains
+    rec = evaluate_point(spec, values)
+    y, t = independent_step(values)
+    info = control.step_info(y, T=t, yfinal=1.0)
+    assert rec["status"] == "ok"
+    assert rec["quantities"]["overshoot"] == pytest.approx(info["Overshoot"], abs=0.05)
+    assert rec["quantities"]["settling"] == pytest.approx(info["SettlingTime"], abs=0.011)  # one log sample
+    # the loop opened at the PID's output: C(z) P(z), margins by python-control
+    T = 0.01
+    Pd = control.sample_system(control.tf([1.0], [1.0, 0.4, 4.0]), T, "zoh")
+    z = control.tf([1, 0], [1], T)
+    C = 20.0 + 15.0 * T * z / (z - 1) + 4.0 * 40.0 * (z - 1) / ((1 + 40.0 * T) * z - 1)
+    with pytest.warns(UserWarning):
+        gm, pm, *_ = control.stability_margins(C * Pd)
+    assert rec["quantities"]["pm"] == pytest.approx(pm, abs=0.1)
+    assert rec["quantities"]["gm"] == pytest.approx(20 * math.log10(gm), abs=0.05)
+
+
+def test_worst_case_over_variants(tmp_path):
+    spec = load_tune(tune_file(tmp_path, "variants: {rate: [50, 100]}\n" + PARAMS + "objectives:\n" + SETTLE + OVER5))
+    both = evaluate_point(spec, {"pid.Kp": 20.0, "pid.Ki": 15.0, "pid.Kd": 4.0})["quantities"]["overshoot"]
+    each = []
+    for rate in (50, 100):
+        r = hs.simulate(MSD, rate=rate, t_end=5.0, step=1e-3, **{"pid.Kp": 20.0, "pid.Ki": 15.0, "pid.Kd": 4.0})
+        each.append(control.step_info(r["plant.y"].ravel(), T=r.t, yfinal=1.0)["Overshoot"])
+    assert both == pytest.approx(max(each)) and each[0] != pytest.approx(each[1])
+
+
+def test_pareto_front_by_hand():
+    pts = [[1, 5], [2, 3], [3, 4], [4, 1], [2, 3.5], [5, 5]]
+    assert pareto(pts) == [0, 1, 3]
+
+
+# -- bad tune files: exit 2 with file and line ------------------------------------------------
+@pytest.mark.parametrize("body, line, message", [
+    (PARAMS + "objectives:\n  - {metric: settling_time_s, of: plant.y}\n", 8, "goal: minimize or maximize"),
+    (PARAMS.replace("scale: log}\n  pid.Ki", "scale: lin}\n  pid.Ki", 1) + "objectives:\n" + SETTLE, 4,
+     "scale must be one of"),
+    (PARAMS.replace("low: 1.0, high: 200.0", "low: 300.0, high: 200.0") + "objectives:\n" + SETTLE, 4,
+     "low < high"),
+    (PARAMS.replace("{low: 0.1, high: 40.0, scale: log}", "{low: 0.0, high: 40.0, scale: log}")
+     + "objectives:\n" + SETTLE, 6, "log scale needs low > 0"),
+    (PARAMS + "objectives:\n" + SETTLE + "constraints:\n  - {metric: overshoot_pct, of: plant.y}\n", 10,
+     "needs 'max' or 'min'"),
+    (PARAMS + "objectives:\n  - {analysis: phase_margin_deg, goal: max}\n", 8, "needs 'loop'"),
+    (PARAMS + "objectives:\n" + SETTLE + "method: {name: simplex}\n", 9, "method 'simplex'"),
+    (PARAMS + "objectives:\n" + SETTLE + "method: {name: tpe,\n  trials: 0}\n", 10, "trials must be"),
+    (PARAMS + "objectives:\n" + SETTLE + "  - {metric: overshoot_pct, of: plant.y, goal: max}\n", 8,
+     "two objectives need method tpe or nsga2"),
+    (PARAMS + "objective:\n" + SETTLE, 8, "unknown tune key 'objective'"),
+    (PARAMS.replace("pid.Kd", "pid.Kx") + "objectives:\n" + SETTLE, 6, "pid.Kx"),
+    (PARAMS + "objectives:\n  - {name: s, metric: rise_tim, goal: min}\n", 8, "metric 'rise_tim'"),
+    (PARAMS + "objectives:\n  - {name: s, metric: settling_time_s, of: pid.v, goal: min}\n", 8, "pid.v"),
+])
+def test_bad_tune_files_exit_2_with_file_and_line(tmp_path, capsys, body, line, message):
+    p = tune_file(tmp_path, body)
+    code = main(["tune", str(p), "-o", str(tmp_path / "out"), "-q", "-j", "1"])
+    out, err = capsys.readouterr()
+    assert code == 2 and "Traceback" not in out + err
+    assert f"t.yaml:{line}" in err and message in err, err
+
+
+# -- optimisers, outputs, resuming -------------------------------------------------------------
+def test_nelder_mead_improves_and_resumes(tmp_path):
+    p = tune_file(tmp_path, PARAMS + "objectives:\n" + SETTLE + OVER5 + "method: {name: nelder_mead, maxiter: 12}\n")
+    res = run_tune(p, tmp_path / "out", jobs=1, progress=False)
+    assert 12 <= res["evaluations"] <= 14
+    # from the example's gains (25 % overshoot) to a point within the 5 % bound
+    assert res["before"]["quantities"]["overshoot"] > 20 and not res["before"]["feasible"]
+    assert res["best"]["feasible"] and res["best"]["quantities"]["overshoot"] <= 5.0
+    again = run_tune(p, tmp_path / "out", jobs=1, progress=False)
+    assert again["ran"] == 0 and again["best"]["values"] == res["best"]["values"]
+    # another search into the same folder is refused, or started afresh with force
+    other = tune_file(tmp_path, PARAMS + "objectives:\n" + SETTLE + "method: {name: nelder_mead, maxiter: 3}\n",
+                      "u.yaml")
+    with pytest.raises(InputError, match="different search"):
+        run_tune(other, tmp_path / "out", jobs=1, progress=False)
+    fresh = run_tune(other, tmp_path / "out", jobs=1, progress=False, force=True)
+    assert fresh["ran"] >= 3 and (tmp_path / "out" / "evaluations.jsonl.old").exists()
+
+
+def test_two_objectives_give_a_pareto_front(tmp_path):
+    p = tune_file(tmp_path, PARAMS + "objectives:\n" + SETTLE
+                  + "  - {name: effort, metric: peak, of: 'pid.u', goal: minimize}\n"
+                  + "method: {name: nsga2, seed: 3, trials: 16, population: 8}\n")
+    res = run_tune(p, tmp_path / "out", jobs=2, progress=False)
+    assert (tmp_path / "out" / "pareto.png").stat().st_size > 1000
+    front = [[r["quantities"]["settling"], r["quantities"]["effort"]] for r in res["front"]]
+    every = [[r["quantities"]["settling"], r["quantities"]["effort"]] for r in
+             map(json.loads, (tmp_path / "out" / "evaluations.jsonl").read_text().splitlines()) if r["quantities"]]
+    assert front and len(pareto(every)) >= 1
+    for f in front:  # nothing evaluated dominates a front point
+        assert not any(e[0] <= f[0] and e[1] <= f[1] and e != f for e in every)
+
+
+def test_tpe_on_a_dask_cluster(tmp_path):
+    from distributed import Client, LocalCluster
+
+    p = tune_file(tmp_path, PARAMS + "objectives:\n" + SETTLE + OVER5 + "method: {name: tpe, seed: 2, trials: 6}\n")
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        res = run_tune(p, tmp_path / "out", dask=client, progress=False)
+    assert res["evaluations"] == 6 and res["ran"] == 7  # the diagram as it is, then six trials
+
+
+@pytest.mark.slow
+def test_shipped_pid_example_meets_its_constraint_when_rerun(tmp_path):
+    """diagrams/tune/msd_pid.yaml with a smaller budget: the best gains, run again through the plain API and
+    judged by python-control, settle faster than the example's own and overshoot at most 5 %."""
+    shipped = yaml.safe_load((DIAGRAMS / "tune" / "msd_pid.yaml").read_text())
+    shipped["diagram"] = str(MSD)
+    shipped["method"]["maxiter"] = 2
+    p = tmp_path / "msd.yaml"
+    p.write_text(yaml.safe_dump(shipped))
+    res = run_tune(p, tmp_path / "out", jobs=2, progress=False)
+    best = res["best"]["values"]
+    tuned = hs.simulate(tmp_path / "out" / "best.yaml")  # the overlay, through the plain API
+    info = control.step_info(tuned["plant.y"].ravel(), T=tuned.t, yfinal=1.0)
+    assert info["Overshoot"] <= 5.0
+    assert info["SettlingTime"] < res["before"]["quantities"]["settling"]
+    y, t = independent_step(best)  # and without hybridsim at all
+    ref = control.step_info(y, T=t, yfinal=1.0)
+    assert ref["Overshoot"] <= 5.0 + 0.05 and ref["SettlingTime"] == pytest.approx(info["SettlingTime"], abs=0.011)
+    f = hs.load(tmp_path / "out" / "best.yaml")
+    assert f.data["blocks"]["pid"]["Kp"] == pytest.approx(best["pid.Kp"])
+
+
+@pytest.mark.slow
+def test_tuned_for_a_phase_margin_meets_it_when_rerun(tmp_path):
+    """The cheaper analogue of the UR5 force-gain example: the fastest loop (the highest gain crossover)
+    with a phase margin of at least 45 deg and at most 5 % overshoot; the tuned gains' margin checked by
+    python-control on C(z) P(z), the overshoot on the step response run again through the plain API."""
+    p = tune_file(tmp_path, PARAMS + "objectives:\n"
+                  + "  - {name: crossover, analysis: gain_crossover_hz, loop: 'pid.u[0]', goal: maximize}\n"
+                  + OVER5 + "  - {name: pm, analysis: phase_margin_deg, loop: 'pid.u[0]', min: 45}\n"
+                  + "method: {name: tpe, seed: 0, trials: 16}\n")
+    res = run_tune(p, tmp_path / "out", jobs=2, progress=False)
+    assert res["best"]["feasible"] and res["best"]["quantities"]["crossover"] > 0.0
+    v = res["best"]["values"]
+    T = 0.01
+    Pd = control.sample_system(control.tf([1.0], [1.0, 0.4, 4.0]), T, "zoh")
+    z = control.tf([1, 0], [1], T)
+    C = v["pid.Kp"] + v["pid.Ki"] * T * z / (z - 1) + v["pid.Kd"] * 40.0 * (z - 1) / ((1 + 40.0 * T) * z - 1)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        _, pm, _, _, wc, _ = control.stability_margins(C * Pd)
+    assert pm >= 45.0 - 0.1 and wc / (2 * math.pi) == pytest.approx(res["best"]["quantities"]["crossover"], rel=1e-3)
+    r = hs.simulate(MSD, t_end=5.0, step=1e-3, **v)
+    assert control.step_info(r["plant.y"].ravel(), T=r.t, yfinal=1.0)["Overshoot"] <= 5.0
