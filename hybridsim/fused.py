@@ -14,6 +14,8 @@ It performs exactly the operations of the generic path in the same order, so
 both give the same numbers (a test checks it bit for bit); the generic path
 remains the reference. Discontinuities are stepped over.
 """
+import numpy as np
+
 from .rk_code import tuple_source, unrolled_lines
 from .solvers import ExplicitRK
 
@@ -50,6 +52,7 @@ def build(system, method, located=None):
     exec(code, env)  # noqa: S102 - our own generated source, no user text in it
     env["advance"].source = source
     env["advance"].stages = env["step_stages"], env["dense_at"]
+    env["advance"].zc = env.get("zc")  # the located events' functions, when all are kernels
     return (env["advance"], env["advance_obs"]), held
 
 
@@ -178,7 +181,12 @@ class FusedStepper:
         self.method, (self.advance, self.advance_obs), self.H, self.P = method, advance, H, P
 
     def advance_to_event(self, f, t0, t1, x, t_out, g, directions, check=None):
-        """See :meth:`hybridsim.solvers.ExplicitRK.advance_to_event` (``f`` is not used)."""
+        """See :meth:`hybridsim.solvers.ExplicitRK.advance_to_event` (``f`` is not used; ``g``
+        is replaced by the generated event functions when there are some: the same numbers)."""
+        zc = self.advance.zc
+        if g is not None and zc is not None:
+            H, P = self.H, self.P
+            g = lambda t, x: np.array(zc(t, tuple(x.tolist()), H, P))  # noqa: E731
         return self.method.advance_to_event(f, t0, t1, x, t_out, g, directions, steps_with=self, check=check)
 
     def first(self, x):

@@ -120,7 +120,9 @@ class ExplicitRK:
         comes from re-stepping to it (one step of ``theta h``: the method's order)
         when that state is past the surface too. ``steps_with``: what takes the
         steps (:class:`Steps` by default; the fused path gives its generated ones).
-        ``check(t, x)``: called with the state after every step (it raises on divergence).
+        ``check(t, x)``: the divergence check (it raises); its ``ok(x)`` is asked about the
+        last state of the stretch, and when that fails the steps are taken again (the same
+        numbers) and ``check`` called after each, so it raises at the first bad step.
         """
         from .events import bisect, crossed
 
@@ -166,7 +168,8 @@ class ExplicitRK:
         """``check`` the state after each of the first ``n`` steps from ``x`` at ``t0`` (``X``
         after the last): when ``X`` fails ``check.ok``, the steps are taken again (the same
         numbers) so that ``check`` raises at the first bad one."""
-        if n and not check.ok(st.array(X)):
+        ok = getattr(check, "ok", lambda x: bool(np.all(np.isfinite(x))))
+        if n and not ok(st.array(X)):
             X = st.first(x)
             for k in range(n):
                 X = st.step(t0, h, k, X)[0]
