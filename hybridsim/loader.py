@@ -32,6 +32,3 @@ METRIC_KEYS = _keys(METRICS)
 PLOT_KEYS = _keys(PLOT)
 ANALYSIS_KEYS = _keys(ANALYSIS)
 
-__all__ = ["DiagramFile", "NumberLoader", "ParamPath", "parse_file", "parse_value", "read_text",
-           "subsystem_path", "TOP_KEYS", "SIM_KEYS", "SOLVERS", "SIGNAL_ROLES", "METRIC_KEYS",
-           "PLOT_KEYS", "ANALYSIS_KEYS", "_Dict", "_List", "_plain", "_read"]

@@ -17,4 +17,3 @@ from .diagram_file import DiagramFile
 from .paths import ParamPath
 from .yamlio import NumberLoader, parse_file, parse_value
 
-__all__ = ["DiagramFile", "ParamPath", "NumberLoader", "parse_file", "parse_value"]

@@ -197,4 +197,3 @@ class OverridesMixin:
         return out
 
 
-__all__ = ["OverridesMixin", "SIM_KEYS", "_plain"]

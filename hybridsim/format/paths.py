@@ -16,16 +16,10 @@ _PART = re.compile(r"^[^.\[\]\s=:]+$")
 class ParamPath:
     """A parsed parameter path.
 
-    Attributes
-    ----------
-    kind : str
-        ``"param"`` (a name in ``params``), ``"block"`` (a block parameter) or
-        ``"simulation"`` (a simulation setting).
-    parts : tuple of str
-        ``("k",)``; ``("ctrl", "pid", "Kp")`` (blocks, then the parameter);
-        ``("t_end",)``.
-    index : int or None
-        The element ``[i]`` of a vector parameter, if given.
+    ``kind`` is ``"param"`` (a name in ``params``), ``"block"`` (a block
+    parameter) or ``"simulation"`` (a simulation setting); ``parts`` the names:
+    ``("k",)``, ``("ctrl", "pid", "Kp")`` (blocks, then the parameter),
+    ``("t_end",)``; ``index`` the element ``[i]`` of a vector parameter, or None.
     """
 
     kind: str

@@ -11,6 +11,11 @@ from .. import limits
 from ..registry import closest
 from .kinds import (Bool, Choice, Either, Kind, ListOf, MapOf, Number, PathText, Record, Signal, Text)
 
+# documented: the tables and functions (Setting's fields would shadow other names in the API pages)
+__all__ = ["SIMULATION", "METRICS", "PLOT", "ANALYSIS", "ANALYSIS_STEP", "SWEEP", "SWEEP_RANDOM", "DIAGRAM",
+           "BLOCK_SETTINGS", "SECTIONS", "SOLVERS", "SIGNAL_ROLES", "keys", "defaults", "check_values", "problems",
+           "section_schema", "markdown", "help_text"]
+
 SOLVERS = ["rk4", "heun", "radau", "bdf", "lsoda", "rk45", "rk23", "dop853"]
 FIXED_STEP_SOLVERS = ("rk4", "heun")
 SIGNAL_ROLES = ["force", "force_desired", "position", "position_desired", "contact",
