@@ -252,3 +252,21 @@ def test_tuned_for_a_phase_margin_meets_it_when_rerun(tmp_path):
     assert pm >= 45.0 - 0.1 and wc / (2 * math.pi) == pytest.approx(res["best"]["quantities"]["crossover"], rel=1e-3)
     r = hs.simulate(MSD, t_end=5.0, step=1e-3, **v)
     assert control.step_info(r["plant.y"].ravel(), T=r.t, yfinal=1.0)["Overshoot"] <= 5.0
+
+
+def test_the_overlay_runs_the_tuned_point_and_nothing_else(tmp_path):
+    """best.yaml extends the diagram: a subsystem's parameter, a vector given by 'repeat', and a 'set' that
+    fixes names the diagram's variants sweep (so the overlay runs the one variant the search ran)."""
+    from hybridsim.analysis import param_value
+    from hybridsim.tune.outputs import overlay
+
+    p = tmp_path / "t.yaml"
+    p.write_text(f"diagram: {DIAGRAMS / 'fig7_force_steps.yaml'}\nset: {{force: 5.0, rate: 60}}\n"
+                 "parameters:\n  ctrl.fpi.Kp: {low: 0.1, high: 2.0, repeat: 2}\n  wrist_damping: {low: 0, high: 100}\n"
+                 "objectives: [{metric: rise_time_s, goal: min}]\n")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "best.yaml").write_text(overlay(load_tune(p), {"ctrl.fpi.Kp": 0.7, "wrist_damping": 12.0}, out))
+    f = hs.load(out / "best.yaml")
+    assert f.variants() == [("force=5.0, rate=60", {"force": 5.0, "rate": 60})]
+    assert param_value(f, "ctrl.fpi.Kp").tolist() == [0.7, 0.7] and f.params["wrist_damping"] == 12.0

@@ -35,9 +35,13 @@ def overlay(spec, values, outdir):
             sim[parts[1]] = value
         else:  # block.param, or sub.block.param (the subsystem passes block.param on)
             blocks.setdefault(parts[0], {})[".".join(parts[1:])] = value
+    from ..api import load
+
+    swept = load(spec.diagram).data.get("variants") or {}
+    fixed = {k: [v] for k, v in params.items() if k in swept}  # a value set for a swept name ends that sweep
     rel = os.path.relpath(spec.diagram, Path(outdir).resolve())
     doc = {"extends": rel, "name": f"{spec.diagram.stem}_tuned"}
-    for key, part in (("params", params), ("blocks", blocks), ("simulation", sim)):
+    for key, part in (("params", params), ("variants", fixed), ("blocks", blocks), ("simulation", sim)):
         if part:
             doc[key] = part
     head = f"# the best point of {spec.path.name} (hybridsim tune), over {spec.diagram.name}\n"

@@ -122,12 +122,9 @@ def _analysis_values(spec, ov, quantities):
                     loops[q.loop] = margins(lin.loop(sig))
                 except LinearizationError as exc:
                     raise SpecError(f"loop {q.loop!r}: {exc}", spec.path, q.line) from None
-            m = loops[q.loop]
-            key = {"gain_margin_db": "gain_margin_db", "phase_margin_deg": "phase_margin_deg",
-                   "gain_crossover_hz": "gain_crossover_hz", "phase_crossover_hz": "phase_crossover_hz"}[q.analysis]
-            v = m[key]
+            v = loops[q.loop][q.analysis]  # margins() names its results as the tune file does
             # no crossing: an infinite margin (none at all), no crossover frequency
-            out[q.name].append(math.inf if v is None and key.endswith(("_db", "_deg")) else _number(v))
+            out[q.name].append(math.inf if v is None and q.analysis.endswith(("_db", "_deg")) else _number(v))
     return out
 
 
