@@ -23,6 +23,11 @@ def make_solver(sim):
     name = str(sim.get("solver", "rk4")).lower()
     if name in FIXED_STEP:
         return FIXED_STEP[name](float(sim.get("step", 1e-4)))
+    if name == "cvode":
+        from .cvode import CVode
+
+        return CVode(rtol=float(sim.get("rtol", 1e-8)), atol=sim.get("atol", 1e-10),
+                     max_step=float(sim.get("max_step", float("inf"))))
     method = {"radau": "Radau", "bdf": "BDF", "lsoda": "LSODA", "rk45": "RK45",
               "rk23": "RK23", "dop853": "DOP853"}[name]
     return ScipySolver(method, rtol=float(sim.get("rtol", 1e-8)),
@@ -66,7 +71,7 @@ def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
     system = diagram.build()
     sim = settings["simulation"]
     solver = make_solver(sim)
-    if isinstance(solver, ScipySolver):
+    if not isinstance(solver, tuple(FIXED_STEP.values())):  # scipy and CVODE: per-state tolerances
         solver.atol = _atol_vector(system, sim)
     if log is None:
         log = list(settings["log"]) + list(settings["signals"].values())

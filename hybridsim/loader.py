@@ -40,7 +40,7 @@ TOP_KEYS = ["extends", "name", "description", "params", "blocks", "wires", "simu
 _BAD_NAME = re.compile(r"[.\[\]\s:=]")  # a '.' separates a subsystem's name from its blocks' names
 SIM_KEYS = ["t_end", "solver", "step", "rtol", "atol", "max_step", "log_period", "max_state", "fused", "compiled",
             "locate_switches"]
-SOLVERS = ["rk4", "heun", "radau", "bdf", "lsoda", "rk45", "rk23", "dop853"]
+SOLVERS = ["rk4", "heun", "radau", "bdf", "lsoda", "rk45", "rk23", "dop853", "cvode"]
 METRIC_KEYS = ["step_time", "ss_window", "error_window", "filter_cutoff"]
 PLOT_KEYS = ["title", "position_label", "force_label", "surface_label"]  # the figure's title and axis names
 # the analysis section (hybridsim.analysis and hybridsim.report read it)
