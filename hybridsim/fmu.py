@@ -250,6 +250,7 @@ class FMUBlock(Block):
         discrete = [k for k, v in enumerate(self.in_vars) if v.variability == "discrete"]
         self.in_discrete = discrete if self.mode == "me" else []
         self._last_discrete = None
+        self._sent_state = self._sent_inputs = None
         if self.mode == "cs":
             if (rate is None) == (period is None):
                 raise ValueError("a Co-Simulation FMU needs exactly one of rate (Hz) or period (s)")
@@ -280,6 +281,7 @@ class FMUBlock(Block):
 
         self.close()
         self._last_discrete = None
+        self._sent_state = self._sent_inputs = None  # what the new instance was last given
         self._unzipdir = tempfile.mkdtemp(prefix="hybridsim-fmu-")
         try:
             fmpy.extract(str(self.path), unzipdir=self._unzipdir)
@@ -367,7 +369,8 @@ class FMUBlock(Block):
 
     def __getstate__(self):
         state = dict(self.__dict__)
-        state.update(_fmu=None, _unzipdir=None, _log_key=None, _callbacks=None, _get_der=None)
+        state.update(_fmu=None, _unzipdir=None, _log_key=None, _callbacks=None, _get_der=None,
+                     _sent_state=None, _sent_inputs=None, _buffers={})
         return state
 
     def _outputs(self):
@@ -378,10 +381,17 @@ class FMUBlock(Block):
         return tuple(vals[a:b] for a, b in zip(self.cuts[:-1], self.cuts[1:]))
 
     def _set_inputs(self, u, only=None):
-        """Set the inputs (``only``: those positions; default all but ME discrete-time ones)."""
+        """Set the inputs (``only``: those positions; default all but ME discrete-time ones).
+        The FMU keeps an input until it is set again: values equal to the last ones set are
+        not sent again."""
         if not self.in_flat:
             return
         values = np.concatenate(u)
+        if only is None:
+            key = values.tobytes()
+            if key == self._sent_inputs:
+                return
+            self._sent_inputs = None  # until every setter below has succeeded
         skip = set() if only is not None else set(self.in_discrete)
         for typ, (positions, vrs) in self.in_types.items():
             pick = [(k, vr) for k, vr in zip(positions, vrs) if k not in skip and (only is None or k in only)]
@@ -390,6 +400,8 @@ class FMUBlock(Block):
             conv = [to_fmi(typ, values[k], self.in_vars[k].name) for k, _ in pick]
             self._call(f"set {typ} inputs", getattr(self._fmu, _access(typ, self.fmi3, "set")),
                        [vr for _, vr in pick], conv)
+        if only is None:
+            self._sent_inputs = key
 
     def _discrete_inputs(self, t, x, u):
         """Model Exchange: discrete-time inputs that changed enter the FMU through event mode."""
@@ -397,6 +409,7 @@ class FMUBlock(Block):
         if self._last_discrete is not None and np.array_equal(values, self._last_discrete):
             return
         self._last_discrete = values.copy()
+        self._sent_state = None  # event mode: set the time and states again after it
         fmu = self._fmu
         self._call(f"enterEventMode at t={t:.9g}", fmu.enterEventMode)
         self._set_inputs(u, only=set(self.in_discrete))
@@ -443,17 +456,39 @@ class FMUBlock(Block):
         return x
 
     def _me_set(self, t, x, u):
+        """Time, continuous states and inputs into the FMU; the time and states only when they
+        differ from the last ones set (a right-hand side sets them for the outputs and again for
+        the derivatives)."""
         fmu = self._fmu
-        self._call(f"setTime({t:.9g})", fmu.setTime, t)
-        self._call(f"setContinuousStates at t={t:.9g}", fmu.setContinuousStates,
-                   np.ascontiguousarray(x, dtype=float).ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
+        key = (t, np.asarray(x, dtype=float).tobytes())
+        if key != self._sent_state:
+            self._sent_state = None
+            try:
+                fmu.setTime(t)
+            except Exception as exc:  # noqa: BLE001 - the message is built only on failure
+                self._call(f"setTime({t:.9g})", _raise, exc)
+            buf, ptr = self._buffer("x", self.nx)
+            buf[:] = x
+            try:
+                fmu.setContinuousStates(ptr, self.nx)
+            except Exception as exc:  # noqa: BLE001
+                self._call(f"setContinuousStates at t={t:.9g}", _raise, exc)
+            self._sent_state = key
         self._set_inputs(u)
+
+    def _buffer(self, name, n):
+        """A float array of ``n`` kept for the FMU calls, and its ctypes pointer."""
+        bufs = self.__dict__.setdefault("_buffers", {})
+        if name not in bufs:
+            buf = np.zeros(n)
+            bufs[name] = (buf, buf.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
+        return bufs[name]
 
     def derivatives(self, t, x, u):
         self._me_set(t, x, u)
-        dx = np.zeros(self.nx)
-        self._call("get derivatives", self._get_der, dx.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
-        return dx
+        dx, ptr = self._buffer("dx", self.nx)
+        self._call("get derivatives", self._get_der, ptr, self.nx)
+        return dx.copy()
 
     # -- Model Exchange events (FMI 2.0 and 3.0) -----------------------------------
     @property
@@ -491,6 +526,7 @@ class FMUBlock(Block):
         continuous ones if the FMU changed them, back to continuous-time mode."""
         self._me_set(t, x, u)
         fmu = self._fmu
+        self._sent_state = None  # the event may change the FMU's states: set them again after it
         self._call(f"enterEventMode at t={t:.9g}", fmu.enterEventMode)
         changed = self._event_update(t)
         self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
@@ -505,9 +541,9 @@ class FMUBlock(Block):
         if self.mode != "me" or not self.nz:
             return np.zeros(0)
         self._me_set(t, x, u)
-        z = np.zeros(self.nz)
-        self._call("getEventIndicators", self._fmu.getEventIndicators, z.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nz)
-        return z
+        z, ptr = self._buffer("z", self.nz)
+        self._call("getEventIndicators", self._fmu.getEventIndicators, ptr, self.nz)
+        return z.copy()
 
 
 def _check_members(path):

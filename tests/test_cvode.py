@@ -146,3 +146,21 @@ def test_fig9_with_the_me_plant_converges_under_cvode_to_the_python_plant(plant)
     # the same plant in Python blocks (its switches restart CVODE): the sampled force, ~37 N at most
     py = hs.simulate(DIAGRAMS / "fig9_force_and_position.yaml", rate=120, t_end=0.3, solver="cvode", rtol=1e-10)
     assert np.max(np.abs(py["ctrl.ft.CF[0]"] - cf)) < 5e-2  # measured 1.6e-2 N
+
+
+def test_me_fmu_ball_bounces_at_the_closed_form_times_under_cvode(tmp_path):
+    # tests/data/ball: restitution 0.7, dropped from 1 m, an FMU event (event mode) at each bounce
+    from hybridsim.fmu import FMUBlock, build_fmu
+
+    d = ROOT / "tests" / "data" / "ball"
+    fmu = build_fmu(tmp_path / "ball.fmu", "ball", sorted(d.glob("*.c")), (d / "modelDescription.xml").read_text(), {})
+    diagram = hs.Diagram("ball")
+    diagram.add(FMUBlock("ball", path=str(fmu), mode="me"))
+    res = hs.Simulator(diagram.build(), CVode(rtol=1e-12, atol=1e-12), log=["ball.height"],
+                       log_period=1e-3).run(2.4)
+    bounces = []
+    for t, _ in res.meta["events"]:  # state events: not the stair counter's whole seconds
+        if abs(t - round(t)) > 1e-9 and (not bounces or t - bounces[-1] > 1e-6):
+            bounces.append(t)
+    want = bounce_times(6, e=0.7)
+    assert np.max(np.abs(np.array(bounces[:6]) - want)) < 1e-9
