@@ -152,7 +152,7 @@ class CompiledLoop:
         DUE = np.vstack([stops.due, np.zeros((1, D), dtype=bool)])
         record = np.append(stops.record, final_record)
         REC = np.where(record, np.cumsum(record) - 1, -1).astype(np.int64)
-        rows_t = T[record].tolist()
+        rows_t = T[record]
         hits = np.flatnonzero(KIND == 0)
         NEXT = np.zeros(len(T), dtype=np.int64)  # at a hit row: the row of the next hit or the end
         NEXT[hits] = np.append(hits[1:], len(T) - 1)

@@ -115,15 +115,21 @@ class Sweep:
 
         if self._base is None:
             self._base = load(self.diagram, **self.fixed)
+            self._base_values = {}
         f = self._base
+        if ref in self._base_values:  # every point of a scaled axis asks again
+            return self._base_values[ref].copy()
         if "." not in ref:
             if ref not in f.params:
                 raise InputError(f"{self.path}: sweep: no parameter {ref!r} in {self.diagram.name}")
-            return np.asarray(f.params[ref], float)
-        try:
-            return param_value(f, ref)
-        except (KeyError, ValueError, TypeError) as exc:
-            raise InputError(f"{self.path}: sweep: cannot scale {ref!r}: {exc}") from None
+            value = np.asarray(f.params[ref], float)
+        else:
+            try:
+                value = param_value(f, ref)
+            except (KeyError, ValueError, TypeError) as exc:
+                raise InputError(f"{self.path}: sweep: cannot scale {ref!r}: {exc}") from None
+        self._base_values[ref] = value
+        return value.copy()
 
     def points(self):
         """List of dicts: 'params' (what the table shows) and 'overrides' (what runs)."""
@@ -167,6 +173,7 @@ class Sweep:
 
         base = load(self.diagram, **self.fixed)
         check(base)
+        quick = self._quick = _RuntimeCheck(base)
         seen = set()
         tries = [(k, v) for k, vals in self.grid.items() for v in vals]
         tries += [(k, (self._base_value(k) * float(v)).tolist()) for k, vals in self.scale.items() for v in vals]
@@ -177,10 +184,24 @@ class Sweep:
             if tag in seen:
                 continue
             seen.add(tag)
+            if quick.accepts(key, value):
+                continue
             try:
                 check(load(self.diagram, **{**self.fixed, key: value}))
             except InputError as exc:
                 raise InputError(f"{self.path}: swept value {key} = {value!r}: {exc}") from None
+
+    def runtime_points(self, pts):
+        """True when every point of ``pts`` changes only run-time parameters of the diagram
+        (then the points of a worker share one built diagram: :func:`run_chunk`)."""
+        from .api import load
+
+        quick = self.__dict__.get("_quick") or _RuntimeCheck(load(self.diagram, **self.fixed))
+        self._quick = quick
+        for p in pts:
+            if not all(quick.accepts(k, v) for k, v in p["overrides"].items()):
+                return False
+        return True
 
     def fingerprint(self):
         """A hash of everything a point's numbers depend on besides its own overrides."""
@@ -194,6 +215,41 @@ class Sweep:
         h.update(json.dumps({"set": self.fixed, "stability": self.stability, "version": __version__},
                             sort_keys=True, default=str).encode())
         return h.hexdigest()[:24]
+
+
+class _RuntimeCheck:
+    """Swept values checked as run-time parameters of the base diagram, built once per variant.
+
+    A value that only changes block numbers (not a rate, a width, a setting) passes
+    when every block it reaches is rebuilt with it without error and keeps its
+    structure: what a full check of the diagram with that value would find. Anything
+    else (and any error) is left to the full check, which says what is wrong.
+    """
+
+    def __init__(self, base):
+        self.base, self.systems, self.seen = base, None, {}
+
+    def accepts(self, key, value):
+        """True when ``{key: value}`` is a good run-time change of every variant."""
+        tag = json.dumps([key, value], sort_keys=True, default=str)
+        if tag not in self.seen:
+            self.seen[tag] = self._accepts(key, value)
+        return self.seen[tag]
+
+    def _accepts(self, key, value):
+        from .errors import HybridsimError
+
+        try:
+            if self.systems is None:
+                self.systems = []
+                for _, variant in self.base.variants():
+                    diagram, _ = self.base.build(variant)
+                    self.systems.append((variant, diagram.build()))
+            for variant, system in self.systems:
+                system.blocks_with(self.base.runtime_params({key: value}, variant))
+            return True
+        except (HybridsimError, ValueError, TypeError, KeyError):
+            return False
 
 
 def _number(v):
@@ -289,10 +345,12 @@ def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False,
     true`` in ``set``); the same numbers, so finished points are reused either way.
     ``force``: start afresh when ``outdir`` holds points of a different sweep
     (otherwise that is an :class:`~hybridsim.errors.InputError`).
-    On the compiled path, points that differ only in run-time parameters run
-    as batches of one built diagram on threads (:meth:`Simulator.run_batch`),
-    logging only what the metrics read; ``batch=False`` runs each point on
-    its own instead (the same table).
+    Points that differ only in run-time parameters (block numbers, not a
+    rate, a width or a setting) run in chunks on one built diagram per worker
+    process (:func:`run_chunk`: on the compiled path one compiled loop for
+    every point), logging only what the metrics read, each chunk appended to
+    ``points.jsonl`` as it finishes; ``batch=False`` runs each point on its
+    own instead (the same table).
     Raises InputError before anything runs for a bad sweep file, diagram,
     parameter or value, or a Dask address that does not answer.
     """
@@ -370,12 +428,10 @@ def _run(sw, pts, outdir, jsonl, jobs, dask, progress, use_batch=True):
         bar = tqdm(total=len(pts), initial=len(pts) - len(todo), unit="run", smoothing=0.1, disable=not on_terminal(),
                    desc=sw.path.stem)
     args = (str(sw.diagram), sw.fixed, sw.stability)
-    batch = None
-    if use_batch and sw.fixed.get("simulation.compiled") and not dask and not sw.stability and todo:
-        batch = _batch_plan(sw, todo)
+    batched = use_batch and not sw.stability and bool(todo) and sw.runtime_points(todo)
     try:
-        if batch:
-            for finished in _execute_batch(batch, todo, traces, jobs):
+        if batched:
+            for finished in _execute_chunks(todo, args, traces, jobs, dask):
                 _append_many(jsonl, finished)  # one write and one fsync per chunk
                 done.update(finished)
                 if bar is not None:
@@ -395,65 +451,128 @@ def _run(sw, pts, outdir, jsonl, jobs, dask, progress, use_batch=True):
     return table
 
 
-#: points run together by one batch call (and then appended to points.jsonl)
+#: most points one worker runs in one call (and then appended to points.jsonl together)
 BATCH_CHUNK = 64
+#: chunks per worker a sweep is cut into at least (so the workers finish together)
+CHUNKS_PER_WORKER = 4
+#: built diagrams of this process, per (diagram, fixed overrides, traces): see :func:`_plans`
+_PLANS = {}
 
 
-def _batch_plan(sw, todo):
-    """Every point as run-time parameters of one built diagram per variant, or None.
+def _plans(diagram, fixed, traces):
+    """One built simulator per variant of ``diagram`` with ``fixed``, kept in this process.
 
-    None when some point changes what a run-time parameter cannot (a rate, a
-    width, a simulation setting, a swept variant): then every point runs on
-    its own, as without ``compiled``.
+    A list of ``(label, variant, file, simulator, settings)``, built on the first call
+    (a compiled loop is generated or read from the cache then) and reused by every
+    later chunk of the sweep in this process: a Dask worker or pool process builds once.
+    Without ``traces`` only the signals the metrics read are logged.
     """
     from .api import build, load
 
-    try:
-        f = load(sw.diagram, **{k: v for k, v in sw.fixed.items()})
+    tag = (diagram, json.dumps(fixed, sort_keys=True, default=str), bool(traces))
+    if tag not in _PLANS:
+        f = load(diagram, **fixed)
         plans = []
         for label, variant in f.variants():
             _, settings = f.build(variant)
-            log = None if sw.traces else list(settings["signals"].values())  # what the metrics read
-            system, sim, settings = build(f, variant, log=log)
-            sets = [f.runtime_params(p["overrides"], variant) for p in todo]
-            for params in sets:
-                system.blocks_with(params)  # a change of structure raises here, before anything runs
-            plans.append((label, sim, settings, dict(zip((p["key"] for p in todo), sets))))
-        return plans
-    except (HybridsimError, ValueError, TypeError):
-        return None
+            log = None if traces else list(settings["signals"].values())
+            _, sim, settings = build(f, variant, log=log)
+            plans.append((label, variant, f, sim, settings))
+        _PLANS.clear()  # one sweep at a time per process
+        _PLANS[tag] = plans
+    return _PLANS[tag]
 
 
-def _execute_batch(plans, todo, traces, jobs):
-    """Yield ``{key: rows}`` for ``todo``, chunk by chunk, each variant one :meth:`Simulator.run_batch`."""
+def run_chunk(diagram, fixed, chunk, traces_dir=None):
+    """Run the points of ``chunk`` as run-time parameters of one built diagram; ``{key: rows}``.
+
+    The table rows are those of :func:`run_point` for the same points (the
+    same numbers: a run-time parameter rebuilds only the blocks it names).
+    A point that cannot be given at run time runs on its own with :func:`run_point`.
+    Never raises for a failing run: its row says 'failed' and why.
+    """
     from . import metrics as _metrics
+    from .errors import HybridsimError
 
-    for c in range(0, len(todo), BATCH_CHUNK):
-        chunk = todo[c:c + BATCH_CHUNK]
-        per_variant = []
-        for label, sim, settings, sets in plans:
-            results = sim.run_batch(settings["simulation"]["t_end"], [sets[p["key"]] for p in chunk],
-                                    workers=jobs)
-            per_variant.append((label, settings, results))
-        finished = {}
-        for k, p in enumerate(chunk):
-            rows = []
-            for label, settings, results in per_variant:
-                r = results[k]
-                if isinstance(r, Exception):
-                    rows = [{"key": p["key"], **p["params"], "variant": "", "status": "failed",
-                             "message": str(r).splitlines()[0], "wall_time_s": 0.0}]
-                    break
-                m = _metrics.compute(r, settings["signals"], settings["metrics"])
-                m["wall_time_s"] = r.meta["wall_time_s"]
-                m = {k2: (None if isinstance(v, float) and not np.isfinite(v) else v) for k2, v in m.items()
-                     if not isinstance(v, (list, dict))}
-                rows.append({"key": p["key"], **p["params"], "variant": label, "status": "ok",
-                             "message": "", **m})
-                if traces:
-                    r.to_csv(Path(traces) / f"{p['key']}{('_' + label) if label else ''}.csv")
-            finished[p["key"]] = rows
-        yield finished
+    try:
+        plans = _plans(diagram, fixed, traces_dir)
+    except HybridsimError:
+        plans = None
+    finished, batch = {}, []
+    for p in chunk:
+        try:
+            sets = [f.runtime_params(p["overrides"], variant) for _, variant, f, _, _ in plans]
+        except (HybridsimError, ValueError, TypeError, KeyError):
+            finished[p["key"]] = run_point(diagram, fixed, p, traces_dir)
+            continue
+        batch.append((p, sets))
+    per_variant = []
+    for v, (label, _, _, sim, settings) in enumerate(plans or []):
+        t0 = time.perf_counter()
+        try:
+            results = sim.run_batch(settings["simulation"]["t_end"], [sets[v] for _, sets in batch], workers=1)
+        except HybridsimError:  # a bad value for one of them: each on its own, to say which
+            results = [_run_one(sim, settings, sets[v]) for _, sets in batch]
+        per_variant.append((label, settings, results, time.perf_counter() - t0))
+    for k, (p, _) in enumerate(batch):
+        rows = []
+        for label, settings, results, _ in per_variant:
+            r = results[k]
+            if isinstance(r, Exception):
+                rows = [{"key": p["key"], **p["params"], "variant": "", "status": "failed",
+                         "message": str(r).splitlines()[0], "wall_time_s": 0.0}]
+                break
+            m = _metrics.compute(r, settings["signals"], settings["metrics"])
+            m["wall_time_s"] = r.meta["wall_time_s"]
+            m = {k2: (None if isinstance(v, float) and not np.isfinite(v) else v) for k2, v in m.items()
+                 if not isinstance(v, (list, dict))}
+            rows.append({"key": p["key"], **p["params"], "variant": label, "status": "ok", "message": "", **m})
+            if traces_dir:
+                r.to_csv(Path(traces_dir) / f"{p['key']}{('_' + label) if label else ''}.csv")
+        finished[p["key"]] = rows
+    return finished
+
+
+def _run_one(sim, settings, params):
+    """One run of a batch on its own: its Result, or the error it ends with."""
+    from .errors import HybridsimError
+
+    try:
+        return sim.run(settings["simulation"]["t_end"], params=params)
+    except HybridsimError as exc:
+        return exc
+
+
+def _chunks(todo, workers):
+    """``todo`` cut into chunks of at most BATCH_CHUNK points, CHUNKS_PER_WORKER per worker at least."""
+    size = max(1, min(BATCH_CHUNK, -(-len(todo) // (CHUNKS_PER_WORKER * max(1, workers)))))
+    return [todo[c:c + size] for c in range(0, len(todo), size)]
+
+
+def _execute_chunks(todo, args, traces, jobs, dask):
+    """Yield ``{key: rows}`` chunk by chunk as they finish: here, on local processes or on Dask.
+    Each worker builds the diagram once (:func:`_plans`) and runs its chunks on it."""
+    diagram, fixed, _ = args
+    if dask:
+        from distributed import as_completed
+
+        workers = max(1, len(dask.scheduler_info().get("workers", {})))
+        futs = [dask.submit(run_chunk, diagram, fixed, c, traces, pure=False) for c in _chunks(todo, workers)]
+        for fut in as_completed(futs):
+            yield fut.result()
+        return
+    jobs = jobs or os.cpu_count() or 1
+    chunks = _chunks(todo, jobs)
+    if jobs <= 1 or len(chunks) <= 1:
+        for c in chunks:
+            yield run_chunk(diagram, fixed, c, traces)
+        return
+    from concurrent.futures import ProcessPoolExecutor, as_completed as done_first
+
+    with ProcessPoolExecutor(min(jobs, len(chunks))) as pool:
+        futs = [pool.submit(run_chunk, diagram, fixed, c, traces) for c in chunks]
+        for fut in done_first(futs):
+            yield fut.result()
 
 
 def _execute(todo, args, traces, jobs, dask):
