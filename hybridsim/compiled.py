@@ -57,6 +57,10 @@ def problems(system, solver, located=None):
                if (b.outputs or b.n_continuous or b.n_discrete) and not has_kernels(b)]
     if missing:
         out.append("these blocks have no kernels (hybridsim.kernels) to compile: " + ", ".join(missing))
+    python = [b.name for b in system.blocks if b.kernels is not None and b.kernels.python_only]
+    if python:
+        out.append("these blocks' kernels call Pinocchio, which numba cannot compile (they run on the "
+                   "fused path): " + ", ".join(python))
     timed = [system.blocks[i].name for i in system.time_events]
     if timed:
         out.append("time events (next_event_time) are not on the compiled path yet: " + ", ".join(timed))

@@ -49,6 +49,7 @@ def build(system, method, located=None):
     code = compile(source, f"<fused rhs of {system.name}>", "exec")
     exec(code, env)  # noqa: S102 - our own generated source, no user text in it
     env["advance"].source = source
+    env["advance"].zc = env.get("zc")  # the located blocks' event functions, when they have kernels
     return (env["advance"], env["advance_obs"]), held
 
 
@@ -177,7 +178,18 @@ class FusedStepper:
         self.method, (self.advance, self.advance_obs), self.H, self.P = method, advance, H, P
 
     def advance_to_event(self, f, t0, t1, x, t_out, g, directions):
-        """See :meth:`hybridsim.solvers.ExplicitRK.advance_to_event` (``f`` is not used)."""
+        """See :meth:`hybridsim.solvers.ExplicitRK.advance_to_event` (``f`` is not used). With
+        every located block's event functions as kernels, ``g`` is their generated form (the
+        same functions, without the generic path's buffers)."""
+        zc = getattr(self.advance, "zc", None)
+        if g is not None and zc is not None:
+            import numpy as np
+
+            H, P = self.H, self.P
+
+            def g(t, x):
+                return np.array(zc(t, tuple(x.tolist()), H, P), dtype=float)
+
         return self.method.advance_to_event(f, t0, t1, x, t_out, g, directions, steps_with=self)
 
     def first(self, x):
