@@ -386,12 +386,12 @@ class FMUBlock(Block):
         not sent again."""
         if not self.in_flat:
             return
-        values = np.concatenate(u)
         if only is None:
-            key = values.tobytes()
+            key = [np.asarray(v, float).tobytes() for v in u]
             if key == self._sent_inputs:
                 return
             self._sent_inputs = None  # until every setter below has succeeded
+        values = np.concatenate(u)
         skip = set() if only is not None else set(self.in_discrete)
         for typ, (positions, vrs) in self.in_types.items():
             pick = [(k, vr) for k, vr in zip(positions, vrs) if k not in skip and (only is None or k in only)]
@@ -478,16 +478,22 @@ class FMUBlock(Block):
 
     def _buffer(self, name, n):
         """A float array of ``n`` kept for the FMU calls, and its ctypes pointer."""
-        bufs = self.__dict__.setdefault("_buffers", {})
-        if name not in bufs:
+        bufs = self.__dict__.get("_buffers")
+        if bufs is None:
+            bufs = self._buffers = {}
+        got = bufs.get(name)
+        if got is None:
             buf = np.zeros(n)
-            bufs[name] = (buf, buf.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
-        return bufs[name]
+            got = bufs[name] = (buf, buf.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
+        return got
 
     def derivatives(self, t, x, u):
         self._me_set(t, x, u)
         dx, ptr = self._buffer("dx", self.nx)
-        self._call("get derivatives", self._get_der, ptr, self.nx)
+        try:
+            self._get_der(ptr, self.nx)
+        except Exception as exc:  # noqa: BLE001 - the message is built only on failure
+            self._call("get derivatives", _raise, exc)
         return dx.copy()
 
     # -- Model Exchange events (FMI 2.0 and 3.0) -----------------------------------
@@ -542,7 +548,10 @@ class FMUBlock(Block):
             return np.zeros(0)
         self._me_set(t, x, u)
         z, ptr = self._buffer("z", self.nz)
-        self._call("getEventIndicators", self._fmu.getEventIndicators, ptr, self.nz)
+        try:
+            self._fmu.getEventIndicators(ptr, self.nz)
+        except Exception as exc:  # noqa: BLE001
+            self._call("getEventIndicators", _raise, exc)
         return z.copy()
 
 
