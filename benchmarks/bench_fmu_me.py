@@ -96,7 +96,10 @@ def write_section(title, body):
     except ImportError:
         shared = None
     if shared is not None:
-        return shared(title, body)
+        try:
+            return shared(title, body)
+        except TypeError:  # another signature: write plainly
+            pass
     path = ROOT / "benchmarks" / "RESULTS.md"
     head = "" if path.exists() else "# Benchmark results\n\nDated sections, appended by the benchmarks.\n"
     stamp = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())

@@ -138,7 +138,10 @@ def _write_section(title, body):
     except ImportError:
         write_section = None
     if write_section is not None:
-        return write_section(title, body)
+        try:
+            return write_section(title, body)
+        except TypeError:  # another signature: write plainly
+            pass
     path = ROOT / "benchmarks" / "RESULTS.md"
     head = "" if path.exists() else "# Benchmark results\n\nDated sections, appended by the benchmarks.\n"
     with open(path, "a") as fh:

@@ -506,7 +506,7 @@ def _compile_failure(exc, system):
     """What to tell a user whose kernels numba cannot compile."""
     text = re.sub(r"\x1b\[[0-9;]*m", "", str(exc))  # numba colours its messages
     culprits = sorted({f"{b.name} ({type(b).__name__})" for b in system.blocks if b.kernels is not None
-                       for f in b.kernels if f is not None and f.__name__ in text})
+                       for f in b.kernels if callable(f) and f.__name__ in text})
     lines = [line.strip() for line in text.splitlines() if line.strip()]
     why = ("Untyped global", "Unknown attribute", "Cannot", "not supported", "unsupported", "Invalid use")
     first = next((line for line in lines if any(w in line for w in why)), lines[0] if lines else "")
