@@ -90,21 +90,10 @@ def main():
 
 
 def write_section(title, body):
-    """Append a dated section to benchmarks/RESULTS.md (the shared writer when present)."""
-    try:
-        from results import write_section as shared  # benchmarks/results.py, when another helper adds it
-    except ImportError:
-        shared = None
-    if shared is not None:
-        try:
-            return shared(title, body)
-        except TypeError:  # another signature: write plainly
-            pass
-    path = ROOT / "benchmarks" / "RESULTS.md"
-    head = "" if path.exists() else "# Benchmark results\n\nDated sections, appended by the benchmarks.\n"
-    stamp = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
-    with open(path, "a") as fh:
-        fh.write(f"{head}\n## {stamp}: {title}\n\n{body}\n")
+    """Append a dated section to benchmarks/RESULTS.md (as bench_sweep.py does)."""
+    from bench_sweep import _write_section
+
+    return _write_section(title, body)
 
 
 if __name__ == "__main__":

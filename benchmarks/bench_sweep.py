@@ -132,7 +132,8 @@ def _timed(fn):
 
 
 def _write_section(title, body):
-    """Append a dated section to benchmarks/RESULTS.md (the shared writer when there is one)."""
+    """Append a dated section (``## date — title (issue 25)``) to benchmarks/RESULTS.md: the
+    shared writer when there is one, else a plain append (the file merges by union)."""
     try:
         from results import write_section  # benchmarks/results.py
     except ImportError:
@@ -143,9 +144,10 @@ def _write_section(title, body):
         except TypeError:  # another signature: write plainly
             pass
     path = ROOT / "benchmarks" / "RESULTS.md"
-    head = "" if path.exists() else "# Benchmark results\n\nDated sections, appended by the benchmarks.\n"
+    machine = f"Machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} when it finished."
     with open(path, "a") as fh:
-        fh.write(f"{head}\n## {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}: {title}\n\n{body}\n")
+        fh.write(f"\n## {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())} — {title} (issue 25)\n\n"
+                 f"{machine}\n\n{body}\n")
 
 
 if __name__ == "__main__":
