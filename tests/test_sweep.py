@@ -173,3 +173,16 @@ def test_compiled_chunks_give_the_point_by_point_table(runtime_file, tmp_path):
     sw.run_sweep(runtime_file, tmp_path / "points", jobs=1, progress=False, batch=False)
     sw.run_sweep(runtime_file, tmp_path / "fast", jobs=2, progress=False, compiled=True)
     pd.testing.assert_frame_equal(table(tmp_path / "points" / "sweep.csv"), table(tmp_path / "fast" / "sweep.csv"))
+
+
+def test_chunked_traces_equal_the_point_by_point_traces(tmp_path):
+    p = tmp_path / "tr.yaml"
+    p.write_text(RUNTIME.replace("[0.5, 1.0, 1.5, 2.0, 2.5]", "[0.5, 2.0]").replace("[8.0e5, 9.0e5]", "[9.0e5]")
+                 + "traces: true\n")
+    sw.run_sweep(p, tmp_path / "chunks", jobs=1, progress=False)
+    sw.run_sweep(p, tmp_path / "points", jobs=1, progress=False, batch=False)
+    a = sorted((tmp_path / "chunks" / "traces").glob("*.csv"))
+    b = sorted((tmp_path / "points" / "traces").glob("*.csv"))
+    assert [x.name for x in a] == [x.name for x in b] and len(a) == 2
+    for x, y in zip(a, b):
+        pd.testing.assert_frame_equal(pd.read_csv(x), pd.read_csv(y))
