@@ -1,15 +1,25 @@
-"""Benchmark: sweep throughput, runs per second, serial vs local pool vs Dask.
+"""Benchmark: compiled sweep throughput, runs per second per point, local pool vs Dask.
 
-Run on demand:  python benchmarks/bench_sweep.py [--points 8]
+Run on demand:  python benchmarks/bench_sweep.py [--small 40] [--large 440] [--jobs 2]
 
-One small sweep (Fig 7, 5 N, 0.6 s simulated per run) executed serially, on a
-local process pool of 2, and on a local Dask cluster with 1 and 2 worker
-processes, each from an empty output folder, in one process run; then the
-same sweep on the compiled path (``simulation.compiled: true``), serially and
-on the pool, after one warm-up run has put the compiled module in the cache.
+The sweep: Fig 9 (diagrams/fig9_force_and_position.yaml) at 120 Hz, 4 s simulated,
+``scale:`` over ``ctrl.fpi.Kp``, ``simulation.compiled: true``. In one process run:
+
+1. the baseline: one compiled run of the same diagram (median of 20, after the warm-up
+   that compiles or reads the cached loop) - ``jobs / t_run`` is what ``jobs`` cores
+   could do if the sweep machinery cost nothing;
+2. the local process pool (``--jobs``): a sweep of ``--small`` and one of ``--large``
+   points, each into an empty folder; the marginal rate is
+   ``(large - small) / (t_large - t_small)`` (start-up, imports and the table cancel);
+3. the same two sweeps on a local Dask cluster of ``--jobs`` worker processes (one
+   thread each), warmed by a 4-point sweep so that both sizes find built workers.
+
+The ratios are against the baseline of the same run, so a loaded machine shows in
+both. The numbers go to the terminal and a dated section of benchmarks/RESULTS.md.
 """
 import argparse
 import os
+import statistics
 import sys
 import tempfile
 import time
@@ -17,56 +27,127 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from hybridsim.sweep import run_sweep  # noqa: E402
+DIAGRAM = ROOT / "diagrams" / "fig9_force_and_position.yaml"
+
+
+def sweep_file(path, n):
+    scales = [round(0.5 + k / max(1, n - 1), 9) for k in range(n)]
+    path.write_text(f"diagram: {DIAGRAM}\n"
+                    "set: {rate: 120, simulation.t_end: 4.0, simulation.compiled: true}\n"
+                    f"scale: {{ctrl.fpi.Kp: {scales}}}\n")
+    return path
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--points", type=int, default=8)
+    ap.add_argument("--small", type=int, default=40)
+    ap.add_argument("--large", type=int, default=440)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--no-dask", action="store_true")
     args = ap.parse_args()
-    scales = [0.5 + 0.25 * k for k in range(args.points)]
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+    import hybridsim as hs
+    from hybridsim.sweep import run_sweep
+
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        spec, fast = tmp / "s.yaml", tmp / "fast.yaml"
-        for path, extra in ((spec, ""), (fast, ", simulation.compiled: true")):
-            path.write_text(f"diagram: {ROOT / 'diagrams' / 'fig7_force_steps.yaml'}\n"
-                            f"set: {{force: 5.0, rate: 60, simulation.t_end: 0.6{extra}}}\n"
-                            f"scale: {{ctrl.fpi.Kp: {scales}}}\n")
+        small, large = sweep_file(tmp / "small.yaml", args.small), sweep_file(tmp / "large.yaml", args.large)
+        _, sim, settings = hs.build(DIAGRAM, rate=120, t_end=4.0, compiled=True)
+        sim.run(4.0)  # compiles, or reads the cached loop
+        single = statistics.median(_timed(lambda: sim.run(4.0)) for _ in range(20))
 
-        def timed(label, sweep=spec, **kw):
-            t0 = time.perf_counter()
-            run_sweep(sweep, tmp / label, progress=False, **kw)
-            dt = time.perf_counter() - t0
-            return dt
+        single_cpu = statistics.median(_cpu(lambda: sim.run(4.0)) for _ in range(10))
 
-        rows = [("serial", timed("serial", jobs=1)), ("local pool (2)", timed("pool", jobs=2))]
-        try:
+        def timed_sweep(spec, label, client=None, **kw):
+            """(wall s, CPU s of this process and its workers) of one sweep."""
+            before = _cpu_now(client)
+            wall = _timed(lambda: run_sweep(spec, tmp / label, progress=False, jobs=args.jobs, dask=client, **kw))
+            return wall, _cpu_now(client) - before
+
+        timed_sweep(sweep_file(tmp / "warm.yaml", 4), "warm")
+        pool = (timed_sweep(small, "pool-small"), timed_sweep(large, "pool-large"))
+        dask = None
+        if not args.no_dask:
             from distributed import Client, LocalCluster
 
-            for n in (1, 2):
-                with LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cl, Client(cl) as client:
-                    client.run(lambda: __import__("hybridsim.api"))  # warm the workers' imports
-                    rows.append((f"dask, {n} worker(s)", timed(f"dask{n}", dask=client)))
-        except ImportError:
-            print("(distributed not installed: no Dask rows)")
-        try:
-            import numba  # noqa: F401
+            with LocalCluster(n_workers=args.jobs, threads_per_worker=1, processes=True,
+                              dashboard_address=None) as cl, Client(cl) as client:
+                timed_sweep(tmp / "warm.yaml", "dask-warm", client)
+                dask = (timed_sweep(small, "dask-small", client), timed_sweep(large, "dask-large", client))
+    n = args.large - args.small
+    ideal = args.jobs / single
+    lines = [f"one compiled run (baseline): {single * 1e3:.2f} ms wall, {single_cpu * 1e3:.2f} ms CPU; "
+             f"{args.jobs} cores at that speed: {ideal:.0f} runs/s", "",
+             "| executor | small sweep s | large sweep s | marginal runs/s (wall) | of the baseline's "
+             "| CPU ms per point (marginal) | runs/s on idle cores (jobs / CPU per point) |",
+             "|---|---|---|---|---|---|---|"]
+    rates = {}
+    for label, t in (("process pool", pool), ("Dask", dask)):
+        if t is None:
+            continue
+        (w0, c0), (w1, c1) = t
+        rates[label] = n / (w1 - w0)
+        cpu = (c1 - c0) / n
+        lines.append(f"| {label} ({args.jobs}) | {w0:.2f} | {w1:.2f} | {rates[label]:.0f} | "
+                     f"{rates[label] / ideal:.0%} | {cpu * 1e3:.2f} | {args.jobs / cpu:.0f} |")
+    if "Dask" in rates:
+        lines += ["", f"Dask / process pool, marginal rate (wall): {rates['Dask'] / rates['process pool']:.2f}"]
+    lines += ["", f"machine load average at the end: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores"]
+    text = "\n".join(lines)
+    print(text)
+    _write_section(f"Compiled Fig 9 sweep, 120 Hz, 4 s, scale ctrl.fpi.Kp: {args.small} and {args.large} "
+                   f"points, {args.jobs} jobs (bench_sweep.py)", text)
 
-            os.environ["HYBRIDSIM_CACHE"] = str(tmp / "cache")
-            t0 = time.perf_counter()
-            timed("warm", sweep=fast, jobs=1)
-            print(f"compiled path warm-up (compiles once, {args.points} runs): {time.perf_counter() - t0:.1f} s")
-            rows += [("compiled, serial", timed("fast1", sweep=fast, jobs=1)),
-                     ("compiled, pool (2)", timed("fast2", sweep=fast, jobs=2))]
-        except ImportError:
-            print("(numba not installed: no compiled rows)")
-    base = rows[0][1]
-    print(f"{args.points} runs of Fig 7 (0.6 s simulated each)\n")
-    print(f"{'executor':>20} {'wall s':>8} {'runs/s':>7} {'speed-up':>9}")
-    for label, dt in rows:
-        print(f"{label:>20} {dt:8.2f} {args.points / dt:7.2f} {base / dt:9.2f}")
+
+def _cpu(fn):
+    t0 = time.process_time()
+    fn()
+    return time.process_time() - t0
+
+
+def _cpu_now(client=None):
+    """CPU seconds so far of this process, its finished children and the Dask workers."""
+    import resource
+
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)  # pool processes once joined
+    total = own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+    if client is not None:
+        def cpu():
+            import psutil
+
+            t = psutil.Process().cpu_times()
+            return t.user + t.system
+
+        total += sum(client.run(cpu).values())
+    return total
+
+
+def _timed(fn):
+    t0 = time.perf_counter()
+    fn()
+    return time.perf_counter() - t0
+
+
+def _write_section(title, body):
+    """Append a dated section (``## date — title (issue 25)``) to benchmarks/RESULTS.md: the
+    shared writer when there is one, else a plain append (the file merges by union)."""
+    try:
+        from results import write_section  # benchmarks/results.py
+    except ImportError:
+        write_section = None
+    if write_section is not None:
+        try:
+            return write_section(title, body)
+        except TypeError:  # another signature: write plainly
+            pass
+    path = ROOT / "benchmarks" / "RESULTS.md"
+    machine = f"Machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} when it finished."
+    with open(path, "a") as fh:
+        fh.write(f"\n## {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())} — {title} (issue 25)\n\n"
+                 f"{machine}\n\n{body}\n")
 
 
 if __name__ == "__main__":

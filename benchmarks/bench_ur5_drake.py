@@ -21,25 +21,27 @@ Needs the robots extra and pydrake (`pip install -e ".[robots]" drake`).
 """
 import argparse
 import statistics
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-import hybridsim as hs
-from hybridsim.blocks.robot import urdf_path
+sys.path[:0] = [str(Path(__file__).resolve().parents[1]), str(Path(__file__).resolve().parent)]
+import hybridsim as hs  # noqa: E402
+from hybridsim.blocks.robot import urdf_path  # noqa: E402
 
 DIAGRAM = Path(__file__).resolve().parents[1] / "diagrams" / "ur5_press_and_trace.yaml"
 T_END = 2.0
 
 
-def run_hybridsim(step=None, solver=None):
-    """(wall s, t, C-Z force, phase) of the diagram on hybridsim's generic path."""
+def run_hybridsim(step=None, solver=None, fused=False):
+    """(wall s, t, C-Z force, phase) of the diagram on hybridsim's generic (or fused) path."""
     ov = {"step": step} if step else {}
     if solver:
         ov["solver"] = solver
     t0 = time.perf_counter()
-    r = hs.simulate(DIAGRAM, t_end=T_END, **ov)
+    r = hs.simulate(DIAGRAM, t_end=T_END, fused=fused, **ov)
     wall = time.perf_counter() - t0
     return wall, r.t, r["hybrid.F_C"][:, 2], r["phases.phase"][:, 0]
 
@@ -183,10 +185,41 @@ def trace_error(run, ref):
     return float(np.max(np.abs(f[m] - np.interp(t[m], tr, fr))) / 10.0 * 100.0)
 
 
+def quick(repeat):
+    """The fused path against the generic path and Drake at the same methods and step, no converged
+    runs: times (median of ``repeat``), ratios to Drake's RK2 of the same run, and the largest
+    difference of the C-Z force between the fused and the generic path (N, every log row)."""
+    rows = {}
+    for label, fn in (("hybridsim generic, RK4 h = 0.25 ms", lambda: run_hybridsim()),
+                      ("hybridsim fused, RK4 h = 0.25 ms", lambda: run_hybridsim(fused=True)),
+                      ("hybridsim generic, Heun (RK2) h = 0.25 ms", lambda: run_hybridsim(solver="heun")),
+                      ("hybridsim fused, Heun (RK2) h = 0.25 ms", lambda: run_hybridsim(solver="heun", fused=True)),
+                      ("Drake MultibodyPlant, RK2 h = 0.25 ms", lambda: run_drake("runge_kutta2", 2.5e-4))):
+        runs = [fn() for _ in range(repeat)]
+        rows[label] = (statistics.median(r[0] for r in runs), runs[0])
+    drake = rows["Drake MultibodyPlant, RK2 h = 0.25 ms"][0]
+    lines = [f"UR5 press and trace, {T_END:g} s simulated, median of {repeat} (bench_ur5_drake.py --quick)", "",
+             "| run | wall (s) | Drake RK2 / this | real time / wall |", "|---|---|---|---|"]
+    for label, (wall, _) in rows.items():
+        lines.append(f"| {label} | {wall:.2f} | {drake / wall:.2f} | {T_END / wall:.2f} |")
+    for method in ("RK4", "Heun (RK2)"):
+        g = rows[f"hybridsim generic, {method} h = 0.25 ms"][1]
+        f = rows[f"hybridsim fused, {method} h = 0.25 ms"][1]
+        lines.append(f"\nfused vs generic, {method}: largest |C-Z force difference| {np.max(np.abs(f[2] - g[2])):.2g} N")
+    text = "\n".join(lines)
+    print(text)
+    from bench_sweep import _write_section
+
+    _write_section("UR5 press-and-trace: fused and generic paths vs Drake", text)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--quick", action="store_true", help="fused vs generic vs Drake, no converged runs")
     args = ap.parse_args(argv)
+    if args.quick:
+        return quick(args.repeat)
     rows = []
     hs_ref = run_hybridsim(step=2.5e-5)
     dk_ref = run_drake("runge_kutta3", 1e-4, accuracy=1e-9)

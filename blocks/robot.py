@@ -17,6 +17,7 @@ from hybridsim.block import Block
 from hybridsim.errors import ParameterError
 from hybridsim.registry import register
 
+from . import robot_kernels as rk
 from ._util import flag, scalar, vector
 
 GROUP = "robot"  # where `hybridsim blocks` lists this module's blocks
@@ -219,6 +220,9 @@ class RobotArm(_RobotBlock):
             self.declare_continuous_state(2 * n, atol=[1e-10] * n + [1e-8] * n)
             if self.friction:
                 self.event_directions = [0] * n
+        self.params = rk.ArmParams(self.model, self.data, (str(self.path), self.frame_id), n, self.b,
+                                   self.friction, self.stribeck, self.lugre, self.tau_c, self.tau_s, self.v_s,
+                                   self.sigma0, getattr(self, "sigma1", np.zeros(n)), self.band, self.t_stick)
 
     def initial_state(self, u=None):
         return np.concatenate([self.q0, self.qd0] + ([np.zeros(self.n)] if self.lugre else []))
@@ -322,6 +326,7 @@ class RobotKinematics(_RobotBlock):
         self.declare_output("R", 9, depends_on=("q",))
         self.declare_output("twist", 6)
         self.declare_output("J", 6 * n, depends_on=("q",))
+        self.params = rk.KinematicsParams(self.model, self.data, (str(self.path), self.frame_id))
 
     def output(self, t, x, u):
         pin = _pinocchio()
@@ -354,3 +359,8 @@ class GravityTorque(_RobotBlock):
     def output(self, t, x, u):
         pin = _pinocchio()
         return (pin.computeGeneralizedGravity(self.model, self.data, np.asarray(u[0], float)).copy(),)
+
+
+# the fused path's kernels (robot_kernels); the methods above are the generic path's
+RobotArm.kernels = rk.ARM
+RobotKinematics.kernels = rk.KINEMATICS

@@ -22,19 +22,44 @@ from hybridsim.block import Block
 from hybridsim.errors import ParameterError, SimulationError
 from hybridsim.registry import register
 
+from . import robot_kernels as rk
 from ._util import count, flag, scalar, vector
 
 GROUP = "robot"
 
 
+def _pinocchio():
+    """Pinocchio when installed (its exp3 / log3 take about a microsecond, scipy's Rotation
+    a few hundred: the controller converts at every tick), else None."""
+    global _PIN
+    if _PIN is False:
+        try:
+            import pinocchio as pin
+        except ImportError:  # pragma: no cover - the robots extra brings it
+            pin = None
+        _PIN = pin
+    return _PIN
+
+
+_PIN = False
+
+
 def rotation(rotvec):
-    """The rotation matrix of a rotation vector (rad), by scipy."""
+    """The rotation matrix of a rotation vector (rad): Pinocchio's exp3, else scipy's Rotation."""
+    pin = _pinocchio()
+    if pin is not None:
+        return pin.exp3(np.asarray(rotvec, float))
     return Rotation.from_rotvec(np.asarray(rotvec, float)).as_matrix()
 
 
 def rotation_vector(R):
-    """The rotation vector (rad, angle up to pi) of a rotation matrix, by scipy."""
-    return Rotation.from_matrix(np.asarray(R, float).reshape(3, 3)).as_rotvec()
+    """The rotation vector (rad, angle up to pi) of a rotation matrix: Pinocchio's log3, else
+    scipy's Rotation (the two agree to round-off on orthonormal matrices)."""
+    R = np.asarray(R, float).reshape(3, 3)
+    pin = _pinocchio()
+    if pin is not None:
+        return pin.log3(R)
+    return Rotation.from_matrix(R).as_rotvec()
 
 
 def inverse(J, v, lam, name, t):
@@ -140,6 +165,8 @@ class ForceTorqueSensor(Block):
         self.declare_continuous_state(9, atol=[1e-12] * 3 + [1e-10] * 3 + [1e-9] * 3)
         self.init_needs_inputs = True
         self.event_directions = [1]
+        self.params = rk.SensorParams(self.m, tuple(self.K.tolist()), tuple(self.B.tolist()),
+                                      tuple(self.g.tolist()), self.compensate)
 
     def initial_state(self, u=None):
         if self.p0 is not None:
@@ -286,6 +313,8 @@ class PlaneContact(Block):
         self.declare_output("contact", 1, depends_on=("p",))
         self.declare_output("depth", 1, depends_on=("p",))
         self.event_directions = [0]
+        self.params = rk.PlaneParams(tuple(self.point.tolist()), tuple(self.n.tolist()), self.K, self.B, self.mu,
+                                     self.v_s, self.unilateral)
 
     def depth(self, p):
         """Penetration (m) of point ``p`` into the plane: positive inside."""
@@ -397,7 +426,7 @@ class HybridControl6D(Block):
         A = self.axes
         Xe, Xed, Fe = (1 - S) * dX, (1 - S) * dXd, S * (Fd - FC)  # eq 13
         JC = np.vstack([RC.T @ J.reshape(6, n)[:3], RC.T @ J.reshape(6, n)[3:]])[A]
-        qe, qed = self._inverse(t, JC, Xe[A]), self._inverse(t, JC, Xed[A])  # eq 14
+        qe, qed = self._inverse(t, JC, np.column_stack([Xe[A], Xed[A]])).T  # eq 14, one factorization
         tau_e = JC.T @ Fe[A]
         zq = x[:n] + qe * self.period_s
         zf = x[n:2 * n] + np.clip(tau_e, -self.tau_max, self.tau_max) * self.period_s
@@ -550,3 +579,8 @@ class TaskPhases(Block):
 
     def update(self, t, x, u):
         return self._commands(t, x, u)[1]
+
+
+# the fused path's kernels (robot_kernels); the methods above are the generic path's
+ForceTorqueSensor.kernels = rk.SENSOR
+PlaneContact.kernels = rk.PLANE

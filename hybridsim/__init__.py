@@ -26,8 +26,9 @@ from .registry import register
 from . import registry
 from .simulator import Simulator
 from .solvers import RK4, ExplicitRK, Heun, ScipySolver
+from .cvode import CVode
 
-__all__ = ["registry", "Block", "Diagram", "Simulator", "RK4", "Heun", "ExplicitRK", "ScipySolver", "register", "simulate", "load",
+__all__ = ["registry", "Block", "Diagram", "Simulator", "RK4", "Heun", "ExplicitRK", "ScipySolver", "CVode", "register", "simulate", "load",
            "build", "check", "from_control", "run_experiment", "write_outputs", "HybridsimError", "InputError",
            "DiagramError", "LoaderError", "RateError", "ParameterError", "OutputError",
            "CompiledPathError", "PluginError", "SimulationError", "FMUError"]

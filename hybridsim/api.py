@@ -24,6 +24,11 @@ def make_solver(sim):
     name = str(sim.get("solver", "rk4")).lower()
     if name in FIXED_STEP:
         return FIXED_STEP[name](float(sim.get("step", _SIM["step"])))
+    if name == "cvode":
+        from .cvode import CVode
+
+        return CVode(rtol=float(sim.get("rtol", _SIM["rtol"])), atol=sim.get("atol", _SIM["atol"]),
+                     max_step=float(sim.get("max_step", _SIM["max_step"])))
     method = {"radau": "Radau", "bdf": "BDF", "lsoda": "LSODA", "rk45": "RK45",
               "rk23": "RK23", "dop853": "DOP853"}[name]
     atol = sim.get("atol", _SIM["atol"])
@@ -117,7 +122,7 @@ def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
     check_plugin_blocks(system)
     sim = settings["simulation"]
     solver = make_solver(sim)
-    if isinstance(solver, ScipySolver):
+    if not isinstance(solver, tuple(FIXED_STEP.values())):  # scipy and CVODE: per-state tolerances
         solver.atol = _atol_vector(system, sim)
     if log is None:
         log = list(settings["log"]) + list(settings["signals"].values())

@@ -58,6 +58,10 @@ def problems(system, solver, located=None):
                if (b.outputs or b.n_continuous or b.n_discrete) and not has_kernels(b)]
     if missing:
         out.append("these blocks have no kernels (hybridsim.kernels) to compile: " + ", ".join(missing))
+    python = [b.name for b in system.blocks if b.kernels is not None and b.kernels.python_only]
+    if python:
+        out.append("these blocks' kernels call Pinocchio, which numba cannot compile (they run on the "
+                   "fused path): " + ", ".join(python))
     timed = [system.blocks[i].name for i in system.time_events]
     if timed:
         out.append("time events (next_event_time) are not on the compiled path yet: " + ", ".join(timed))
@@ -153,7 +157,7 @@ class CompiledLoop:
         DUE = np.vstack([stops.due, np.zeros((1, D), dtype=bool)])
         record = np.append(stops.record, final_record)
         REC = np.where(record, np.cumsum(record) - 1, -1).astype(np.int64)
-        rows_t = T[record].tolist()
+        rows_t = T[record]
         hits = np.flatnonzero(KIND == 0)
         NEXT = np.zeros(len(T), dtype=np.int64)  # at a hit row: the row of the next hit or the end
         NEXT[hits] = np.append(hits[1:], len(T) - 1)
@@ -503,7 +507,7 @@ def _compile_failure(exc, system):
     """What to tell a user whose kernels numba cannot compile."""
     text = re.sub(r"\x1b\[[0-9;]*m", "", str(exc))  # numba colours its messages
     culprits = sorted({f"{b.name} ({type(b).__name__})" for b in system.blocks if b.kernels is not None
-                       for f in b.kernels if f is not None and f.__name__ in text})
+                       for f in b.kernels if callable(f) and f.__name__ in text})
     lines = [line.strip() for line in text.splitlines() if line.strip()]
     why = ("Untyped global", "Unknown attribute", "Cannot", "not supported", "unsupported", "Invalid use")
     first = next((line for line in lines if any(w in line for w in why)), lines[0] if lines else "")

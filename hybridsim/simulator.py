@@ -331,7 +331,7 @@ class Simulator:
 
     def _result(self, rows_t, rows, ctx, t_end, wall, hits):
         blocks = self.system.blocks
-        data = np.array(rows) if len(rows) else np.zeros((0, 0))
+        data = np.asarray(rows, float) if len(rows) else np.zeros((0, 0))  # the compiled log: no copy
         signals, col = {}, 0
         for ref, (i, o) in zip(self.log_refs, self._log_ports):
             w = blocks[i].outputs[o].width

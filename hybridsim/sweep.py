@@ -45,6 +45,7 @@ from .errors import HybridsimError, InputError, LoaderError
 from .files import atomic_file, locked_output_dir
 from .format.identity import check_sweep
 from .loader import parse_file
+from .sweep_chunks import BATCH_CHUNK, RuntimeCheck, _execute_chunks, run_chunk  # noqa: F401
 
 #: seconds to wait for a Dask scheduler to answer
 DASK_TIMEOUT_S = 10
@@ -117,15 +118,21 @@ class Sweep:
 
         if self._base is None:
             self._base = load(self.diagram, **self.fixed)
+            self._base_values = {}
         f = self._base
+        if ref in self._base_values:  # every point of a scaled axis asks again
+            return self._base_values[ref].copy()
         if "." not in ref:
             if ref not in f.params:
                 raise InputError(f"{self.path}: sweep: no parameter {ref!r} in {self.diagram.name}")
-            return np.asarray(f.params[ref], float)
-        try:
-            return param_value(f, ref)
-        except (KeyError, ValueError, TypeError) as exc:
-            raise InputError(f"{self.path}: sweep: cannot scale {ref!r}: {exc}") from None
+            value = np.asarray(f.params[ref], float)
+        else:
+            try:
+                value = param_value(f, ref)
+            except (KeyError, ValueError, TypeError) as exc:
+                raise InputError(f"{self.path}: sweep: cannot scale {ref!r}: {exc}") from None
+        self._base_values[ref] = value
+        return value.copy()
 
     def points(self):
         """List of dicts: 'params' (what the table shows) and 'overrides' (what runs)."""
@@ -169,6 +176,7 @@ class Sweep:
 
         base = load(self.diagram, **self.fixed)
         check(base)
+        quick = self._quick = RuntimeCheck(base)
         seen = set()
         tries = [(k, v) for k, vals in self.grid.items() for v in vals]
         tries += [(k, (self._base_value(k) * float(v)).tolist()) for k, vals in self.scale.items() for v in vals]
@@ -179,10 +187,24 @@ class Sweep:
             if tag in seen:
                 continue
             seen.add(tag)
+            if quick.accepts(key, value):
+                continue
             try:
                 check(load(self.diagram, **{**self.fixed, key: value}))
             except InputError as exc:
                 raise InputError(f"{self.path}: swept value {key} = {value!r}: {exc}") from None
+
+    def runtime_points(self, pts):
+        """True when every point of ``pts`` changes only run-time parameters of the diagram
+        (then the points of a worker share one built diagram: :func:`run_chunk`)."""
+        from .api import load
+
+        quick = self.__dict__.get("_quick") or RuntimeCheck(load(self.diagram, **self.fixed))
+        self._quick = quick
+        for p in pts:
+            if not all(quick.accepts(k, v) for k, v in p["overrides"].items()):
+                return False
+        return True
 
     def fingerprint(self):
         """A hash of everything a point's numbers depend on besides its own overrides: every file
@@ -286,10 +308,12 @@ def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False,
     true`` in ``set``); the same numbers, so finished points are reused either way.
     ``force``: start afresh when ``outdir`` holds points of a different sweep
     (otherwise that is an :class:`~hybridsim.errors.InputError`).
-    On the compiled path, points that differ only in run-time parameters run
-    as batches of one built diagram on threads (:meth:`Simulator.run_batch`),
-    logging only what the metrics read; ``batch=False`` runs each point on
-    its own instead (the same table).
+    Points that differ only in run-time parameters (block numbers, not a
+    rate, a width or a setting) run in chunks on one built diagram per worker
+    process (:func:`run_chunk`: on the compiled path one compiled loop for
+    every point), logging only what the metrics read, each chunk appended to
+    ``points.jsonl`` as it finishes; ``batch=False`` runs each point on its
+    own instead (the same table).
     Raises InputError before anything runs for a bad sweep file, diagram,
     parameter or value, or a Dask address that does not answer.
     """
@@ -368,12 +392,10 @@ def _run(sw, pts, outdir, jsonl, jobs, dask, progress, use_batch=True):
         bar = tqdm(total=len(pts), initial=len(pts) - len(todo), unit="run", smoothing=0.1, disable=not on_terminal(),
                    desc=sw.path.stem)
     args = (str(sw.diagram), sw.fixed, sw.stability)
-    batch = None
-    if use_batch and sw.fixed.get("simulation.compiled") and not dask and not sw.stability and todo:
-        batch = _batch_plan(sw, todo)
+    batched = use_batch and not sw.stability and bool(todo) and sw.runtime_points(todo)
     try:
-        if batch:
-            for finished in _execute_batch(batch, todo, traces, jobs):
+        if batched:
+            for finished in _execute_chunks(todo, args, traces, jobs, dask):
                 _append_many(jsonl, finished)  # one write and one fsync per chunk
                 done.update(finished)
                 if bar is not None:
@@ -391,67 +413,6 @@ def _run(sw, pts, outdir, jsonl, jobs, dask, progress, use_batch=True):
     write_table(table, outdir)
     heatmaps(table, sw, outdir)
     return table
-
-
-#: points run together by one batch call (and then appended to points.jsonl)
-BATCH_CHUNK = 64
-
-
-def _batch_plan(sw, todo):
-    """Every point as run-time parameters of one built diagram per variant, or None.
-
-    None when some point changes what a run-time parameter cannot (a rate, a
-    width, a simulation setting, a swept variant): then every point runs on
-    its own, as without ``compiled``.
-    """
-    from .api import build, load
-
-    try:
-        f = load(sw.diagram, **{k: v for k, v in sw.fixed.items()})
-        plans = []
-        for label, variant in f.variants():
-            _, settings = f.build(variant)
-            log = None if sw.traces else list(settings["signals"].values())  # what the metrics read
-            system, sim, settings = build(f, variant, log=log)
-            sets = [f.runtime_params(p["overrides"], variant) for p in todo]
-            for params in sets:
-                system.blocks_with(params)  # a change of structure raises here, before anything runs
-            plans.append((label, sim, settings, dict(zip((p["key"] for p in todo), sets))))
-        return plans
-    except (HybridsimError, ValueError, TypeError):
-        return None
-
-
-def _execute_batch(plans, todo, traces, jobs):
-    """Yield ``{key: rows}`` for ``todo``, chunk by chunk, each variant one :meth:`Simulator.run_batch`."""
-    from . import metrics as _metrics
-
-    for c in range(0, len(todo), BATCH_CHUNK):
-        chunk = todo[c:c + BATCH_CHUNK]
-        per_variant = []
-        for label, sim, settings, sets in plans:
-            results = sim.run_batch(settings["simulation"]["t_end"], [sets[p["key"]] for p in chunk],
-                                    workers=jobs)
-            per_variant.append((label, settings, results))
-        finished = {}
-        for k, p in enumerate(chunk):
-            rows = []
-            for label, settings, results in per_variant:
-                r = results[k]
-                if isinstance(r, Exception):
-                    rows = [{"key": p["key"], **p["params"], "variant": "", "status": "failed",
-                             "message": str(r).splitlines()[0], "wall_time_s": 0.0}]
-                    break
-                m = _metrics.compute(r, settings["signals"], settings["metrics"])
-                m["wall_time_s"] = r.meta["wall_time_s"]
-                m = {k2: (None if isinstance(v, float) and not np.isfinite(v) else v) for k2, v in m.items()
-                     if not isinstance(v, (list, dict))}
-                rows.append({"key": p["key"], **p["params"], "variant": label, "status": "ok",
-                             "message": "", **m})
-                if traces:
-                    r.to_csv(Path(traces) / f"{p['key']}{('_' + label) if label else ''}.csv")
-            finished[p["key"]] = rows
-        yield finished
 
 
 def _execute(todo, args, traces, jobs, dask):

@@ -97,3 +97,92 @@ def test_compiled_sweep_gives_the_same_table(sweep_file, tmp_path):
     code = main(["sweep", str(sweep_file), "-o", str(tmp_path / "fast"), "-j", "1", "-q", "--compiled"])
     assert code == 0
     pd.testing.assert_frame_equal(table(tmp_path / "plain" / "sweep.csv"), table(tmp_path / "fast" / "sweep.csv"))
+
+
+RUNTIME = f"""
+diagram: {DIAGRAMS / 'fig7_force_steps.yaml'}
+set: {{force: 5.0, rate: 60, simulation.t_end: 0.7}}
+scale:
+  ctrl.fpi.Kp: [0.5, 1.0, 1.5, 2.0, 2.5]
+grid:
+  Kr: [8.0e5, 9.0e5]
+"""
+
+
+@pytest.fixture
+def runtime_file(tmp_path):
+    p = tmp_path / "rt.yaml"
+    p.write_text(RUNTIME)
+    return p
+
+
+def test_chunked_sweep_gives_the_point_by_point_table(runtime_file, tmp_path, monkeypatch):
+    # every point changes block numbers only: chunks of one built diagram per worker
+    calls = []
+    real = sw.run_point
+    monkeypatch.setattr(sw, "run_point", lambda *a, **k: calls.append(1) or real(*a, **k))
+    sw.run_sweep(runtime_file, tmp_path / "chunks", jobs=1, progress=False)
+    assert calls == []  # no point was run on its own
+    sw.run_sweep(runtime_file, tmp_path / "points", jobs=1, progress=False, batch=False)
+    assert len(calls) == 10
+    sw.run_sweep(runtime_file, tmp_path / "pool", jobs=2, progress=False)
+    ref = table(tmp_path / "points" / "sweep.csv")
+    assert len(ref) == 10 and (ref["status"] == "ok").all()
+    metrics = ref.drop(columns=["key", "ctrl.fpi.Kp*", "Kr", "variant", "status", "message"])
+    assert len(metrics.drop_duplicates()) >= 5  # the points have numbers of their own
+    pd.testing.assert_frame_equal(ref, table(tmp_path / "chunks" / "sweep.csv"))
+    pd.testing.assert_frame_equal(ref, table(tmp_path / "pool" / "sweep.csv"))
+    assert len((tmp_path / "chunks" / "points.jsonl").read_text().splitlines()) == 10
+
+
+def test_chunks_on_dask_give_the_same_table(runtime_file, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    sw.run_sweep(runtime_file, tmp_path / "points", jobs=1, progress=False, batch=False)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        sw.run_sweep(runtime_file, tmp_path / "dask", dask=client, progress=False)
+    pd.testing.assert_frame_equal(table(tmp_path / "points" / "sweep.csv"), table(tmp_path / "dask" / "sweep.csv"))
+
+
+def test_a_point_that_changes_structure_runs_on_its_own(tmp_path, monkeypatch):
+    p = tmp_path / "rate.yaml"
+    p.write_text(f"diagram: {DIAGRAMS / 'fig7_force_steps.yaml'}\n"
+                 "set: {force: 5.0, simulation.t_end: 0.3}\ngrid: {rate: [60, 120]}\n")
+    assert not sw.Sweep(p).runtime_points(sw.Sweep(p).points())  # a rate is the diagram's structure
+    calls = []
+    real = sw.run_point
+    monkeypatch.setattr(sw, "run_point", lambda *a, **k: calls.append(1) or real(*a, **k))
+    rows = sw.run_sweep(p, tmp_path / "o", jobs=1, progress=False)
+    assert len(calls) == 2 and all(r["status"] == "ok" for r in rows)
+
+
+def test_a_bad_swept_value_stops_the_sweep_before_any_run(tmp_path):
+    from hybridsim.errors import InputError
+
+    p = tmp_path / "bad.yaml"
+    p.write_text(f"diagram: {DIAGRAMS / 'fig7_force_steps.yaml'}\n"
+                 "grid: {ctrl.fpi.Kp: [[0.4, 0.3], [0.1, 0.2, 0.3]]}\n")
+    with pytest.raises(InputError, match=r"swept value ctrl.fpi.Kp = \[0.1, 0.2, 0.3\]"):
+        sw.run_sweep(p, tmp_path / "o", jobs=1, progress=False)
+    assert not (tmp_path / "o" / "points.jsonl").exists()
+
+
+@pytest.mark.slow
+def test_compiled_chunks_give_the_point_by_point_table(runtime_file, tmp_path):
+    pytest.importorskip("numba")
+    sw.run_sweep(runtime_file, tmp_path / "points", jobs=1, progress=False, batch=False)
+    sw.run_sweep(runtime_file, tmp_path / "fast", jobs=2, progress=False, compiled=True)
+    pd.testing.assert_frame_equal(table(tmp_path / "points" / "sweep.csv"), table(tmp_path / "fast" / "sweep.csv"))
+
+
+def test_chunked_traces_equal_the_point_by_point_traces(tmp_path):
+    p = tmp_path / "tr.yaml"
+    p.write_text(RUNTIME.replace("[0.5, 1.0, 1.5, 2.0, 2.5]", "[0.5, 2.0]").replace("[8.0e5, 9.0e5]", "[9.0e5]")
+                 + "traces: true\n")
+    sw.run_sweep(p, tmp_path / "chunks", jobs=1, progress=False)
+    sw.run_sweep(p, tmp_path / "points", jobs=1, progress=False, batch=False)
+    a = sorted((tmp_path / "chunks" / "traces").glob("*.csv"))
+    b = sorted((tmp_path / "points" / "traces").glob("*.csv"))
+    assert [x.name for x in a] == [x.name for x in b] and len(a) == 2
+    for x, y in zip(a, b):
+        pd.testing.assert_frame_equal(pd.read_csv(x), pd.read_csv(y))

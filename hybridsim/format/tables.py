@@ -16,7 +16,7 @@ __all__ = ["SIMULATION", "METRICS", "PLOT", "ANALYSIS", "ANALYSIS_STEP", "SWEEP"
            "BLOCK_SETTINGS", "SECTIONS", "SOLVERS", "SIGNAL_ROLES", "keys", "defaults", "check_values", "problems",
            "section_schema", "markdown", "help_text"]
 
-SOLVERS = ["rk4", "heun", "radau", "bdf", "lsoda", "rk45", "rk23", "dop853"]
+SOLVERS = ["rk4", "heun", "radau", "bdf", "lsoda", "rk45", "rk23", "dop853", "cvode"]
 FIXED_STEP_SOLVERS = ("rk4", "heun")
 SIGNAL_ROLES = ["force", "force_desired", "position", "position_desired", "contact",
                 "surface", "hand", "oscillation"]
@@ -39,7 +39,7 @@ _OVERRIDES = MapOf(Kind(), keys=PathText(), what="parameter path")
 
 SIMULATION = [
     Setting("t_end", _TIME, 1.0, "end time of a run"),
-    Setting("solver", Choice(SOLVERS), "rk4", "integrator: fixed-step rk4/heun, or a scipy solve_ivp method"),
+    Setting("solver", Choice(SOLVERS), "rk4", "integrator: fixed-step rk4/heun, a scipy solve_ivp method, or cvode (SUNDIALS BDF)"),
     Setting("step", _TIME, 1e-4, "fixed step of rk4 and heun"),
     Setting("rtol", _POS, 1e-8, "relative tolerance of the scipy solvers"),
     Setting("atol", Either(_POS, ListOf(_POS)), 1e-10,

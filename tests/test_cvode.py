@@ -1,0 +1,166 @@
+"""CVODE (hybridsim.cvode) against closed forms, scipy's stiff solvers and fmpy's CVode.
+
+Oracles: the exponential solution of a stiff linear system (eigenvalues -1 and -1000),
+the bounce times of a ball (t1 = sqrt(2 h0 / g), each later flight 2 e^k t1), and
+fmpy.simulate_fmu with its own CVode on the exported plant FMU (Model Exchange).
+"""
+import math
+
+import numpy as np
+import pytest
+
+import hybridsim as hs
+from hybridsim.cvode import CVode
+from hybridsim.errors import SimulationError
+
+from conftest import ROOT
+
+DIAGRAMS = ROOT / "diagrams"
+
+# x' = A x, x(0) = (1, 0): x1 = 2 e^-t - e^-1000t, x2 = -e^-t + e^-1000t
+A = np.array([[998.0, 1998.0], [-999.0, -1999.0]])
+
+
+def exact(t):
+    t = np.asarray(t, float)
+    return np.stack([2 * np.exp(-t) - np.exp(-1000 * t), -np.exp(-t) + np.exp(-1000 * t)], axis=-1)
+
+
+def test_stiff_linear_system_matches_the_closed_form_and_scipys_stiff_solvers():
+    f = lambda t, x: A @ x  # noqa: E731
+    t_out = np.linspace(0.001, 1.9, 40)
+    got = {}
+    for name, solver in (("cvode", CVode(rtol=1e-10, atol=1e-12)),
+                         ("bdf", hs.ScipySolver("BDF", rtol=1e-10, atol=1e-12)),
+                         ("radau", hs.ScipySolver("Radau", rtol=1e-10, atol=1e-12))):
+        x1, outs = solver.advance(f, 0.0, 2.0, np.array([1.0, 0.0]), t_out)
+        got[name] = np.vstack(outs + [x1])
+    want = np.vstack([exact(t_out), exact(2.0)])
+    for name, x in got.items():
+        assert np.max(np.abs(x - want)) < 1e-8, name
+    assert np.max(np.abs(got["cvode"] - got["radau"])) < 1e-8
+
+
+def test_stiff_system_in_a_diagram_through_the_file_settings():
+    import control
+
+    d = hs.Diagram("stiff")
+    d.add(hs.from_control(control.ss(A, np.zeros((2, 1)), np.eye(2), np.zeros((2, 1))), "plant", x0=[1.0, 0.0]))
+    from hybridsim.blocks.sources import Constant
+
+    d.add(Constant("zero", [0.0]))
+    d.connect("zero.y", "plant.u")
+    res = hs.Simulator(d.build(), CVode(rtol=1e-10, atol=1e-12), log=["plant.y"], log_period=0.01).run(1.0)
+    assert np.max(np.abs(res["plant.y"] - exact(res.t))) < 1e-8
+    assert "CVode(BDF" in res.meta["solver"]
+
+
+def bounce_times(n, h0=1.0, e=0.8, g=9.81):
+    t1 = math.sqrt(2 * h0 / g)
+    return [t1 + sum(2 * e ** k * t1 for k in range(1, m + 1)) for m in range(n)]
+
+
+def test_bouncing_ball_bounces_at_the_closed_form_times():
+    res = hs.simulate(DIAGRAMS / "bouncing_ball.yaml", solver="cvode", rtol=1e-12, atol=1e-12, t_end=3.5)
+    times = [t for t, _ in res.meta["events"]]
+    want = bounce_times(len(times))
+    assert len(times) >= 5
+    assert np.max(np.abs(np.array(times) - want)) < 1e-9
+    # the logged height never goes below the floor: each bounce is a located stop
+    assert res["ball.h"].min() > -1e-9
+
+
+def test_restart_only_switch_is_never_stepped_across():
+    # x' = 1 until x = 0.5, then x' = 0 (a hard stop): the crossing restarts CVODE at it, so
+    # x(1) is 0.5 to round-off; stepped across (no event function) it ends far past it
+    f = lambda t, x: np.array([1.0 if x[0] < 0.5 else 0.0])  # noqa: E731
+    switch = lambda t, x: np.array([x[0] - 0.5])  # noqa: E731
+    x1, _ = CVode(rtol=1e-6, atol=1e-8).advance(f, 0.0, 1.0, np.zeros(1), (), switch)
+    assert abs(x1[0] - 0.5) < 1e-9
+    x1, _ = CVode(rtol=1e-6, atol=1e-8).advance(f, 0.0, 1.0, np.zeros(1), (), None)
+    assert abs(x1[0] - 0.5) > 1e-3
+
+
+def test_a_failing_right_hand_side_is_a_simulation_error():
+    with pytest.raises(SimulationError, match="cvode"):
+        CVode(rtol=1e-8).advance(lambda t, x: np.array([x[0] ** 2 * 1e6]), 0.0, 1.0, np.array([1.0]))
+
+
+@pytest.fixture(scope="module")
+def plant(tmp_path_factory):
+    from hybridsim.fmus.build import build_plant_fmu
+
+    return build_plant_fmu(tmp_path_factory.mktemp("fmu") / "plant.fmu")
+
+
+def open_loop(fmu, rtol, t_end=0.5, tau=(8.0, 20.0)):
+    """The plant FMU (Model Exchange) alone, constant torques: hybridsim with CVODE."""
+    from hybridsim.blocks.sources import Constant
+    from hybridsim.fmu import FMUBlock
+
+    d = hs.Diagram("open_loop")
+    d.add(FMUBlock("plant", path=str(fmu), mode="me", parameters=OPEN_LOOP))
+    for name, value in (("tau", list(tau)), ("xs", [0.5]), ("vs", [0.0])):
+        d.add(Constant(name, value))
+    d.connect("tau.y", "plant.tau")
+    d.connect("xs.y", "plant.x_surface")
+    d.connect("vs.y", "plant.v_surface")
+    # fmpy's CVode: absolute tolerances rtol times the states' nominals (all 1 here)
+    return hs.Simulator(d.build(), CVode(rtol=rtol, atol=rtol), log=["plant.q", "plant.F"],
+                        log_period=0.001).run(t_end)
+
+
+OPEN_LOOP = {"balance": 1, "preload": 10.0, "surface_x0": 0.5}
+
+
+def fmpy_open_loop(fmu, rtol, t_end=0.5, tau=(8.0, 20.0)):
+    import fmpy
+
+    return fmpy.simulate_fmu(str(fmu), fmi_type="ModelExchange", solver="CVode", relative_tolerance=rtol,
+                             stop_time=t_end, output_interval=0.001, output=["q[1]", "q[2]", "F[1]"],
+                             start_values={**OPEN_LOOP, "tau[1]": tau[0], "tau[2]": tau[1]})
+
+
+@pytest.mark.parametrize("rtol", [1e-6, 1e-9])
+def test_plant_me_fmu_matches_fmpys_cvode_within_the_tolerances(plant, rtol):
+    ours, ref = open_loop(plant, rtol), fmpy_open_loop(plant, rtol)
+    # the joint angles agree to a few rtol (both control the local error only); the hand slides
+    # along the surface and joint 2 moves out: a trajectory that is not a rest state
+    assert abs(ours["plant.q[1]"][-1] - ours["plant.q[1]"][0]) > 1e-3
+    for k, name in ((0, "q[1]"), (1, "q[2]")):
+        want = np.interp(ours.t, ref["time"], ref[name])
+        assert np.max(np.abs(ours[f"plant.q[{k}]"] - want)) < 50 * rtol, name
+    assert abs(ours["plant.q[1]"][-1] - ref["q[2]"][-1]) < 50 * rtol
+    # the contact force: 8e5 N/m of wrist spring on a 50-rtol position error
+    f_err = np.abs(ours["plant.F[0]"] - np.interp(ours.t, ref["time"], ref["F[1]"]))
+    assert np.median(f_err) < 8e5 * 50 * rtol
+
+
+def test_fig9_with_the_me_plant_converges_under_cvode_to_the_python_plant(plant):
+    common = dict(fmu=str(plant), rate=120, t_end=0.3, solver="cvode")
+    loose = hs.simulate(DIAGRAMS / "fig9_fmu_me.yaml", rtol=1e-8, **common)
+    tight = hs.simulate(DIAGRAMS / "fig9_fmu_me.yaml", rtol=1e-10, **common)
+    assert tight.meta["solver"].startswith("CVode") and len(tight.meta["events"]) >= 5  # stick-slip
+    cf = tight["ctrl.ft.CF[0]"]
+    assert np.max(np.abs(loose["ctrl.ft.CF[0]"] - cf)) < 1e-2  # measured 8e-4 N
+    # the same plant in Python blocks (its switches restart CVODE): the sampled force, ~37 N at most
+    py = hs.simulate(DIAGRAMS / "fig9_force_and_position.yaml", rate=120, t_end=0.3, solver="cvode", rtol=1e-10)
+    assert np.max(np.abs(py["ctrl.ft.CF[0]"] - cf)) < 5e-2  # measured 1.6e-2 N
+
+
+def test_me_fmu_ball_bounces_at_the_closed_form_times_under_cvode(tmp_path):
+    # tests/data/ball: restitution 0.7, dropped from 1 m, an FMU event (event mode) at each bounce
+    from hybridsim.fmu import FMUBlock, build_fmu
+
+    d = ROOT / "tests" / "data" / "ball"
+    fmu = build_fmu(tmp_path / "ball.fmu", "ball", sorted(d.glob("*.c")), (d / "modelDescription.xml").read_text(), {})
+    diagram = hs.Diagram("ball")
+    diagram.add(FMUBlock("ball", path=str(fmu), mode="me"))
+    res = hs.Simulator(diagram.build(), CVode(rtol=1e-12, atol=1e-12), log=["ball.height"],
+                       log_period=1e-3).run(2.4)
+    bounces = []
+    for t, _ in res.meta["events"]:  # state events: not the stair counter's whole seconds
+        if abs(t - round(t)) > 1e-9 and (not bounces or t - bounces[-1] > 1e-6):
+            bounces.append(t)
+    want = bounce_times(6, e=0.7)
+    assert np.max(np.abs(np.array(bounces[:6]) - want)) < 1e-9
