@@ -210,6 +210,7 @@ class FMUBlock(ModelExchange, Block):
         self.close()
         self._last_discrete = None
         self._held = self._starts.copy()
+        self._sent_state = None  # what the new instance was last given
         self._pending_stop = None
         self._unzipdir = tempfile.mkdtemp(prefix="hybridsim-fmu-")
         try:
@@ -303,7 +304,8 @@ class FMUBlock(ModelExchange, Block):
 
     def __getstate__(self):
         state = dict(self.__dict__)
-        state.update(_fmu=None, _unzipdir=None, _log_key=None, _callbacks=None, _get_der=None)
+        state.update(_fmu=None, _unzipdir=None, _log_key=None, _callbacks=None, _get_der=None,
+                     _sent_state=None, _buffers={})
         return state
 
     def _outputs(self):

@@ -13,6 +13,10 @@ import numpy as np
 from ..errors import FMUError, StopRequest
 
 
+def _raise(exc):
+    raise exc
+
+
 class ModelExchange:
     """The Model Exchange half of :class:`hybridsim.fmu.FMUBlock` (a mixin: it uses the block's
     ``_fmu``, ``_call``, ``_set_inputs``, ``nx``, ``nz`` and ``in_discrete``)."""
@@ -23,6 +27,7 @@ class ModelExchange:
         if self._last_discrete is not None and np.array_equal(values, self._last_discrete):
             return
         self._last_discrete = values.copy()
+        self._sent_state = None  # event mode: set the time and states again after it
         fmu = self._fmu
         self._call(f"enterEventMode at t={t:.9g}", fmu.enterEventMode)
         self._set_inputs(u, only=set(self.in_discrete))
@@ -32,21 +37,49 @@ class ModelExchange:
         self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
 
     def _me_set(self, t, x, u):
-        fmu = self._fmu
-        self._call(f"setTime({t:.9g})", fmu.setTime, t)
-        if self.nx:
-            self._call(f"setContinuousStates at t={t:.9g}", fmu.setContinuousStates,
-                       np.ascontiguousarray(x, dtype=float).ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
+        """Time, continuous states and inputs into the FMU; the time and states only when they
+        differ from the last ones set (a right-hand side sets them for the outputs and again for
+        the derivatives)."""
+        key = (t, np.asarray(x, dtype=float).tobytes())
+        if key != self.__dict__.get("_sent_state"):
+            self._sent_state = None
+            fmu = self._fmu
+            try:
+                fmu.setTime(t)
+            except Exception as exc:  # noqa: BLE001 - the message is built only on failure
+                self._call(f"setTime({t:.9g})", _raise, exc)
+            if self.nx:
+                buf, ptr = self._buffer("x", self.nx)
+                buf[:] = x
+                try:
+                    fmu.setContinuousStates(ptr, self.nx)
+                except Exception as exc:  # noqa: BLE001
+                    self._call(f"setContinuousStates at t={t:.9g}", _raise, exc)
+            self._sent_state = key
         self._set_inputs(u)
+
+    def _buffer(self, name, n):
+        """A float array of ``n`` kept for the FMU calls, and its ctypes pointer."""
+        bufs = self.__dict__.get("_buffers")
+        if bufs is None:
+            bufs = self._buffers = {}
+        got = bufs.get(name)
+        if got is None:
+            buf = np.zeros(n)
+            got = bufs[name] = (buf, buf.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
+        return got
 
     def derivatives(self, t, x, u):
         """The FMU's state derivatives at (t, x, u) (zero for the dummy state)."""
         self._me_set(t, x, u)
-        dx = np.zeros(self.nx)
         if not self.nx:
             return np.zeros(1)  # the dummy state
-        self._call("get derivatives", self._get_der, dx.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nx)
-        return dx
+        dx, ptr = self._buffer("dx", self.nx)
+        try:
+            self._get_der(ptr, self.nx)
+        except Exception as exc:  # noqa: BLE001 - the message is built only on failure
+            self._call("get derivatives", _raise, exc)
+        return dx.copy()
 
     # -- Model Exchange events (FMI 2.0 and 3.0) -----------------------------------
     @property
@@ -85,6 +118,7 @@ class ModelExchange:
         continuous ones if the FMU changed them, back to continuous-time mode."""
         self._me_set(t, x, u)
         fmu = self._fmu
+        self._sent_state = None  # the event may change the FMU's states: set them again after it
         self._call(f"enterEventMode at t={t:.9g}", fmu.enterEventMode)
         changed = self._event_update(t)
         self._call("enterContinuousTimeMode", fmu.enterContinuousTimeMode)
@@ -100,6 +134,9 @@ class ModelExchange:
         if self.mode != "me" or not self.nz:
             return np.zeros(0)
         self._me_set(t, x, u)
-        z = np.zeros(self.nz)
-        self._call("getEventIndicators", self._fmu.getEventIndicators, z.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), self.nz)
-        return z
+        z, ptr = self._buffer("z", self.nz)
+        try:
+            self._fmu.getEventIndicators(ptr, self.nz)
+        except Exception as exc:  # noqa: BLE001 - the message is built only on failure
+            self._call("getEventIndicators", _raise, exc)
+        return z.copy()
