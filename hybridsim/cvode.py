@@ -24,10 +24,12 @@ the solver to use for Model Exchange FMUs.
 import numpy as np
 
 from .errors import SimulationError
-from .solvers import MAX_REPEATS, MAX_RESTARTS
+from .events import MAX_REPEATS
 
 #: internal steps CVODE may take between two requested outputs
 MAX_STEPS = 1_000_000
+#: restarts at switches without actions within one interval (more: the switch chatters)
+MAX_RESTARTS = 10_000
 
 
 class CVode:
@@ -56,12 +58,12 @@ class CVode:
         self.rtol, self.atol, self.max_step, self.method = float(rtol), atol, float(max_step), method
         self.name = "cvode"
 
-    def advance(self, f, t0, t1, x, t_out=(), events=None):
+    def advance(self, f, t0, t1, x, t_out=(), events=None, check=None):
         """Integrate from ``t0`` to ``t1`` restarting at every zero crossing of ``events``;
         returns ``(x, states at t_out)``."""
-        return self.advance_to_event(f, t0, t1, x, t_out, None, None, events)[1::2]
+        return self.advance_to_event(f, t0, t1, x, t_out, None, None, events=events, check=check)[1::2]
 
-    def advance_to_event(self, f, t0, t1, x, t_out, g, directions, events=None):
+    def advance_to_event(self, f, t0, t1, x, t_out, g, directions, events=None, check=None):
         """Like :meth:`advance`, stopping at the first crossing of ``g`` (in ``directions``).
 
         Returns ``(t_stop, x_stop, fired, outs)`` as
@@ -69,7 +71,9 @@ class CVode:
         mask over the functions of ``g``) is None when ``t_stop`` is ``t1``.
         ``events`` (zero crossings without actions) restart CVODE without stopping;
         one that fires more than ``MAX_REPEATS`` times in the interval is stepped
-        over for the rest of it (a solution sliding along the switch).
+        over for the rest of it (a solution sliding along the switch). ``check(t, x)``
+        (the divergence check) sees the state at every point CVODE returns: log times,
+        zero crossings and ``t1``.
         """
         from sksundae.cvode import CVODE
 
@@ -107,6 +111,8 @@ class CVode:
             res = cv.step(target, tstop=t1)
             self._check(res, t)
             t, y = float(np.atleast_1d(res.t)[-1]), np.array(res.y, float).reshape(-1)
+            if check is not None:
+                check(t, y)
             if res.status == 2:  # a root
                 which = np.asarray(res.i_events, float).reshape(-1, n_a + n_r)[-1] != 0
                 while pending and pending[0] <= t:
