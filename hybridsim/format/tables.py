@@ -54,7 +54,8 @@ SIMULATION = [
 ]
 
 METRICS = [
-    Setting("step_time", Number(0, unit="s"), 0.0, "when the force command steps"),
+    Setting("step_time", Number(0, unit="s"), None,
+            "when the force command steps (without it: no rise time or overshoot)"),
     Setting("ss_window", _TIME, 0.5, "the span at the end of a run taken as steady state"),
     Setting("error_window", ListOf(Number(unit="s"), exact=2, increasing=True), None,
             "[t0, t1]: the span of the force tracking error"),
