@@ -70,7 +70,7 @@ def get(name):
         from .errors import InputError
 
         raise InputError(f"environment variable {env_name(name)}={text!r}: give a positive number")
-    return int(value)
+    return max(1, int(value))
 
 
 def raise_hint(name):
@@ -118,6 +118,6 @@ def run_size_problems(t_end, periods, log_period, step=None, log_width=0, solver
         steps = t_end / step
         if steps > get("MAX_STEPS"):
             out.append(f"{solver} step {step:g} s over t_end {t_end:g} s is {steps:.3g} steps; at "
-                       f"most {get('MAX_STEPS'):.3g} are run (that alone would take hours): use a larger step"
+                       f"most {get('MAX_STEPS'):.3g} are run: use a larger step or a shorter t_end"
                        + raise_hint("MAX_STEPS"))
     return out

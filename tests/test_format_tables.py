@@ -199,3 +199,10 @@ def test_fmu_and_robot_parameters_are_checked_from_their_tables(tmp_path, capsys
     schema = diagram_schema()
     fmu = next(b for b in schema["properties"]["blocks"]["additionalProperties"]["anyOf"] if b.get("title") == "fmu")
     assert fmu["properties"]["mode"]["anyOf"][0] == {"enum": ["cs", "me"]}
+
+
+def test_the_metrics_defaults_come_from_the_table(tmp_path):
+    _, settings = api.load(write(tmp_path, GOOD)).build()
+    assert settings["metrics"] == {k: v for k, v in tables.defaults(tables.METRICS).items() if v is not None}
+    _, settings = api.load(write(tmp_path, GOOD + "metrics: {ss_window: 0.1}\n", "e.yaml")).build()
+    assert settings["metrics"]["ss_window"] == 0.1 and settings["metrics"]["filter_cutoff"] == 12.0

@@ -165,6 +165,7 @@ class SettingsMixin:
     def _settings(self, params):
         simr, sim_lines, problems = self._section("simulation", params)
         metrics, _, more = self._section("metrics", params)
+        metrics = {**{k: v for k, v in tables.defaults(tables.METRICS).items() if v is not None}, **metrics}
         problems += more
         plot, _, more = self._section("plot", params)
         problems += more

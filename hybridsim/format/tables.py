@@ -54,7 +54,8 @@ SIMULATION = [
 ]
 
 METRICS = [
-    Setting("step_time", Number(0, unit="s"), 0.0, "when the force command steps"),
+    Setting("step_time", Number(0, unit="s"), None,
+            "when the force command steps (without it: no rise time or overshoot)"),
     Setting("ss_window", _TIME, 0.5, "the span at the end of a run taken as steady state"),
     Setting("error_window", ListOf(Number(unit="s"), exact=2, increasing=True), None,
             "[t0, t1]: the span of the force tracking error"),
@@ -144,7 +145,8 @@ BLOCK_SETTINGS = {
     "fmu": [
         Setting("path", Text(nonempty=True), None, "the .fmu file (relative: to the working folder)", required=True),
         Setting("mode", Choice(["cs", "me"]), "cs", "Co-Simulation (needs rate or period) or Model Exchange"),
-        Setting("parameters", MapOf(Kind()), None, "start values to set, by variable name"),
+        Setting("parameters", Kind(), None, "start values to set: {variable name: value} (checked by the block "
+                                            "against the FMU's variables)"),
         Setting("rate", Number(0, low_open=True, unit="Hz"), None, "sample rate of a Co-Simulation FMU"),
         Setting("period", Number(0, low_open=True, unit="s"), None, "sample period of a Co-Simulation FMU"),
     ],
