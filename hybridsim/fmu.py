@@ -180,6 +180,7 @@ class FMUBlock(Block):
         kind = {"cs": md.coSimulation, "me": md.modelExchange}.get(self.mode, None)
         if self.mode not in ("cs", "me"):
             raise ValueError(f"mode must be 'cs' or 'me', got {mode!r}")
+        self.hidden_state = self.mode == "cs"  # its states live inside the FMU: no linearization reads them
         if kind is None:
             raise FMUError(f"FMU {str(self.path)!r} offers no {'Co-Simulation' if self.mode == 'cs' else 'Model Exchange'}")
         binaries = {p for p in fmpy.supported_platforms(str(self.path))}
