@@ -245,4 +245,7 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    from results import recorded  # benchmarks/results.py: the dated section in RESULTS.md
+
+    with recorded("Fig 9 run time by path (C loop, bare Python, compiled, fused, generic)"):
+        main()

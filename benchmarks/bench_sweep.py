@@ -70,4 +70,7 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    from results import recorded  # benchmarks/results.py: the dated section in RESULTS.md
+
+    with recorded("Sweep executors (serial, local pool, Dask)"):
+        main()
