@@ -21,8 +21,9 @@ import control
 import numpy as np
 
 from . import loader
-from .api import build, load
-from .linearize import Linearization, LinearizationError
+from .api import load
+from .experiment import Experiment
+from .linearize import LinearizationError
 from .lti import hand_modes
 from .registry import default, lookup
 
@@ -48,14 +49,9 @@ def settings_of(f):
 
 
 def linearization(path, at=None, **overrides):
-    """A :class:`Linearization` of a diagram file about its initial state, or
-    about the state reached at ``at`` seconds of simulation."""
-    system, sim, settings = build(path, **overrides)
-    ctx, t = None, 0.0
-    if at:
-        res = sim.run(float(at))
-        ctx, t = res.context, float(at)
-    return Linearization(system, ctx, t)
+    """A :class:`~hybridsim.linearize.Linearization` of a diagram file about its initial state,
+    or about the state reached at ``at`` seconds of simulation."""
+    return Experiment(path, **overrides).linearization(at=at)
 
 
 def param_value(f, ref):
@@ -177,7 +173,10 @@ def margins(L):
 def closed_loop(path, overrides, at=None):
     """A diagram file's closed loop (a :class:`~hybridsim.lti.DiscreteModel` or, nothing sampled,
     a :class:`~hybridsim.lti.ContinuousModel`), or None where it cannot be linearized; about the
-    state reached at ``at`` s of simulation when given (as :func:`linearization`)."""
+    state reached at ``at`` s of simulation when given (as :func:`linearization`). ``path`` may be
+    an :class:`~hybridsim.experiment.Experiment`: ``overrides`` are then changes made to it."""
+    if isinstance(path, Experiment):
+        return path.closed_loop(overrides, at)
     try:
         return linearization(path, at=at, **overrides).closed_loop()
     except LinearizationError:
@@ -200,10 +199,14 @@ def critical_scale(path, base, param, value, lo=1.0, hi=None, tol=0.01, at=None)
     """Scale of ``param`` (relative to ``value``) at the stability boundary.
 
     Found by doubling/halving from 1, then bisection to ``tol`` (relative).
-    Returns None when no boundary lies within 1e-4..1e4.
+    Returns None when no boundary lies within 1e-4..1e4. ``path``: a diagram file (built once
+    with ``base``) or an :class:`~hybridsim.experiment.Experiment` (``base`` already in it);
+    each trial is a run-time change of ``param``.
     """
+    exp = path if isinstance(path, Experiment) else Experiment(path, **base)
+
     def unstable(s):
-        cl = closed_loop(path, {**base, param: (value * s).tolist()}, at)
+        cl = exp.closed_loop({param: (value * s).tolist()}, at)
         return cl is None or not cl.stable
 
     if unstable(lo):  # walk down to a stable scale
@@ -229,12 +232,25 @@ def critical_scale(path, base, param, value, lo=1.0, hi=None, tol=0.01, at=None)
 
 
 def analyze(path, at=None, sweeps=True, **overrides):
-    """Run the whole analysis; returns a dict of plain results (see module doc)."""
-    f = load(path, **overrides)
-    cfg = settings_of(f)
+    """Run the whole analysis; returns a dict of plain results (see module doc).
+
+    ``path``: a diagram file, or an :class:`~hybridsim.experiment.Experiment` (then ``overrides``
+    are changes made to it). The file is parsed and built once with the ``analysis: set`` branch;
+    cases, gain points and the boundary search are run-time parameter changes of that build
+    where they name block parameters; a servo rate or a ``params`` name rebuilds.
+    """
+    if isinstance(path, Experiment):
+        f = path.file
+        cfg = settings_of(f)
+        exp, params = path.changed({**cfg["set"], **overrides})
+        if params:
+            exp = Experiment(exp.path, exp.variant, **{**exp.overrides, **params})
+    else:
+        f = load(path, **overrides)
+        cfg = settings_of(f)
+        exp = Experiment(path, **{**cfg["set"], **overrides})
     at = cfg["at"] if at is None else at
-    base = {**cfg["set"], **overrides}
-    lin = linearization(path, at=at, **base)
+    lin = exp.linearization(at=at)
     cl = lin.closed_loop()
     A, _ = lin.continuous()
     out = {
@@ -267,22 +283,22 @@ def analyze(path, at=None, sweeps=True, **overrides):
         out["_objects"]["loops"][name] = L
     out["cases"] = {}
     for cname, cov in cfg["cases"].items():
-        out["cases"][cname] = _stability_row(closed_loop(path, {**base, **cov}, at), set=cov)
+        out["cases"][cname] = _stability_row(exp.closed_loop(cov, at), set=cov)
     if not sweeps:
         return out
     rp = cfg["rate_param"]
     out["rates"] = []
     if rp in f.params:
         for r in cfg["rates"]:
-            out["rates"].append(_stability_row(closed_loop(path, {**base, rp: r}, at), rate_hz=r))
+            out["rates"].append(_stability_row(exp.closed_loop({rp: r}, at), rate_hz=r))
     out["gains"] = {}
     for gname, ref in cfg["gains"].items():
         value = param_value(f, ref)
         rows = []
         for s in cfg["scales"]:
-            rows.append(_stability_row(closed_loop(path, {**base, ref: (value * s).tolist()}, at), scale=s))
+            rows.append(_stability_row(exp.closed_loop({ref: (value * s).tolist()}, at), scale=s))
         out["gains"][gname] = {"param": ref, "value": value.tolist(), "sweep": rows,
-                               "critical_scale": critical_scale(path, base, ref, value, at=at)}
+                               "critical_scale": critical_scale(exp, {}, ref, value, at=at)}
     return out
 
 

@@ -24,6 +24,7 @@ import numpy as np  # noqa: E402
 
 from . import analysis as an  # noqa: E402
 from .api import build, load  # noqa: E402
+from .experiment import Experiment  # noqa: E402
 from .files import atomic_dir  # noqa: E402
 from .linearize import Linearization, LinearizationError  # noqa: E402
 from .plots import draw_diagram  # noqa: E402
@@ -125,13 +126,12 @@ def bode(loops):
 
 
 def root_locus(path, base, ref, value, scales):
-    """Poles as one gain is scaled; the Appendix A value (scale 1) marked."""
+    """Poles as one gain is scaled; the Appendix A value (scale 1) marked. ``path``: a diagram file
+    (built once with ``base``) or an :class:`~hybridsim.experiment.Experiment`."""
     fig, ax = plt.subplots(figsize=(5.5, 5.5))
-    pts = []
-    for s in scales:
-        system, _, _ = build(path, **{**base, ref: (np.asarray(value) * s).tolist()})
-        pts.append((s, Linearization(system).closed_loop().poles))
-    sampled = Linearization(system).sampled
+    exp = path if isinstance(path, Experiment) else Experiment(path, **base)  # built once; each scale at run time
+    pts = [(s, exp.linearization({ref: (np.asarray(value) * s).tolist()}).closed_loop().poles) for s in scales]
+    sampled = bool(exp.system.schedule.ticks)
     if sampled:
         _unit_circle(ax)
     else:
@@ -140,8 +140,7 @@ def root_locus(path, base, ref, value, scales):
     lo, hi = np.log(scales[0]), np.log(scales[-1])
     for s, p in pts:
         ax.plot(p.real, p.imag, ".", ms=5, color=cmap((np.log(s) - lo) / (hi - lo)))
-    system, _, _ = build(path, **base)
-    p1 = Linearization(system).closed_loop().poles
+    p1 = exp.linearization().closed_loop().poles
     ax.plot(p1.real, p1.imag, "rx", ms=9, mew=2, label=f"{ref} as given")
     sm = plt.cm.ScalarMappable(cmap=cmap, norm=matplotlib.colors.LogNorm(scales[0], scales[-1]))
     fig.colorbar(sm, ax=ax, shrink=0.7, label=f"scale of {ref}")
