@@ -70,7 +70,7 @@ def _find_diagram(path):
     """``path``, or the shipped diagram it names when it does not exist here.
 
     ``diagrams/fig9_force_and_position.yaml`` (or just the file name) then works
-    from any folder, as in the README, with a note saying which file ran.
+    from any folder, as in docs/getting-started.md, with a note saying which file ran.
     """
     p = Path(path)
     if p.exists():
@@ -492,7 +492,7 @@ def build_parser():
 
 
 def main(argv=None):
-    """Run the ``hybridsim`` command with ``argv`` (default: sys.argv); returns the exit status (see README)."""
+    """Run the ``hybridsim`` command with ``argv`` (default: sys.argv); returns the exit status (docs/getting-started.md, "Exit status")."""
     parser = build_parser()
     args = parser.parse_args(argv)
     _show_notes()

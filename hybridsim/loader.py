@@ -1,6 +1,6 @@
 """YAML diagrams: plain data in, a checked Diagram out, errors with file:line.
 
-The format (see README, "Diagram format")::
+The format (see docs/diagram-format.md)::
 
     name: fig9
     params:            # named values; '$name' anywhere below refers to one
