@@ -250,8 +250,10 @@ def analyze(path, at=None, sweeps=True, **overrides):
         cfg = settings_of(f)
         exp = Experiment(path, **{**cfg["set"], **overrides})
     at = cfg["at"] if at is None else at
-    lin = exp.linearization(at=at)
-    cl = lin.closed_loop()
+    cl = exp.closed_loop(at=at)
+    lin = exp.linearization(at=at)  # the one closed_loop used (this experiment unchanged)
+    if cl is None:
+        cl = lin.closed_loop()  # raises the reason it cannot be linearized
     A, _ = lin.continuous()
     out = {
         "diagram": f.name,

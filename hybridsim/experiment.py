@@ -7,6 +7,8 @@ at run time - a fresh context with the block rebuilt
 only a change of structure or rate, or of a ``params`` name the file resolves
 while loading, builds a new experiment. The analysis and the report take one.
 """
+import numpy as np
+
 from .api import build, load
 from .errors import ParameterError
 from .linearize import Linearization, LinearizationError
@@ -29,6 +31,16 @@ class Experiment:
         self.path, self.variant, self.overrides = path, variant, dict(overrides)
         self.file = load(path, **overrides)
         self.system, self.simulator, self.settings = build(self.file, variant)
+        self._at = {}  # at -> (Linearization, closed loop) of this experiment unchanged
+
+    def _unchanged(self, key, value):
+        """Whether ``key = value`` is what this experiment already has (a ``params`` name)."""
+        if key not in self.file.params:
+            return False
+        try:
+            return np.array_equal(np.asarray(value, float), np.asarray(self.file.params[key], float))
+        except (TypeError, ValueError):
+            return value == self.file.params[key]
 
     def split(self, changes):
         """(run-time ``{"block.param": value}``, structural overrides) of ``changes``: a key naming a
@@ -36,7 +48,10 @@ class Experiment:
         params, structural = {}, {}
         for key, value in (changes or {}).items():
             block = str(key).rpartition(".")[0]
-            (params if block in self.system.index else structural)[key] = value
+            if block in self.system.index:
+                params[key] = value
+            elif not self._unchanged(key, value):
+                structural[key] = value
         return params, structural
 
     def changed(self, changes):
@@ -57,17 +72,29 @@ class Experiment:
         """A :class:`~hybridsim.linearize.Linearization` with ``changes`` (run time where they can be)
         about the initial state, or about the state reached at ``at`` s of simulation."""
         exp, params = self.changed(changes)
+        if exp is self and not params and at in self._at:
+            return self._at[at][0]
         try:
             ctx, t = exp.operating_point(params, at)
         except ParameterError:  # a run-time change of structure (a width): build it instead
             exp, params = Experiment(self.path, self.variant, **{**self.overrides, **changes}), {}
             ctx, t = exp.operating_point(None, at)
-        return Linearization(exp.system, ctx, t)
+        lin = Linearization(exp.system, ctx, t)
+        if exp is self and not params:
+            self._at[at] = (lin, None)
+        return lin
 
     def closed_loop(self, changes=None, at=None):
         """The closed loop with ``changes`` (see :meth:`linearization`), or None where it cannot be
         linearized."""
+        exp, params = self.changed(changes)
+        if exp is self and not params and self._at.get(at, (None, None))[1] is not None:
+            return self._at[at][1]  # this experiment unchanged: computed once per operating point
         try:
-            return self.linearization(changes, at).closed_loop()
+            lin = self.linearization(changes, at)
+            cl = lin.closed_loop()
         except LinearizationError:
             return None
+        if exp is self and not params:
+            self._at[at] = (lin, cl)
+        return cl

@@ -91,8 +91,10 @@ def _bode_grid(L):
     return np.logspace(np.log10(2 * np.pi * 0.05), np.log10(top), 600)
 
 
-def bode(loops):
-    """Bode plots of loop transfers (discrete or continuous) with the margins marked."""
+def bode(loops, known=None):
+    """Bode plots of loop transfers (discrete or continuous) with the margins marked; ``known``:
+    {id(L): margins} already computed (:func:`hybridsim.analysis.margins`), the rest are computed."""
+    known = known or {}
     fig, (am, ph) = plt.subplots(2, 1, sharex=True, figsize=(7, 5.5))
     for label, L in loops:
         w = _bode_grid(L)
@@ -104,7 +106,7 @@ def bode(loops):
         with np.errstate(divide="ignore"):  # exact zeros of L (-inf dB) are left out of the curve
             line, = am.semilogx(f, 20 * np.log10(np.abs(resp)), label=label)
         ph.semilogx(f, np.degrees(np.unwrap(np.angle(resp))), color=line.get_color())
-        m = an.margins(L)
+        m = known.get(id(L)) or an.margins(L)
         inside = lambda hz: hz is not None and hz >= 0.05  # noqa: E731
         if inside(m["gain_crossover_hz"]):
             am.plot(m["gain_crossover_hz"], 0, "o", color=line.get_color())
@@ -245,17 +247,22 @@ def write_report(path, outdir, at=None, **overrides):
     compare = {"as printed": {}}
     compare.update(cfg.get("compare") or {})
     data = {"diagram": f.name, "description": f.description, "configurations": []}
-    models, loops = [], []
+    models, loops, known, full = [], [], {}, None
+    main_ov = {**overrides, **variants[0][1]}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for cname, cov in compare.items():
             for vlabel, vov in variants:
                 label = " ".join(x for x in (cname, vlabel) if x)
                 ov = {**overrides, **vov, **cov}
-                res = an.analyze(path, at=at, sweeps=False, **ov)
+                main = full is None and ov == main_ov  # the main configuration: with its sweeps, once
+                res = an.analyze(path, at=at, sweeps=main, **ov)
                 objs = res.pop("_objects")
+                if main:
+                    full = dict(res)
                 models.append((label, objs["closed_loop"]))
                 loops += [(f"{label}: {k}", L) for k, L in objs["loops"].items()]
+                known.update({id(L): res["loops"][k] for k, L in objs["loops"].items()})
                 data["configurations"].append({
                     "label": label, "compare": cname, "variant": vlabel, "set": {**vov, **cov},
                     "growth_label": res["growth_label"], "growth": res["growth"], "stable": res["stable"],
@@ -265,9 +272,9 @@ def write_report(path, outdir, at=None, **overrides):
                     **{f"{k}_{m}": v.get(m) for k, v in res["loops"].items()
                        for m in ("gain_margin_db", "phase_margin_deg")},
                     "poles": res["poles"][:8]})
-        main_ov = {**overrides, **variants[0][1]}
-        full = an.analyze(path, at=at, **main_ov)
-        full.pop("_objects")
+        if full is None:
+            full = an.analyze(path, at=at, **main_ov)
+            full.pop("_objects")
         data["analysis"] = full
     base = {**cfg["set"], **main_ov}
     figures = {}
@@ -277,7 +284,7 @@ def write_report(path, outdir, at=None, **overrides):
         for point in cfg["points"]:
             mine = [(lab.rsplit(": ", 1)[0], L) for lab, L in loops if lab.endswith(f": {point}")]
             if mine:
-                fig = bode(mine)
+                fig = bode(mine, known)
                 fig.suptitle(f"loop opened at {point} ({cfg['points'][point]})", fontsize=9)
                 _save(fig, f"bode_{point}", tmp, figures)
         _save(pole_map(models), "poles", tmp, figures)

@@ -24,6 +24,8 @@ def test_changes_split_into_run_time_and_structural(exp):
     assert structural == {"rate": 80, "friction": True}  # names the file resolves while loading
     same, p = exp.changed({"ctrl.fpi.Kp": [1, 1]})
     assert same is exp and p == {"ctrl.fpi.Kp": [1, 1]}
+    same, p = exp.changed({"rate": exp.file.params["rate"]})  # the value it has: no rebuild
+    assert same is exp and p == {}
     other, p = exp.changed({"rate": 80, "ctrl.fpi.Kp": [1, 1]})
     assert other is not exp and other.overrides == {"friction": False, "rate": 80} and p == {"ctrl.fpi.Kp": [1, 1]}
 
