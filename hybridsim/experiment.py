@@ -11,7 +11,7 @@ import numpy as np
 
 from .api import build, load
 from .errors import ParameterError
-from .linearize import Linearization, LinearizationError
+from .linearize import Linearization, LinearizationError, start_outputs
 
 
 class Experiment:
@@ -63,10 +63,15 @@ class Experiment:
         return Experiment(self.path, self.variant, **{**self.overrides, **structural}), params
 
     def operating_point(self, params=None, at=None):
-        """(context, t): the initial state with ``params``, or the state after ``at`` s of simulation."""
+        """(context, t): the initial state with ``params`` (None: the system's own, started by the
+        linearization), or the state after ``at`` s of simulation."""
         if at:
             return self.simulator.run(float(at), params=params or None).context, float(at)
-        return self.system.create_context(params or None), 0.0
+        if not params:
+            return None, 0.0  # Linearization starts a fresh context itself
+        ctx = self.system.create_context(params)
+        start_outputs(self.system, ctx)
+        return ctx, 0.0
 
     def linearization(self, changes=None, at=None):
         """A :class:`~hybridsim.linearize.Linearization` with ``changes`` (run time where they can be)

@@ -79,6 +79,14 @@ def checked_jacobian(fun, x0, steps):
     return J2, float(np.max(np.abs(J2 - J1)) / max(np.max(np.abs(J2)), 1e-300))
 
 
+def start_outputs(system, ctx, t=0.0):
+    """Compute a fresh context's outputs as a run's first hit does (before any update), so the
+    held values - constants, the controller's first output - are those of the operating point."""
+    sched = system.schedule
+    due = {system.discrete[j] for j in sched.due(0)} if sched.ticks else set()
+    system.plan.outputs(ctx, t, ctx.xc, due)
+
+
 class Linearization:
     """Linear models of a system about the state held in ``context`` at time ``t``.
 
@@ -87,7 +95,8 @@ class Linearization:
     system : System
     context : Context, optional
         The operating point (default: the system's initial state, which the
-        shipped diagrams set to a static equilibrium).
+        shipped diagrams set to a static equilibrium, with the outputs of a
+        run's first hit: see :func:`start_outputs`).
     t : float
         Time at which time-varying sources are frozen.
     rel_step : float
@@ -96,8 +105,11 @@ class Linearization:
 
     def __init__(self, system, context=None, t=0.0, rel_step=1e-6):
         self.system = system
+        fresh = context is None
         self.ctx = context or system.create_context()
         self.t = float(t)
+        if fresh:
+            start_outputs(system, self.ctx, self.t)
         self.rel_step = rel_step
         sysm = system
         self.n_x = sysm.n_x

@@ -105,3 +105,21 @@ def test_the_generic_controller_has_the_fig6_controllers_linear_loop():
             assert (a is None and b is None) or b == pytest.approx(a, rel=1e-4, abs=1e-6), (loop, key)
     for case in ("friction_stuck", "limiter_saturated"):
         assert generic["cases"][case]["spectral_radius"] == pytest.approx(paper["cases"][case]["spectral_radius"], rel=1e-6)
+
+
+@pytest.mark.slow
+def test_the_model_exchange_fmu_plant_has_the_python_plants_linear_loop(plant_fmu):
+    """Fig 9 with the plant as a Model Exchange FMU and with the Python plant: the same closed loop.
+    (The linearization once took a fresh context's held values as zeros - the FMU's surface position
+    input among them - and put the FMU's hand half a metre into the surface.)"""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        paper = an.analyze(DIAGRAMS / "fig9_force_and_position.yaml", sweeps=False)
+        fmu = an.analyze(DIAGRAMS / "fig9_fmu_me.yaml", sweeps=False, fmu=str(plant_fmu))
+    assert fmu["growth"] == pytest.approx(paper["growth"], rel=1e-6)
+    for loop in ("force", "position"):
+        for key in ("gain_margin_db", "phase_margin_deg"):
+            a, b = paper["loops"][loop][key], fmu["loops"][loop][key]
+            assert (a is None and b is None) or b == pytest.approx(a, rel=1e-4, abs=1e-6), (loop, key)
+    for case in ("friction_stuck", "limiter_saturated"):
+        assert fmu["cases"][case]["spectral_radius"] == pytest.approx(paper["cases"][case]["spectral_radius"], rel=1e-6)
