@@ -30,7 +30,8 @@ def test_changes_split_into_run_time_and_structural(exp):
     assert other is not exp and other.overrides == {"friction": False, "rate": 80} and p == {"ctrl.fpi.Kp": [1, 1]}
 
 
-@pytest.mark.parametrize("scale, at", [(0.5, None), (4.0, None), (2.0, 0.1)])
+@pytest.mark.parametrize("scale, at", [(0.5, None), pytest.param(4.0, None, marks=pytest.mark.slow),
+                                       pytest.param(2.0, 0.1, marks=pytest.mark.slow)])
 def test_a_run_time_gain_change_is_the_rebuilt_diagrams_loop(exp, scale, at):
     """The same closed loop as re-parsing the file with the gain set (the reference), about the
     initial state and about the state reached at 0.1 s."""
@@ -46,6 +47,7 @@ def test_a_change_of_width_is_refused_as_a_rebuild_would(exp):
         exp.closed_loop({"ctrl.fpi.Kp": [1.0, 2.0, 3.0]})
 
 
+@pytest.mark.slow
 def test_analyze_takes_an_experiment():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
