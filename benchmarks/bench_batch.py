@@ -83,4 +83,7 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    from results import recorded  # benchmarks/results.py: the dated section in RESULTS.md
+
+    with recorded("Sweep throughput: single runs, batched runs, process pool (Fig 9)"):
+        main()

@@ -187,7 +187,7 @@ def main():
     ap.add_argument("--t-end", type=float, default=4.0)
     args = ap.parse_args()
     print(f"Fig 9, {args.t_end} s simulated, friction on, logged at the ticks, median of {args.repeat}\n")
-    h = 2.78e-4  # accurate enough for the targets (README: 0.11 N, 1.7e-4 mm over 0-0.25 s)
+    h = 2.78e-4  # accurate enough for the targets (docs/semantics.md, "Accuracy")
     import os
     import tempfile
 
@@ -245,4 +245,7 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    from results import recorded  # benchmarks/results.py: the dated section in RESULTS.md
+
+    with recorded("Fig 9 run time by path (C loop, bare Python, compiled, fused, generic)"):
+        main()

@@ -151,4 +151,7 @@ def _write_section(title, body):
 
 
 if __name__ == "__main__":
-    main()
+    from results import recorded  # benchmarks/results.py: the dated section in RESULTS.md
+
+    with recorded("Sweep executors (serial, local pool, Dask)"):
+        main()

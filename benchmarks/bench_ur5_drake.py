@@ -242,4 +242,7 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    main()
+    from results import recorded  # benchmarks/results.py: the dated section in RESULTS.md
+
+    with recorded("UR5 press and trace: hybridsim beside Drake"):
+        main()

@@ -15,15 +15,15 @@ Reads an optional ``analysis`` section of the diagram::
 Every entry has a default; all results are plain data (numbers, lists) plus
 python-control objects, so plotting and computing stay separate.
 """
-import copy
 
 import control
 import numpy as np
 
 from .format import tables
-from .format.settings import horizon_problems
-from .api import build, load
-from .linearize import Linearization, LinearizationError, hand_modes
+from .api import load
+from .experiment import Experiment
+from .linearize import LinearizationError
+from .lti import hand_modes
 
 DEFAULTS = {k: v for k, v in tables.defaults(tables.ANALYSIS).items() if k not in ("compare", "step")}
 KEYS = tables.keys(tables.ANALYSIS)  # the table checks the section; "compare" and "step" are read by hybridsim.report
@@ -37,19 +37,9 @@ def settings_of(f):
 
 
 def linearization(path, at=None, **overrides):
-    """A :class:`Linearization` of a diagram file about its initial state, or
-    about the state reached at ``at`` seconds of simulation."""
-    system, sim, settings = build(path, **overrides)
-    ctx, t = None, 0.0
-    if at:
-        why = horizon_problems(system.blocks, settings["simulation"], at, 0, "linearize at")
-        if why:
-            from .errors import InputError
-
-            raise InputError(f"{path}: " + "; ".join(why))
-        res = sim.run(float(at))
-        ctx, t = res.context, float(at)
-    return Linearization(system, ctx, t)
+    """A :class:`~hybridsim.linearize.Linearization` of a diagram file about its initial state,
+    or about the state reached at ``at`` seconds of simulation."""
+    return Experiment(path, **overrides).linearization(at=at)
 
 
 def param_value(f, ref):
@@ -89,12 +79,13 @@ def _grid_margins(L, n=20000):
     def at(x):
         return _response(L, x)
 
-    def root(f, a, b):  # bisection of a sign change of f on [a, b]
+    def root(f, a, b):  # bisection of a sign change of f on [a, b], to 1e-12 relative
         fa = f(a)
-        for _ in range(60):
+        while b - a > 1e-12 * b:
             m = 0.5 * (a + b)
-            if np.sign(f(m)) == np.sign(fa):
-                a, fa = m, f(m)
+            fm = f(m)
+            if np.sign(fm) == np.sign(fa):
+                a, fa = m, fm
             else:
                 b = m
         return 0.5 * (a + b)
@@ -144,24 +135,44 @@ def margins(L):
     }
 
 
-def largest_abs_z(path, overrides, at=None):
-    """Largest ``|z|`` (besides z = 1) of a diagram file's closed loop, or None; about the state
-    reached at ``at`` s of simulation when given (as :func:`linearization`)."""
+def closed_loop(path, overrides, at=None):
+    """A diagram file's closed loop (a :class:`~hybridsim.lti.DiscreteModel` or, nothing sampled,
+    a :class:`~hybridsim.lti.ContinuousModel`), or None where it cannot be linearized; about the
+    state reached at ``at`` s of simulation when given (as :func:`linearization`). ``path`` may be
+    an :class:`~hybridsim.experiment.Experiment`: ``overrides`` are then changes made to it."""
+    if isinstance(path, Experiment):
+        return path.closed_loop(overrides, at)
     try:
-        return linearization(path, at=at, **overrides).closed_loop().growth
+        return linearization(path, at=at, **overrides).closed_loop()
     except (LinearizationError, np.linalg.LinAlgError):  # no finite model there (e.g. expm overflowed): no verdict
         return None
+
+
+def largest_abs_z(path, overrides, at=None):
+    """The closed loop's growth - largest ``|z|`` besides z = 1 (sampled), largest Re s besides
+    s = 0 (nothing sampled) - or None (see :func:`closed_loop`)."""
+    cl = closed_loop(path, overrides, at)
+    return None if cl is None else cl.growth
+
+
+def _stability_row(cl, **key):
+    """One row of a sweep: the growth and whether the loop is stable (None: not linearizable)."""
+    return {**key, "spectral_radius": None if cl is None else cl.growth, "stable": cl is not None and cl.stable}
 
 
 def critical_scale(path, base, param, value, lo=1.0, hi=None, tol=0.01, at=None):
     """Scale of ``param`` (relative to ``value``) at the stability boundary.
 
     Found by doubling/halving from 1, then bisection to ``tol`` (relative).
-    Returns None when no boundary lies within 1e-4..1e4.
+    Returns None when no boundary lies within 1e-4..1e4. ``path``: a diagram file (built once
+    with ``base``) or an :class:`~hybridsim.experiment.Experiment` (``base`` already in it);
+    each trial is a run-time change of ``param``.
     """
+    exp = path if isinstance(path, Experiment) else Experiment(path, **base)
+
     def unstable(s):
-        r = largest_abs_z(path, {**base, param: (value * s).tolist()}, at)
-        return r is None or r >= 1.0
+        cl = exp.closed_loop({param: (value * s).tolist()}, at)
+        return cl is None or not cl.stable
 
     if unstable(lo):  # walk down to a stable scale
         while True:
@@ -186,21 +197,39 @@ def critical_scale(path, base, param, value, lo=1.0, hi=None, tol=0.01, at=None)
 
 
 def analyze(path, at=None, sweeps=True, **overrides):
-    """Run the whole analysis; returns a dict of plain results (see module doc)."""
-    f = load(path, **overrides)
-    cfg = settings_of(f)
+    """Run the whole analysis; returns a dict of plain results (see module doc).
+
+    ``path``: a diagram file, or an :class:`~hybridsim.experiment.Experiment` (then ``overrides``
+    are changes made to it). The file is parsed and built once with the ``analysis: set`` branch;
+    cases, gain points and the boundary search are run-time parameter changes of that build
+    where they name block parameters; a servo rate or a ``params`` name rebuilds.
+    """
+    if isinstance(path, Experiment):
+        f = path.file
+        cfg = settings_of(f)
+        exp, params = path.changed({**cfg["set"], **overrides})
+        if params:
+            exp = Experiment(exp.path, exp.variant, **{**exp.overrides, **params})
+    else:
+        f = load(path, **overrides)
+        cfg = settings_of(f)
+        exp = Experiment(path, **{**cfg["set"], **overrides})
     at = cfg["at"] if at is None else at
-    base = {**cfg["set"], **overrides}
-    lin = linearization(path, at=at, **base)
-    cl = lin.closed_loop()
+    cl = exp.closed_loop(at=at)
+    lin = exp.linearization(at=at)  # the one closed_loop used (this experiment unchanged)
+    if cl is None:
+        cl = lin.closed_loop()  # raises the reason it cannot be linearized
     A, _ = lin.continuous()
     out = {
         "diagram": f.name,
         "branch": cfg["set"],
+        "domain": cl.domain,
+        "growth_label": cl.growth_label,
         "period_s": cl.period,
-        "poles": [{"re": float(r["z"].real), "im": float(r["z"].imag), "abs": r["abs"],
+        "poles": [{"re": float(r["pole"].real), "im": float(r["pole"].imag), "abs": r["abs"],
                    "freq_hz": r["freq_hz"], "damping": r["damping"]} for r in cl.pole_table()],
-        "spectral_radius": cl.spectral_radius,
+        "spectral_radius": cl.spectral_radius if cl.period else None,
+        "spectral_abscissa": None if cl.period else cl.spectral_abscissa,
         "growth": cl.growth,
         "integrator_modes": cl.integrator_modes,
         "stable": cl.stable,
@@ -221,40 +250,36 @@ def analyze(path, at=None, sweeps=True, **overrides):
         out["_objects"]["loops"][name] = L
     out["cases"] = {}
     for cname, cov in cfg["cases"].items():
-        rho = largest_abs_z(path, {**base, **cov}, at)
-        out["cases"][cname] = {"set": cov, "spectral_radius": rho, "stable": rho is not None and rho < 1}
+        out["cases"][cname] = _stability_row(exp.closed_loop(cov, at), set=cov)
     if not sweeps:
         return out
     rp = cfg["rate_param"]
     out["rates"] = []
     if rp in f.params:
         for r in cfg["rates"]:
-            rho = largest_abs_z(path, {**base, rp: r}, at)
-            out["rates"].append({"rate_hz": r, "spectral_radius": rho, "stable": rho is not None and rho < 1})
+            out["rates"].append(_stability_row(exp.closed_loop({rp: r}, at), rate_hz=r))
     out["gains"] = {}
     for gname, ref in cfg["gains"].items():
         value = param_value(f, ref)
         rows = []
         for s in cfg["scales"]:
-            rho = largest_abs_z(path, {**base, ref: (value * s).tolist()}, at)
-            rows.append({"scale": s, "spectral_radius": rho, "stable": rho is not None and rho < 1})
+            rows.append(_stability_row(exp.closed_loop({ref: (value * s).tolist()}, at), scale=s))
         out["gains"][gname] = {"param": ref, "value": value.tolist(), "sweep": rows,
-                               "critical_scale": critical_scale(path, base, ref, value, at=at)}
+                               "critical_scale": critical_scale(exp, {}, ref, value, at=at)}
     return out
-
-
-def _z(value, digits):
-    """A largest |z| for people; 'n/a' where no finite model was found."""
-    return "n/a" if value is None else f"{value:.{digits}f}"
 
 
 def summary_lines(res):
     """Human-readable lines for the terminal."""
-    lines = [f"{res['diagram']}: closed loop at period {res['period_s'] * 1000:.3f} ms "
-             f"(branch {res['branch'] or 'as built'})",
-             f"  largest |z| {res['growth']:.4f} (besides {res['integrator_modes']} undriven "
-             f"integrator pole(s) at z = 1) -> {'STABLE' if res['stable'] else 'NOT STABLE'}"]
-    lines.append("  dominant poles:   |z|      f (Hz)   damping")
+    sampled = res.get("domain", "discrete") == "discrete"
+    g = res.get("growth_label", "largest |z|")
+    at_one = "z = 1" if sampled else "s = 0"
+    head = (f"closed loop at period {res['period_s'] * 1000:.3f} ms" if sampled
+            else "continuous closed loop (nothing is sampled)")
+    lines = [f"{res['diagram']}: {head} (branch {res['branch'] or 'as built'})",
+             f"  {g} {res['growth']:{'.4f' if sampled else '.4g'}} (besides {res['integrator_modes']} undriven "
+             f"integrator pole(s) at {at_one}) -> {'STABLE' if res['stable'] else 'NOT STABLE'}"]
+    lines.append("  dominant poles:   " + ("|z|      f (Hz)   damping" if sampled else "|s|      f (Hz)   damping"))
     seen = 0
     for p in res["poles"]:
         if p["freq_hz"] is None or seen >= 6:
@@ -271,14 +296,19 @@ def summary_lines(res):
         pm = "inf" if m["phase_margin_deg"] is None else f"{m['phase_margin_deg']:.1f} deg"
         lines.append(f"  loop {name} ({m['signal']}): gain margin {gm}, phase margin {pm}")
     for cname, c in res.get("cases", {}).items():
-        lines.append(f"  case {cname} {c['set']}: largest |z| {_z(c['spectral_radius'], 4)}"
+        lines.append(f"  case {cname} {c['set']}: {g} {_num(c['spectral_radius'])}"
                      f" ({'stable' if c['stable'] else 'not stable'})")
     if res.get("rates"):
         lines.append("  servo rate (Hz): " + "  ".join(
-            f"{r['rate_hz']}:{_z(r['spectral_radius'], 3)}{'' if r['stable'] else '!'}" for r in res["rates"]))
-    for g, d in res.get("gains", {}).items():
+            f"{r['rate_hz']}:{_num(r['spectral_radius'], 3)}{'' if r['stable'] else '!'}" for r in res["rates"]))
+    for name, d in res.get("gains", {}).items():
         cs = d["critical_scale"]
-        lines.append(f"  {g} ({d['param']}): unstable from x{cs:.3g}" if cs else
-                     f"  {g} ({d['param']}): no stability boundary found in x1e-4..x1e4")
-    lines.append("  (numbers are the largest |z| over one period besides z = 1; ! = not stable)")
+        lines.append(f"  {name} ({d['param']}): unstable from x{cs:.3g}" if cs else
+                     f"  {name} ({d['param']}): no stability boundary found in x1e-4..x1e4")
+    lines.append(f"  (numbers are the {g}{' over one period' if sampled else ''} besides {at_one}; ! = not stable)")
     return lines
+
+
+def _num(v, digits=4):
+    """A number for the summary, or 'n/a' where the loop could not be linearized."""
+    return "n/a" if v is None else f"{v:.{digits}f}"

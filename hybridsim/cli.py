@@ -71,7 +71,7 @@ def _find_diagram(path):
     """``path``, or the shipped diagram it names when it does not exist here.
 
     ``diagrams/fig9_force_and_position.yaml`` (or just the file name) then works
-    from any folder, as in the README, with a note saying which file ran.
+    from any folder, as in docs/getting-started.md, with a note saying which file ran.
     """
     p = Path(path)
     if p.exists():
@@ -196,7 +196,7 @@ def cmd_report(args):
     print(f"analysing {f.name} ...", file=sys.stderr)
     data = write_report(f.path, out, at=args.at, **_overrides(args.set))
     for c in data["configurations"]:
-        print(f"  {c['label'] or f.name}: largest |z| {c['growth']:.4f} "
+        print(f"  {c['label'] or f.name}: {c.get('growth_label', 'largest |z|')} {c['growth']:.4g} "
               f"({'stable' if c['stable'] else 'not stable'}), least damping {_num(c['least_damping'])}")
     print(f"wrote {out}/report.html (+ PNG and SVG figures, analysis.json)")
     return 0
@@ -450,7 +450,7 @@ def build_parser():
     r.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     r.add_argument("--compiled", action="store_true",
                    help="run the whole loop compiled with numba (RK4; every block needs kernels). "
-                        "The first run of a diagram compiles for 10-15 s, later runs load it "
+                        "The first run of a diagram compiles it, later runs load it "
                         "from the cache ($HYBRIDSIM_CACHE or ~/.cache/hybridsim)")
     r.set_defaults(func=cmd_run)
     c = sub.add_parser("check", help="validate a diagram without running it")
@@ -489,8 +489,7 @@ def build_parser():
     rr.add_argument("-j", "--jobs", type=_jobs, help="parallel processes (default: one per core)")
     rr.add_argument("--compiled", action="store_true",
                     help="every simulation on the compiled path (numba): the first time compiles "
-                         "each diagram structure it uses (about 5 minutes in all on 2 cores), later "
-                         "runs take about half a minute")
+                         "each diagram structure it uses, later runs load them from the cache")
     rr.add_argument("--quick", action="store_true",
                     help="eq 18 only, one damping trial, no sensitivities: a smoke test in seconds")
     rr.add_argument("--joint-search", type=_count, metavar="N",
@@ -621,7 +620,7 @@ def _origin(exc):
 
 
 def main(argv=None):
-    """Run the ``hybridsim`` command with ``argv`` (default: sys.argv); returns the exit status (see README)."""
+    """Run the ``hybridsim`` command with ``argv`` (default: sys.argv); returns the exit status (docs/getting-started.md, "Exit status")."""
     parser = build_parser()
     args = parser.parse_args(argv)
     _show_notes()

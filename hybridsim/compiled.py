@@ -230,7 +230,7 @@ EVENT_CODE = 10**9
 
 def _logs_between_hits(system, log_period):
     """True when some log point of ``log_period`` falls between sample hits (then the
-    module needs the dense-output step, which costs 1.5-2 s of compiling)."""
+    module needs the dense-output step, which adds to the compile time)."""
     from .block import to_period
     from .schedule import Schedule
 
@@ -564,7 +564,7 @@ def _njit(source):
 
 def _inline(f):
     """How numba takes kernel ``f``: inlined when it works on floats and tuples (the plant's
-    kernels, called on every stage: inlined they run 3x faster), called when it works on numpy
+    kernels, called on every stage: inlined they run several times faster), called when it works on numpy
     arrays (controllers, gains: their inlining dominated the compile time, and they run once a hit)."""
     try:
         text = inspect.getsource(f)
@@ -589,8 +589,7 @@ def _load(source, env, name):
     try:
         folder.mkdir(parents=True, exist_ok=True)
         if not path.exists():
-            log.info("compiling %r with numba: its first run takes 10-20 s, later runs load it "
-                     "from %s", name, folder)
+            log.info("compiling %r with numba (once: later runs load it from %s)", name, folder)
             tmp = path.with_suffix(f".{os.getpid()}.tmp")
             tmp.write_text(source)
             os.replace(tmp, path)

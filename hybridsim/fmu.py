@@ -85,6 +85,7 @@ class FMUBlock(ModelExchange, Block):
                 md.coSimulation or md.modelExchange):
             raise FMUError(f"FMU {str(self.path)!r} is a Scheduled Execution FMU (FMI 3.0): hybridsim runs "
                            "Co-Simulation and Model Exchange FMUs, not Scheduled Execution")
+        self.hidden_state = self.mode == "cs"  # its states live inside the FMU: no linearization reads them
         if kind is None:
             raise FMUError(f"FMU {str(self.path)!r} offers no {'Co-Simulation' if self.mode == 'cs' else 'Model Exchange'}")
         binaries = {p for p in fmpy.supported_platforms(str(self.path))}

@@ -26,6 +26,11 @@ hits by an external input ``v`` and measure the value the diagram computes
 there, ``y``; the loop transfer is ``L = -y/v`` (negative-feedback convention,
 closed loop ``1/(1+L)``), a discrete python-control system at the servo period.
 
+A diagram with nothing sampled is linearized as the continuous system it is:
+the closed loop is ``xc' = A xc`` (poles in the s-plane), and a loop opened at
+any signal the right-hand side computes is a continuous ``L(s)``, with the same
+sign convention.
+
 Time-varying sources are frozen at the operating time; the nonsmooth blocks
 (friction, contact, limiters) are linearized on the branch the operating point
 lies on - choose the branch with parameter overrides (e.g. ``arm.friction``).
@@ -37,6 +42,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from .errors import InputError
+from .lti import ContinuousModel, DiscreteModel, hand_modes  # noqa: F401 (re-exported)
 from .result import parse_signal
 
 
@@ -73,6 +79,14 @@ def checked_jacobian(fun, x0, steps):
     return J2, float(np.max(np.abs(J2 - J1)) / max(np.max(np.abs(J2)), 1e-300))
 
 
+def start_outputs(system, ctx, t=0.0):
+    """Compute a fresh context's outputs as a run's first hit does (before any update), so the
+    held values - constants, the controller's first output - are those of the operating point."""
+    sched = system.schedule
+    due = {system.discrete[j] for j in sched.due(0)} if sched.ticks else set()
+    system.plan.outputs(ctx, t, ctx.xc, due)
+
+
 class Linearization:
     """Linear models of a system about the state held in ``context`` at time ``t``.
 
@@ -81,7 +95,8 @@ class Linearization:
     system : System
     context : Context, optional
         The operating point (default: the system's initial state, which the
-        shipped diagrams set to a static equilibrium).
+        shipped diagrams set to a static equilibrium, with the outputs of a
+        run's first hit: see :func:`start_outputs`).
     t : float
         Time at which time-varying sources are frozen.
     rel_step : float
@@ -90,8 +105,11 @@ class Linearization:
 
     def __init__(self, system, context=None, t=0.0, rel_step=1e-6):
         self.system = system
+        fresh = context is None
         self.ctx = context or system.create_context()
         self.t = float(t)
+        if fresh:
+            start_outputs(system, self.ctx, self.t)
         self.rel_step = rel_step
         sysm = system
         self.n_x = sysm.n_x
@@ -100,6 +118,12 @@ class Linearization:
         self.yd_ports = [(i, o) for i in self.disc for o in range(len(sysm.blocks[i].outputs))]
         self.h_ports = sysm.plan.held_ports()
         self.fd_error = 0.0
+        hidden = [b.name for b in sysm.blocks if getattr(b, "hidden_state", False)]
+        if hidden:
+            raise LinearizationError(
+                f"block(s) {', '.join(map(repr, hidden))} keep their state inside (a Co-Simulation FMU), "
+                "where no linearization can reach it; linearize the same model with its states in the "
+                "diagram (a Model Exchange FMU, or the blocks themselves)")
         self._save()
 
     # -- packing -----------------------------------------------------------------
@@ -304,9 +328,17 @@ class Linearization:
         M[nx:, :] = Pd
         return M[:, :ns], M[:, ns:]
 
+    @property
+    def sampled(self):
+        """Whether the diagram has a sampled (discrete) block; else it is linearized in continuous time."""
+        return bool(self.system.schedule.ticks)
+
     def closed_loop(self):
-        """The lifted closed loop: a :class:`DiscreteModel` over one hyperperiod."""
+        """The lifted closed loop: a :class:`DiscreteModel` over one hyperperiod, or, for a
+        diagram with nothing sampled, the :class:`ContinuousModel` ``xc' = A xc``."""
         A, B = self.continuous()
+        if not self.sampled:
+            return ContinuousModel(A, self.state_names()[:self.n_x], self.fd_error)
         hits, H = self._hits()
         ns = self._state0().size
         M = np.eye(ns)
@@ -349,6 +381,8 @@ class Linearization:
         plant's right-hand side). L = -y/v: closing the loop is 1/(1 + L).
         """
         i, o, el = self._port(signal, "analysis point")
+        if not self.sampled:
+            return -self._continuous_model((i, o, el, "replace"), (i, o, el))
         if self.system.kind[i] not in ("discrete", "constant") and i in set(self.system.rhs_path):
             raise LinearizationError(
                 f"analysis point {signal!r} is read continuously by the plant; open a loop at a "
@@ -360,54 +394,57 @@ class Linearization:
         (e.g. a command, 'force_cmd.y[0]') to ``output_signal`` sampled at the hits."""
         i, o, el = self._port(input_signal, "input")
         j, p, em = self._port(output_signal, "output")
+        if not self.sampled:
+            return self._continuous_model((i, o, el, "add"), (j, p, em))
         return self._single_rate_model((i, o, el, "add"), (j, p, em))
 
+    def _continuous_model(self, inject, measure):
+        """Continuous ss from v (at ``inject``) to y (at ``measure``), nothing sampled:
+        xc' = A xc + B v, y = C xc + D v, the right-hand side evaluated with the signal
+        at ``inject`` replaced by (or increased by) v; y is read before any injection."""
+        sysm, ctx, t = self.system, self.ctx, self.t
+        blocks, n = ctx.blocks, self.n_x
+        path = sorted(set(sysm.rhs_path) | set(sysm.evaluation_path({measure[0]})))
+        kept = ctx.y[inject[0]][inject[1]].copy()  # restored after (a held block is not re-evaluated)
 
-class DiscreteModel:
-    """A closed-loop discrete system s+ = M s over period ``period`` (s)."""
+        def apply(v):
+            buf = ctx.y[inject[0]][inject[1]]
+            buf[inject[2]] = v[0] if inject[3] == "replace" else buf[inject[2]] + v[0]
 
-    def __init__(self, M, period, names, fd_error=0.0):
-        self.M, self.period, self.names, self.fd_error = M, period, names, fd_error
+        def fun(z, injecting=True):
+            x, v = z[:n], z[n:]
+            self._write(self.h_ports, self.h0)
+            if inject[0] not in path:  # a held signal: its operating value, then v
+                ctx.y[inject[0]][inject[1]][:] = kept
+                if injecting:
+                    apply(v)
+            y = None
+            for i in path:
+                for buf, val in zip(ctx.y[i], blocks[i].output(t, ctx.block_state(i, x), ctx.u[i])):
+                    buf[:] = val
+                if i == measure[0]:
+                    y = ctx.y[i][measure[1]][measure[2]]
+                if injecting and i == inject[0]:
+                    apply(v)
+            if y is None:  # a held signal
+                y = ctx.y[measure[0]][measure[1]][measure[2]]
+            dx = np.empty(n)
+            for i in sysm.stateful:
+                dx[sysm.xslices[i]] = blocks[i].derivatives(t, x[sysm.xslices[i]], ctx.u[i])
+            return np.concatenate([dx, [y]])
 
-    @property
-    def poles(self):
-        return np.linalg.eigvals(self.M)
-
-    @property
-    def spectral_radius(self):
-        return float(np.max(np.abs(self.poles))) if self.M.size else 0.0
-
-    @property
-    def integrator_modes(self):
-        """Number of poles at z = 1 (to 1e-7): integrator directions that no
-        signal drives (e.g. a joint-space integrator fed through a selection
-        matrix). They stay constant: bounded, neither decaying nor growing."""
-        return int(np.sum(np.abs(self.poles - 1.0) < 1e-7))
-
-    @property
-    def growth(self):
-        """Largest ``|z|`` apart from the poles at z = 1; < 1 means asymptotically
-        stable except for constant integrator directions."""
-        p = self.poles
-        rest = p[np.abs(p - 1.0) >= 1e-7]
-        return float(np.max(np.abs(rest))) if rest.size else 0.0
-
-    @property
-    def stable(self):
-        return self.growth < 1.0 - 1e-9
-
-    def pole_table(self):
-        """Rows (z, ``|z|``, frequency Hz, damping) with s = ln(z)/T; sorted by ``|z|`` descending."""
-        rows = []
-        for z in self.poles:
-            if abs(z) < 1e-12:
-                rows.append({"z": z, "abs": 0.0, "freq_hz": None, "damping": None})
-                continue
-            s = np.log(complex(z)) / self.period
-            wn = abs(s)
-            rows.append({"z": z, "abs": float(abs(z)), "freq_hz": float(wn / (2 * np.pi)),
-                         "damping": float(-s.real / wn) if wn > 0 else 1.0})
-        return sorted(rows, key=lambda r: -r["abs"])
+        v0 = np.zeros(1)
+        if inject[3] == "replace":  # the value computed at the operating point
+            fun(np.concatenate([self.xc0, v0]), injecting=False)
+            v0 = np.array([ctx.y[inject[0]][inject[1]][inject[2]]])
+        z0 = np.concatenate([self.xc0, v0])
+        atol = np.where(np.isnan(sysm.atol), 1e-9, sysm.atol)
+        floor = np.concatenate([np.maximum(atol * 1e4, 1e-9), [1e-3]])
+        J, err = checked_jacobian(fun, z0, self._steps(z0, floor))
+        self.fd_error = max(self.fd_error, err)
+        ctx.y[inject[0]][inject[1]][:] = kept
+        self._write(self.h_ports, self.h0)
+        return control.ss(J[:n, :n], J[:n, n:], J[n:, :n], J[n:, n:])
 
 
 def _nonzero_columns(M):
@@ -426,13 +463,3 @@ def _nonzero_columns(M):
         if not zero.any():
             return keep
         keep &= ~zero
-
-
-def hand_modes(A, near_hz=None):
-    """Oscillatory eigenfrequencies (Hz) of a continuous A, highest first."""
-    ev = np.linalg.eigvals(A)
-    f = sorted({round(abs(e.imag) / (2 * np.pi), 6) for e in ev if e.imag > 0}, reverse=True)
-    if near_hz is not None:
-        return min(f, key=lambda x: abs(x - near_hz)) if f else None
-    return f
-

@@ -24,6 +24,7 @@ import numpy as np  # noqa: E402
 
 from . import analysis as an  # noqa: E402
 from .api import build, load  # noqa: E402
+from .experiment import Experiment  # noqa: E402
 from .files import atomic_dir  # noqa: E402
 from .linearize import Linearization, LinearizationError  # noqa: E402
 from .plots import draw_diagram  # noqa: E402
@@ -45,29 +46,59 @@ def _unit_circle(ax):
     ax.set_ylabel("Im z")
 
 
+def _s_plane(ax, poles):
+    """Axes of the s-plane around ``poles`` with lines of damping 0.1, 0.3, 0.5, 0.7."""
+    r = max(1.0, float(np.max(np.abs(poles)))) * 1.1 if len(poles) else 1.0
+    for zeta in (0.1, 0.3, 0.5, 0.7):
+        x, y = -zeta * r, np.sqrt(1 - zeta**2) * r
+        ax.plot([0, x], [0, y], ":", color="0.7", lw=0.6)
+        ax.plot([0, x], [0, -y], ":", color="0.7", lw=0.6)
+    ax.axhline(0, color="0.8", lw=0.5)
+    ax.axvline(0, color="k", lw=0.8)
+    ax.set_xlim(-r, 0.25 * r)
+    ax.set_ylim(-r, r)
+    ax.set_xlabel("Re s (1/s)")
+    ax.set_ylabel("Im s (rad/s)")
+
+
 def pole_map(models):
-    """Closed-loop poles of several (label, DiscreteModel) in the unit circle."""
+    """Closed-loop poles of several (label, model) in the unit circle (sampled) or the s-plane (continuous)."""
     fig, ax = plt.subplots(figsize=(5.5, 5.5))
-    _unit_circle(ax)
+    sampled = all(cl.period for _, cl in models)
+    if sampled:
+        _unit_circle(ax)
+    else:
+        _s_plane(ax, np.concatenate([cl.poles for _, cl in models]))
     for label, cl in models:
         p = cl.poles
-        ax.plot(p.real, p.imag, "x", ms=8, mew=1.5, label=f"{label} (max |z| {cl.growth:.3f})")
-    lim = max(1.15, max((float(np.max(np.abs(cl.poles))) for _, cl in models if len(cl.poles)), default=0.0) * 1.05)
-    ax.set_xlim(-lim, lim)
-    ax.set_ylim(-lim, lim)
+        ax.plot(p.real, p.imag, "x", ms=8, mew=1.5, label=f"{label} ({cl.growth_label} {cl.growth:.3g})")
+    if sampled:
+        lim = max(1.15, max((float(np.max(np.abs(cl.poles))) for _, cl in models if len(cl.poles)), default=0.0) * 1.05)
+        ax.set_xlim(-lim, lim)
+        ax.set_ylim(-lim, lim)
     ax.legend(fontsize=7, loc="lower left")
     ax.set_title("closed-loop poles (grid: damping 0.1, 0.3, 0.5, 0.7)", fontsize=9)
     fig.tight_layout()
     return fig
 
 
-def bode(loops):
-    """Bode plots of discrete loop transfers with the margins marked."""
+def _bode_grid(L):
+    """Frequencies (rad/s) for L's Bode plot: up to Nyquist (sampled) or a decade past its fastest pole."""
+    if L.dt:
+        return np.logspace(np.log10(2 * np.pi * 0.05), np.log10(np.pi / L.dt) - 1e-3, 600)
+    p = np.abs(L.poles())
+    top = 10.0 * max(float(p.max()) if p.size else 1.0, 2 * np.pi)
+    return np.logspace(np.log10(2 * np.pi * 0.05), np.log10(top), 600)
+
+
+def bode(loops, known=None):
+    """Bode plots of loop transfers (discrete or continuous) with the margins marked; ``known``:
+    {id(L): margins} already computed (:func:`hybridsim.analysis.margins`), the rest are computed."""
+    known = known or {}
     fig, (am, ph) = plt.subplots(2, 1, sharex=True, figsize=(7, 5.5))
     for label, L in loops:
-        nyq = np.pi / L.dt
-        w = np.logspace(np.log10(2 * np.pi * 0.05), np.log10(nyq) - 1e-3, 600)
-        resp = np.asarray(L(np.exp(1j * w * L.dt))).ravel()
+        w = _bode_grid(L)
+        resp = an._response(L, w)
         f = w / (2 * np.pi)
         if not np.any(resp):  # nothing feeds back through this point (e.g. a position-controlled axis)
             am.plot([], [], label=f"{label} (no feedback: L = 0)")
@@ -75,7 +106,7 @@ def bode(loops):
         with np.errstate(divide="ignore"):  # exact zeros of L (-inf dB) are left out of the curve
             line, = am.semilogx(f, 20 * np.log10(np.abs(resp)), label=label)
         ph.semilogx(f, np.degrees(np.unwrap(np.angle(resp))), color=line.get_color())
-        m = an.margins(L)
+        m = known.get(id(L)) or an.margins(L)
         inside = lambda hz: hz is not None and hz >= 0.05  # noqa: E731
         if inside(m["gain_crossover_hz"]):
             am.plot(m["gain_crossover_hz"], 0, "o", color=line.get_color())
@@ -88,7 +119,7 @@ def bode(loops):
     ph.axhline(-180, color="k", lw=0.5, ls=":")
     am.set_ylabel("|L| (dB)")
     ph.set_ylabel("phase (deg)")
-    ph.set_xlabel("frequency (Hz), up to Nyquist")
+    ph.set_xlabel("frequency (Hz)" + (", up to Nyquist" if all(L.dt for _, L in loops) else ""))
     am.legend(fontsize=7)
     am.grid(True, which="both", alpha=0.3)
     ph.grid(True, which="both", alpha=0.3)
@@ -97,25 +128,28 @@ def bode(loops):
 
 
 def root_locus(path, base, ref, value, scales):
-    """Poles as one gain is scaled; the Appendix A value (scale 1) marked."""
+    """Poles as one gain is scaled; the Appendix A value (scale 1) marked. ``path``: a diagram file
+    (built once with ``base``) or an :class:`~hybridsim.experiment.Experiment`."""
     fig, ax = plt.subplots(figsize=(5.5, 5.5))
-    _unit_circle(ax)
-    pts = []
-    for s in scales:
-        system, _, _ = build(path, **{**base, ref: (np.asarray(value) * s).tolist()})
-        pts.append((s, Linearization(system).closed_loop().poles))
+    exp = path if isinstance(path, Experiment) else Experiment(path, **base)  # built once; each scale at run time
+    pts = [(s, exp.linearization({ref: (np.asarray(value) * s).tolist()}).closed_loop().poles) for s in scales]
+    sampled = bool(exp.system.schedule.ticks)
+    if sampled:
+        _unit_circle(ax)
+    else:
+        _s_plane(ax, np.concatenate([p for _, p in pts]))
     cmap = plt.get_cmap("viridis")
     lo, hi = np.log(scales[0]), np.log(scales[-1])
     for s, p in pts:
         ax.plot(p.real, p.imag, ".", ms=5, color=cmap((np.log(s) - lo) / (hi - lo)))
-    system, _, _ = build(path, **base)
-    p1 = Linearization(system).closed_loop().poles
+    p1 = exp.linearization().closed_loop().poles
     ax.plot(p1.real, p1.imag, "rx", ms=9, mew=2, label=f"{ref} as given")
     sm = plt.cm.ScalarMappable(cmap=cmap, norm=matplotlib.colors.LogNorm(scales[0], scales[-1]))
     fig.colorbar(sm, ax=ax, shrink=0.7, label=f"scale of {ref}")
-    lim = min(3.0, max(1.2, max(np.max(np.abs(p)) for _, p in pts) * 1.05))
-    ax.set_xlim(-lim, lim)
-    ax.set_ylim(-lim, lim)
+    if sampled:
+        lim = min(3.0, max(1.2, max(np.max(np.abs(p)) for _, p in pts) * 1.05))
+        ax.set_xlim(-lim, lim)
+        ax.set_ylim(-lim, lim)
     ax.legend(fontsize=7, loc="lower left")
     ax.set_title(f"root locus against {ref}", fontsize=9)
     fig.tight_layout()
@@ -146,19 +180,22 @@ def step_figure(path, base, cfg):
     st = cfg.get("step")
     if not st:
         return None, None
-    system, _, _ = build(path, **base)
+    system, _, settings = build(path, **base)
     G = Linearization(system).io(st["input"], st["output"])
     n = int(st.get("ticks", 40))
-    T = G.dt
+    T = G.dt or float(settings["simulation"].get("log_period", 0.0005))  # nothing sampled: at the log points
     size = float(st["size"])
     lin = size * np.ravel(control.step_response(G, T=np.arange(n) * T).outputs)
-    res = build(path, **{**base, **st["set"], "log_period": T, "t_end": n * T})[1].run(n * T)
     ref = st["output"]
+    res = build(path, log=[ref], **{**base, **st["set"], "log_period": T, "t_end": n * T})[1].run(n * T)
     y0 = float(res[ref][0])
     nl = res[ref][:n] - y0
     fig, ax = plt.subplots(figsize=(6, 3.4))
     t = np.arange(n) * T
-    ax.step(t, lin, where="post", label="linear model")
+    if G.dt:
+        ax.step(t, lin, where="post", label="linear model")
+    else:
+        ax.plot(t, lin, "-", label="linear model")
     ax.plot(t, nl, "o", ms=3, label="nonlinear simulation")
     ax.set_xlabel("time (s)")
     ax.set_ylabel(f"Δ {ref}")
@@ -210,28 +247,34 @@ def write_report(path, outdir, at=None, **overrides):
     compare = {"as printed": {}}
     compare.update(cfg.get("compare") or {})
     data = {"diagram": f.name, "description": f.description, "configurations": []}
-    models, loops = [], []
+    models, loops, known, full = [], [], {}, None
+    main_ov = {**overrides, **variants[0][1]}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for cname, cov in compare.items():
             for vlabel, vov in variants:
                 label = " ".join(x for x in (cname, vlabel) if x)
                 ov = {**overrides, **vov, **cov}
-                res = an.analyze(path, at=at, sweeps=False, **ov)
+                main = full is None and ov == main_ov  # the main configuration: with its sweeps, once
+                res = an.analyze(path, at=at, sweeps=main, **ov)
                 objs = res.pop("_objects")
+                if main:
+                    full = dict(res)
                 models.append((label, objs["closed_loop"]))
                 loops += [(f"{label}: {k}", L) for k, L in objs["loops"].items()]
+                known.update({id(L): res["loops"][k] for k, L in objs["loops"].items()})
                 data["configurations"].append({
-                    "label": label, "compare": cname, "variant": vlabel, "set": {**vov, **cov}, "growth": res["growth"], "stable": res["stable"],
+                    "label": label, "compare": cname, "variant": vlabel, "set": {**vov, **cov},
+                    "growth_label": res["growth_label"], "growth": res["growth"], "stable": res["stable"],
                     "integrator_modes": res["integrator_modes"],
                     "least_damping": an.least_damping(res["poles"]),
                     "hand_mode_hz": res.get("hand_mode_hz"),
                     **{f"{k}_{m}": v.get(m) for k, v in res["loops"].items()
                        for m in ("gain_margin_db", "phase_margin_deg")},
                     "poles": res["poles"][:8]})
-        main_ov = {**overrides, **variants[0][1]}
-        full = an.analyze(path, at=at, **main_ov)
-        full.pop("_objects")
+        if full is None:
+            full = an.analyze(path, at=at, **main_ov)
+            full.pop("_objects")
         data["analysis"] = full
     base = {**cfg["set"], **main_ov}
     figures = {}
@@ -241,7 +284,7 @@ def write_report(path, outdir, at=None, **overrides):
         for point in cfg["points"]:
             mine = [(lab.rsplit(": ", 1)[0], L) for lab, L in loops if lab.endswith(f": {point}")]
             if mine:
-                fig = bode(mine)
+                fig = bode(mine, known)
                 fig.suptitle(f"loop opened at {point} ({cfg['points'][point]})", fontsize=9)
                 _save(fig, f"bode_{point}", tmp, figures)
         _save(pole_map(models), "poles", tmp, figures)
@@ -278,6 +321,11 @@ def _json(v):
     return str(v)
 
 
+def _growth(c, digits=4):
+    """A configuration's growth: |z| to ``digits`` decimals, Re s (often ~0) to ``digits`` figures."""
+    return f"{c['growth']:.{digits}f}" if c["growth_label"] == "largest |z|" else f"{c['growth']:.{digits}g}"
+
+
 def _html(data, figures, cfg):
     a = data["analysis"]
     conf_cols = ["label", "growth", "stable", "least_damping", "hand_mode_hz"]
@@ -291,14 +339,14 @@ def _html(data, figures, cfg):
         if len(group) > 1:
             first, last = group[0], group[-1]
             better = last["growth"] < first["growth"]
-            trend = " → ".join(f"{c['growth']:.3f}" for c in group)
+            trend = " → ".join(_growth(c, 3) for c in group)
             damp = " → ".join(_fmt(c["least_damping"]) for c in group)
             verdict.append(
                 f"<li><b>{html.escape(cname)}</b>, {html.escape(first['variant'])} … {html.escape(last['variant'])}: "
-                f"largest |z| {trend}; least damping ratio {damp}. The later variant "
+                f"{html.escape(first['growth_label'])} {trend}; least damping ratio {damp}. The later variant "
                 f"{'improves' if better else 'does not improve'} the loop's damping.</li>")
     for c in data["configurations"]:
-        verdict.append(f"<li><b>{html.escape(c['label'])}</b>: largest |z| {c['growth']:.4f} "
+        verdict.append(f"<li><b>{html.escape(c['label'])}</b>: {html.escape(c['growth_label'])} {_growth(c)} "
                        f"({'stable' if c['stable'] else 'not stable'}); least damping ratio "
                        f"{_fmt(c['least_damping'])}</li>")
     rates = _table(a.get("rates", []), ["rate_hz", "spectral_radius", "stable"])
@@ -308,6 +356,14 @@ def _html(data, figures, cfg):
     loops = _table([{"loop": k, **v} for k, v in a.get("loops", {}).items()],
                    ["loop", "signal", "gain_margin_db", "phase_margin_deg", "gain_crossover_hz", "phase_crossover_hz"])
     poles = _table(a["poles"][:12], ["re", "im", "abs", "freq_hz", "damping"])
+    if a.get("domain") == "continuous":
+        method = ("nothing is sampled, so the closed loop is the continuous system x' = A x (poles in the "
+                  "s-plane). \"Largest Re s\" leaves out poles at s = 0 (constant directions, "
+                  f"{a['integrator_modes']} here).")
+    else:
+        method = ("the sampled-data closed loop is exact at the servo period (zero-order hold, lifted to the "
+                  "hyperperiod for several rates). \"Largest |z|\" leaves out poles at exactly z = 1 "
+                  f"(integrator directions no signal drives, {a['integrator_modes']} here).")
     step = data.get("step")
     step_txt = (f"<p>Step of {step['step_size']} at the input: linear and nonlinear differ by at most "
                 f"{step['max_abs_difference']:.3g} over {step['ticks']} samples.</p>" if step else "")
@@ -319,10 +375,8 @@ th{{background:#f0f0f0}}figure{{display:inline-block;margin:0.5em}}img{{max-widt
 figcaption{{font-size:12px;color:#555}}</style></head><body>
 <h1>Stability report: {html.escape(data['diagram'])}</h1>
 <p>{html.escape(data['description'])}</p>
-<p>Linearized about the initial state (branch: {html.escape(json.dumps(a['branch']))}); the sampled-data
-closed loop is exact at the servo period (zero-order hold, lifted to the hyperperiod for several rates).
-"Largest |z|" leaves out poles at exactly z = 1 (integrator directions no signal drives,
-{a['integrator_modes']} here). Finite-difference error estimate {a['fd_error']:.1e}.</p>
+<p>Linearized about the operating point (branch: {html.escape(json.dumps(a['branch']))}); {method}
+Finite-difference error estimate {a['fd_error']:.1e}.</p>
 <h2>Verdict per configuration</h2><ul>{''.join(verdict)}</ul>
 {_table(data['configurations'], conf_cols)}
 {img('diagram', 'the diagram (one colour per rate)')}

@@ -1,4 +1,4 @@
-"""A block written as kernels (the README's example) runs on all three paths."""
+"""A block written as kernels (docs/extending.md's example) runs on all three paths."""
 import math
 
 import numpy as np

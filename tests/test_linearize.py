@@ -200,3 +200,73 @@ def test_reported_margins_lie_on_the_loops_own_frequency_response():
         if m["gain_margin"] is not None:
             r = at(m["phase_crossover_hz"])
             assert abs(r) * m["gain_margin"] == pytest.approx(1.0, rel=0.01) and r.real < 0, name
+
+
+def test_a_continuous_loop_matches_python_control():
+    """Nothing sampled: a continuous PI around a second-order plant; the closed loop's poles and the
+    loop opened at the controller's output are python-control's feedback(C P) and C P."""
+    C = control.tf([2.0, 3.0], [1.0, 0.0])          # PI: 2 + 3/s
+    P = control.tf([1.0], [1.0, 0.4, 4.0])
+    d = hs.Diagram("continuous_pi")
+    d.add(Constant("r", value=0.0))
+    d.add(Sum("e", signs="+-"))
+    d.add(hs.from_control(C, name="C"))
+    d.add(hs.from_control(P, name="P"))
+    for a, b in [("r.y", "e.u1"), ("P.y", "e.u2"), ("e.y", "C.u"), ("C.y", "P.u")]:
+        d.connect(a, b)
+    lin = Linearization(d.build())
+    assert not lin.sampled
+    cl = lin.closed_loop()
+    assert cl.domain == "continuous" and cl.period is None
+    ref = control.feedback(C * P, 1).poles()
+    assert np.sort_complex(cl.poles) == pytest.approx(np.sort_complex(ref), abs=1e-6)
+    assert cl.stable == bool(np.all(ref.real < 0))
+    L = lin.loop("C.y[0]")
+    assert L.dt == 0
+    for w in (0.1, 1.0, 2.0, 10.0):
+        assert complex(L(1j * w)) == pytest.approx(complex((C * P)(1j * w)), rel=1e-6)
+    T = lin.io("r.y[0]", "P.y[0]")  # an additive input at the command
+    assert complex(T(1j)) == pytest.approx(complex(control.feedback(C * P, 1)(1j)), rel=1e-6)
+
+
+def test_the_hand_oscillation_is_linearized_as_a_continuous_system():
+    """Eq 18's diagram samples nothing: its poles are the hand's modes, (1/2 pi) sqrt((Kr + Kw)/M3)
+    along C-X (against the surface) and sqrt(Kw/M3) along C-Y (the wrist alone), undamped; closing
+    the contact loop opened at the surface's force gives the same closed-loop modes."""
+    from hybridsim import analysis as an
+
+    Kw, M3 = 8.0e5, 0.58
+    for Kr in (9.0e5, 1.0e6):
+        sysm, _, _ = hs.build(DIAGRAMS / "eq18_hand_oscillation.yaml", Kr=Kr)
+        lin = Linearization(sysm)
+        cl = lin.closed_loop()
+        f = sorted({round(r["freq_hz"], 3) for r in cl.pole_table() if r["freq_hz"] and abs(r["pole"].imag) > 1})
+        assert f == pytest.approx([np.sqrt(Kw / M3) / (2 * np.pi), np.sqrt((Kr + Kw) / M3) / (2 * np.pi)], rel=1e-4)
+        assert not cl.stable  # undamped modes: not asymptotically stable
+        L = lin.loop("surface.fx[0]")
+        closed = control.feedback(L, 1).poles()
+        hand = [p for p in cl.poles if abs(p.imag) > 1500]
+        assert all(np.min(np.abs(closed - p)) < 1e-3 * abs(p) for p in hand)
+    res = an.analyze(DIAGRAMS / "eq18_hand_oscillation.yaml", sweeps=False)
+    assert res["domain"] == "continuous" and res["hand_mode_hz"] == pytest.approx(272.5, abs=0.1)
+    assert res["loops"]["contact"]["phase_margin_deg"] == pytest.approx(0.0, abs=0.5)  # undamped: on -1
+
+
+def test_a_double_integrator_is_not_stable():
+    """The bouncing ball in free fall (x' = v, v' = -g): both poles at s = 0, one Jordan block - it drifts."""
+    sysm, _, _ = hs.build(DIAGRAMS / "bouncing_ball.yaml")
+    cl = Linearization(sysm).closed_loop()
+    assert cl.integrator_modes == 2 and cl.growth == 0.0 and not cl.stable
+
+
+@pytest.mark.slow
+def test_a_co_simulation_fmu_is_refused_with_its_reason(tmp_path):
+    """A Co-Simulation FMU's states live inside it: linearizing around them would leave the plant out."""
+    from hybridsim import analysis
+    from hybridsim.cli import main
+    from hybridsim.fmus.build import build_plant_fmu
+
+    fmu = build_plant_fmu(tmp_path / "plant.fmu")
+    with pytest.raises(LinearizationError, match="'plant' keep their state inside"):
+        analysis.analyze(DIAGRAMS / "fig9_fmu_cs.yaml", sweeps=False, fmu=str(fmu))
+    assert main(["analyze", str(DIAGRAMS / "fig9_fmu_cs.yaml"), "--set", f"fmu={fmu}"]) == 2

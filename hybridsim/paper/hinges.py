@@ -245,7 +245,7 @@ def _warm_up(names, chosen, jobs, extra):
     """On the compiled path: one run of each diagram structure the analysis will use, all at once.
 
     Most assumptions change a diagram's structure (a friction kernel, a filter's
-    state, a delay line), and each structure compiles once (~14 s). Run one
+    state, a delay line), and each structure compiles once. Run one
     after another, both workers would compile the same module at the same
     time; warmed up together, the two compile different ones and every later
     run loads its module from the cache.
