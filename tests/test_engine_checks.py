@@ -110,16 +110,14 @@ def test_two_hundred_states(path):
     assert np.array_equal(a.table(), b.table())
 
 
+# 31 and more states stopped numba (a tuple display it did not take). The state-space block's
+# A x is a dot product: numpy (BLAS) and numba sum it in different orders, so these agree to
+# rounding, not bit for bit (the bit-for-bit tests use blocks written element by element)
 @pytest.mark.slow
-def test_two_hundred_states_compiled():
-    # 31 and more states stopped numba (a tuple display it did not take); now one more test case
-    assert np.array_equal(_many("compiled").table(), _many("generic").table())
-
-
-@pytest.mark.slow
-def test_thirty_one_states_pass_check_and_run_compiled(tmp_path):
-    a, b = _many("compiled", 31), _many("generic", 31)
-    assert np.array_equal(a.table(), b.table())
+@pytest.mark.parametrize("n", [31, 200])
+def test_many_states_compiled(n):
+    a, b = _many("compiled", n), _many("generic", n)
+    assert np.allclose(a.table(), b.table(), rtol=1e-13, atol=1e-13)
 
 
 @pytest.fixture(scope="module")
