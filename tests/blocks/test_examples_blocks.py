@@ -94,7 +94,7 @@ def thermostat_reference(t_end=600):
 def test_thermostat_with_relay_noise_and_a_lookup():
     res = hs.simulate(DIAGRAMS / "examples" / "thermostat.yaml")
     ref, switches = thermostat_reference()
-    check("example thermostat: room", "generic", res["room.y[0]"], ref[:, 0], 1e-6)
-    check("example thermostat: sensor", "generic", res["sensor.y[0]"], ref[:, 1], 1e-6)
+    check("example thermostat: room", "generic", res["room.y[0]"][::10], ref[:, 0], 1e-6)  # each second
+    check("example thermostat: sensor", "generic", res["sensor.y[0]"][::10], ref[:, 1], 1e-6)
     check("example thermostat: switch times", "generic", [t for t, _ in res.meta["events"]], switches, 1e-6)
     assert len(switches) > 50 and 19.0 < res["room.y[0]"][300:].mean() < 21.0
