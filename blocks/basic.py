@@ -131,41 +131,49 @@ def demux_piece(p, u, k):
 
 @kernel
 def demux1_output(p, t, x, u):
+    """The output of a demux with one output."""
     return (demux_piece(p, u, 0),)
 
 
 @kernel
 def demux2_output(p, t, x, u):
+    """The 2 outputs of a demux with 2 outputs."""
     return demux_piece(p, u, 0), demux_piece(p, u, 1)
 
 
 @kernel
 def demux3_output(p, t, x, u):
+    """The 3 outputs of a demux with 3 outputs."""
     return demux_piece(p, u, 0), demux_piece(p, u, 1), demux_piece(p, u, 2)
 
 
 @kernel
 def demux4_output(p, t, x, u):
+    """The 4 outputs of a demux with 4 outputs."""
     return demux_piece(p, u, 0), demux_piece(p, u, 1), demux_piece(p, u, 2), demux_piece(p, u, 3)
 
 
 @kernel
 def demux5_output(p, t, x, u):
+    """The 5 outputs of a demux with 5 outputs."""
     return demux4_output(p, t, x, u) + (demux_piece(p, u, 4),)
 
 
 @kernel
 def demux6_output(p, t, x, u):
+    """The 6 outputs of a demux with 6 outputs."""
     return demux4_output(p, t, x, u) + (demux_piece(p, u, 4), demux_piece(p, u, 5))
 
 
 @kernel
 def demux7_output(p, t, x, u):
+    """The 7 outputs of a demux with 7 outputs."""
     return demux4_output(p, t, x, u) + (demux_piece(p, u, 4), demux_piece(p, u, 5), demux_piece(p, u, 6))
 
 
 @kernel
 def demux8_output(p, t, x, u):
+    """The 8 outputs of a demux with 8 outputs."""
     return demux4_output(p, t, x, u) + demux4_output((p[0][4:],), t, x, u)
 
 

@@ -33,7 +33,7 @@ class TransportDelay(Block):
     buffer a ring of N + 2 samples per element) and y is the linear
     interpolation between the two samples around t - tau, as Simulink's
     Transport Delay interpolates its buffer. The error is at most
-    Ts^2 / 8 max |u''|; y does not depend on u(t) itself, so the block breaks
+    Ts^2 / 8 max abs(u''); y does not depend on u(t) itself, so the block breaks
     algebraic loops. Example: tau = 0.1 s, u = t: y(0.35 s) = 0.25.
     """
 

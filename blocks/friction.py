@@ -18,7 +18,7 @@ GROUP = "control"  # where `hybridsim blocks` lists this module's blocks
 
 @register("coulomb_viscous")
 class CoulombViscous(Block):
-    """y = sgn(u) (coulomb + viscous |u|) = coulomb sgn(u) + viscous u, sgn(0) = 0.
+    """y = sgn(u) (coulomb + viscous abs(u)) = coulomb sgn(u) + viscous u, sgn(0) = 0.
 
     Parameters
     ----------

@@ -8,6 +8,7 @@ from scipy import stats
 
 import hybridsim as hs
 from hybridsim.blocks.noise import Noise, philox4x64, philox_keys
+from paths import PATHS, check, run
 
 
 def samples(seed, n=4000, width=1, **kw):
@@ -87,3 +88,13 @@ def test_noise_refuses_a_bad_seed():
     for bad in (-1, 2 ** 64, 1.5, "7"):
         with pytest.raises(hs.ParameterError, match="seed"):
             Noise(seed=bad, rate=10)
+
+
+@pytest.mark.parametrize("path", PATHS)
+def test_noise_is_the_same_on_every_path(path):
+    res = run(path, [Noise("n", seed=2**40 + 3, rate=50, width=2, sigma=[1.0, 0.5]),
+                     hs.registry.lookup("first_order")("lag", tau=0.1, width=2, initial=[0.0, 0.0])],
+              [("n.y", "lag.u")], 1.0, ["n.y", "lag.y"], log_period=0.02)
+    ref = np.stack([block_normals(2**40 + 3, 50, 0), 0.5 * block_normals(2**40 + 3, 50, 1)], axis=1)
+    got = np.stack([res["n.y[0]"], res["n.y[1]"]], axis=1)[:-1]  # the last row holds the hit before t_end
+    check("noise", path, got, ref, 1e-15)
