@@ -254,6 +254,21 @@ class Simulator:
             due_now = frozenset(discrete[j] for j in np.flatnonzero(stops.due[a]))
             yield times[a], due_now, bool(stops.record[a]), times[a + 1:b], (times[b] if b < len(times) else t_end)
 
+    def divergence_check(self, ctx):
+        """``check(t, x)``, called with the state after every accepted step: raises
+        :class:`~hybridsim.errors.SimulationError` naming the state and block when a state is not
+        finite or exceeds ``max_state``. ``check.ok(x)`` tests without raising; ``check.blame(t, x)``
+        names the block whose output was not finite."""
+        plan, max_state = self.system.plan, self.max_state
+
+        def check(tb, xb):
+            if not np.max(np.abs(xb)) <= max_state:
+                plan.check_continuous(xb, tb, max_state, ctx)
+
+        check.blame = lambda tb, xb: plan.blame(ctx, tb, xb)
+        check.ok = lambda xb: np.max(np.abs(xb)) <= max_state  # False for NaN
+        return check
+
     def _loop(self, ctx, walk, rhs, events, bar, t_end):
         """The tick loop of :meth:`run`; returns (times, rows, hits per block)."""
         sysm, plan = self.system, self.system.plan
@@ -279,14 +294,7 @@ class Simulator:
         """The hits of :meth:`_loop` in order (a :class:`StopRequest` ends them)."""
         sysm = self.system
         xc = ctx.xc
-        max_state = self.max_state
-
-        def check(tb, xb):  # after every accepted step
-            if not np.max(np.abs(xb)) <= max_state:
-                plan.check_continuous(xb, tb, max_state, ctx)
-
-        check.blame = lambda tb, xb: plan.blame(ctx, tb, xb)
-        check.ok = lambda xb: np.max(np.abs(xb)) <= max_state  # False for NaN
+        check = self.divergence_check(ctx)
 
         log_checked = plan.checked_outputs(self.log_path)
 

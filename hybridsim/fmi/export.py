@@ -63,7 +63,8 @@ class {cls}({base}):
 
 def _files(path, seen=None):
     """The diagram file, every file it extends and every subsystem file it uses, resolved."""
-    from ..loader import DiagramFile, _is_subsystem, subsystem_path
+    from ..format.diagram_file import DiagramFile
+    from ..format.values import _is_subsystem, subsystem_path
 
     seen = [] if seen is None else seen
     f = DiagramFile(path)
@@ -159,7 +160,7 @@ def export_fmu(diagram, out, fmi=2, name=None):
         ``out``.
     """
     from .. import __version__, api
-    from ..loader import DiagramFile
+    from ..format.diagram_file import DiagramFile
 
     if fmi not in (2, 3):
         raise FMUError(f"FMI version must be 2 or 3, got {fmi!r}")

@@ -124,6 +124,7 @@ class DiagramStepper:
         ctx, plan, sysm = self.ctx, self.system.plan, self.system
         t1 = t + h
         tc, xc = t, ctx.xc
+        check = self.sim.divergence_check(ctx)
         with np.errstate(over="ignore", invalid="ignore"):
             while True:
                 due = self._due(tc)
@@ -138,9 +139,11 @@ class DiagramStepper:
                     try:
                         if ctx.events is not None:
                             xc, _ = _events.integrate(self.sim._stepper(ctx), self.rhs, ctx.events, tc, t_next,
-                                                      xc, (), self.restarts, lambda tb, xb: None)
+                                                      xc, (), lambda tb, xb: None, check,
+                                                      mute=not hasattr(self.sim.solver, "dense"))
                         else:
-                            xc, _ = self.sim.solver.advance(self.rhs, tc, t_next, xc, (), self.restarts)
+                            xc, _ = self.sim.solver.advance(self.rhs, tc, t_next, xc, (), self.restarts,
+                                                            check=check)
                     except StopRequest as stop:
                         if stop.x is not None:
                             ctx.xc = np.asarray(stop.x, float)
