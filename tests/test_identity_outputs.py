@@ -315,7 +315,7 @@ def test_a_plugin_calling_sys_exit_on_import_is_its_fault(plugin_dir, capsys):
 def test_nan_signals_and_dollars_in_texts_do_not_break_plotting(tmp_path, capsys):
     text = """description: "cost $\\\\frac{x$ and $unbalanced"
 blocks:
-  z: {type: constant, value: 0.0}
+  z: {type: constant, value: 1.0}
   p$x: {type: product, ops: "*/"}
 wires: [z.y -> p$x.u1, z.y -> p$x.u2]
 simulation: {t_end: 0.01}
@@ -328,6 +328,21 @@ signals: {force: 'p$x.y[0]', force_desired: 'z.y[0]'}
     assert (out / "d.png").stat().st_size > 0
     code, _, err = run(capsys, "draw", write(tmp_path, text), "-o", tmp_path / "x.png")
     assert code == 0, err
+    # a block output may be NaN only where the block declares it may (the engine stops the run
+    # otherwise), so the figure is handed one directly: it still draws, with finite axis limits
+    import math
+
+    import matplotlib.pyplot as plt
+
+    from hybridsim.api import run_experiment
+    from hybridsim.plots import experiment_figure
+
+    f, runs, settings = run_experiment(write(tmp_path, text))
+    runs[0]["result"].signals["p$x.y"][:] = math.nan
+    fig = experiment_figure(f, runs, settings)
+    fig.savefig(tmp_path / "nan.png")
+    plt.close(fig)
+    assert (tmp_path / "nan.png").stat().st_size > 0
 
 
 def test_a_linearisation_that_overflows_is_the_models_not_a_bug():

@@ -11,7 +11,7 @@ from hybridsim.schema import diagram_schema
 from conftest import DIAGRAMS
 
 jsonschema = pytest.importorskip("jsonschema")
-SHIPPED = sorted(p for p in DIAGRAMS.rglob("*.yaml") if "sweeps" not in p.parts)
+SHIPPED = sorted(p for p in DIAGRAMS.rglob("*.yaml") if "sweeps" not in p.parts and "tune" not in p.parts)
 
 
 @pytest.fixture(scope="module")
