@@ -78,3 +78,22 @@ def test_the_wheel_builds_the_plant_fmu(installed):
     r = run(installed, "fmu", "build", "--fmi", "3", "-o", "plant3.fmu")
     assert r.returncode == 0, r.stderr
     assert (installed[1] / "plant3.fmu").stat().st_size > 10_000
+
+
+def test_every_package_folder_is_in_the_wheel():
+    """pyproject.toml lists the packages by hand (blocks/, fmus/ and diagrams/ map into hybridsim's
+    namespace): a new subpackage or diagram folder missing from the list would be left out of the
+    wheel."""
+    import tomllib
+
+    cfg = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    listed = set(cfg["packages"])
+    found = {"hybridsim." + ".".join(p.parent.relative_to(ROOT / "hybridsim").parts)
+             for p in (ROOT / "hybridsim").rglob("__init__.py") if p.parent != ROOT / "hybridsim"}
+    found |= {"hybridsim", "hybridsim.blocks", "hybridsim.fmus", "hybridsim.diagrams"}
+    found |= {f"hybridsim.diagrams.{d.name}" for d in (ROOT / "diagrams").iterdir()
+              if d.is_dir() and any(d.glob("*.yaml")) or d.is_dir() and any(d.glob("*.urdf"))}
+    assert found - listed == set(), "add these to pyproject.toml's packages"
+    data = cfg["package-data"]
+    for pkg in (p for p in listed if p.startswith("hybridsim.diagrams")):
+        assert pkg in data, f"{pkg} has no package-data entry (its YAML files would be left out)"
