@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 
 from .errors import HybridsimError, InputError
-from .files import check_output_dir, check_output_file, default_output_file, safe_name
+from .files import check_default_dir, check_output_dir, check_output_file, default_output_file, safe_name
 from .format import tables
 from .format.yamlio import parse_value
 
@@ -193,6 +193,8 @@ def cmd_report(args):
 
     f = _load(args.diagram, args.set)
     out = check_output_dir(Path(args.output or Path("out") / f"{safe_name(f.name)}_report"))
+    if not args.output:
+        check_default_dir(out)
     print(f"analysing {f.name} ...", file=sys.stderr)
     data = write_report(f.path, out, at=args.at, **_overrides(args.set))
     for c in data["configurations"]:
@@ -295,6 +297,8 @@ def cmd_sweep(args):
     from .sweep import run_sweep
 
     out = check_output_dir(Path(args.output or Path("out") / safe_name(Path(args.sweep).stem)))
+    if not args.output:
+        check_default_dir(out)
     rows = run_sweep(_find_diagram(args.sweep), out, jobs=args.jobs, dask=args.dask, progress=not args.quiet,
                      compiled=args.compiled, force=args.force)
     failed = [r for r in rows if r["status"] != "ok"]
@@ -310,6 +314,8 @@ def cmd_tune(args):
     from .tune.report import summary_lines
 
     out = check_output_dir(Path(args.output or Path("out") / ("tune_" + safe_name(Path(args.tune).stem))))
+    if not args.output:
+        check_default_dir(out)
     res = run_tune(_find_diagram(args.tune), out, jobs=args.jobs, dask=args.dask, progress=not args.quiet,
                    force=args.force, compiled=args.compiled)
     print("\n".join(summary_lines(res)))

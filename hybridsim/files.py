@@ -138,6 +138,28 @@ def written_by_hybridsim(path):
         return False
 
 
+def note_written(path):
+    """Record that hybridsim has just written (or appended to) the file ``path``."""
+    path = Path(path)
+    _record(path.parent, [path.name])
+
+
+def check_default_dir(folder):
+    """A default output folder (no ``-o``) may be written only when every file in it is one
+    hybridsim wrote there: else :class:`OutputError`, before any work, naming the first other file."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        return folder
+    for p in sorted(folder.rglob("*")):
+        if OWN in p.relative_to(folder).parts or not p.is_file():
+            continue
+        if not written_by_hybridsim(p):
+            raise OutputError(f"{str(p)!r} exists and hybridsim did not write it; {folder} is this "
+                              "command's default output folder: give -o to write into it anyway, or "
+                              "choose another (nothing was written)")
+    return folder
+
+
 def default_output_file(path):
     """``(path, note)``: the file a default output name may write, never a file hybridsim did not write.
 

@@ -42,7 +42,7 @@ import numpy as np
 
 from . import limits
 from .errors import HybridsimError, InputError, LoaderError
-from .files import atomic_file, locked_output_dir
+from .files import atomic_file, locked_output_dir, note_written
 from .format.identity import check_sweep
 from .loader import parse_file
 from .sweep_chunks import BATCH_CHUNK, RuntimeCheck, _execute_chunks, run_chunk  # noqa: F401
@@ -291,6 +291,7 @@ def _append_many(jsonl, finished):
         fh.write(line)
         fh.flush()
         os.fsync(fh.fileno())
+    note_written(jsonl)
 
 
 def _jsonable(v):

@@ -358,3 +358,29 @@ def test_a_linearisation_that_overflows_is_the_models_not_a_bug():
            "rates": [{"rate_hz": 1e-3, "spectral_radius": None, "stable": False}], "gains": {}}
     text = "\n".join(analysis.summary_lines(res))
     assert "largest |z| n/a" in text and "0.001:n/a!" in text
+
+
+def test_default_output_folders_of_report_sweep_and_tune_keep_a_users_files(tmp_path, capsys, monkeypatch):
+    """Without -o, report, sweep and tune write into out/NAME...: a file there that hybridsim did
+    not write is refused before any work, and left as it was."""
+    monkeypatch.chdir(tmp_path)
+    d = write(tmp_path, "params: {k: 1.0}\nblocks:\n  c: {type: constant, value: $k}\nsimulation: {t_end: 0.01}\nlog: [c.y]\n")
+    sweep = write(tmp_path, f"diagram: {d}\ngrid: {{k: [1.0, 2.0]}}\n", name="s.yaml")
+    for args, folder in ((["sweep", str(sweep), "-q"], tmp_path / "out" / "s"),):
+        folder.mkdir(parents=True)
+        mine = folder / "sweep.csv"
+        mine.write_text("my own numbers\n")
+        code, _, err = run(capsys, *args)
+        assert code == 2 and "hybridsim did not write it" in err, err
+        assert mine.read_text() == "my own numbers\n" and sorted(p.name for p in folder.iterdir()) == ["sweep.csv"]
+        mine.unlink()
+        code, _, err = run(capsys, *args)  # its own files are no obstacle: a second run resumes
+        assert code == 0, err
+        code, _, err = run(capsys, *args)
+        assert code == 0, err
+    rep = tmp_path / "out" / "d_report"
+    rep.mkdir(parents=True)
+    (rep / "notes.txt").write_text("mine\n")
+    code, _, err = run(capsys, "report", str(d))
+    assert code == 2 and "notes.txt" in err, err
+    assert (rep / "notes.txt").read_text() == "mine\n"

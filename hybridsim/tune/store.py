@@ -15,7 +15,7 @@ import os
 from pathlib import Path
 
 from ..errors import InputError
-from ..files import atomic_file
+from ..files import atomic_file, note_written
 
 
 def point_key(values):
@@ -94,6 +94,7 @@ class Store:
             fh.write(text)
             fh.flush()
             os.fsync(fh.fileno())
+        note_written(self.path)
 
 
 def fingerprint(spec_text, files, extra=None):
