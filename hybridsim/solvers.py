@@ -297,7 +297,11 @@ class ScipySolver:
                 seen.append((t, np.array(y, float)))
             return dx
 
-        solver = METHODS[self.method](fun, t0, x, t1, rtol=self.rtol, atol=self.atol, max_step=self.max_step)
+        # the first step at most ``scan``: scipy's starting-step heuristic reads f at t0 only, and
+        # where f is zero there (a held state, an input crossing zero) it can take one step over a
+        # whole half-period that its error estimate, zero at both ends, then accepts
+        solver = METHODS[self.method](fun, t0, x, t1, rtol=self.rtol, atol=self.atol, max_step=self.max_step,
+                                      first_step=min(self.scan, self.max_step, t1 - t0))
         g_a = np.asarray(g(t0, x), float) if g is not None else None
         while solver.status == "running":
             try:

@@ -157,3 +157,24 @@ def test_check_refuses_for_the_compiled_path_with_the_reason_and_takes_many_stat
     code = main(["check", str(p), "--set", "simulation.compiled=true", "--set", "simulation.solver=radau"])
     _, err = capsys.readouterr()
     assert code == 2 and "compiled path integrates with a fixed-step Runge-Kutta" in err
+
+
+@pytest.mark.parametrize("solver", ["radau", "bdf", "lsoda", "rk45", "rk23", "dop853", "cvode"])
+def test_a_variable_step_solver_does_not_step_over_the_input_after_leaving_a_limit(solver, tmp_path):
+    """x' = 2 sin(pi t), held at 0.5 from 0.431 s; it leaves at t = 1 s where the input is zero, and a
+    first step chosen from f(1 s) = 0 alone spanned the whole next second (bdf kept x at 0.5, exit 0).
+    Closed form after leaving: x = 0.5 - (2/pi)(1 + cos(pi t)), reaching -0.2 at t = 2 - acos(0.0996...)/pi."""
+    import math
+
+    import hybridsim as hs
+
+    p = tmp_path / "lim.yaml"
+    p.write_text("blocks:\n  src: {type: sine, amplitude: 1.0, frequency: 0.5}\n"
+                 "  int: {type: integrator, K: 2.0, upper: 0.5, lower: -0.2}\n"
+                 "wires: [src.y -> int.u]\n"
+                 f"simulation: {{t_end: 1.7, solver: {solver}, log_period: 0.01}}\nlog: [int.y]\n")
+    r = hs.simulate(str(p))
+    times = [t for t, _ in r.meta["events"]]
+    t_lower = 2.0 - math.acos(0.7 * math.pi / 2 - 1.0) / math.pi
+    assert len(times) == 3 and abs(times[1] - 1.0) < 1e-9 and abs(times[2] - t_lower) < 1e-6, times
+    assert abs(r.context.xc[0] + 0.2) < 1e-12
