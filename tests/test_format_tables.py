@@ -206,3 +206,14 @@ def test_the_metrics_defaults_come_from_the_table(tmp_path):
     assert settings["metrics"] == {k: v for k, v in tables.defaults(tables.METRICS).items() if v is not None}
     _, settings = api.load(write(tmp_path, GOOD + "metrics: {ss_window: 0.1}\n", "e.yaml")).build()
     assert settings["metrics"]["ss_window"] == 0.1 and settings["metrics"]["filter_cutoff"] == 12.0
+
+
+def test_check_refuses_an_analysis_gain_that_names_no_parameter_with_its_line(tmp_path, capsys):
+    from hybridsim.cli import main
+
+    p = tmp_path / "g.yaml"
+    p.write_text("blocks:\n  c: {type: constant, value: 1.0}\n  g: {type: gain, K: 2.0}\nwires: [c.y -> g.u]\n"
+                 "simulation: {t_end: 0.01}\nanalysis:\n  gains: {k: g.Kq}\n")
+    assert main(["check", str(p)]) == 2
+    err = capsys.readouterr().err
+    assert f"{p}:7: analysis gain 'k' 'g.Kq': block 'g' has no parameter 'Kq' (did you mean 'K'?)" in err, err

@@ -10,7 +10,7 @@ import logging
 
 from .. import limits
 from ..errors import DiagramError, LoaderError
-from ..registry import closest
+from ..registry import closest, parameters
 from . import tables
 from .kinds import SIGNAL
 from .paths import ParamPath
@@ -122,6 +122,17 @@ class SettingsMixin:
             items += [(self._alias(an["step"][k]), f"{self.path}:{an_lines.get('step')}", f"analysis step {k}")
                       for k in ("input", "output") if k in an["step"]]
         problems, logged = [], {}
+        for gname, ref in (an.get("gains") or {}).items():  # a gain names a parameter of a built block
+            bname, _, pname = str(ref).rpartition(".")
+            block = diagram.blocks.get(bname)
+            where = f"{self.path}:{an_lines.get('gains')}: analysis gain {gname!r} {ref!r}"
+            if block is None:
+                problems.append(f"{where}: no block {bname!r}{closest(bname, diagram.blocks)}")
+                continue
+            names = [n for group in parameters(type(block)) for n in group]
+            if pname not in names:
+                problems.append(f"{where}: block {bname!r} has no parameter {pname!r}{closest(pname, names)}; "
+                                f"its parameters: {', '.join(names) or 'none'}")
         for ref, where, what in items:
             m = SIGNAL.match(ref)
             if not m:
