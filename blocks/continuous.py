@@ -184,8 +184,10 @@ def tf_to_ss(num, den, name="num"):
     if num.size > den.size:
         raise ParameterError(name, f"the transfer function must be proper: numerator of degree "
                                    f"{num.size - 1} over denominator of degree {den.size - 1}")
-    A, B, C, D = tf2ss(num, den)
     n = den.size - 1
+    if n == 0:  # a pure gain num/den: no state (tf2ss gives a 1x1 zero A for it)
+        return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[num[-1] / den[0]]])
+    A, B, C, D = tf2ss(num, den)
     return (np.asarray(A, float).reshape(n, n), np.asarray(B, float).reshape(n, 1),
             np.asarray(C, float).reshape(1, n), np.asarray(D, float).reshape(1, 1))
 

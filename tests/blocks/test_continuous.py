@@ -77,3 +77,16 @@ def test_first_order_lag_and_its_pass_through():
     assert np.all(res["f.y[0]"] == 1.0)  # starts in balance with its input: y(0) = u(0)
     off = FirstOrder("f", tau=0.0, width=2)
     assert off.n_continuous == 0 and list(off.output(0, (), [np.array([3.0, 4.0])])[0]) == [3.0, 4.0]
+
+
+def test_a_transfer_function_of_degree_zero_is_a_pure_gain():
+    """num/den with a constant denominator (den: [2]) is the gain num/den, without state (it was a
+    numpy reshape error)."""
+    import numpy as np
+
+    from hybridsim.registry import lookup
+
+    tf = lookup("transfer_function")("p", num=[1.0], den=[2.0])
+    assert tf.n_continuous == 0
+    (y,) = tf.kernels.output(tf.params, 0.0, np.zeros(0), (np.array([3.0]),))
+    assert y[0] == 1.5
