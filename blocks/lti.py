@@ -42,8 +42,12 @@ class ZeroPoleGain(Block):
 
     Parameters
     ----------
-    zeros, poles : list    numbers (rad/s) or [re, im] pairs, conjugates included
-    gain : float           k (units of y per unit of u, times s^(#poles - #zeros))
+    zeros : list
+        Roots of the numerator in rad/s: numbers, or [re, im] pairs with their conjugates included.
+    poles : list
+        Roots of the denominator, as ``zeros``.
+    gain : float
+        k, in units of y per unit of u times s^(n_p - n_z) (n_p poles, n_z zeros).
 
     Example: zeros [], poles [-1, -2], gain 2 is 2 / ((s + 1)(s + 2)): DC gain 1.
     """
