@@ -7,8 +7,6 @@ grid (rk4 at 1 ms: 1000 accepted steps a second, resets at the first grid point 
 threshold, 0.501 s and 1.002 s) and fmpy.simulate_fmu, which calls completedIntegratorStep after
 each step of its fixed-step Euler (exact on x' = 1, as rk4 is) and at each output of its CVode.
 """
-from pathlib import Path
-
 import numpy as np
 import pytest
 from fmpy import simulate_fmu
@@ -24,13 +22,13 @@ T_END = 1.2
 OUT = ["y", "calls", "resets"]
 
 
-def _build(tmp_path_factory, name, xml):
+def _build(tmp_path_factory, name, xml, model="stepev"):
     try:
         find_compiler()
     except FMUError:
         pytest.skip("no C compiler")
-    d = ROOT / "tests" / "data" / "stepev"
-    return build_fmu(tmp_path_factory.mktemp(name) / "stepev.fmu", "stepev", sorted(d.glob("*.c")), xml, {})
+    d = ROOT / "tests" / "data" / model
+    return build_fmu(tmp_path_factory.mktemp(name) / f"{model}.fmu", model, sorted(d.glob("*.c")), xml, {})
 
 
 @pytest.fixture(scope="module")
@@ -162,3 +160,32 @@ def test_diagrams_without_such_blocks_get_no_hook():
     assert sim.system.after_step == []
     res = sim.run(1.0)
     assert res.meta["events"] == [] and res["saw.y"][-1, 0] == pytest.approx(1.0)
+
+
+def test_an_fmi3_fmu_that_needs_it_is_called_through_fmi3CompletedIntegratorStep(tmp_path_factory):
+    """tests/data/ball3 (FMI 3.0) declares nothing: not called; with needsCompletedIntegratorStep
+    it is called after every step (its answer: no event), and the bounces are unchanged."""
+    d = ROOT / "tests" / "data" / "ball3"
+    xml = (d / "modelDescription.xml").read_text()
+    fmus = [_build(tmp_path_factory, "ball3", xml, "ball3"),
+            _build(tmp_path_factory, "ball3_needs", xml.replace(
+                '<ModelExchange modelIdentifier="ball3"/>',
+                '<ModelExchange modelIdentifier="ball3" needsCompletedIntegratorStep="true"/>'), "ball3")]
+    runs, calls = [], []
+    for fmu in fmus:
+        block = FMUBlock("ball", path=str(fmu), mode="me")
+        if block.has_after_step:
+            real = block.after_step
+
+            def counted(t, x, u):
+                calls.append(t)
+                return real(t, x, u)
+
+            block.after_step = counted
+        dg = hs.Diagram("b")
+        dg.add(block)
+        runs.append(hs.Simulator(dg.build(), hs.RK4(1e-3), log=["ball.height"]).run(1.0))
+    assert not FMUBlock("b", path=str(fmus[0]), mode="me").has_after_step
+    assert np.array_equal(runs[0]["ball.height"], runs[1]["ball.height"])
+    bounces = [t for t, _ in runs[1].meta["events"] if abs(t - round(t)) > 1e-9]
+    assert len(calls) == 1000 + len(bounces)  # every grid step and each located event's end
