@@ -311,6 +311,16 @@ class Block:
         """True when the block asks for stops at times of its own."""
         return type(self).next_event_time is not Block.next_event_time
 
+    #: ``after_step(t, x, u) -> bool``, when a block defines it: called after every accepted
+    #: integrator step with the state there; True asks for a step event at ``t`` (its
+    #: ``event_action`` runs with no functions fired). None: the block needs no such call.
+    after_step = None
+
+    @property
+    def has_after_step(self):
+        """True when the block is to be told of every accepted integrator step."""
+        return self.after_step is not None
+
     def release(self):
         """Free outside resources (an FMU instance, files) when a run ends."""
 

@@ -63,7 +63,7 @@ class CVode:
         returns ``(x, states at t_out)``."""
         return self.advance_to_event(f, t0, t1, x, t_out, None, None, events=events, check=check)[1::2]
 
-    def advance_to_event(self, f, t0, t1, x, t_out, g, directions, events=None, check=None):
+    def advance_to_event(self, f, t0, t1, x, t_out, g, directions, events=None, check=None, step=None):
         """Like :meth:`advance`, stopping at the first crossing of ``g`` (in ``directions``).
 
         Returns ``(t_stop, x_stop, fired, outs)`` as
@@ -73,7 +73,9 @@ class CVode:
         one that fires more than ``MAX_REPEATS`` times in the interval is stepped
         over for the rest of it (a solution sliding along the switch). ``check(t, x)``
         (the divergence check) sees the state at every point CVODE returns: log times,
-        zero crossings and ``t1``.
+        zero crossings and ``t1``; so does ``step(t, x)`` when given, after ``check`` (True: a step
+        event there, returned with ``fired`` a mask of no functions). CVODE's internal steps are
+        not seen: ``step`` is called at the points it returns, not after each of its steps.
         """
         from sksundae.cvode import CVODE
 
@@ -113,17 +115,20 @@ class CVode:
             t, y = float(np.atleast_1d(res.t)[-1]), np.array(res.y, float).reshape(-1)
             if check is not None:
                 check(t, y)
+            asked = step is not None and step(t, y)
             if res.status == 2:  # a root
                 which = np.asarray(res.i_events, float).reshape(-1, n_a + n_r)[-1] != 0
                 while pending and pending[0] <= t:
                     pending.pop(0)
                     outs.append(y.copy())
-                if which[:n_a].any():
+                if which[:n_a].any() or asked:
                     return t, y, which[:n_a].copy(), outs
                 hits += which[n_a:]
                 muted |= hits > MAX_REPEATS
                 self._check(cv.init_step(t, y), t)  # restart at the switch, at order 1
                 continue
+            if asked:  # a log time here is logged after the step event, as after a time event
+                return t, y, np.zeros(n_a, dtype=bool), outs
             if pending and t >= pending[0]:
                 pending.pop(0)
                 outs.append(y.copy())

@@ -97,6 +97,30 @@ class EventSet:
         self.switches = np.repeat([not ctx.blocks[i].has_event_action for i, _ in self.blocks], sizes).astype(bool)
         self.muted = np.zeros(len(dirs), dtype=bool)
         self.log = []  # (t, block names) of every event, in order
+        stepped = [(i, system.xslices[i]) for i in getattr(system, "after_step", ())]
+        #: the callback every solver calls after each accepted step (None: no block needs it)
+        self.step = self._after_step if stepped else None
+        self.stepped, self.requested, self.stop = stepped, [], None
+
+    def _after_step(self, t, x):
+        """Tell the blocks with ``after_step`` of an accepted step ending at (t, x); True when one
+        asks for a step event there (or to stop: the request waits in ``stop`` until the solver
+        has handed back its log states)."""
+        self.outputs(t, x)
+        blocks, u = self.ctx.blocks, self.ctx.u
+        for i, s in self.stepped:
+            try:
+                if blocks[i].after_step(t, x[s], u[i]):
+                    self.requested.append((i, s))
+            except StopRequest as stop:
+                stop.x = x
+                self.stop = stop
+                return True
+        return bool(self.requested)
+
+    def step_fired(self):
+        """A mask of no fired functions: what a solver returns for a step event."""
+        return np.zeros(len(self.directions), dtype=bool)
 
     def g(self, t, x):
         """Every located block's event functions at (t, x) (a muted switch reads +1: never fires)."""
@@ -136,18 +160,27 @@ class EventSet:
                 if new is not None:
                     x[s] = new
             return x
+        done = set()
         for k, (i, s) in enumerate(self.blocks):
             mine = fired[self.cuts[k]:self.cuts[k + 1]]
             if mine.any() and s is not None:  # a stateless block's switch only restarts
+                done.add(i)
                 new = blocks[i].event_action(t, x[s].copy(), u[i], tuple(bool(f) for f in mine))
+                if new is not None:
+                    x[s] = new
+        requested, self.requested = self.requested, []
+        for i, s in requested:  # step events (after_step asked) at the same instant
+            if i not in done:
+                new = blocks[i].event_action(t, x[s].copy(), u[i], ())
                 if new is not None:
                     x[s] = new
         return x
 
     def names(self, fired):
-        """The blocks whose functions ``fired``."""
+        """The blocks whose functions ``fired`` or that asked for a step event."""
         return sorted({self.system.blocks[i].name for k, (i, _) in enumerate(self.blocks)
-                       if fired[self.cuts[k]:self.cuts[k + 1]].any()})
+                       if fired[self.cuts[k]:self.cuts[k + 1]].any()}
+                      | {self.system.blocks[i].name for i, _ in self.requested})
 
     def settle(self, t, x_minus, g_minus, fired):
         """Apply the actions of ``fired`` at ``t`` and iterate while actions trigger events."""
@@ -187,7 +220,10 @@ def integrate(solver, f, events, t0, t1, x, t_out, observe=None, check=None, mut
     soon as its segment is integrated, before the next event's actions (a
     block with hidden discrete state, an FMU, then shows the value of that
     time); without it the states come back in ``outs``. ``check(t, x)``: the
-    divergence check, after every accepted step. ``mute``: a switch without an
+    divergence check, after every accepted step. With blocks that define ``after_step``, the
+    solver also gets ``step=events.step``, called after every accepted step; when it returns
+    True the solver stops there with a mask of no fired functions (a step event: the actions
+    of the blocks that asked run as at a state event). ``mute``: a switch without an
     action located more than :data:`MAX_REPEATS` times is stepped over until
     ``t1`` (the scipy solvers: a sliding friction surface). Returns ``(x, outs)``
     like ``solver.advance``.
@@ -201,14 +237,17 @@ def integrate(solver, f, events, t0, t1, x, t_out, observe=None, check=None, mut
         stop = min(t1, te) if te > t0 + TIME_TOL else t1
         here = [tb for tb in pending if tb < stop]
         g = events.g if events.blocks else None
-        t_stop, x_stop, fired, got = solver.advance_to_event(f, t0, stop, x, here, g, events.directions,
-                                                             check=check)
+        kw = {"check": check} if events.step is None else {"check": check, "step": events.step}
+        t_stop, x_stop, fired, got = solver.advance_to_event(f, t0, stop, x, here, g, events.directions, **kw)
         if observe is not None:
             for tb, xb in zip(pending, got):
                 observe(tb, xb)
         else:
             outs += got
         pending = pending[len(got):]
+        if events.stop is not None:  # a block's after_step asked to stop: the states so far are out
+            stop_request, events.stop = events.stop, None
+            raise stop_request
         if fired is not None:
             count += 1
             stalls = stalls + 1 if t_stop - t0 <= 10 * TIME_TOL else 0

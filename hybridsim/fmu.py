@@ -182,6 +182,8 @@ class FMUBlock(ModelExchange, Block):
             self.T = float(self.period)
         else:
             self.nx = md.numberOfContinuousStates
+            # fmpy reads FMI 2.0's completedIntegratorStepNotNeeded into this flag too
+            self.needs_completed_step = bool(md.modelExchange.needsCompletedIntegratorStep)
             self.nz = md.numberOfEventIndicators
             # absolute tolerances from the states' nominal values (1e-12 of each; nominal 1 when none)
             nominals = [_nominal(d.variable.derivative) for d in md.derivatives][:self.nx]

@@ -95,7 +95,7 @@ class Simulator:
         self.located = located_events(system, self.solver, locate_switches)
 
         self._fused = (_fused.build(system, self.solver, self.located)
-                       if fused and _fused.eligible(system, self.solver) else None)
+                       if fused and not system.after_step and _fused.eligible(system, self.solver) else None)
         self._compiled = None
         if compiled:
             from .compiled import CompiledLoop
@@ -132,7 +132,7 @@ class Simulator:
         evs = [(blocks[i].zero_crossings, sysm.xslices[i], u[i], xd[i]) for i in sysm.events
                if i not in self.located]
         ctx.events = None
-        if self.located or sysm.time_events:
+        if self.located or sysm.time_events or sysm.after_step:
             from .events import EventSet
 
             ctx.events = EventSet(sysm, ctx, outputs, self.located)

@@ -110,7 +110,7 @@ class ExplicitRK:
         _, x, _, outs = self.advance_to_event(f, t0, t1, x, t_out, None, None, check=check)
         return x, outs
 
-    def advance_to_event(self, f, t0, t1, x, t_out, g, directions, steps_with=None, check=None):
+    def advance_to_event(self, f, t0, t1, x, t_out, g, directions, steps_with=None, check=None, step=None):
         """Like :meth:`advance`, stopping at the first located event of ``g``.
 
         Returns ``(t_stop, x_stop, fired, outs)``: ``fired`` (a mask over the
@@ -123,6 +123,8 @@ class ExplicitRK:
         ``check(t, x)``: the divergence check (it raises); its ``ok(x)`` is asked about the
         last state of the stretch, and when that fails the steps are taken again (the same
         numbers) and ``check`` called after each, so it raises at the first bad step.
+        ``step(t, x)``: called after every step (checked first) and at a located event; when it
+        returns True the stretch ends there with ``fired`` a mask of no functions (a step event).
         """
         from .events import bisect, crossed
 
@@ -157,8 +159,17 @@ class ExplicitRK:
                 if check is not None:
                     self._check_steps(st, t0, h, k, x, X, check)
                     check(t_ev, x_ev)
+                if step is not None:
+                    step(t_ev, x_ev)  # its request joins the event's actions
                 return t_ev, x_ev, fired, outs
             X = X_next
+            if step is not None:
+                t_k, x_k = t0 + (k + 1) * h, st.array(X)
+                if check is not None:
+                    check(t_k, x_k)
+                if step(t_k, x_k):
+                    return (t_k, x_k, np.zeros(len(directions) if directions is not None else 0, bool),
+                            outs)
         if check is not None:
             self._check_steps(st, t0, h, n, x, X, check)
         return t1, st.array(X), None, outs
@@ -273,11 +284,12 @@ class ScipySolver:
         used; the simulator locates every zero crossing on these solvers.)"""
         return self.advance_to_event(f, t0, t1, x, t_out, None, None, check=check)[1::2]
 
-    def advance_to_event(self, f, t0, t1, x, t_out, g, directions, check=None):
+    def advance_to_event(self, f, t0, t1, x, t_out, g, directions, check=None, step=None):
         """Like :meth:`ExplicitRK.advance_to_event`: ``(t_stop, x_stop, fired, outs)``.
 
         ``check(t, x)``: called with the state after every accepted step (it
-        raises on divergence).
+        raises on divergence); then ``step(t, x)``, when given (True: a step event
+        there, ``fired`` a mask of no functions), also at a located event.
         """
         from .events import bisect, crossed
 
@@ -332,11 +344,15 @@ class ScipySolver:
                         self._observe(pending, outs, dense, t_ev, None, inclusive=False)
                         if check is not None:
                             check(t_ev, x_ev)
+                        if step is not None:
+                            step(t_ev, np.array(x_ev, float))  # its request joins the event's actions
                         return t_ev, np.array(x_ev, float), fired, outs
                     g_a, sa = g_b, sb
             if check is not None:
                 check(tb, xb)
             self._observe(pending, outs, dense, tb, xb)
+            if step is not None and step(tb, xb):
+                return tb, xb, np.zeros(len(directions) if directions is not None else 0, bool), outs
         return t1, solver.y.copy(), None, outs
 
     @staticmethod

@@ -72,10 +72,12 @@ class System:
         self.action_events = [i for i in self.events if self.blocks[i].has_event_action]
         #: blocks that ask for stops at times of their own
         self.time_events = [i for i, b in enumerate(self.blocks) if b.has_time_events]
-        for i in self.action_events + self.time_events:
+        #: blocks told of every accepted integrator step (``after_step``)
+        self.after_step = [i for i, b in enumerate(self.blocks) if b.has_after_step]
+        for i in self.action_events + self.time_events + self.after_step:
             if self.kind[i] != "continuous":
-                raise DiagramError([f"block {self.blocks[i].name!r}: events with a reset or time events need "
-                                    "a block with continuous state"], diagram.source)
+                raise DiagramError([f"block {self.blocks[i].name!r}: events with a reset, time events or "
+                                    "step events need a block with continuous state"], diagram.source)
         inputs_of |= {self.sources[i][k][0] for i in self.events for k in range(len(self.blocks[i].inputs))}
         self.rhs_path = sorted(needed_blocks(inputs_of, self.blocks, self.sources, held))
         self.stateful = stateful

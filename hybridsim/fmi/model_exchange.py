@@ -92,6 +92,23 @@ class ModelExchange:
         """A Model Exchange FMU may announce time events (nextEventTime)."""
         return self.mode == "me"
 
+    @property
+    def has_after_step(self):
+        """A Model Exchange FMU is told of every accepted step (completedIntegratorStep) unless
+        its model description says it need not be (FMI 2.0 ``completedIntegratorStepNotNeeded``,
+        FMI 3.0 without ``needsCompletedIntegratorStep``)."""
+        return self.mode == "me" and self.needs_completed_step
+
+    def after_step(self, t, x, u):
+        """completedIntegratorStep at the end of an accepted step (states and inputs set first);
+        returns whether the FMU asks for event mode there (a step event)."""
+        self._me_set(t, x, u)
+        enter, terminate = self._call(f"completedIntegratorStep at t={t:.9g}",
+                                      self._fmu.completedIntegratorStep)
+        if terminate:
+            raise StopRequest(t, self.name, "terminateSimulation")
+        return bool(enter)
+
     def _event_update(self, t):
         """The newDiscreteStates / updateDiscreteStates loop of event mode; returns whether the
         continuous states changed. Remembers the next time event."""
