@@ -40,12 +40,12 @@ def _setup(block, A, B, C, D):
 class ZeroPoleGain(Block):
     """y = k prod(s - z_i) / prod(s - p_j) u: a proper SISO transfer function by its roots, from rest.
 
+    Example: zeros [], poles [-1, -2], gain 2 is 2 / ((s + 1)(s + 2)): DC gain 1.
+
     Parameters
     ----------
     zeros, poles : list    numbers (rad/s) or [re, im] pairs, conjugates included
     gain : float           k (units of y per unit of u, times s^(#poles - #zeros))
-
-    Example: zeros [], poles [-1, -2], gain 2 is 2 / ((s + 1)(s + 2)): DC gain 1.
     """
 
     def __init__(self, name="zpk", zeros=(), poles=(-1.0,), gain=1.0):
