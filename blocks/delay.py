@@ -23,7 +23,7 @@ class TransportDelay(Block):
     Parameters
     ----------
     delay : float            the dead time tau (s), > 0
-    buffer : int             samples of u kept per delay, N (default 20)
+    buffer : int             samples of u kept per delay, N (default 64)
     initial : float or list  y before t = tau (units of u; Simulink's initial output)
     width : int
 
@@ -35,11 +35,20 @@ class TransportDelay(Block):
     Transport Delay interpolates its buffer. The error is at most
     Ts^2 / 8 max abs(u''); y does not depend on u(t) itself, so the block breaks
     algebraic loops. Example: tau = 0.1 s, u = t: y(0.35 s) = 0.25.
+
+    Why 64 samples: the error bound is then (tau/64)^2/8 max abs(u''), a tenth
+    of that of 20 samples (3e-5 of the amplitude for a sine at omega tau = 1),
+    while the block stays small: 64 located events per delay time and 66
+    states per element. The cost of a larger buffer grows with N (one event
+    per sample; on the compiled path the compile time grows with the states),
+    so raise ``buffer`` only for inputs with much content above 1/tau.
+    Simulink's Transport Delay stores the input at its solver's steps, so its
+    initial buffer of 1024 points is a memory allocation, not a resolution.
     """
 
     init_needs_inputs = True
 
-    def __init__(self, name="dead_time", delay=0.1, buffer=20, initial=0.0, width=1):
+    def __init__(self, name="dead_time", delay=0.1, buffer=64, initial=0.0, width=1):
         super().__init__(name)
         n, N = count(width, "width"), count(buffer, "buffer")
         tau = scalar(delay, "delay", "positive")

@@ -40,6 +40,8 @@ def _setup(block, A, B, C, D):
 class ZeroPoleGain(Block):
     """y = k prod(s - z_i) / prod(s - p_j) u: a proper SISO transfer function by its roots, from rest.
 
+    Example: zeros [], poles [-1, -2], gain 2 is 2 / ((s + 1)(s + 2)): DC gain 1.
+
     Parameters
     ----------
     zeros : list
@@ -48,8 +50,6 @@ class ZeroPoleGain(Block):
         Roots of the denominator, as ``zeros``.
     gain : float
         k, in units of y per unit of u times s^(n_p - n_z) (n_p poles, n_z zeros).
-
-    Example: zeros [], poles [-1, -2], gain 2 is 2 / ((s + 1)(s + 2)): DC gain 1.
     """
 
     def __init__(self, name="zpk", zeros=(), poles=(-1.0,), gain=1.0):

@@ -19,7 +19,6 @@ exclude_patterns = ["_build"]
 myst_heading_anchors = 3
 napoleon_google_docstring = False
 napoleon_numpy_docstring = True
-napoleon_use_param = False  # parameters as a list, not :param: fields (their names must not become references)
 autodoc_default_options = {"members": True, "undoc-members": False}
 autodoc_member_order = "bysource"
 suppress_warnings = ["myst.xref_missing"]

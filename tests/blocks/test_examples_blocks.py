@@ -58,15 +58,16 @@ def test_motor_with_backlash_and_a_dead_time_under_a_continuous_pid():
 def thermostat_reference(t_end=600):
     """Room and sensor by solve_ivp, second by second (the noise sample constant over each), the relay's
     thresholds as terminal events: on when the measurement falls through 19.5, off when it rises through
-    20.5 (each crossing is an event, as the relay's are, whether or not it changes the relay)."""
+    20.5, only the threshold of the relay's current position watched (a relay that is off does not see
+    the measurement rise through 20.5 again). The relay starts on: the measurement, 15, is below 19.5."""
     noise = 0.2 * block_normals(2026, t_end, 0)
     tout = lambda t: np.interp(t, [0.0, 200.0, 400.0, 600.0], [5.0, 0.0, 8.0, 12.0])  # noqa: E731
     z, on, switches, rows = np.array([15.0, 15.0]), True, [], [[15.0, 15.0, 1.0]]
 
-    def off(t, s):  # rises through 20.5: off (a no-op when off already, but an event all the same)
+    def off(t, s):  # rises through 20.5 while on: off
         return s[1] - 20.5
 
-    def on_(t, s):  # falls through 19.5: on
+    def on_(t, s):  # falls through 19.5 while off: on
         return s[1] - 19.5
 
     off.terminal, off.direction, on_.terminal, on_.direction = True, 1, True, -1
@@ -77,11 +78,12 @@ def thermostat_reference(t_end=600):
             return [(tout(t) - s[0]) / 60.0 + 0.5 * on, (s[0] + noise[k] - s[1]) / 2.0]
 
         while True:
-            sol = solve_ivp(f, (t0, k + 1.0), z, events=[off, on_], rtol=1e-11, atol=1e-11, method="DOP853")
+            sol = solve_ivp(f, (t0, k + 1.0), z, events=[off if on else on_], rtol=1e-11, atol=1e-11,
+                            method="DOP853")
             z = sol.y[:, -1]
             if sol.status != 1:
                 break
-            t0, on = sol.t[-1], len(sol.t_events[1]) > 0
+            t0, on = sol.t[-1], not on
             switches.append(t0)
             # step 1 us past the root without events, so that the root itself is not found again
             sol = solve_ivp(f, (t0, t0 + 1e-6), z, rtol=1e-11, atol=1e-11, method="DOP853")

@@ -37,7 +37,7 @@ def test_coulomb_viscous_friction_and_backlash(path):
 
 @pytest.mark.parametrize("path", PATHS)
 def test_transport_delay_and_memory(path):
-    tau, N = 0.3, 24  # the compiled path takes up to 30 continuous states in all
+    tau, N = 0.3, 24  # a buffer other than the default (64 samples, tested below)
     blocks = [block("sine", "s", amplitude=1.0, frequency=1.0), block("clock", "clk"),
               block("transport_delay", "d", delay=tau, buffer=N, initial=0.25),
               block("pulse", "p", period=0.4, duty=0.5, delay=0.055), block("memory", "m", initial=-1.0)]
@@ -62,3 +62,16 @@ def test_backlash_refuses_a_start_outside_the_play():
     b = block("backlash", "b", deadband=0.2, initial=0.5)
     with pytest.raises(Exception, match="initial"):
         b.initial_state([np.array([0.0]), np.array([0.0])])
+
+
+def test_transport_delay_default_buffer_is_64_samples_per_delay():
+    """The default buffer: located samples every tau / 64 s, within that spacing's interpolation bound."""
+    tau = 0.3
+    blocks = [block("sine", "s", amplitude=1.0, frequency=1.0), block("transport_delay", "d", delay=tau)]
+    res = run("generic", blocks, [("s.y", "d.u")], 1.0, ["d.y"], step=1e-3)
+    times = [t for t, _ in res.meta["events"]]
+    np.testing.assert_allclose(np.diff(times), tau / 64, rtol=1e-9)
+    ref = np.where(res.t >= tau, np.sin(2 * np.pi * (res.t - tau)), 0.0)
+    bound = (tau / 64) ** 2 / 8 * (2 * np.pi) ** 2  # 1.1e-4; 20 samples would give 1.1e-3
+    err = check("transport_delay, default buffer", "generic", res["d.y[0]"], ref, bound)
+    assert err > bound / 10  # the bound is tight: a finer buffer would pass far below it
