@@ -3,12 +3,14 @@ solver and path, and the cold / warm start of Fig 9 on the compiled path.
 
 Run on demand (not part of the test suite):
 
-    python benchmarks/bench_events.py [--compile]
+    python benchmarks/bench_events.py [--compile] [--states N]
 
 Prints, per solver and path, the best of three runs' wall and CPU time (``time.process_time``:
 on a shared machine the CPU time is the steadier figure) and the events located. With
 ``--compile`` it also starts Fig 9 compiled in a fresh process three times, the first with an
-empty cache folder (cold: numba compiles), then warm (loaded from the cache).
+empty cache folder (cold: numba compiles), then warm (loaded from the cache). With
+``--states N`` it runs x_k' = -k x_k + 1 (k = 1..N, one state-space block) on the compiled path
+against the generic one and the closed form, timing the compile (the suite runs N = 31 only).
 """
 import argparse
 import os
@@ -80,10 +82,37 @@ def time_compile():
               "(import, build, compile or load, 10 ms run)")
 
 
+def time_states(n):
+    import math
+
+    import numpy as np
+
+    d = hs.Diagram("many")
+    d.add(lookup("constant")("c", value=1.0))
+    d.add(lookup("state_space")("ss", A=(-np.eye(n) * np.arange(1, n + 1)).tolist(), B=np.ones((n, 1)).tolist(),
+                                C=np.ones((1, n)).tolist(), D=[[0.0]]))
+    d.connect("c.y", "ss.u")
+    system = d.build()
+    exact = sum((1 - math.exp(-k * 0.5)) / k for k in range(1, n + 1))
+    runs = {}
+    for path in ("generic", "compiled"):
+        w0, c0 = time.perf_counter(), time.process_time()
+        res = hs.Simulator(system, hs.RK4(1e-3), log=["ss.y"], log_period=0.05,
+                           fused=path != "generic", compiled=path == "compiled").run(0.5)
+        runs[path] = res["ss.y"]
+        print(f"{n} states {path:8s}: first run wall {time.perf_counter() - w0:.1f} s, cpu "
+              f"{time.process_time() - c0:.1f} s, y(0.5) - exact = {res['ss.y'][-1, 0] - exact:.2e}")
+    print(f"{n} states: compiled - generic = {np.max(np.abs(runs['compiled'] - runs['generic'])):.2e}")
+
+
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--compile", action="store_true", help="also time Fig 9's cold and warm compiled start")
+    ap.add_argument("--states", type=int, metavar="N", help="only: N continuous states on the compiled path")
     args = ap.parse_args()
+    if args.states:
+        time_states(args.states)
+        sys.exit(0)
     time_runs()
     if args.compile:
         time_compile()
