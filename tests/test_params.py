@@ -1,11 +1,9 @@
 """Parameters at run time: sim.run(params=...), the batch call, and batched sweeps."""
 import numpy as np
-import pandas as pd
 import pytest
 
 import hybridsim as hs
 from hybridsim.errors import InputError, ParameterError, SimulationError
-from hybridsim.sweep import run_sweep
 
 from conftest import DIAGRAMS, ROOT
 
@@ -44,21 +42,6 @@ def test_batch_equals_single_runs_and_reports_divergence_in_place():
     for params, r in zip(sets[:3], out[:3]):
         assert np.array_equal(r.table(), sim.run(0.3, params=params).table())
     assert isinstance(out[3], SimulationError) and "diverged" in str(out[3])
-
-
-@pytest.mark.slow
-def test_batched_sweep_gives_the_point_by_point_table(tmp_path):
-    spec = tmp_path / "s.yaml"
-    spec.write_text(f"diagram: {DIAGRAMS / 'fig7_force_steps.yaml'}\n"
-                    "set: {force: 5.0, rate: 60, simulation.t_end: 0.4}\n"
-                    "grid: {Kr: [8.0e+5, 1.0e+6]}\nscale: {ctrl.fpi.Kp: [0.5, 2.0]}\n")
-    run_sweep(spec, tmp_path / "batch", progress=False, compiled=True, jobs=2)
-    run_sweep(spec, tmp_path / "single", progress=False, compiled=True, jobs=1, batch=False)
-
-    def table(p):
-        return pd.read_csv(p / "sweep.csv").drop(columns=["wall_time_s"]).sort_values("key").reset_index(drop=True)
-
-    pd.testing.assert_frame_equal(table(tmp_path / "batch"), table(tmp_path / "single"))
 
 
 def test_runtime_params_of_a_file_follow_dollar_references():
