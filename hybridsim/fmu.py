@@ -29,17 +29,13 @@ import numpy as np
 from . import fmi_log
 from .block import Block
 from .errors import FMUError, ParameterError, StopRequest
-from .fmi.model_exchange import ModelExchange
+from .fmi.model_exchange import ModelExchange, _raise
 from .fmi.build import build_fmu, find_compiler, fmi_headers  # noqa: F401 - hybridsim.fmu.build_fmu
 from .fmi.variables import (_INDEXED, PORT_TYPES, _access, _by_type, _check_members, _group,  # noqa: F401
                             _nominal, _settable, _size, _start, _text_parameter, to_fmi)
 from .registry import closest, register
 
 GROUP = "FMU"  # where `hybridsim blocks` lists this module's blocks
-
-
-def _raise(exc):
-    raise exc
 
 
 @register("fmu")

@@ -14,6 +14,7 @@ from ..errors import FMUError, StopRequest
 
 
 def _raise(exc):
+    """Raise ``exc`` (a call for :meth:`FMUBlock._call`, which adds the FMU's own words)."""
     raise exc
 
 
