@@ -174,7 +174,7 @@ def vars_header():
 #: the C files in sources/ an importer compiles to rebuild the binary (fmpy does, on any platform)
 SOURCE_FILES = '    <SourceFiles><File name="plant.c"/></SourceFiles>'
 #: per FMI version: the C files compiled into the binary
-C_FILES = {2: ["plant.c"], 3: ["plant3.c", "fmi3_unsupported.c"]}
+C_FILES = {2: ["plant.c"], 3: ["plant3.c"]}  # FMI 3.0: build_fmu adds the functions plant3.c does not define
 EVENT_INDICATORS = ["indicator[1]", "indicator[2]", "indicator[3]"]
 
 
@@ -294,7 +294,9 @@ def model_description3():
 
 def build_description():
     """sources/buildDescription.xml (FMI 3.0): the C files an importer compiles to rebuild the binary."""
-    files = "\n".join(f'      <SourceFile name="{f}"/>' for f in C_FILES[3])
+    from hybridsim.fmi.build import UNSUPPORTED_C
+
+    files = "\n".join(f'      <SourceFile name="{f}"/>' for f in C_FILES[3] + [UNSUPPORTED_C])
     return ('<?xml version="1.0" encoding="UTF-8"?>\n<fmiBuildDescription fmiVersion="3.0">\n'
             f'  <BuildConfiguration modelIdentifier="{MODEL_NAME}">\n    <SourceFileSet language="C99">\n'
             f"{files}\n    </SourceFileSet>\n  </BuildConfiguration>\n</fmiBuildDescription>\n")

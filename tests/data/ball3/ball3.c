@@ -1,6 +1,6 @@
 /* The bouncing ball with a stair counter (see ../ball/ball.c) as an FMI 3.0 Model Exchange
  * FMU: a state event with a reset, time events at t = 1, 2, ... s, terminateSimulation at
- * t_stop, and Int32/Boolean ports. The functions it does not implement are in stubs.c.
+ * t_stop, and Int32/Boolean ports. The functions it does not define are added by hybridsim.fmi.build_fmu.
  * Value references: 0 h, 1 der(h), 2 v, 3 der(v), 4 e, 5 g, 6 height, 7 count, 8 t_stop, 9 time;
  * Int32 10 bounces, 11 k_in (input), 12 k_out = k_in + 1; Boolean 13 flag_in (input),
  * 14 flag_out = !flag_in; String 15 label (parameter), Int32 16 label_length = strlen(label),
