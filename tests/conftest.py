@@ -48,3 +48,19 @@ def _compiled_cache(tmp_path_factory):
     import os
 
     os.environ["HYBRIDSIM_CACHE"] = str(tmp_path_factory.mktemp("hybridsim_cache"))
+
+
+#: a small valid diagram (step -> gain -> zoh) that tests mutate one line at a time
+GOOD = """\
+params:
+  k: 2.0
+blocks:
+  src:  {type: step, initial: 0.0, final: 1.0, time: 0.1}
+  g:    {type: gain, K: $k}
+  zoh:  {type: zoh, rate: 100}
+wires:
+  - src.y -> g.u
+  - g.y -> zoh.u
+simulation: {t_end: 0.2, log_period: 1.0e-2}
+log: [zoh.y]
+"""

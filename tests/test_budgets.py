@@ -7,7 +7,7 @@ from hybridsim import limits
 from hybridsim.cli import main
 
 from conftest import DIAGRAMS, write
-from test_loader import GOOD
+from conftest import GOOD
 
 HC = DIAGRAMS / "hybrid_controller.yaml"
 

@@ -6,7 +6,7 @@ import pytest
 from hybridsim.cli import main
 
 from conftest import DIAGRAMS, ROOT, write
-from test_loader import GOOD
+from conftest import GOOD
 
 
 def run(capsys, *argv):

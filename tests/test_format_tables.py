@@ -11,7 +11,7 @@ from hybridsim.format.paths import ParamPath
 from hybridsim.schema import diagram_schema, sweep_schema
 
 from conftest import DIAGRAMS, write
-from test_loader import GOOD
+from conftest import GOOD
 
 ROOT = Path(__file__).resolve().parents[1]
 HC = DIAGRAMS / "hybrid_controller.yaml"

@@ -21,7 +21,7 @@ from hybridsim.errors import (DiagramError, FMUError, InputError, LoaderError, O
                               ParameterError, SimulationError)
 
 from conftest import DIAGRAMS, write
-from test_loader import GOOD
+from conftest import GOOD
 
 HC = DIAGRAMS / "hybrid_controller.yaml"
 

@@ -14,7 +14,7 @@ from hybridsim.cli import main
 from hybridsim.format import identity
 
 from conftest import write
-from test_loader import GOOD
+from conftest import GOOD
 
 
 def run(capsys, *argv):

@@ -3,21 +3,7 @@ import pytest
 from hybridsim.errors import DiagramError, LoaderError
 from hybridsim.loader import DiagramFile
 
-from conftest import write
-
-GOOD = """\
-params:
-  k: 2.0
-blocks:
-  src:  {type: step, initial: 0.0, final: 1.0, time: 0.1}
-  g:    {type: gain, K: $k}
-  zoh:  {type: zoh, rate: 100}
-wires:
-  - src.y -> g.u
-  - g.y -> zoh.u
-simulation: {t_end: 0.2, log_period: 1.0e-2}
-log: [zoh.y]
-"""
+from conftest import GOOD, write
 
 
 def test_good_file_builds_and_substitutes(tmp_path):
