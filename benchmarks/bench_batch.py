@@ -34,8 +34,8 @@ def main():
     import numpy as np
 
     import hybridsim as hs
-    from hybridsim import metrics
-    from hybridsim.sweep import run_sweep
+    from hybridsim.analysis import metrics
+    from hybridsim.runs.sweep import run_sweep
 
     n = args.points
     with tempfile.TemporaryDirectory() as tmp:

@@ -24,7 +24,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 import hybridsim as hs  # noqa: E402
-from hybridsim.registry import lookup  # noqa: E402
+from hybridsim.engine.registry import lookup  # noqa: E402
 
 PATHS = [("rk4", "generic"), ("rk4", "fused"), ("rk4", "compiled"), ("heun", "fused"),
          ("radau", "generic"), ("bdf", "generic"), ("lsoda", "generic"), ("rk45", "generic"),

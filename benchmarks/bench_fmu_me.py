@@ -24,8 +24,8 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import hybridsim as hs  # noqa: E402
-from hybridsim.blocks.sources import Constant  # noqa: E402
-from hybridsim.fmu import FMUBlock  # noqa: E402
+from hybridsim.blocks.sources.basic import Constant  # noqa: E402
+from hybridsim.fmi.fmu_block import FMUBlock  # noqa: E402
 
 T_END, TAU = 0.5, (8.0, 20.0)
 PARAMS = {"balance": 1, "preload": 10.0, "surface_x0": 0.5}

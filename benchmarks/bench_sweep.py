@@ -49,7 +49,7 @@ def main():
     args = ap.parse_args()
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
     import hybridsim as hs
-    from hybridsim.sweep import run_sweep
+    from hybridsim.runs.sweep import run_sweep
 
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)

@@ -29,7 +29,7 @@ import numpy as np
 
 sys.path[:0] = [str(Path(__file__).resolve().parents[1]), str(Path(__file__).resolve().parent)]
 import hybridsim as hs  # noqa: E402
-from hybridsim.blocks.robot import urdf_path  # noqa: E402
+from hybridsim.blocks.robot.arm import urdf_path  # noqa: E402
 
 DIAGRAM = Path(__file__).resolve().parents[1] / "diagrams" / "ur5_press_and_trace.yaml"
 T_END = 2.0

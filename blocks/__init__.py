@@ -1,13 +1,15 @@
-"""The hybridsim block library: the blocks of the paper's Fig 6 and friends.
+"""The hybridsim block library, one subpackage per family.
 
-Importing this package registers every block type with
-:mod:`hybridsim.registry`; diagrams refer to them by these names. Every module
-of this folder whose name does not start with ``_`` is imported: a new block
-module needs no list to be edited.
+``math`` (routing, nonlinear, logic, lookup, friction), ``sources``,
+``continuous``, ``discrete``, ``sinks``, ``robot`` (any arm from a URDF) and
+``paper`` (the blocks of the paper's Fig 6 and its plant). Importing this
+package registers every block type with :mod:`hybridsim.engine.registry`;
+diagrams refer to them by these names. Every module whose name does not start
+with ``_`` is imported: a new block module needs no list to be edited.
 """
 import importlib
 import pkgutil
 
-for _module in pkgutil.iter_modules(__path__):
-    if not _module.name.startswith("_"):
-        importlib.import_module(f"{__name__}.{_module.name}")
+for _module in pkgutil.walk_packages(__path__, prefix=f"{__name__}."):
+    if not _module.name.rpartition(".")[2].startswith("_"):
+        importlib.import_module(_module.name)

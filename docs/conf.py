@@ -28,7 +28,7 @@ html_title = "hybridsim"
 
 def _block_library():
     """docs/_generated/blocks.md: every registered block type by group, with its parameters and ports."""
-    from hybridsim.registry import GROUP_ORDER, group, lookup, parameters, types
+    from hybridsim.engine.registry import GROUP_ORDER, group, lookup, parameters, types
 
     by_group = {}
     for name in types():

@@ -2,7 +2,7 @@
 from pathlib import Path
 
 from hybridsim.errors import FMUError
-from hybridsim.fmu import build_fmu
+from hybridsim.fmi.fmu_block import build_fmu
 
 from . import plant_model as pm
 

@@ -3,8 +3,8 @@
  * FMI 3.0 (plant3.c) interfaces: the arm of Raibert & Craig (1981) with
  * stick-slip friction (eqs 5, 6, 11), the hand on the wrist force sensor
  * (eqs 7, 8) and the unilateral reaction surface (eq 9), as in docs/model.md.
- * The same equations as blocks/manipulator.py, blocks/wrist.py and
- * blocks/surface.py.
+ * The same equations as blocks/paper/manipulator.py, blocks/paper/wrist.py and
+ * blocks/paper/surface.py.
  *
  * Every variable lives in r[], indexed by its value reference (plant_vars.h,
  * generated with modelDescription.xml from fmus/plant_model.py). The file that

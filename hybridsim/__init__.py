@@ -16,17 +16,17 @@ if _os.path.isfile(_os.path.join(_root, "pyproject.toml")) and _os.path.isdir(_o
     __path__.append(_root)  # noqa: F821 - a package's __path__
 del _os, _root
 
-from .api import build, check, load, run_experiment, simulate, write_outputs
-from .block import Block
-from .diagram import Diagram
-from .errors import (CompiledPathError, DiagramError, FMUError, HybridsimError, InputError,
+from hybridsim.api import build, check, load, run_experiment, simulate, write_outputs
+from hybridsim.engine.block import Block
+from hybridsim.engine.diagram import Diagram
+from hybridsim.errors import (CompiledPathError, DiagramError, FMUError, HybridsimError, InputError,
                      LoaderError, OutputError, ParameterError, PluginError, RateError, SimulationError)
-from .interop import from_control
-from .registry import register
-from . import registry
-from .simulator import Simulator
-from .solvers import RK4, ExplicitRK, Heun, ScipySolver
-from .cvode import CVode
+from hybridsim.analysis.interop import from_control
+from hybridsim.engine.registry import register
+from hybridsim.engine import registry
+from hybridsim.engine.simulator import Simulator
+from hybridsim.engine.solvers import RK4, ExplicitRK, Heun, ScipySolver
+from hybridsim.engine.cvode import CVode
 
 __all__ = ["registry", "Block", "Diagram", "Simulator", "RK4", "Heun", "ExplicitRK", "ScipySolver", "CVode", "register", "simulate", "load",
            "build", "check", "from_control", "run_experiment", "write_outputs", "HybridsimError", "InputError",

@@ -11,12 +11,12 @@ import json
 import os
 from pathlib import Path
 
-from . import metrics as _metrics
-from .files import atomic_dir, safe_name, unique_names
-from .format import tables
-from .loader import DiagramFile
-from .simulator import Simulator, on_terminal
-from .solvers import FIXED_STEP, ScipySolver
+from hybridsim.analysis import metrics as _metrics
+from hybridsim.files import atomic_dir, safe_name, unique_names
+from hybridsim.format import tables
+from hybridsim.format import DiagramFile
+from hybridsim.engine.simulator import Simulator, on_terminal
+from hybridsim.engine.solvers import FIXED_STEP, ScipySolver
 
 
 def make_solver(sim):
@@ -25,7 +25,7 @@ def make_solver(sim):
     if name in FIXED_STEP:
         return FIXED_STEP[name](float(sim.get("step", _SIM["step"])))
     if name == "cvode":
-        from .cvode import CVode
+        from hybridsim.engine.cvode import CVode
 
         return CVode(rtol=float(sim.get("rtol", _SIM["rtol"])), atol=sim.get("atol", _SIM["atol"]),
                      max_step=float(sim.get("max_step", _SIM["max_step"])))
@@ -41,7 +41,7 @@ def _atol_vector(system, sim):
     declares them and ``atol`` (a number) elsewhere."""
     import numpy as np
 
-    from .errors import InputError
+    from hybridsim.errors import InputError
 
     given = sim.get("atol", _SIM["atol"])
     if isinstance(given, (list, tuple)):
@@ -67,8 +67,8 @@ def check_plugin_blocks(system):
     """
     import numpy as np
 
-    from .errors import PluginFault
-    from .registry import _is_ours, plugin_fault
+    from hybridsim.errors import PluginFault
+    from hybridsim.engine.registry import _is_ours, plugin_fault
 
     plugin = [i for i, b in enumerate(system.blocks) if not _is_ours(type(b).__module__)]
     if not plugin:
@@ -128,10 +128,10 @@ def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
         log = list(settings["log"]) + list(settings["signals"].values())
     compiled = bool(sim.get("compiled", False))
     if compiled and check_only:
-        from .compiled import problems
-        from .errors import CompiledPathError
+        from hybridsim.engine.compiled import problems
+        from hybridsim.errors import CompiledPathError
 
-        from .simulator import located_events
+        from hybridsim.engine.simulator import located_events
 
         why = problems(system, solver, located_events(system, solver, bool(sim.get("locate_switches", False))))
         if why:
@@ -164,7 +164,7 @@ def check(path_or_file, **overrides):
 
 
 def simulate(path_or_file, variant=None, progress=False, **overrides):
-    """Run one variant of a diagram file; returns a :class:`~hybridsim.result.Result`."""
+    """Run one variant of a diagram file; returns a :class:`~hybridsim.engine.result.Result`."""
     system, simulator, settings = build(path_or_file, variant, **overrides)
     simulator.progress = progress
     return simulator.run(settings["simulation"]["t_end"])
@@ -218,7 +218,7 @@ def write_outputs(f, runs, settings, outdir, only_ours=False):
     CSV names cannot collide (a short hash where two labels slug alike);
     ``only_ours`` (a default folder): replace no file hybridsim did not write.
     """
-    from .plots import experiment_figure
+    from hybridsim.report.plots import experiment_figure
 
     outdir = Path(outdir)
     name = safe_name(f.name)

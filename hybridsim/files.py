@@ -32,7 +32,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from .errors import OutputError
+from hybridsim.errors import OutputError
 
 OWN = ".hybridsim"  # hybridsim's own subfolder of an output folder
 _TMP = re.compile(r"^tmp-(\d+)-[A-Za-z0-9_]+$")
@@ -209,7 +209,7 @@ def check_output_dir(path):
     Probed by creating what is missing and removing it again, and a nameless
     temporary file: a run that fails leaves no folder behind.
     """
-    from .errors import from_os_error
+    from hybridsim.errors import from_os_error
 
     path = Path(path)
     try:
@@ -264,7 +264,7 @@ def make_output_dir(path):
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        from .errors import from_os_error
+        from hybridsim.errors import from_os_error
 
         raise from_os_error(exc, f"cannot create output folder {str(path)!r}") from None
     return path

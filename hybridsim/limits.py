@@ -67,7 +67,7 @@ def get(name):
     except ValueError:
         value = math.nan
     if not (math.isfinite(value) and value > 0):
-        from .errors import InputError
+        from hybridsim.errors import InputError
 
         raise InputError(f"environment variable {env_name(name)}={text!r}: give a positive number")
     return max(1, int(value))

@@ -14,7 +14,7 @@ def diagrams():
 def integrator_without_kernels():
     """A diagram (constant -> integrator) whose integrator has methods, no kernels."""
     import hybridsim as hs
-    from hybridsim.block import Block
+    from hybridsim.engine.block import Block
 
     class Integrator(Block):
         def __init__(self, name):

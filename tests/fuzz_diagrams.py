@@ -19,8 +19,8 @@ from pathlib import Path
 import yaml
 from hypothesis import strategies as st
 
-from hybridsim.cli import main
-from hybridsim.loader import NumberLoader
+from hybridsim.app.cli import main
+from hybridsim.format import NumberLoader
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -20,7 +20,7 @@ from pathlib import Path
 import yaml
 from hypothesis import strategies as st
 
-from hybridsim.cli import main
+from hybridsim.app.cli import main
 from hybridsim.format import tables
 from hybridsim.format.kinds import (Bool, Choice, Either, Kind, ListOf, MapOf, Number, PathText, Record, Signal,
                                     Text)

@@ -10,9 +10,9 @@ import warnings
 import pytest
 
 from conftest import DIAGRAMS, write
-from hybridsim import analysis as an
+from hybridsim.analysis import stability as an
 from hybridsim.api import load
-from hybridsim.cli import main
+from hybridsim.app.cli import main
 
 SHIPPED = sorted(DIAGRAMS.glob("*.yaml"))
 FMU_DIAGRAMS = {"fig9_fmu_cs", "fig9_fmu_me"}

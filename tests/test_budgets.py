@@ -4,7 +4,7 @@ import time
 import pytest
 
 from hybridsim import limits
-from hybridsim.cli import main
+from hybridsim.app.cli import main
 
 from conftest import DIAGRAMS, write
 from conftest import GOOD

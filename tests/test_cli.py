@@ -3,7 +3,7 @@ import json
 
 import pytest
 
-from hybridsim.cli import main
+from hybridsim.app.cli import main
 
 from conftest import DIAGRAMS, ROOT, write
 from conftest import GOOD

@@ -6,7 +6,7 @@ import hybridsim as hs
 from hybridsim.errors import CompiledPathError, SimulationError
 
 from conftest import DIAGRAMS, ROOT, integrator_without_kernels
-from hybridsim.block import Block
+from hybridsim.engine.block import Block
 
 SMOOTH = ROOT / "tests" / "data" / "smooth_contact.yaml"
 
@@ -39,7 +39,7 @@ def test_compiled_equals_generic(path, extra):
 
 @pytest.mark.slow
 def test_one_compiled_module_serves_other_parameter_values():
-    from hybridsim import compiled
+    from hybridsim.engine import compiled
 
     a = hs.build(SMOOTH, compiled=True)[1]._compiled
     b = hs.build(SMOOTH, compiled=True, **{"ctrl.fpi.Kp": [0.2, 0.1], "Kr": 1.0e6})[1]._compiled
@@ -84,7 +84,7 @@ def test_compiled_path_says_what_it_cannot_compile():
 
 @pytest.mark.slow
 def test_a_kernel_numba_cannot_compile_is_named():
-    from hybridsim.kernels import Kernels, kernel
+    from hybridsim.engine.kernels import Kernels, kernel
 
     def twice(v):  # a helper not marked @kernel: numba cannot call it
         return 2.0 * v
@@ -128,7 +128,7 @@ def test_same_wiring_with_other_block_types_is_another_module():
 
 
 def test_first_compile_is_announced_once(tmp_path, monkeypatch, caplog):
-    from hybridsim import compiled
+    from hybridsim.engine import compiled
 
     monkeypatch.setenv("HYBRIDSIM_CACHE", str(tmp_path))
     source = f"# {tmp_path}\nfrom numba import njit\n\n\n@njit(cache=True)\ndef run(a):\n    return a + 1\n"
@@ -145,7 +145,7 @@ def test_first_compile_is_announced_once(tmp_path, monkeypatch, caplog):
 
 
 def test_an_unwritable_cache_is_a_clear_error(tmp_path, monkeypatch):
-    from hybridsim import compiled
+    from hybridsim.engine import compiled
 
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")

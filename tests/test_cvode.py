@@ -1,4 +1,4 @@
-"""CVODE (hybridsim.cvode) against closed forms, scipy's stiff solvers and fmpy's CVode.
+"""CVODE (hybridsim.engine.cvode) against closed forms, scipy's stiff solvers and fmpy's CVode.
 
 Oracles: the exponential solution of a stiff linear system (eigenvalues -1 and -1000),
 the bounce times of a ball (t1 = sqrt(2 h0 / g), each later flight 2 e^k t1), and
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import hybridsim as hs
-from hybridsim.cvode import CVode
+from hybridsim.engine.cvode import CVode
 from hybridsim.errors import SimulationError
 
 from conftest import ROOT
@@ -46,7 +46,7 @@ def test_stiff_system_in_a_diagram_through_the_file_settings():
 
     d = hs.Diagram("stiff")
     d.add(hs.from_control(control.ss(A, np.zeros((2, 1)), np.eye(2), np.zeros((2, 1))), "plant", x0=[1.0, 0.0]))
-    from hybridsim.blocks.sources import Constant
+    from hybridsim.blocks.sources.basic import Constant
 
     d.add(Constant("zero", [0.0]))
     d.connect("zero.y", "plant.u")
@@ -95,8 +95,8 @@ def plant(tmp_path_factory):
 
 def open_loop(fmu, rtol, t_end=0.5, tau=(8.0, 20.0)):
     """The plant FMU (Model Exchange) alone, constant torques: hybridsim with CVODE."""
-    from hybridsim.blocks.sources import Constant
-    from hybridsim.fmu import FMUBlock
+    from hybridsim.blocks.sources.basic import Constant
+    from hybridsim.fmi.fmu_block import FMUBlock
 
     d = hs.Diagram("open_loop")
     d.add(FMUBlock("plant", path=str(fmu), mode="me", parameters=OPEN_LOOP))
@@ -150,7 +150,7 @@ def test_fig9_with_the_me_plant_converges_under_cvode_to_the_python_plant(plant)
 
 def test_me_fmu_ball_bounces_at_the_closed_form_times_under_cvode(tmp_path):
     # tests/data/ball: restitution 0.7, dropped from 1 m, an FMU event (event mode) at each bounce
-    from hybridsim.fmu import FMUBlock, build_fmu
+    from hybridsim.fmi.fmu_block import FMUBlock, build_fmu
 
     d = ROOT / "tests" / "data" / "ball"
     fmu = build_fmu(tmp_path / "ball.fmu", "ball", sorted(d.glob("*.c")), (d / "modelDescription.xml").read_text(), {})

@@ -3,8 +3,10 @@ import pytest
 from hybridsim import Diagram
 from hybridsim.errors import DiagramError
 
-from hybridsim.blocks.basic import Gain, Sum, UnitDelay
-from hybridsim.blocks.sources import Constant
+from hybridsim.blocks.math.signals import Gain, Sum
+
+from hybridsim.blocks.discrete.hold import UnitDelay
+from hybridsim.blocks.sources.basic import Constant
 
 
 def problems(d):

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import hybridsim as hs
-from hybridsim.cli import main
-from hybridsim.loader import DiagramFile
+from hybridsim.app.cli import main
+from hybridsim.format import DiagramFile
 
 from conftest import DIAGRAMS, ROOT
 

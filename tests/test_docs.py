@@ -3,7 +3,7 @@ from pathlib import Path
 
 import pytest
 
-from hybridsim.registry import types
+from hybridsim.engine.registry import types
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 
@@ -20,7 +20,7 @@ def test_the_docs_build_without_a_warning(tmp_path):
     missing = [t for t in types() if f"<code class=\"docutils literal notranslate\"><span class=\"pre\">{t}</span>" not in blocks]
     assert not missing, missing
     api = (out / "_generated" / "api.html").read_text()
-    assert "hybridsim.simulator.Simulator" in api and "hybridsim.paper.reproduce" in api
+    assert "hybridsim.engine.simulator.Simulator" in api and "hybridsim.paper.reproduce" in api
     for page in ("tutorials/first-diagram", "tutorials/own-fmu", "tutorials/own-robot", "tutorials/dask-sweeps",
                  "tutorials/stability-report", "model", "diagram-format"):
         assert (out / f"{page}.html").exists(), page

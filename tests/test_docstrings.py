@@ -11,7 +11,7 @@ import pkgutil
 import hybridsim
 import hybridsim.blocks
 import hybridsim.fmus
-from hybridsim.block import Block
+from hybridsim.engine.block import Block
 
 
 def _modules():

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import hybridsim as hs
-from hybridsim.cli import main
+from hybridsim.app.cli import main
 from hybridsim.errors import SimulationError
-from hybridsim.registry import lookup
+from hybridsim.engine.registry import lookup
 
 from conftest import DIAGRAMS, write
 
@@ -65,7 +65,7 @@ def test_the_cli_exits_3_on_divergence(tmp_path, capsys):
 
 
 def test_a_block_may_declare_non_finite_outputs():
-    from hybridsim.block import Block
+    from hybridsim.engine.block import Block
 
     class Inf(Block):
         may_be_nonfinite = True
@@ -125,7 +125,7 @@ def test_many_states_compiled(n):
 @pytest.fixture(scope="module")
 def plant_fmu(tmp_path_factory):
     from hybridsim.errors import FMUError
-    from hybridsim.fmu import find_compiler
+    from hybridsim.fmi.fmu_block import find_compiler
     from hybridsim.fmus.build import build_plant_fmu
 
     try:

@@ -16,9 +16,9 @@ import pytest
 from scipy.optimize import brentq
 
 import hybridsim as hs
-from hybridsim.block import Block
-from hybridsim.kernels import Kernels, kernel
-from hybridsim.registry import lookup
+from hybridsim.engine.block import Block
+from hybridsim.engine.kernels import Kernels, kernel
+from hybridsim.engine.registry import lookup
 
 SOLVERS = {
     "rk4": lambda: hs.RK4(1e-3),
@@ -263,7 +263,7 @@ def test_leaving_a_limit_inside_a_step_is_one_event():
 @pytest.fixture(scope="module")
 def ball_fmu(tmp_path_factory):
     from hybridsim.errors import FMUError
-    from hybridsim.fmu import build_fmu, find_compiler
+    from hybridsim.fmi.fmu_block import build_fmu, find_compiler
 
     from conftest import ROOT
 
@@ -278,7 +278,7 @@ def ball_fmu(tmp_path_factory):
 
 @pytest.mark.parametrize("solver", list(SOLVERS))
 def test_me_fmu_events_on_every_solver(ball_fmu, solver):
-    from hybridsim.fmu import FMUBlock
+    from hybridsim.fmi.fmu_block import FMUBlock
 
     g, e = 9.81, 0.7
     t1 = math.sqrt(2 / g)

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import hybridsim as hs
-from hybridsim.block import Block
+from hybridsim.engine.block import Block
 from hybridsim.errors import CompiledPathError, SimulationError
-from hybridsim.registry import lookup
+from hybridsim.engine.registry import lookup
 
 G, E, H0 = 9.81, 0.8, 1.0
 T1 = math.sqrt(2 * H0 / G)

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from conftest import DIAGRAMS
-from hybridsim import analysis as an
+from hybridsim.analysis import stability as an
 from hybridsim.errors import InputError
-from hybridsim.experiment import Experiment
+from hybridsim.runs.experiment import Experiment
 
 FIG9 = DIAGRAMS / "fig9_force_and_position.yaml"
 KFP = np.array([0.4, 0.3])  # Appendix A

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 import hybridsim as hs
-from hybridsim.cli import main
+from hybridsim.app.cli import main
 from hybridsim.errors import FMUError
-from hybridsim.fmu import FMUBlock, build_fmu, fmi_headers
+from hybridsim.fmi.fmu_block import FMUBlock, build_fmu, fmi_headers
 from hybridsim.fmus.build import build_plant_fmu
 
 from conftest import DIAGRAMS, ROOT
@@ -276,7 +276,7 @@ def test_a_co_simulation_stop_request_ends_the_run_cleanly(vdp):
 
 
 def test_unwired_inputs_take_their_start_values_and_check_says_so(plant, tmp_path, capsys):
-    from hybridsim.cli import main
+    from hybridsim.app.cli import main
 
     diagram = tmp_path / "alone.yaml"
     diagram.write_text(f"blocks:\n  plant: {{type: fmu, path: {plant}, mode: cs, rate: 100}}\n"
@@ -360,7 +360,7 @@ def test_no_instance_or_folder_is_left_after_a_failure(plant, case, monkeypatch,
         extra["ctrl.fpi.Ki"] = [1e9, 1e9]
         expected = (hs.FMUError, hs.SimulationError)
     else:
-        from hybridsim.fmu import FMUBlock
+        from hybridsim.fmi.fmu_block import FMUBlock
 
         real = FMUBlock.update
 
@@ -389,7 +389,7 @@ def test_fmpy_keeps_its_own_logger_after_an_fmu_block_is_freed(plant):
 import gc
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
-from hybridsim.fmu import FMUBlock
+from hybridsim.fmi.fmu_block import FMUBlock
 from hybridsim.errors import FMUError
 
 b = FMUBlock("p", path={str(plant)!r}, rate=60, parameters={{"stick_time": 0.0}})
@@ -420,7 +420,7 @@ def test_the_plant_fmu_has_the_stribeck_friction_of_the_python_arm(any_plant):
     from fmpy.fmi2 import FMU2Model
     from fmpy.fmi3 import FMU3Model
 
-    from hybridsim.blocks.manipulator import Manipulator
+    from hybridsim.blocks.paper.manipulator import Manipulator
 
     dbl = ctypes.POINTER(ctypes.c_double)
     md = read_model_description(str(any_plant))

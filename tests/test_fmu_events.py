@@ -11,7 +11,7 @@ import pytest
 
 import hybridsim as hs
 from hybridsim.errors import FMUError
-from hybridsim.fmu import FMUBlock, build_fmu, find_compiler
+from hybridsim.fmi.fmu_block import FMUBlock, build_fmu, find_compiler
 
 from conftest import ROOT
 
@@ -89,7 +89,7 @@ def test_a_zeno_fmu_is_stopped_with_a_clear_message(ball_fmu):
 
 
 def test_terminate_simulation_ends_the_run_cleanly_with_the_results_so_far(ball_fmu, tmp_path, capsys):
-    from hybridsim.cli import main
+    from hybridsim.app.cli import main
 
     d = hs.Diagram("ball")
     d.add(FMUBlock("ball", path=str(ball_fmu), mode="me", parameters={"t_stop": 1.5}))
@@ -110,7 +110,7 @@ def test_terminate_simulation_ends_the_run_cleanly_with_the_results_so_far(ball_
 def test_integer_and_boolean_ports_cross_as_numbers(ball_fmu):
     """The balls' Integer/Boolean inputs are discrete-time: they accept values in event mode
     only (the FMU returns an error otherwise), so this also checks that they are set there."""
-    from hybridsim.fmu import to_fmi
+    from hybridsim.fmi.fmu_block import to_fmi
 
     d = hs.Diagram("ball")
     d.add(FMUBlock("ball", path=str(ball_fmu), mode="me"))
@@ -307,7 +307,7 @@ def test_check_refuses_what_the_fmu_cannot_take(stair, params, message):
 
 
 def test_a_non_finite_or_float32_overflowing_input_names_the_port(stair):
-    from hybridsim.fmu import to_fmi
+    from hybridsim.fmi.fmu_block import to_fmi
 
     with pytest.raises(FMUError, match=r"overflows Float32"):
         to_fmi("Float32", 1e39, "p.u")
@@ -392,7 +392,7 @@ def test_text_parameters_reach_an_fmi3_fmu(arrays):
 
 
 def test_check_names_an_out_of_range_parameter_and_exits_2(stair, tmp_path, capsys):
-    from hybridsim.cli import main
+    from hybridsim.app.cli import main
 
     diagram = tmp_path / "s.yaml"
     diagram.write_text(f"blocks:\n  s: {{type: fmu, path: {stair}, mode: cs, rate: 5, parameters: {{limit: 0.5}}}}\n"

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import hybridsim as hs
-from hybridsim.cli import main
+from hybridsim.app.cli import main
 
 from conftest import DIAGRAMS
 

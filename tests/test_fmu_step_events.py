@@ -12,9 +12,9 @@ import pytest
 from fmpy import simulate_fmu
 
 import hybridsim as hs
-from hybridsim.cvode import CVode
+from hybridsim.engine.cvode import CVode
 from hybridsim.errors import FMUError
-from hybridsim.fmu import FMUBlock, build_fmu, find_compiler
+from hybridsim.fmi.fmu_block import FMUBlock, build_fmu, find_compiler
 
 from conftest import ROOT
 

@@ -5,10 +5,10 @@ from pathlib import Path
 import pytest
 
 from hybridsim import api
-from hybridsim.cli import build_parser, main
+from hybridsim.app.cli import build_parser, main
 from hybridsim.format import tables
 from hybridsim.format.paths import ParamPath
-from hybridsim.schema import diagram_schema, sweep_schema
+from hybridsim.format.schema import diagram_schema, sweep_schema
 
 from conftest import DIAGRAMS, write
 from conftest import GOOD
@@ -107,7 +107,7 @@ def test_the_schema_and_the_api_defaults_come_from_the_tables():
     assert schema["properties"]["analysis"]["properties"]["step"]["anyOf"][0]["required"] == ["input", "output"]
     assert set(sweep_schema()["properties"]) == set(tables.keys(tables.SWEEP))
     assert api._SIM == tables.defaults(tables.SIMULATION)
-    from hybridsim.analysis import DEFAULTS
+    from hybridsim.analysis.stability import DEFAULTS
 
     assert DEFAULTS["scales"] == tables.defaults(tables.ANALYSIS)["scales"]
 
@@ -209,7 +209,7 @@ def test_the_metrics_defaults_come_from_the_table(tmp_path):
 
 
 def test_check_refuses_an_analysis_gain_that_names_no_parameter_with_its_line(tmp_path, capsys):
-    from hybridsim.cli import main
+    from hybridsim.app.cli import main
 
     p = tmp_path / "g.yaml"
     p.write_text("blocks:\n  c: {type: constant, value: 1.0}\n  g: {type: gain, K: 2.0}\nwires: [c.y -> g.u]\n"

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import hybridsim as hs
-from hybridsim import fused
+from hybridsim.engine import fused
 
 from conftest import DIAGRAMS, ROOT, integrator_without_kernels
 

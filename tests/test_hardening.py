@@ -16,7 +16,7 @@ import zipfile
 import pytest
 
 from hybridsim import api
-from hybridsim.cli import main
+from hybridsim.app.cli import main
 from hybridsim.errors import (DiagramError, FMUError, InputError, LoaderError, OutputError,
                               ParameterError, SimulationError)
 
@@ -136,7 +136,7 @@ def test_diagram_names_become_safe_file_names(tmp_path, capsys, name, stem):
 
 
 def test_sigterm_while_writing_leaves_no_temporaries(tmp_path, capsys, monkeypatch):
-    from hybridsim.result import Result
+    from hybridsim.engine.result import Result
 
     real = Result.to_csv
 
@@ -370,7 +370,7 @@ def test_report_on_a_diagram_without_state(tmp_path, capsys):
 
 
 def test_bad_fmu_parameter_value_is_exit_2(tmp_path, capsys):
-    from hybridsim.fmu import find_compiler
+    from hybridsim.fmi.fmu_block import find_compiler
     from hybridsim.fmus.build import build_plant_fmu
 
     try:
@@ -417,7 +417,7 @@ def test_sweep_with_no_points_exits_2(tmp_path, capsys):
 
 
 def test_sweep_dask_address_that_does_not_answer_exits_2(tmp_path, capsys, monkeypatch):
-    from hybridsim import sweep
+    from hybridsim.runs import sweep
 
     monkeypatch.setattr(sweep, "DASK_TIMEOUT_S", 1)
     d = write(tmp_path, GOOD)

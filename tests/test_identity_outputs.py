@@ -9,8 +9,10 @@ from pathlib import Path
 
 import pytest
 
-from hybridsim import files, registry
-from hybridsim.cli import main
+from hybridsim import files
+
+from hybridsim.engine import registry
+from hybridsim.app.cli import main
 from hybridsim.format import identity
 
 from conftest import write
@@ -212,8 +214,8 @@ def test_a_missing_package_is_named_with_its_extra(tmp_path, capsys, monkeypatch
 
 PLUGIN = '''
 import numpy as np
-from hybridsim.block import Block
-from hybridsim.registry import register
+from hybridsim.engine.block import Block
+from hybridsim.engine.registry import register
 
 
 @register("wide_{tag}")
@@ -290,13 +292,13 @@ def test_plugin_faults_name_the_plugin_the_block_and_what_it_did(plugin_dir, cap
 
 def test_a_plugin_may_not_silently_replace_a_block_type(plugin_dir, capsys):
     (plugin_dir / "hs_test_plugin_b.py").write_text(
-        "from hybridsim.registry import register, lookup\n\n@register('gain')\nclass G(lookup('gain')):\n    '''mine'''\n")
+        "from hybridsim.engine.registry import register, lookup\n\n@register('gain')\nclass G(lookup('gain')):\n    '''mine'''\n")
     d = write(plugin_dir, GOOD)
     code, _, err = run(capsys, "check", d, "--plugin", "hs_test_plugin_b")
     assert code == 6 and "registers block type 'gain'" in err and "replaces=True" in err
-    assert registry.lookup("gain").__module__ == "hybridsim.blocks.basic"
+    assert registry.lookup("gain").__module__ == "hybridsim.blocks.math.signals"
     (plugin_dir / "hs_test_plugin_c.py").write_text(
-        "from hybridsim.registry import register, lookup\n\n@register('gain', replaces=True)\n"
+        "from hybridsim.engine.registry import register, lookup\n\n@register('gain', replaces=True)\n"
         "class G(lookup('gain')):\n    '''mine'''\n")
     code, _, err = run(capsys, "check", d, "--plugin", "hs_test_plugin_c")
     assert code == 0 and "warning: block type 'gain' is replaced by hs_test_plugin_c.G" in err
@@ -335,7 +337,7 @@ signals: {force: 'p$x.y[0]', force_desired: 'z.y[0]'}
     import matplotlib.pyplot as plt
 
     from hybridsim.api import run_experiment
-    from hybridsim.plots import experiment_figure
+    from hybridsim.report.plots import experiment_figure
 
     f, runs, settings = run_experiment(write(tmp_path, text))
     runs[0]["result"].signals["p$x.y"][:] = math.nan
@@ -348,8 +350,8 @@ signals: {force: 'p$x.y[0]', force_desired: 'z.y[0]'}
 def test_a_linearisation_that_overflows_is_the_models_not_a_bug():
     import numpy as np
 
-    from hybridsim import analysis
-    from hybridsim.cli import _origin
+    from hybridsim.analysis import stability as analysis
+    from hybridsim.app.cli import _origin
 
     exc = _origin(np.linalg.LinAlgError("Array must not contain infs or NaNs"))
     assert exc.exit_code == 3 and "no finite solution" in str(exc)

@@ -1,4 +1,4 @@
-"""python-control systems as blocks (hybridsim.interop.from_control)."""
+"""python-control systems as blocks (hybridsim.analysis.interop.from_control)."""
 import numpy as np
 import pytest
 

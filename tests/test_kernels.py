@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 import hybridsim as hs
-from hybridsim.block import Block
-from hybridsim.kernels import Kernels, kernel, marked
+from hybridsim.engine.block import Block
+from hybridsim.engine.kernels import Kernels, kernel, marked
 
 
 class SpringDamper(Block):

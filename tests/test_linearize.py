@@ -4,11 +4,15 @@ import numpy as np
 import pytest
 
 import hybridsim as hs
-from hybridsim.linearize import Linearization, LinearizationError, zoh
+from hybridsim.analysis.linearize import Linearization, LinearizationError, zoh
 
-from hybridsim.blocks.basic import StateSpace, Sum, ZeroOrderHold
-from hybridsim.blocks.controllers import PositionPID
-from hybridsim.blocks.sources import Constant
+from hybridsim.blocks.continuous.linear import StateSpace
+
+from hybridsim.blocks.math.signals import Sum
+
+from hybridsim.blocks.discrete.hold import ZeroOrderHold
+from hybridsim.blocks.paper.controllers import PositionPID
+from hybridsim.blocks.sources.basic import Constant
 from conftest import DIAGRAMS, ROOT
 
 M, B, K = 2.0, 3.0, 400.0  # mass-spring-damper: m x'' + b x' + k x = u
@@ -140,7 +144,7 @@ def test_linear_step_matches_nonlinear_simulation():
 
 
 def test_predicted_gain_boundary_brackets_nonlinear_instability():
-    from hybridsim.analysis import critical_scale
+    from hybridsim.analysis.stability import critical_scale
 
     kfp = np.array([0.4, 0.3])
     c = critical_scale(SMOOTH, STABLE, "ctrl.fpi.Kp", kfp)
@@ -168,7 +172,7 @@ def test_a_diagram_without_continuous_state_linearizes():
 def test_an_unknown_analysis_setting_is_refused_at_its_line(tmp_path, capsys):
     """A misspelt key of the 'analysis' section used to be ignored (the analysis ran without it)."""
     from conftest import write
-    from hybridsim.cli import main
+    from hybridsim.app.cli import main
 
     p = write(tmp_path, f"extends: {DIAGRAMS / 'hybrid_controller.yaml'}\nanalysis:\n  rate_parm: rate\n")
     assert main(["analyze", str(p)]) == 2
@@ -185,7 +189,7 @@ def test_reported_margins_lie_on_the_loops_own_frequency_response():
     found on a dense grid of L's response."""
     import warnings
 
-    from hybridsim import analysis as an
+    from hybridsim.analysis import stability as an
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -233,7 +237,7 @@ def test_the_hand_oscillation_is_linearized_as_a_continuous_system():
     """Eq 18's diagram samples nothing: its poles are the hand's modes, (1/2 pi) sqrt((Kr + Kw)/M3)
     along C-X (against the surface) and sqrt(Kw/M3) along C-Y (the wrist alone), undamped; closing
     the contact loop opened at the surface's force gives the same closed-loop modes."""
-    from hybridsim import analysis as an
+    from hybridsim.analysis import stability as an
 
     Kw, M3 = 8.0e5, 0.58
     for Kr in (9.0e5, 1.0e6):
@@ -262,8 +266,8 @@ def test_a_double_integrator_is_not_stable():
 @pytest.mark.slow
 def test_a_co_simulation_fmu_is_refused_with_its_reason(tmp_path):
     """A Co-Simulation FMU's states live inside it: linearizing around them would leave the plant out."""
-    from hybridsim import analysis
-    from hybridsim.cli import main
+    from hybridsim.analysis import stability as analysis
+    from hybridsim.app.cli import main
     from hybridsim.fmus.build import build_plant_fmu
 
     fmu = build_plant_fmu(tmp_path / "plant.fmu")

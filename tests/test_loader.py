@@ -1,7 +1,7 @@
 import pytest
 
 from hybridsim.errors import DiagramError, LoaderError
-from hybridsim.loader import DiagramFile
+from hybridsim.format import DiagramFile
 
 from conftest import GOOD, write
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import hybridsim as hs
-from hybridsim.solvers import Heun, RK4, observation
+from hybridsim.engine.solvers import Heun, RK4, observation
 
 from conftest import DIAGRAMS
 

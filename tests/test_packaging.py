@@ -44,7 +44,7 @@ def installed(tmp_path_factory):
 
 def run(installed, *args, code=None):
     py, work = installed
-    cmd = [str(py), "-c", code] if code else [str(py), "-m", "hybridsim.cli", *args]
+    cmd = [str(py), "-c", code] if code else [str(py), "-m", "hybridsim.app.cli", *args]
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     return subprocess.run(cmd, cwd=work, capture_output=True, text=True, timeout=600, env=env)
 

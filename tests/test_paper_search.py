@@ -7,8 +7,8 @@ from hypothesis import given, settings, strategies as st
 
 from hybridsim.paper import reproduce as rp
 from hybridsim.paper.joint_search import PLAUSIBLE, PRINTED, model_overrides, penalty, summarize
-from hybridsim.registry import default
-from hybridsim.blocks.wrist import Wrist
+from hybridsim.engine.registry import default
+from hybridsim.blocks.paper.wrist import Wrist
 
 
 def run(metrics, **ov):

@@ -56,7 +56,7 @@ def test_runtime_params_of_a_file_follow_dollar_references():
 
 @pytest.mark.slow
 def test_an_unrelated_kernel_does_not_change_the_compiled_module():
-    from hybridsim.kernels import kernel
+    from hybridsim.engine.kernels import kernel
 
     _, sim, _ = hs.build(SMOOTH, compiled=True)
     before = sim._compiled.source

@@ -7,15 +7,15 @@ import textwrap
 import numpy as np
 import pytest
 
-from hybridsim.cli import main
+from hybridsim.app.cli import main
 
 PLUGIN_MODULE = '''
 """A third party's block: y = a u^3."""
 import numpy as np
 
-from hybridsim.block import Block
-from hybridsim.kernels import Kernels, kernel
-from hybridsim.registry import register
+from hybridsim.engine.block import Block
+from hybridsim.engine.kernels import Kernels, kernel
+from hybridsim.engine.registry import register
 
 GROUP = "plugins"
 
@@ -87,7 +87,7 @@ def _python(installed_plugin, code):
 def test_an_installed_plugin_block_runs_from_yaml_on_the_generic_and_compiled_paths(installed_plugin):
     r = _python(installed_plugin, textwrap.dedent("""
         import numpy as np, hybridsim as hs
-        from hybridsim.cli import main
+        from hybridsim.app.cli import main
         generic = hs.simulate("d.yaml", fused=False)
         compiled = hs.simulate("d.yaml", compiled=True)
         assert np.array_equal(generic.table(), compiled.table()), "paths differ"
@@ -117,7 +117,7 @@ def test_a_broken_installed_plugin_is_skipped_with_a_warning(installed_plugin):
     text = broken.read_text()
     try:
         broken.write_text("raise RuntimeError('broken on purpose')\n")
-        r = _python(installed_plugin, "from hybridsim.cli import main; import sys; "
+        r = _python(installed_plugin, "from hybridsim.app.cli import main; import sys; "
                                       "sys.exit(main(['check', 'd.yaml']))")
     finally:
         broken.write_text(text)

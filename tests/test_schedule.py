@@ -2,9 +2,9 @@ from fractions import Fraction
 
 import pytest
 
-from hybridsim.block import rate_to_period, to_period
+from hybridsim.engine.block import rate_to_period, to_period
 from hybridsim.errors import RateError
-from hybridsim.schedule import Schedule
+from hybridsim.engine.schedule import Schedule
 
 
 def test_base_tick_is_gcd_of_periods():

@@ -4,9 +4,9 @@ import json
 import pytest
 import yaml
 
-from hybridsim.cli import main
-from hybridsim.loader import NumberLoader
-from hybridsim.schema import diagram_schema
+from hybridsim.app.cli import main
+from hybridsim.format import NumberLoader
+from hybridsim.format.schema import diagram_schema
 
 from conftest import DIAGRAMS
 
@@ -46,7 +46,7 @@ def test_other_sections_are_checked(validator):
 
 def test_schema_command_writes_the_schema_with_plugin_blocks(tmp_path, capsys, monkeypatch):
     (tmp_path / "my_schema_blocks.py").write_text(
-        "from hybridsim.block import Block\nfrom hybridsim.registry import register\n\n\n"
+        "from hybridsim.engine.block import Block\nfrom hybridsim.engine.registry import register\n\n\n"
         "@register('schema_demo')\nclass Demo(Block):\n    \"\"\"A demo.\"\"\"\n\n"
         "    def __init__(self, name='d', gain=2.0):\n        super().__init__(name)\n")
     monkeypatch.syspath_prepend(str(tmp_path))

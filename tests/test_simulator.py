@@ -4,8 +4,8 @@ import pytest
 from hybridsim import RK4, Block, Diagram, ScipySolver, Simulator
 from hybridsim.errors import SimulationError
 
-from hybridsim.blocks.basic import Counter, ZeroOrderHold
-from hybridsim.blocks.sources import Constant, Ramp
+from hybridsim.blocks.discrete.hold import Counter, ZeroOrderHold
+from hybridsim.blocks.sources.basic import Constant, Ramp
 
 
 class Integrator(Block):

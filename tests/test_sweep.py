@@ -4,8 +4,8 @@ import json
 import pandas as pd
 import pytest
 
-from hybridsim import sweep as sw
-from hybridsim.cli import main
+from hybridsim.runs import sweep as sw
+from hybridsim.app.cli import main
 
 from conftest import DIAGRAMS
 

@@ -56,8 +56,8 @@ def test_analyze_linearizes_the_6dof_diagram_in_contact(capsys):
     53-state loop, where |L| is 10.7 dB; the response crosses 0 dB at 22.5 Hz)."""
     import warnings
 
-    from hybridsim import analysis as an
-    from hybridsim.cli import main
+    from hybridsim.analysis import stability as an
+    from hybridsim.app.cli import main
 
     assert main(["analyze", str(DIAGRAMS / "ur5_press_and_trace.yaml")]) == 0
     out = capsys.readouterr().out
@@ -78,7 +78,7 @@ def test_the_rigid_body_arm_runs_the_papers_experiment():
     """Fig 10 with the Fig 3 arm as one rigid body (URDF by Pinocchio): it starts at first touch and
     tracks the ramp about as the printed model does (measured max filtered error over 0.75-2.5 s at
     60 Hz: 2.14 N, the printed model 2.16 N; both fail the paper's 1 N)."""
-    from hybridsim.metrics import display_filter
+    from hybridsim.analysis.metrics import display_filter
 
     paper = hs.simulate(DIAGRAMS / "fig10_force_ramp.yaml", t_end=1.5)
     body = hs.simulate(DIAGRAMS / "fig10_rigid_body.yaml", t_end=1.5)

@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 import hybridsim as hs
-from hybridsim.cli import main
+from hybridsim.app.cli import main
 from hybridsim.errors import InputError, LoaderError
 from hybridsim.tune import evaluate_point, load_tune, run_tune
 from hybridsim.tune.outputs import pareto
@@ -40,7 +40,7 @@ OVER5 = "constraints:\n  - {name: overshoot, metric: overshoot_pct, of: plant.y,
 
 def independent_step(values, t_end=5.0):
     """The step response of the tuned loop from python-control alone: the plant sampled (ZOH) under the
-    discrete PID's C(z) (blocks/discrete.py's docstring), with the derivative on -y only when c = 0."""
+    discrete PID's C(z) (blocks/discrete/basic.py's docstring), with the derivative on -y only when c = 0."""
     T = 0.01
     Pd = control.sample_system(control.tf([1.0], [1.0, 0.4, 4.0]), T, "zoh")
     z = control.tf([1, 0], [1], T)
@@ -257,7 +257,7 @@ def test_tuned_for_a_phase_margin_meets_it_when_rerun(tmp_path):
 def test_the_overlay_runs_the_tuned_point_and_nothing_else(tmp_path):
     """best.yaml extends the diagram: a subsystem's parameter, a vector given by 'repeat', and a 'set' that
     fixes names the diagram's variants sweep (so the overlay runs the one variant the search ran)."""
-    from hybridsim.analysis import param_value
+    from hybridsim.analysis.stability import param_value
     from hybridsim.tune.outputs import overlay
 
     p = tmp_path / "t.yaml"

@@ -1,4 +1,4 @@
-"""FMI tools: the pieces of the FMU block (:mod:`hybridsim.fmu`) and diagram export.
+"""FMI tools: the pieces of the FMU block (:mod:`hybridsim.fmi.fmu_block`) and diagram export.
 
 * :mod:`~hybridsim.fmi.variables`: FMU variables as ports, element names, types, checks.
 * :mod:`~hybridsim.fmi.model_exchange`: the Model Exchange event protocol of the FMU block.

@@ -8,8 +8,8 @@ import tempfile
 import zipfile
 from pathlib import Path
 
-from ..errors import FMUError
-from ..files import atomic_file
+from hybridsim.errors import FMUError
+from hybridsim.files import atomic_file
 
 
 def find_compiler():

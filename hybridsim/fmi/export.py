@@ -26,8 +26,8 @@ import tempfile
 import uuid
 from pathlib import Path
 
-from ..errors import FMUError, LoaderError
-from .slave import INTERFACE
+from hybridsim.errors import FMUError, LoaderError
+from hybridsim.fmi.slave import INTERFACE
 
 WRAPPER = "hybridsim_fmu.yaml"
 
@@ -63,8 +63,8 @@ class {cls}({base}):
 
 def _files(path, seen=None):
     """The diagram file, every file it extends and every subsystem file it uses, resolved."""
-    from ..format.diagram_file import DiagramFile
-    from ..format.values import _is_subsystem, subsystem_path
+    from hybridsim.format.diagram_file import DiagramFile
+    from hybridsim.format.values import _is_subsystem, subsystem_path
 
     seen = [] if seen is None else seen
     f = DiagramFile(path)
@@ -84,7 +84,7 @@ def _files(path, seen=None):
 
 def _ports(f):
     """(inputs, outputs) of subsystem file ``f``: [(name, width, start)], [(name, 'sub.port', width)]."""
-    from ..diagram import Diagram
+    from hybridsim.engine.diagram import Diagram
 
     d = Diagram(f.name, source=str(f.path))
     f.aliases, f._cut, f._broken = {}, set(), set()
@@ -122,7 +122,7 @@ def _finish(built, out, fmi):
     import xml.etree.ElementTree as ET
     import zipfile
 
-    from ..files import atomic_file
+    from hybridsim.files import atomic_file
 
     with zipfile.ZipFile(built) as src, atomic_file(out, "wb") as fh, \
             zipfile.ZipFile(fh, "w", zipfile.ZIP_DEFLATED) as dst:
@@ -159,8 +159,9 @@ def export_fmu(diagram, out, fmi=2, name=None):
     pathlib.Path
         ``out``.
     """
-    from .. import __version__, api
-    from ..format.diagram_file import DiagramFile
+    from hybridsim import __version__
+    from hybridsim import api
+    from hybridsim.format.diagram_file import DiagramFile
 
     if fmi not in (2, 3):
         raise FMUError(f"FMI version must be 2 or 3, got {fmi!r}")

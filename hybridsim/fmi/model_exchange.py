@@ -1,4 +1,4 @@
-"""Model Exchange through the FMI event protocol, for :class:`hybridsim.fmu.FMUBlock`.
+"""Model Exchange through the FMI event protocol, for :class:`hybridsim.fmi.fmu_block.FMUBlock`.
 
 Continuous-time mode between events (states and inputs set, derivatives and
 event indicators read), event mode at state and time events and when a
@@ -10,7 +10,7 @@ import ctypes
 
 import numpy as np
 
-from ..errors import FMUError, StopRequest
+from hybridsim.errors import FMUError, StopRequest
 
 
 def _raise(exc):
@@ -19,7 +19,7 @@ def _raise(exc):
 
 
 class ModelExchange:
-    """The Model Exchange half of :class:`hybridsim.fmu.FMUBlock` (a mixin: it uses the block's
+    """The Model Exchange half of :class:`hybridsim.fmi.fmu_block.FMUBlock` (a mixin: it uses the block's
     ``_fmu``, ``_call``, ``_set_inputs``, ``nx``, ``nz`` and ``in_discrete``)."""
 
     def _discrete_inputs(self, t, x, u):

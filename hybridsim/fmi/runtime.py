@@ -3,7 +3,7 @@
 A :class:`DiagramStepper` holds one context of a system whose inputs are
 :class:`ExternalInput` blocks (set from outside between steps, held over a
 step: zero-order hold) and advances it with the diagram's own solver, rates
-and events, hit by hit, as :class:`hybridsim.simulator.Simulator` does:
+and events, hit by hit, as :class:`hybridsim.engine.simulator.Simulator` does:
 
 1. at a time ``t`` the outputs of every block that is not discrete, and of the
    discrete blocks due at ``t``, are computed with the inputs set for ``t``;
@@ -19,10 +19,10 @@ from fractions import Fraction
 
 import numpy as np
 
-from .. import events as _events
-from ..block import Block
-from ..errors import StopRequest
-from ..schedule import Schedule
+from hybridsim.engine import events as _events
+from hybridsim.engine.block import Block
+from hybridsim.errors import StopRequest
+from hybridsim.engine.schedule import Schedule
 
 
 class ExternalInput(Block):
@@ -50,7 +50,7 @@ class DiagramStepper:
 
     Parameters
     ----------
-    simulator : hybridsim.simulator.Simulator
+    simulator : hybridsim.engine.simulator.Simulator
         Built from the diagram (its solver and rates are used).
     inputs : dict
         ``{block name: start values}``: the constant blocks that stand for the
@@ -67,7 +67,7 @@ class DiagramStepper:
         for name, start in inputs.items():
             i = next(k for k, b in enumerate(blocks) if b.name == name)
             blocks[i] = self.inputs[name] = ExternalInput(name, start)
-        from ..context import Context
+        from hybridsim.engine.context import Context
 
         self.ctx = ctx = Context(system, blocks)
         self.rhs, self.restarts = sim._bind(ctx)

@@ -115,8 +115,8 @@ class Engine:
     # -- running ---------------------------------------------------------------------
     def start(self):
         """Build the diagram with the parameters set (exitInitializationMode)."""
-        from .. import api
-        from .runtime import DiagramStepper
+        from hybridsim import api
+        from hybridsim.fmi.runtime import DiagramStepper
 
         try:
             _, sim, settings = api.build(self.folder / self.spec["diagram"], **self.params)
@@ -128,7 +128,7 @@ class Engine:
 
     def step(self, t, h):
         """doStep: advance by ``h`` from ``t``; False (FMI 2) or terminateSimulation (FMI 3) on a stop."""
-        from ..errors import StopRequest
+        from hybridsim.errors import StopRequest
 
         try:
             self.stepper.step(t, h)

@@ -1,6 +1,6 @@
 """FMU variables as hybridsim sees them: ports, element names, types, start values, checks.
 
-Used by :class:`hybridsim.fmu.FMUBlock`; plain functions of fmpy's model
+Used by :class:`hybridsim.fmi.fmu_block.FMUBlock`; plain functions of fmpy's model
 description objects.
 """
 import re
@@ -8,7 +8,7 @@ import zipfile
 
 import numpy as np
 
-from ..errors import FMUError, ParameterError
+from hybridsim.errors import FMUError, ParameterError
 
 _INDEXED = re.compile(r"^(.*)\[(\d+)\]$")
 

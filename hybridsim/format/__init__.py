@@ -13,7 +13,7 @@ One module per job:
 * :mod:`.diagram_file`: :class:`DiagramFile`, which ties them together;
 * :mod:`.identity`: what a run reads (its identity) and the lock of an output folder.
 """
-from .diagram_file import DiagramFile
-from .paths import ParamPath
-from .yamlio import NumberLoader, parse_file, parse_value
+from hybridsim.format.diagram_file import DiagramFile
+from hybridsim.format.paths import ParamPath
+from hybridsim.format.yamlio import NumberLoader, parse_file, parse_value
 

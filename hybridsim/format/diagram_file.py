@@ -3,18 +3,18 @@ import copy
 import logging
 from pathlib import Path
 
-from .. import limits
-from ..diagram import Diagram
-from ..errors import DiagramError, LoaderError
-from ..registry import closest
-from . import tables
-from .expand import ExpandMixin, count_blocks
-from .extends import read_merged
-from .kinds import ListOf, MapOf, Record, Text
-from .overrides import OverridesMixin
-from .settings import SettingsMixin
-from .values import _plain
-from .yamlio import _Dict
+from hybridsim import limits
+from hybridsim.engine.diagram import Diagram
+from hybridsim.errors import DiagramError, LoaderError
+from hybridsim.engine.registry import closest
+from hybridsim.format import tables
+from hybridsim.format.expand import ExpandMixin, count_blocks
+from hybridsim.format.extends import read_merged
+from hybridsim.format.kinds import ListOf, MapOf, Record, Text
+from hybridsim.format.overrides import OverridesMixin
+from hybridsim.format.settings import SettingsMixin
+from hybridsim.format.values import _plain
+from hybridsim.format.yamlio import _Dict
 
 TOP_KEYS = tables.keys(tables.DIAGRAM)
 _log = logging.getLogger("hybridsim")

@@ -7,11 +7,11 @@ every level is refused in milliseconds, not after exponential work.
 import re
 from pathlib import Path
 
-from .. import limits
-from ..errors import LoaderError, ParameterError, RateError
-from ..registry import closest, lookup, parameters, types
-from . import tables
-from .values import _has_nan, _is_subsystem, subsystem_path
+from hybridsim import limits
+from hybridsim.errors import LoaderError, ParameterError, RateError
+from hybridsim.engine.registry import closest, lookup, parameters, types
+from hybridsim.format import tables
+from hybridsim.format.values import _has_nan, _is_subsystem, subsystem_path
 
 _BAD_NAME = re.compile(r"[.\[\]\s:=]")  # a '.' separates a subsystem's name from its blocks' names
 
@@ -230,8 +230,8 @@ class ExpandMixin:
         except (ValueError, TypeError, ArithmeticError) as exc:
             problems.append(f"{here}: block {bname!r} ({tname}): {exc}")
         except Exception as exc:  # noqa: BLE001 - a plugin's constructor may raise anything: its fault
-            from ..errors import PluginFault
-            from ..registry import _is_ours
+            from hybridsim.errors import PluginFault
+            from hybridsim.engine.registry import _is_ours
 
             if _is_ours(cls.__module__):
                 raise

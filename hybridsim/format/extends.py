@@ -1,9 +1,9 @@
 """``extends``: a diagram file read over the file it starts from, key by key."""
 from pathlib import Path
 
-from .. import limits
-from ..errors import LoaderError
-from .yamlio import _List, parse_file
+from hybridsim import limits
+from hybridsim.errors import LoaderError
+from hybridsim.format.yamlio import _List, parse_file
 
 #: sections merged key by key when a file extends another
 MERGED_BY_KEY = ("params", "simulation", "signals", "metrics", "plot", "variants", "analysis")

@@ -14,9 +14,9 @@ import re
 import sys
 from pathlib import Path
 
-from ..errors import LoaderError
-from . import tables
-from .paths import ParamPath
+from hybridsim.errors import LoaderError
+from hybridsim.format import tables
+from hybridsim.format.paths import ParamPath
 
 _MESH = re.compile(r"""filename\s*=\s*["']([^"']+)["']""")
 
@@ -63,7 +63,7 @@ def block_files(blocks):
 
 def plugin_files():
     """Source files of the plugin modules imported in this process."""
-    from ..registry import PLUGIN_MODULES
+    from hybridsim.engine.registry import PLUGIN_MODULES
 
     out = set()
     for name, mod in list(sys.modules.items()):
@@ -113,7 +113,7 @@ def run_files(f, built=None):
 
 def identity(files, extra=None):
     """A hash of the contents of ``files``, hybridsim's version and the JSON of ``extra``."""
-    from .. import __version__
+    from hybridsim import __version__
 
     h = hashlib.sha256()
     for p in sorted(Path(x) for x in files):
@@ -128,7 +128,7 @@ def identity(files, extra=None):
 
 def sweep_identity(sweep):
     """The identity of a sweep's points besides their own overrides (its resume fingerprint)."""
-    from ..api import load
+    from hybridsim.api import load
 
     f = load(sweep.diagram, **sweep.fixed)
     files = set(run_files(f))

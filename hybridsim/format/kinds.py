@@ -121,7 +121,7 @@ class PathText(Kind):
     text = "a parameter path ('name', 'block.param' or 'sub.block.param')"
 
     def problem(self, v):
-        from .paths import ParamPath
+        from hybridsim.format.paths import ParamPath
 
         if not isinstance(v, str):
             return self._got(v)
@@ -211,7 +211,7 @@ class Record(Kind):
         self.text = f"a mapping of {name} settings"
 
     def problem(self, v):
-        from .tables import check_values
+        from hybridsim.format.tables import check_values
 
         if not isinstance(v, dict):
             return self._got(v)
@@ -219,6 +219,6 @@ class Record(Kind):
         return "; ".join(msg for msg, _ in got) or None
 
     def schema(self):
-        from .tables import section_schema
+        from hybridsim.format.tables import section_schema
 
         return section_schema(self.table)

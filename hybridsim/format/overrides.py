@@ -7,13 +7,13 @@ import math
 
 import numpy as np
 
-from .. import limits
-from ..errors import LoaderError
-from ..registry import closest, default, lookup
-from .paths import ParamPath
-from .tables import SIMULATION, keys
-from .values import _is_subsystem, _plain, _references, subsystem_path
-from .yamlio import _Dict
+from hybridsim import limits
+from hybridsim.errors import LoaderError
+from hybridsim.engine.registry import closest, default, lookup
+from hybridsim.format.paths import ParamPath
+from hybridsim.format.tables import SIMULATION, keys
+from hybridsim.format.values import _is_subsystem, _plain, _references, subsystem_path
+from hybridsim.format.yamlio import _Dict
 
 SIM_KEYS = keys(SIMULATION)
 
@@ -107,7 +107,7 @@ class OverridesMixin:
         if _is_subsystem(spec):
             if pname in spec:  # the subsystem block sets it
                 return np.asarray(self._resolve(spec[pname], str(self.path), self.params), float)
-            from .diagram_file import DiagramFile
+            from hybridsim.format.diagram_file import DiagramFile
 
             sub = DiagramFile(subsystem_path(spec, "."))
             sub.apply({k: self._resolve(v, str(self.path), self.params) for k, v in spec.items()
@@ -150,7 +150,7 @@ class OverridesMixin:
         """``overrides`` (as :meth:`apply` takes them) as run-time block parameters.
 
         Returns ``{"block.param": value}`` for :meth:`Simulator.run
-        <hybridsim.simulator.Simulator.run>`: a name in ``params`` becomes every
+        <hybridsim.engine.simulator.Simulator.run>`: a name in ``params`` becomes every
         block parameter that refers to it (resolved again), ``block.param``
         stays itself. Raises :class:`LoaderError` when an override cannot be
         given at run time: a simulation setting, a swept variant, or a name

@@ -8,14 +8,14 @@ linearisation horizon) is checked before any work starts.
 """
 import logging
 
-from .. import limits
-from ..errors import DiagramError, LoaderError
-from ..registry import closest, parameters
-from . import tables
-from .kinds import SIGNAL
-from .paths import ParamPath
-from .values import _plain
-from .yamlio import _Dict, _List
+from hybridsim import limits
+from hybridsim.errors import DiagramError, LoaderError
+from hybridsim.engine.registry import closest, parameters
+from hybridsim.format import tables
+from hybridsim.format.kinds import SIGNAL
+from hybridsim.format.paths import ParamPath
+from hybridsim.format.values import _plain
+from hybridsim.format.yamlio import _Dict, _List
 
 _log = logging.getLogger("hybridsim")
 

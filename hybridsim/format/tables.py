@@ -1,15 +1,15 @@
 """One declarative table per section of the file formats: key, kind (type and range), default, doc.
 
 The same tables drive validation (:func:`problems`, with file:line and "did
-you mean"), the JSON Schema (:mod:`hybridsim.schema`), the Python API's
+you mean"), the JSON Schema (:mod:`hybridsim.format.schema`), the Python API's
 defaults (:func:`defaults`), ``hybridsim --help`` and ``docs/settings.md``
 (:func:`markdown`).
 """
 from dataclasses import dataclass
 
-from .. import limits
-from ..registry import closest
-from .kinds import (Bool, Choice, Either, Kind, ListOf, MapOf, Number, PathText, Record, Signal, Text)
+from hybridsim import limits
+from hybridsim.engine.registry import closest
+from hybridsim.format.kinds import (Bool, Choice, Either, Kind, ListOf, MapOf, Number, PathText, Record, Signal, Text)
 
 # documented: the tables and functions (Setting's fields would shadow other names in the API pages)
 __all__ = ["SIMULATION", "METRICS", "PLOT", "ANALYSIS", "ANALYSIS_STEP", "SWEEP", "SWEEP_RANDOM", "DIAGRAM",
@@ -228,7 +228,7 @@ def problems(table, data, section, path, lines=None, line0=None):
 
 def section_schema(table):
     """The JSON Schema of one section (closed: unknown keys are refused)."""
-    from .kinds import REF_SCHEMA
+    from hybridsim.format.kinds import REF_SCHEMA
 
     props = {}
     for s in table:
@@ -279,7 +279,7 @@ def markdown():
             "| variable | default | bounds |", "|---|---|---|"]
     for name, (value, doc) in limits.LIMITS.items():
         out.append(f"| `{limits.env_name(name)}` | {value:,} | {doc} |")
-    from ..errors import EXIT_CODES
+    from hybridsim.errors import EXIT_CODES
 
     out += ["", "## Exit status", "", "By origin (`hybridsim/errors.py`):", "",
             "| status | origin | when |", "|---|---|---|"]

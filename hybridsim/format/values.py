@@ -3,7 +3,7 @@ import math
 import os
 from pathlib import Path
 
-from .yamlio import plain
+from hybridsim.format.yamlio import plain
 
 def subsystem_path(spec, fallback):
     """The file a subsystem spec names, relative to the file that wrote its ``file:`` line.

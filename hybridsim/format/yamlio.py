@@ -11,8 +11,8 @@ import stat
 
 import yaml
 
-from .. import limits
-from ..errors import InputError, LoaderError
+from hybridsim import limits
+from hybridsim.errors import InputError, LoaderError
 
 class _Dict(dict):
     """A mapping that remembers its file and the line of each key (1-based)."""

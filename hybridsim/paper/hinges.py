@@ -14,7 +14,7 @@ steady-state windows move by 0.5 s): a verdict that changes is "fragile".
 """
 import math
 
-from .reproduce import FAMILIES, _evaluate, _pool_map, conventions
+from hybridsim.paper.reproduce import FAMILIES, _evaluate, _pool_map, conventions
 
 #: name -> (values tried, overrides for a value, the value as printed or None, unit, continuous);
 #: for an on/off assumption the value 1 is on and 0 (as printed) off
@@ -143,7 +143,7 @@ def fragile(name, printed, jobs, extra=None, step=1e-4):
     list of bool
         One per claim: True when the verdict is fragile.
     """
-    from ..api import load
+    from hybridsim.api import load
 
     base = JUDGED[name]
     t_end = float(load(_file(name)).data.get("simulation", {}).get("t_end", 1.0))
@@ -154,7 +154,7 @@ def fragile(name, printed, jobs, extra=None, step=1e-4):
 
 
 def _file(name):
-    from .reproduce import DIAGRAMS, EXPERIMENTS
+    from hybridsim.paper.reproduce import DIAGRAMS, EXPERIMENTS
 
     return DIAGRAMS / next(e[1] for e in EXPERIMENTS if e[0] == name)
 

@@ -36,10 +36,10 @@ import time
 
 import numpy as np
 
-from ..tune.space import Parameter
-from ..tune.store import Store, fingerprint, point_key
-from .hinges import ASSUMPTIONS, JUDGED, judge_claims
-from .reproduce import KW, M3
+from hybridsim.tune.space import Parameter
+from hybridsim.tune.store import Store, fingerprint, point_key
+from hybridsim.paper.hinges import ASSUMPTIONS, JUDGED, judge_claims
+from hybridsim.paper.reproduce import KW, M3
 
 SPACE = [
     Parameter("friction law", values=["karnopp", "stribeck", "lugre"]),
@@ -131,9 +131,9 @@ def joint_search(trials, jobs, extra=None, seed=0, outdir=None, progress=None):
     say = progress or (lambda msg: None)
     store = None
     if outdir is not None:
-        from ..api import load
-        from ..files import make_output_dir
-        from .reproduce import DIAGRAMS, EXPERIMENTS
+        from hybridsim.api import load
+        from hybridsim.files import make_output_dir
+        from hybridsim.paper.reproduce import DIAGRAMS, EXPERIMENTS
 
         files = sorted({str(p) for name, fname, *_ in EXPERIMENTS if name in JUDGED
                         for p in load(DIAGRAMS / fname).files})

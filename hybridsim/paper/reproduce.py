@@ -22,14 +22,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import analysis as an
-from ..api import run_experiment
-from ..errors import SimulationError
-from ..examples import diagrams_folder
-from ..files import atomic_dir
-from ..registry import default
-from ..blocks.surface import Surface
-from ..blocks.wrist import Wrist
+from hybridsim.analysis import stability as an
+from hybridsim.api import run_experiment
+from hybridsim.errors import SimulationError
+from hybridsim.app.examples import diagrams_folder
+from hybridsim.files import atomic_dir
+from hybridsim.engine.registry import default
+from hybridsim.blocks.paper.surface import Surface
+from hybridsim.blocks.paper.wrist import Wrist
 
 DIAGRAMS = diagrams_folder()  # the shipped diagrams, installed with the package
 
@@ -185,7 +185,7 @@ def conventions(name, settings):
 
     Says the run length, the log grid, the window and whether the force is
     the 12 Hz display-filtered one (causal 2nd-order Butterworth, started in
-    steady state: :func:`hybridsim.metrics.display_filter`) or raw.
+    steady state: :func:`hybridsim.analysis.metrics.display_filter`) or raw.
     """
     sim, m = settings["simulation"], settings.get("metrics") or {}
     t_end, log = float(sim["t_end"]), float(sim.get("log_period") or sim["step"])
@@ -309,7 +309,7 @@ def _stability(damping):
 
 def _explanations():
     """Mechanisms behind the failures, computed from the model's numbers."""
-    from hybridsim.blocks.kinematics import inverse_kinematics, jacobian
+    from hybridsim.blocks.paper.kinematics import inverse_kinematics, jacobian
 
     q = inverse_kinematics(0.5, 0.0)
     Ji = np.linalg.inv(jacobian(q))
@@ -344,7 +344,7 @@ def reproduce(outdir, jobs=None, progress=None, experiments=None, grid=GRID, bis
     models kept in ``outdir/joint_search/`` for a rerun).
     """
     extra = {"compiled": True} if compiled else {}
-    from ..plots import experiment_figure
+    from hybridsim.report.plots import experiment_figure
     import matplotlib.pyplot as plt
 
     say = progress or (lambda msg: None)
@@ -395,13 +395,13 @@ def reproduce(outdir, jobs=None, progress=None, experiments=None, grid=GRID, bis
             "overshoot_pct": r.get("overshoot_pct"), "rise_time_s": r.get("rise_time_s"),
             "max_position_error_m": r.get("max_position_error_m"), "contact_lost": r.get("contact_lost")})
     if hinges:
-        from .hinges import hinges as hinge_analysis
+        from hybridsim.paper.hinges import hinges as hinge_analysis
 
         names = [e[0] for e in chosen]
         report["hinges"] = hinge_analysis(jobs, extra, experiments=names, assumptions=assumptions,
                                           bisections=bisections, progress=say)
     if joint:
-        from .joint_search import joint_search
+        from hybridsim.paper.joint_search import joint_search
 
         say(f"the joint search over every assumption ({joint} models)")
         report["joint_search"] = joint_search(joint, jobs, extra, seed=joint_seed,
@@ -411,7 +411,7 @@ def reproduce(outdir, jobs=None, progress=None, experiments=None, grid=GRID, bis
     with atomic_dir(outdir) as tmp:
         imgs = []
         for k, (title, runs, settings, fname) in enumerate(figures):
-            from ..loader import DiagramFile
+            from hybridsim.format import DiagramFile
 
             f = DiagramFile(DIAGRAMS / fname)
             f.description = title
@@ -481,7 +481,7 @@ def _html(report, imgs, folder):
         f"<td>{_f(s['max_position_error_m'] and s['max_position_error_m'] * 1000)}</td>"
         f"<td>{ {True: 'lost', False: 'kept', None: 'diverged'}[s['contact_lost']] }</td></tr>"
         for s in report["sensitivities"])
-    from .joint_search import joint_html
+    from hybridsim.paper.joint_search import joint_html
 
     hinge_html = _hinges_html(report.get("hinges")) + joint_html(report.get("joint_search"))
     figs = ""

@@ -1,6 +1,6 @@
 """Design by search: tune run-time parameters of a diagram against objectives and constraints.
 
-A tune file (beside the sweep format, :mod:`hybridsim.sweep`) names a diagram,
+A tune file (beside the sweep format, :mod:`hybridsim.runs.sweep`) names a diagram,
 the parameters to search with their bounds, the objectives (a run's metrics,
 a step response's measures, the linearized loop's largest ``|z|`` and margins) and the
 constraints on the same quantities, and the optimiser. :func:`run_tune` does
@@ -12,6 +12,6 @@ file), :mod:`.quantities` (what is measured at a point), :mod:`.store`
 :mod:`.drivers` (the optimisers), :mod:`.outputs` (overlay, tables, plots),
 :mod:`.run` (the whole command).
 """
-from .run import evaluate_point, run_tune
-from .spec import TuneSpec, load_tune
+from hybridsim.tune.run import evaluate_point, run_tune
+from hybridsim.tune.spec import TuneSpec, load_tune
 

@@ -11,7 +11,7 @@ infeasible one beats a more infeasible one; a failed run scores :data:`FAILED`.
 """
 import numpy as np
 
-from .space import decode
+from hybridsim.tune.space import decode
 
 INFEASIBLE = 1e9
 FAILED = 1e12

@@ -2,12 +2,12 @@
 
 :class:`Executor` maps a picklable function over items, in order. It is the
 tuner's own (the optimisers ask for points a batch at a time, so the pool
-stays up between batches); :mod:`hybridsim.sweep` keeps its own loop.
+stays up between batches); :mod:`hybridsim.runs.sweep` keeps its own loop.
 """
 import os
 from concurrent.futures import ProcessPoolExecutor
 
-from ..errors import InputError
+from hybridsim.errors import InputError
 
 #: seconds to wait for a Dask scheduler to answer
 DASK_TIMEOUT_S = 10

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from ..files import atomic_file
+from hybridsim.files import atomic_file
 
 
 def overlay(spec, values, outdir):
@@ -17,7 +17,7 @@ def overlay(spec, values, outdir):
     ``hybridsim run OUTDIR/best.yaml`` then runs the tuned point; the loader's
     ``extends`` merges ``params`` and a block's parameters key by key.
     """
-    from .space import overrides
+    from hybridsim.tune.space import overrides
 
     params, blocks, sim = {}, {}, {}
     ov = {k: v for k, v in spec.fixed.items() if k != "simulation.compiled"}
@@ -35,7 +35,7 @@ def overlay(spec, values, outdir):
             sim[parts[1]] = value
         else:  # block.param, or sub.block.param (the subsystem passes block.param on)
             blocks.setdefault(parts[0], {})[".".join(parts[1:])] = value
-    from ..api import load
+    from hybridsim.api import load
 
     swept = load(spec.diagram).data.get("variants") or {}
     fixed = {k: [v] for k, v in params.items() if k in swept}  # a value set for a swept name ends that sweep

@@ -2,7 +2,7 @@
 
 :func:`measure` runs one point (every variant of the tune file, and every
 variant of the diagram) through the public API (:func:`hybridsim.api.run_experiment`,
-:func:`hybridsim.analysis.linearization` and :func:`hybridsim.analysis.margins`)
+:func:`hybridsim.analysis.stability.linearization` and :func:`hybridsim.analysis.stability.margins`)
 and reduces each quantity to one number over the runs. It never raises for a
 run that diverges (the point is "failed", with the message); a quantity that
 cannot be measured at all (an unknown metric or signal) is a :class:`SpecError`.
@@ -12,9 +12,9 @@ import time
 
 import numpy as np
 
-from ..errors import HybridsimError, LoaderError
-from .space import overrides as param_overrides
-from .spec import STEP_MEASURES
+from hybridsim.errors import HybridsimError, LoaderError
+from hybridsim.tune.space import overrides as param_overrides
+from hybridsim.tune.spec import STEP_MEASURES
 
 
 class SpecError(LoaderError):
@@ -61,7 +61,7 @@ def step_measure(t, y, q, reference=None):
     try:
         info = control.step_info(y, T=t, **kw)
     except IndexError:  # the response never reaches 90 % of the step: no rise, never settled
-        from ..metrics import step_response
+        from hybridsim.analysis.metrics import step_response
 
         yf = float(final) if final is not None else float(y[-1])
         info = {"RiseTime": None, "SettlingTime": math.nan, "Peak": float(np.max(np.abs(y))),
@@ -95,9 +95,9 @@ def _run_values(spec, f_runs, quantities):
 
 
 def _analysis_values(spec, ov, quantities):
-    from ..analysis import linearization, margins, settings_of
-    from ..api import load
-    from ..linearize import LinearizationError
+    from hybridsim.analysis.stability import linearization, margins, settings_of
+    from hybridsim.api import load
+    from hybridsim.analysis.linearize import LinearizationError
 
     f = load(spec.diagram, **ov)
     cfg = settings_of(f)
@@ -151,7 +151,7 @@ def measure(spec, values=None):
         ``status`` ("ok" or "failed"), ``message``, ``quantities`` ({name: number, NaN where a run
         gave none}), ``wall_s``.
     """
-    from ..api import run_experiment
+    from hybridsim.api import run_experiment
 
     t0 = time.perf_counter()
     ov = dict(spec.fixed)

@@ -14,11 +14,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..files import make_output_dir
-from . import drivers, outputs
-from .quantities import measure
-from .spec import load_tune
-from .store import Store, fingerprint, point_key
+from hybridsim.files import make_output_dir
+from hybridsim.tune import drivers
+from hybridsim.tune import outputs
+from hybridsim.tune.quantities import measure
+from hybridsim.tune.spec import load_tune
+from hybridsim.tune.store import Store, fingerprint, point_key
 
 
 def evaluate_point(spec, values=None):
@@ -112,8 +113,8 @@ class Evaluator:
 
 def _start(spec):
     """The diagram's own values of the parameters as a unit vector, or None when one is outside its bounds."""
-    from ..analysis import param_value
-    from ..api import load
+    from hybridsim.analysis.stability import param_value
+    from hybridsim.api import load
 
     f = load(spec.diagram, **spec.fixed)
     u = []
@@ -159,8 +160,8 @@ def run_tune(path, outdir, jobs=None, dask=None, progress=True, force=False, com
         ``evaluations`` (points the optimiser asked for), ``ran`` (run now, not from the store),
         ``wall_time_s``, ``files``.
     """
-    from ..api import load
-    from .executor import Executor
+    from hybridsim.api import load
+    from hybridsim.tune.executor import Executor
 
     t0 = time.perf_counter()
     spec = load_tune(path)
@@ -175,7 +176,7 @@ def run_tune(path, outdir, jobs=None, dask=None, progress=True, force=False, com
     if progress:
         from tqdm import tqdm
 
-        from ..simulator import on_terminal
+        from hybridsim.engine.simulator import on_terminal
 
         bar = tqdm(total=total, unit="point", desc="tune", disable=not on_terminal())
     try:
@@ -208,7 +209,7 @@ def _write(spec, outdir, ev, before, wall):
         outputs.write_table(outdir / "pareto.csv", spec, front)
         files += ["pareto.png", "pareto.csv"]
     if best is not None and best["values"]:
-        from ..files import atomic_file
+        from hybridsim.files import atomic_file
 
         with atomic_file(outdir / "best.yaml", "w") as fh:
             fh.write(outputs.overlay(spec, best["values"], outdir))

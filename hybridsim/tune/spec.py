@@ -16,7 +16,7 @@
       - {analysis: phase_margin_deg, loop: force, min: 45}
     method: {name: differential_evolution, seed: 1, maxiter: 8, popsize: 5}
 
-A quantity is a run's metric (``metric: NAME``: :func:`hybridsim.metrics.compute`
+A quantity is a run's metric (``metric: NAME``: :func:`hybridsim.analysis.metrics.compute`
 from the diagram's ``signals``), a step-response measure of a logged signal
 (``metric: NAME, of: SIGNAL``: :func:`control.step_info`), or one of the
 linearized closed loop (``analysis: NAME``, with ``loop:`` for margins). Over
@@ -29,10 +29,10 @@ import itertools
 import math
 from pathlib import Path
 
-from .. import limits
-from ..errors import InputError, LoaderError
-from ..loader import parse_file
-from .space import SCALES, Parameter
+from hybridsim import limits
+from hybridsim.errors import InputError, LoaderError
+from hybridsim.format import parse_file
+from hybridsim.tune.space import SCALES, Parameter
 
 TUNE_KEYS = ("diagram", "set", "variants", "parameters", "objectives", "constraints", "method", "compiled")
 PARAM_KEYS = ("low", "high", "scale", "integer", "values", "repeat")
@@ -257,7 +257,7 @@ class TuneSpec:
     def validate(self):
         """Check the diagram with ``set``, every variant and both ends (or every choice) of each parameter
         as a run would (:func:`hybridsim.api.check`), before any point runs."""
-        from ..api import check, load
+        from hybridsim.api import check, load
 
         try:
             check(load(self.diagram, **self.fixed))

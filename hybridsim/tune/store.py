@@ -14,8 +14,8 @@ import math
 import os
 from pathlib import Path
 
-from ..errors import InputError
-from ..files import atomic_file, note_written
+from hybridsim.errors import InputError
+from hybridsim.files import atomic_file, note_written
 
 
 def point_key(values):
@@ -99,7 +99,7 @@ class Store:
 
 def fingerprint(spec_text, files, extra=None):
     """A hash of a tune file's text, every diagram file it runs, and the hybridsim version."""
-    from .. import __version__
+    from hybridsim import __version__
 
     h = hashlib.sha256(spec_text.encode())
     for p in files:

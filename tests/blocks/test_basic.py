@@ -1,7 +1,11 @@
 import numpy as np
 import pytest
 
-from hybridsim.blocks.basic import Demux, LowPass, Mux, Selection, Sum, UnitDelay
+from hybridsim.blocks.math.signals import Demux, Mux, Selection, Sum
+
+from hybridsim.blocks.continuous.linear import LowPass
+
+from hybridsim.blocks.discrete.hold import UnitDelay
 
 
 def test_sum_signs():

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import hybridsim as hs
-from hybridsim.blocks.continuous import FilteredDerivative, Integrator, Relay, TransferFunction, tf_to_ss
+from hybridsim.blocks.continuous.basic import FilteredDerivative, Integrator, Relay, TransferFunction, tf_to_ss
 
 
 def _run(blocks, wires, t_end, log, step=1e-3, **sim):
@@ -68,7 +68,7 @@ def test_relay_switches_with_hysteresis():
 
 
 def test_first_order_lag_and_its_pass_through():
-    from hybridsim.blocks.continuous import FirstOrder
+    from hybridsim.blocks.continuous.basic import FirstOrder
 
     c = hs.registry.lookup("constant")("c", value=1.0)
     res = _run([c, FirstOrder("f", tau=0.1, initial=0.0)], [("c.y", "f.u")], 0.1, ["f.y"], step=1e-4)
@@ -84,7 +84,7 @@ def test_a_transfer_function_of_degree_zero_is_a_pure_gain():
     numpy reshape error)."""
     import numpy as np
 
-    from hybridsim.registry import lookup
+    from hybridsim.engine.registry import lookup
 
     tf = lookup("transfer_function")("p", num=[1.0], den=[2.0])
     assert tf.n_continuous == 0

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from hybridsim.blocks.controllers import ForcePI, PositionPID
+from hybridsim.blocks.paper.controllers import ForcePI, PositionPID
 
 
 def test_pid_eq15a_first_tick_includes_current_sample():

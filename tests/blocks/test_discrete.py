@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import hybridsim as hs
-from hybridsim.blocks.discrete import (DelayN, DiscreteIntegrator, DiscretePID, DiscreteStateSpace,
+from hybridsim.blocks.discrete.basic import (DelayN, DiscreteIntegrator, DiscretePID, DiscreteStateSpace,
                              DiscreteTransferFunction, RateLimiter)
 
 

@@ -77,7 +77,7 @@ def test_example(name):
 
 
 def test_every_library_block_is_on_one_family_page():
-    from hybridsim.registry import lookup, types
+    from hybridsim.engine.registry import lookup, types
 
     pages = {p.stem: p.read_text() for p in DOCS.glob("*.md")}
     families = ("sources", "continuous", "discrete", "nonlinear", "logic", "math")

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from hybridsim.blocks.kinematics import (ForceTransform, ForceTransform6D, InverseJacobian,
+from hybridsim.blocks.paper.kinematics import (ForceTransform, ForceTransform6D, InverseJacobian,
                                endpoint, inverse_kinematics, jacobian)
 
 

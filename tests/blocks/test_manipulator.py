@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from hybridsim.blocks.manipulator import Manipulator
+from hybridsim.blocks.paper.manipulator import Manipulator
 from hybridsim.errors import ParameterError
 
 
@@ -83,7 +83,7 @@ def test_stribeck_sliding_friction_falls_from_static_to_coulomb():
 def test_lugre_steady_sliding_equals_the_stribeck_curve():
     import math
 
-    from hybridsim.blocks.manipulator import lugre, stribeck_level
+    from hybridsim.blocks.paper.manipulator import lugre, stribeck_level
 
     arm = Manipulator(q0=(0.3, 0.5), friction_model="lugre", stribeck_velocity=(1e-3, 2e-3))
     p = arm.params

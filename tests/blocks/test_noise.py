@@ -7,7 +7,7 @@ import pytest
 from scipy import stats
 
 import hybridsim as hs
-from hybridsim.blocks.noise import Noise, philox4x64, philox_keys
+from hybridsim.blocks.sources.noise import Noise, philox4x64, philox_keys
 from paths import PATHS, check, run
 
 
@@ -76,7 +76,7 @@ def test_psd_sets_sigma_from_the_period():
 
 
 def test_noise_is_the_same_in_another_process():
-    code = ("from hybridsim.blocks.noise import Noise; b = Noise(seed=11, rate=10); x = b.initial_state(); "
+    code = ("from hybridsim.blocks.sources.noise import Noise; b = Noise(seed=11, rate=10); x = b.initial_state(); "
             "import numpy as np; print(repr(float(b.output(0, b.update(0, b.update(0, x, []), []), [])[0][0])))")
     other = float(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout)
     b = Noise(seed=11, rate=10)

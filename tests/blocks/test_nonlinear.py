@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import hybridsim as hs
-from hybridsim.blocks.nonlinear import (FUNCTIONS, DeadZone, Lookup1D, Lookup2D, MathFunction, Product, Quantizer,
+from hybridsim.blocks.math.nonlinear import (FUNCTIONS, DeadZone, Lookup1D, Lookup2D, MathFunction, Product, Quantizer,
                               Saturation, Switch)
 
 

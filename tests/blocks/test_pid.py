@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import hybridsim as hs
-from hybridsim.blocks.discrete import DiscretePID
+from hybridsim.blocks.discrete.basic import DiscretePID
 
 from test_discrete import sequence  # noqa: E402 (the sibling module)
 from paths import PATHS  # noqa: E402

@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from hybridsim.blocks.robot import GravityTorque, RobotArm, RobotKinematics, urdf_path
-from hybridsim.blocks.kinematics import endpoint, jacobian_rows
-from hybridsim.blocks.task_space import rotation_vector
+from hybridsim.blocks.robot.arm import GravityTorque, RobotArm, RobotKinematics, urdf_path
+from hybridsim.blocks.paper.kinematics import endpoint, jacobian_rows
+from hybridsim.blocks.robot._frames import rotation_vector
 from hybridsim.errors import ParameterError
 
 # the Fig 3 arm as a rigid body (diagrams/robots/fig3_arm.urdf)
@@ -122,7 +122,7 @@ def test_a_file_that_is_not_a_robot_is_a_parameter_error(tmp_path):
 
 
 def test_start_position_solves_the_joints_for_a_tool_position():
-    from hybridsim.blocks.manipulator import Manipulator
+    from hybridsim.blocks.paper.manipulator import Manipulator
 
     arm = RobotArm(robot="fig3_arm", frame="tool", q0=[0.3, 0.5], start_position=[0.5, 0.0, 0.0])
     np.testing.assert_allclose(arm.q0, Manipulator(endpoint0=(0.5, 0.0)).x0[:2], rtol=0, atol=1e-12)

@@ -1,4 +1,4 @@
-"""The robot blocks' fused-path kernels (blocks/robot_kernels.py) against their methods, and the
+"""The robot blocks' fused-path kernels (blocks/robot/kernels.py) against their methods, and the
 UR5 press-and-trace on the fused path against the generic path.
 
 Oracles: the blocks' methods (numpy and Pinocchio, the generic path's reference) on random states
@@ -10,9 +10,10 @@ import pytest
 pytest.importorskip("pinocchio")
 
 import hybridsim as hs  # noqa: E402
-from hybridsim.blocks import robot_kernels as rk  # noqa: E402
-from hybridsim.blocks.robot import RobotArm, RobotKinematics  # noqa: E402
-from hybridsim.blocks.task_space import ForceTorqueSensor, PlaneContact  # noqa: E402
+from hybridsim.blocks.robot import kernels as rk  # noqa: E402
+from hybridsim.blocks.robot.arm import RobotArm, RobotKinematics  # noqa: E402
+from hybridsim.blocks.robot.sensing import ForceTorqueSensor
+from hybridsim.blocks.robot.contact import PlaneContact
 from hybridsim.errors import CompiledPathError  # noqa: E402
 
 from conftest import DIAGRAMS  # noqa: E402

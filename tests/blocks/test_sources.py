@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from hybridsim.blocks.sources import Constant, Cosine, Ramp, Step, Table
+from hybridsim.blocks.sources.basic import Constant, Cosine, Ramp, Step, Table
 
 
 def test_eq17b_cosine():

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from hybridsim.blocks.surface import Surface
+from hybridsim.blocks.paper.surface import Surface
 
 
 def u(x, v=0.0):

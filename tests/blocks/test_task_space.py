@@ -2,10 +2,14 @@
 import numpy as np
 import pytest
 
-from hybridsim.blocks.controllers import ForcePI, PositionPID
-from hybridsim.blocks.kinematics import ForceTransform, endpoint, jacobian_rows
-from hybridsim.blocks.task_space import (ForceTorqueSensor, HybridControl6D, PlaneContact, TaskPhases,
-                                         WrenchTransform, rotation)
+from hybridsim.blocks.paper.controllers import ForcePI, PositionPID
+from hybridsim.blocks.paper.kinematics import ForceTransform, endpoint, jacobian_rows
+from hybridsim.blocks.robot.sensing import ForceTorqueSensor
+from hybridsim.blocks.robot.hybrid6d import HybridControl6D
+from hybridsim.blocks.robot.contact import PlaneContact
+from hybridsim.blocks.robot.phases import TaskPhases
+from hybridsim.blocks.robot.sensing import WrenchTransform
+from hybridsim.blocks.robot._frames import rotation
 from hybridsim.errors import ParameterError, SimulationError
 
 
@@ -136,7 +140,7 @@ def test_task_phases_approach_press_then_trace():
 
 def test_the_ft_sensor_at_rest_reads_the_tool_weight_and_zero_after_taring():
     import hybridsim as hs
-    from hybridsim.blocks.sources import Constant, Step
+    from hybridsim.blocks.sources.basic import Constant, Step
 
     d = hs.Diagram("ft")
     d.add(Constant("flange", value=[0.4, 0.1, 0.3]))
@@ -164,8 +168,8 @@ def test_the_ft_sensor_at_rest_reads_the_tool_weight_and_zero_after_taring():
 
 
 def test_jacobian_transpose_and_inverse_blocks_equal_the_papers_in_the_plane():
-    from hybridsim.blocks.kinematics import InverseJacobian, JacobianTranspose
-    from hybridsim.blocks.task_space import TaskJacobianInverse, TaskJacobianTranspose
+    from hybridsim.blocks.paper.kinematics import InverseJacobian, JacobianTranspose
+    from hybridsim.blocks.robot.jacobians import TaskJacobianInverse, TaskJacobianTranspose
 
     jt, ji = TaskJacobianTranspose(joints=2, axes=[1, 1, 0, 0, 0, 0]), TaskJacobianInverse(joints=2, axes=[1, 1, 0, 0, 0, 0])
     rng = np.random.default_rng(7)

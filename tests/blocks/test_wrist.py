@@ -3,7 +3,7 @@ import math
 import numpy as np
 import pytest
 
-from hybridsim.blocks.wrist import Wrist
+from hybridsim.blocks.paper.wrist import Wrist
 
 
 def test_eq7_eq8_hand_checked():

@@ -1,0 +1,92 @@
+"""A plane to push on: a unilateral spring-damper with friction.
+
+Conventions: positions in metres, rotations as rotation vectors (axis times
+angle, rad), wrenches as (force N, moment N m). ``F`` is what the robot applies
+to its environment (what a wrist sensor reads, as in the paper); a plane's
+``wrench`` output is what the environment applies to the tool, the arm's input.
+"""
+import math
+
+import numpy as np
+
+from hybridsim.engine.block import Block
+from hybridsim.errors import ParameterError
+from hybridsim.engine.registry import register
+
+from hybridsim.blocks.robot import kernels as rk
+from hybridsim.blocks._util import flag, scalar, vector
+
+
+GROUP = "robot"
+
+
+@register("plane_contact")
+class PlaneContact(Block):
+    """A plane the tool presses on: unilateral spring-damper along its normal, Coulomb friction along it.
+
+    Penetration d = (point - p) . n (positive inside; n points out of the
+    plane, toward the free side). Normal force f_n = max(0, K d + B d') when
+    d > 0 (``unilateral``; else K d + B d' at any d), friction
+    ``f_t = -mu f_n v_t / sqrt(|v_t|^2 + slip_velocity^2)`` (Coulomb, smoothed
+    below ``slip_velocity``). First touch and lift-off (d = 0) are located
+    events. The surface of the paper's Figs 7-10, in three dimensions.
+
+    Parameters
+    ----------
+    point : [m]          a point of the plane
+    normal : [1]         its outward normal (normalised here)
+    stiffness : N/m      K
+    damping : N s/m      B
+    mu : 1               friction coefficient
+    slip_velocity : m/s  speed below which friction is smoothed
+    unilateral : bool    the plane only pushes
+    """
+
+    def __init__(self, name="plane", point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), stiffness=1.0e5,
+                 damping=0.0, mu=0.0, slip_velocity=1e-3, unilateral=True):
+        super().__init__(name)
+        self.point = vector(point, "point", 3)
+        n = vector(normal, "normal", 3)
+        if np.linalg.norm(n) == 0:
+            raise ParameterError("normal", "must not be the zero vector")
+        self.n = n / np.linalg.norm(n)
+        self.K = scalar(stiffness, "stiffness", "nonnegative")
+        self.B = scalar(damping, "damping", "nonnegative")
+        self.mu = scalar(mu, "mu", "nonnegative")
+        self.v_s = scalar(slip_velocity, "slip_velocity", "positive")
+        self.unilateral = flag(unilateral, "unilateral")
+        self.declare_input("p", 3)
+        self.declare_input("twist", 6)
+        self.declare_output("wrench", 6)
+        self.declare_output("F", 6)
+        self.declare_output("contact", 1, depends_on=("p",))
+        self.declare_output("depth", 1, depends_on=("p",))
+        self.event_directions = [0]
+        self.params = rk.PlaneParams(tuple(self.point.tolist()), tuple(self.n.tolist()), self.K, self.B, self.mu,
+                                     self.v_s, self.unilateral)
+
+    def depth(self, p):
+        """Penetration (m) of point ``p`` into the plane: positive inside."""
+        n, c = self.n, self.point
+        return float(n[0] * (c[0] - p[0]) + n[1] * (c[1] - p[1]) + n[2] * (c[2] - p[2]))
+
+    def output(self, t, x, u):
+        # plain floats: this runs at every right-hand side, where numpy's per-call cost dominates
+        n, tw = self.n, u[1]
+        d = self.depth(u[0])
+        v = (float(tw[0]), float(tw[1]), float(tw[2]))
+        vn = v[0] * n[0] + v[1] * n[1] + v[2] * n[2]
+        fn = self.K * d - self.B * vn
+        inside = d > 0.0 or not self.unilateral
+        fn = (max(fn, 0.0) if self.unilateral else fn) if inside else 0.0
+        vt = (v[0] - vn * n[0], v[1] - vn * n[1], v[2] - vn * n[2])
+        k = -self.mu * abs(fn) / math.sqrt(vt[0] ** 2 + vt[1] ** 2 + vt[2] ** 2 + self.v_s ** 2)
+        w = np.array([fn * n[0] + k * vt[0], fn * n[1] + k * vt[1], fn * n[2] + k * vt[2], 0.0, 0.0, 0.0])
+        return (w, -w, np.array([1.0 if fn > 0.0 else 0.0]), np.array([d]))
+
+    def zero_crossings(self, t, x, u):
+        return np.array([self.depth(u[0])])
+
+
+# the fused path's kernels (blocks.robot.kernels); the methods above are the generic path's
+PlaneContact.kernels = rk.PLANE

@@ -1,0 +1,147 @@
+"""Signal sources. Each has outputs ``y`` and its time derivative ``dy``.
+
+Widths follow the parameters: a scalar gives width 1, a list of n numbers
+width n (scalars broadcast against lists).
+"""
+import math
+
+import numpy as np
+
+from hybridsim.engine.block import Block
+from hybridsim.errors import ParameterError
+from hybridsim.engine.kernels import Kernels, kernel
+from hybridsim.engine.registry import register
+
+from hybridsim.blocks._util import finite_matrix, floats, scalar, vector
+
+
+GROUP = "sources"  # where `hybridsim blocks` lists this module's blocks
+
+class _Source(Block):
+    time_varying = True
+
+    def __init__(self, name, width):
+        super().__init__(name)
+        self.declare_output("y", width)
+        self.declare_output("dy", width)
+
+
+def _widths(**params):
+    for name, v in params.items():
+        vector(v, name)  # numbers, finite, flat
+    sizes = {np.size(v) for v in params.values()}
+    n = max(sizes)
+    bad = sizes - {1, n}
+    if bad:
+        raise ValueError(f"parameters {sorted(params)} have inconsistent lengths {sorted(sizes)}")
+    return n
+
+
+@register("constant")
+class Constant(_Source):
+    """y = value."""
+
+    time_varying = False
+
+    def __init__(self, name="const", value=0.0):
+        value = floats(value, "value")
+        super().__init__(name, len(value))
+        self.params = (value, (0.0,) * len(value))
+
+
+@kernel
+def constant_output(p, t, x, u):
+    return p[0], p[1]
+
+
+@register("step")
+class Step(_Source):
+    """y = initial for t < time, final from t = time on (the unit step U of eq 17a)."""
+
+    def __init__(self, name="step", initial=0.0, final=1.0, time=0.0):
+        n = _widths(initial=initial, final=final)
+        super().__init__(name, n)
+        self.params = (floats(initial, "initial", n), floats(final, "final", n),
+                       scalar(time, "time"), (0.0,) * n)
+
+
+@kernel
+def step_output(p, t, x, u):
+    initial, final, time, zero = p
+    return (final if t >= time else initial), zero
+
+
+@register("ramp")
+class Ramp(_Source):
+    """y = initial + slope * (min(t, stop) - start) for t >= start (held before/after)."""
+
+    def __init__(self, name="ramp", initial=0.0, slope=1.0, start=0.0, stop=math.inf):
+        n = _widths(initial=initial, slope=slope)
+        start, stop = scalar(start, "start"), scalar(stop, "stop", inf_ok=True)
+        if stop < start:
+            raise ParameterError("stop", "must not be before start")
+        super().__init__(name, n)
+        self.params = (vector(initial, "initial", n), vector(slope, "slope", n), start, stop,
+                       np.zeros(n))
+
+
+@kernel
+def ramp_output(p, t, x, u):
+    initial, slope, start, stop, zero = p
+    if t < start:
+        return initial, zero
+    moving = t < stop
+    return initial + slope * (min(t, stop) - start), (slope if moving else zero)
+
+
+@register("cosine")
+class Cosine(_Source):
+    """y = offset + amplitude cos(2 pi frequency t + phase) (eq 17b: 0.30 - 0.30 cos(0.75 pi t) m)."""
+
+    def __init__(self, name="cosine", offset=0.0, amplitude=1.0, frequency=1.0, phase=0.0):
+        n = _widths(offset=offset, amplitude=amplitude)
+        super().__init__(name, n)
+        self.params = (vector(offset, "offset", n), vector(amplitude, "amplitude", n),
+                       2 * math.pi * scalar(frequency, "frequency"), scalar(phase, "phase"))
+
+
+@kernel
+def cosine_output(p, t, x, u):
+    offset, amp, w, phase = p
+    a = w * t + phase
+    return offset + amp * math.cos(a), -amp * w * math.sin(a)
+
+
+@register("table")
+class Table(_Source):
+    """Piecewise-linear y(t) through (times[k], values[k]); held beyond the ends."""
+
+    def __init__(self, name="table", times=(0.0, 1.0), values=(0.0, 1.0)):
+        times = vector(times, "times")
+        vals = finite_matrix(values, "values")
+        values = vals.T if np.ndim(values) == 1 else vals
+        if values.shape[0] != times.size or times.size < 2:
+            raise ParameterError("values", "needs at least 2 times and one row of values per time")
+        if np.any(np.diff(times) <= 0):
+            raise ParameterError("times", "must increase strictly")
+        super().__init__(name, values.shape[1])
+        self.params = (times, np.ascontiguousarray(values))
+
+
+@kernel
+def table_output(p, t, x, u):
+    times, values = p
+    n = times.size
+    k = min(max(np.searchsorted(times, t, side="right") - 1, 0), n - 2)
+    t0, t1 = times[k], times[k + 1]
+    slope = (values[k + 1] - values[k]) / (t1 - t0)
+    if t < times[0] or t >= times[n - 1]:
+        return (values[0] if t < t0 else values[n - 1]).copy(), np.zeros_like(slope)
+    return values[k] + slope * (t - t0), slope
+
+
+Constant.kernels = Kernels(output=constant_output)
+Step.kernels = Kernels(output=step_output)
+Ramp.kernels = Kernels(output=ramp_output)
+Cosine.kernels = Kernels(output=cosine_output)
+Table.kernels = Kernels(output=table_output)

@@ -1,0 +1,314 @@
+"""Stability analysis of a diagram file: poles, margins, rate and gain sweeps.
+
+Reads an optional ``analysis`` section of the diagram::
+
+    analysis:
+      set: {friction: false}          # the branch to linearize on (overrides)
+      points: {force: ctrl.dF.y[0], position: ctrl.dX.y[1]}   # loop openings
+      rate_param: rate                # the parameter that sets the servo rate
+      rates: [30, 45, 60, 80, 120, 240, 480]
+      gains: {Kfp: ctrl.fpi.Kp, Kfi: ctrl.fpi.Ki, Kpp: ctrl.pid.Kp, Kpi: ctrl.pid.Ki, Kpd: ctrl.pid.Kd}
+      scales: [0.125, 0.25, 0.5, 1, 2, 4, 8]
+      cases: {limiter_saturated: {ctrl.fpi.Ki: [0, 0]}}
+      hand_mode_hz: 272.5             # report the plant mode nearest this
+
+Every entry has a default; all results are plain data (numbers, lists) plus
+python-control objects, so plotting and computing stay separate.
+"""
+
+import control
+import numpy as np
+
+from hybridsim.format import tables
+from hybridsim.api import load
+from hybridsim.runs.experiment import Experiment
+from hybridsim.analysis.linearize import LinearizationError
+from hybridsim.analysis.lti import hand_modes
+
+DEFAULTS = {k: v for k, v in tables.defaults(tables.ANALYSIS).items() if k not in ("compare", "step")}
+KEYS = tables.keys(tables.ANALYSIS)  # the table checks the section; "compare" and "step" are read by hybridsim.report.stability
+
+
+def settings_of(f):
+    """The diagram's analysis settings, checked against their table, over the defaults."""
+    cfg = f.analysis_settings()
+    cfg.pop("_lines", None)
+    return cfg
+
+
+def linearization(path, at=None, **overrides):
+    """A :class:`~hybridsim.analysis.linearize.Linearization` of a diagram file about its initial state,
+    or about the state reached at ``at`` seconds of simulation."""
+    return Experiment(path, **overrides).linearization(at=at)
+
+
+def param_value(f, ref):
+    """Current value of 'block.param' (from the file or the block's default); see
+    :meth:`DiagramFile.param_value <hybridsim.format.diagram_file.DiagramFile.param_value>`."""
+    return f.param_value(ref)
+
+
+def least_damping(poles):
+    """Smallest damping ratio among oscillatory poles (above 0.5 Hz, not at z = 1)."""
+    d = [p["damping"] for p in poles
+         if p["freq_hz"] and p["freq_hz"] > 0.5 and abs(complex(p["re"], p["im"]) - 1) > 1e-7]
+    return min(d) if d else None
+
+
+def _response(L, w):
+    """L's frequency response at ``w`` (rad/s, a number or an array), discrete or continuous."""
+    r = np.asarray(L(np.exp(1j * np.asarray(w) * L.dt) if L.dt else 1j * np.asarray(w)))
+    return complex(r.ravel()[0]) if np.ndim(w) == 0 else r.ravel()
+
+
+def _margins_hold(L, gm, pm, wg, wp):
+    """Whether python-control's polynomial margins describe L's own frequency response (to 1 %)."""
+    if np.isfinite(pm) and np.isfinite(wp) and abs(abs(_response(L, wp)) - 1.0) > 0.01:
+        return False
+    return not (np.isfinite(gm) and np.isfinite(wg) and abs(abs(_response(L, wg)) * gm - 1.0) > 0.01)
+
+
+def _grid_margins(L, n=20000):
+    """(gm, pm deg, phase-crossover rad/s, gain-crossover rad/s) of a discrete L from its response on a
+    dense grid up to Nyquist, crossings interpolated linearly; the crossing nearest instability wins."""
+    nyq = np.pi / L.dt
+    w = np.unique(np.concatenate([np.logspace(np.log10(nyq) - 5, np.log10(nyq), n // 4), np.linspace(0, nyq, n)]))
+    w = w[(w > 0) & (w < nyq * (1 - 1e-9))]
+    r = _response(L, w)
+
+    def at(x):
+        return _response(L, x)
+
+    def root(f, a, b):  # bisection of a sign change of f on [a, b], to 1e-12 relative
+        fa = f(a)
+        while b - a > 1e-12 * b:
+            m = 0.5 * (a + b)
+            fm = f(m)
+            if np.sign(fm) == np.sign(fa):
+                a, fa = m, fm
+            else:
+                b = m
+        return 0.5 * (a + b)
+
+    gm, pm, wg, wp = np.inf, np.inf, np.nan, np.nan
+    lm = np.log(np.maximum(np.abs(r), 1e-300))
+    for i in np.nonzero(np.sign(lm[:-1]) * np.sign(lm[1:]) < 0)[0]:  # |L| = 1
+        x = root(lambda v: np.log(abs(at(v))), w[i], w[i + 1])
+        p = 180.0 + np.degrees(np.angle(at(x)))  # phase margin of this crossing
+        if abs(p) < abs(pm):
+            pm, wp = p, x
+    im = r.imag
+    for i in np.nonzero((np.sign(im[:-1]) * np.sign(im[1:]) < 0) & (r.real[:-1] < 0))[0]:  # phase -180
+        x = root(lambda v: at(v).imag, w[i], w[i + 1])
+        if abs(at(x)) > 10.0 * max(abs(r[i]), abs(r[i + 1])):  # Im changed sign through a pole, not -180 deg
+            continue
+        g = 1.0 / abs(at(x).real)
+        if abs(np.log(g)) < abs(np.log(gm)):
+            gm, wg = g, x
+    return gm, pm, wg, wp
+
+
+def margins(L):
+    """Gain margin (x and dB), phase margin (deg) and their frequencies (Hz) of L.
+
+    python-control's polynomial method first; where its crossovers do not lie
+    on L's own frequency response (it loses accuracy on high-order loops, e.g.
+    a 6-DOF arm's with its many modes), the margins of the response sampled
+    on a dense grid up to Nyquist.
+    """
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        gm, pm, _, wg, wp, _ = control.stability_margins(L)
+        if L.dt and not _margins_hold(L, gm, pm, wg, wp):
+            gm, pm, wg, wp = _grid_margins(L)
+    dt = L.dt
+    to_hz = (lambda w: None if w is None or not np.isfinite(w) else float(w / (2 * np.pi)))
+    return {
+        "gain_margin": float(gm) if np.isfinite(gm) else None,
+        "gain_margin_db": float(20 * np.log10(gm)) if np.isfinite(gm) and gm > 0 else None,
+        "phase_margin_deg": float(pm) if np.isfinite(pm) else None,
+        "phase_crossover_hz": to_hz(wg),
+        "gain_crossover_hz": to_hz(wp),
+        "period_s": float(dt) if dt else None,
+    }
+
+
+def closed_loop(path, overrides, at=None):
+    """A diagram file's closed loop (a :class:`~hybridsim.analysis.lti.DiscreteModel` or, nothing sampled,
+    a :class:`~hybridsim.analysis.lti.ContinuousModel`), or None where it cannot be linearized; about the
+    state reached at ``at`` s of simulation when given (as :func:`linearization`). ``path`` may be
+    an :class:`~hybridsim.runs.experiment.Experiment`: ``overrides`` are then changes made to it."""
+    if isinstance(path, Experiment):
+        return path.closed_loop(overrides, at)
+    try:
+        return linearization(path, at=at, **overrides).closed_loop()
+    except (LinearizationError, np.linalg.LinAlgError):  # no finite model there (e.g. expm overflowed): no verdict
+        return None
+
+
+def largest_abs_z(path, overrides, at=None):
+    """The closed loop's growth - largest ``|z|`` besides z = 1 (sampled), largest Re s besides
+    s = 0 (nothing sampled) - or None (see :func:`closed_loop`)."""
+    cl = closed_loop(path, overrides, at)
+    return None if cl is None else cl.growth
+
+
+def _stability_row(cl, **key):
+    """One row of a sweep: the growth and whether the loop is stable (None: not linearizable)."""
+    return {**key, "spectral_radius": None if cl is None else cl.growth, "stable": cl is not None and cl.stable}
+
+
+def critical_scale(path, base, param, value, lo=1.0, hi=None, tol=0.01, at=None):
+    """Scale of ``param`` (relative to ``value``) at the stability boundary.
+
+    Found by doubling/halving from 1, then bisection to ``tol`` (relative).
+    Returns None when no boundary lies within 1e-4..1e4. ``path``: a diagram file (built once
+    with ``base``) or an :class:`~hybridsim.runs.experiment.Experiment` (``base`` already in it);
+    each trial is a run-time change of ``param``.
+    """
+    exp = path if isinstance(path, Experiment) else Experiment(path, **base)
+
+    def unstable(s):
+        cl = exp.closed_loop({param: (value * s).tolist()}, at)
+        return cl is None or not cl.stable
+
+    if unstable(lo):  # walk down to a stable scale
+        while True:
+            hi, lo = lo, lo / 2
+            if lo < 1e-4:
+                return None
+            if not unstable(lo):
+                break
+    else:  # walk up to an unstable one
+        hi = hi or lo * 2
+        while not unstable(hi):
+            hi *= 2
+            if hi > 1e4:
+                return None
+    while hi / lo > 1 + tol:
+        mid = np.sqrt(lo * hi)
+        if unstable(mid):
+            hi = mid
+        else:
+            lo = mid
+    return float(np.sqrt(lo * hi))
+
+
+def analyze(path, at=None, sweeps=True, **overrides):
+    """Run the whole analysis; returns a dict of plain results (see module doc).
+
+    ``path``: a diagram file, or an :class:`~hybridsim.runs.experiment.Experiment` (then ``overrides``
+    are changes made to it). The file is parsed and built once with the ``analysis: set`` branch;
+    cases, gain points and the boundary search are run-time parameter changes of that build
+    where they name block parameters; a servo rate or a ``params`` name rebuilds.
+    """
+    if isinstance(path, Experiment):
+        f = path.file
+        cfg = settings_of(f)
+        exp, params = path.changed({**cfg["set"], **overrides})
+        if params:
+            exp = Experiment(exp.path, exp.variant, **{**exp.overrides, **params})
+    else:
+        f = load(path, **overrides)
+        cfg = settings_of(f)
+        exp = Experiment(path, **{**cfg["set"], **overrides})
+    at = cfg["at"] if at is None else at
+    cl = exp.closed_loop(at=at)
+    lin = exp.linearization(at=at)  # the one closed_loop used (this experiment unchanged)
+    if cl is None:
+        cl = lin.closed_loop()  # raises the reason it cannot be linearized
+    A, _ = lin.continuous()
+    out = {
+        "diagram": f.name,
+        "branch": cfg["set"],
+        "domain": cl.domain,
+        "growth_label": cl.growth_label,
+        "period_s": cl.period,
+        "poles": [{"re": float(r["pole"].real), "im": float(r["pole"].imag), "abs": r["abs"],
+                   "freq_hz": r["freq_hz"], "damping": r["damping"]} for r in cl.pole_table()],
+        "spectral_radius": cl.spectral_radius if cl.period else None,
+        "spectral_abscissa": None if cl.period else cl.spectral_abscissa,
+        "growth": cl.growth,
+        "integrator_modes": cl.integrator_modes,
+        "stable": cl.stable,
+        "plant_modes_hz": hand_modes(A),
+        "fd_error": lin.fd_error,
+        "loops": {},
+    }
+    if cfg["hand_mode_hz"]:
+        out["hand_mode_hz"] = hand_modes(A, float(cfg["hand_mode_hz"]))
+    out["_objects"] = {"closed_loop": cl, "loops": {}}
+    for name, sig in cfg["points"].items():
+        try:
+            L = lin.loop(sig)
+        except LinearizationError as exc:
+            out["loops"][name] = {"signal": sig, "error": str(exc)}
+            continue
+        out["loops"][name] = {"signal": sig, **margins(L)}
+        out["_objects"]["loops"][name] = L
+    out["cases"] = {}
+    for cname, cov in cfg["cases"].items():
+        out["cases"][cname] = _stability_row(exp.closed_loop(cov, at), set=cov)
+    if not sweeps:
+        return out
+    rp = cfg["rate_param"]
+    out["rates"] = []
+    if rp in f.params:
+        for r in cfg["rates"]:
+            out["rates"].append(_stability_row(exp.closed_loop({rp: r}, at), rate_hz=r))
+    out["gains"] = {}
+    for gname, ref in cfg["gains"].items():
+        value = param_value(f, ref)
+        rows = []
+        for s in cfg["scales"]:
+            rows.append(_stability_row(exp.closed_loop({ref: (value * s).tolist()}, at), scale=s))
+        out["gains"][gname] = {"param": ref, "value": value.tolist(), "sweep": rows,
+                               "critical_scale": critical_scale(exp, {}, ref, value, at=at)}
+    return out
+
+
+def summary_lines(res):
+    """Human-readable lines for the terminal."""
+    sampled = res.get("domain", "discrete") == "discrete"
+    g = res.get("growth_label", "largest |z|")
+    at_one = "z = 1" if sampled else "s = 0"
+    head = (f"closed loop at period {res['period_s'] * 1000:.3f} ms" if sampled
+            else "continuous closed loop (nothing is sampled)")
+    lines = [f"{res['diagram']}: {head} (branch {res['branch'] or 'as built'})",
+             f"  {g} {res['growth']:{'.4f' if sampled else '.4g'}} (besides {res['integrator_modes']} undriven "
+             f"integrator pole(s) at {at_one}) -> {'STABLE' if res['stable'] else 'NOT STABLE'}"]
+    lines.append("  dominant poles:   " + ("|z|      f (Hz)   damping" if sampled else "|s|      f (Hz)   damping"))
+    seen = 0
+    for p in res["poles"]:
+        if p["freq_hz"] is None or seen >= 6:
+            continue
+        lines.append(f"    {p['re']:+.4f}{p['im']:+.4f}j  {p['abs']:.4f}  {p['freq_hz']:8.2f}  {p['damping']:+.4f}")
+        seen += 1
+    if "hand_mode_hz" in res:
+        lines.append(f"  plant mode nearest eq 18: {res['hand_mode_hz']:.2f} Hz")
+    for name, m in res["loops"].items():
+        if "error" in m:
+            lines.append(f"  loop {name} ({m['signal']}): {m['error']}")
+            continue
+        gm = "inf" if m["gain_margin_db"] is None else f"{m['gain_margin_db']:.2f} dB"
+        pm = "inf" if m["phase_margin_deg"] is None else f"{m['phase_margin_deg']:.1f} deg"
+        lines.append(f"  loop {name} ({m['signal']}): gain margin {gm}, phase margin {pm}")
+    for cname, c in res.get("cases", {}).items():
+        lines.append(f"  case {cname} {c['set']}: {g} {_num(c['spectral_radius'])}"
+                     f" ({'stable' if c['stable'] else 'not stable'})")
+    if res.get("rates"):
+        lines.append("  servo rate (Hz): " + "  ".join(
+            f"{r['rate_hz']}:{_num(r['spectral_radius'], 3)}{'' if r['stable'] else '!'}" for r in res["rates"]))
+    for name, d in res.get("gains", {}).items():
+        cs = d["critical_scale"]
+        lines.append(f"  {name} ({d['param']}): unstable from x{cs:.3g}" if cs else
+                     f"  {name} ({d['param']}): no stability boundary found in x1e-4..x1e4")
+    lines.append(f"  (numbers are the {g}{' over one period' if sampled else ''} besides {at_one}; ! = not stable)")
+    return lines
+
+
+def _num(v, digits=4):
+    """A number for the summary, or 'n/a' where the loop could not be linearized."""
+    return "n/a" if v is None else f"{v:.{digits}f}"

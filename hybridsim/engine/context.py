@@ -1,0 +1,72 @@
+"""The numbers of one run: time, states and the values on every wire.
+
+A :class:`Context` belongs to one :class:`~hybridsim.engine.system.System`; several
+contexts of the same system can run side by side (blocks hold no run data).
+
+* ``xc``: every continuous state in one flat vector (block slices in
+  ``system.xslices``);
+* ``xd[i]``: discrete state of block ``i``;
+* ``y[i][o]``: a preallocated buffer holding output ``o`` of block ``i``;
+* ``u[i]``: the list of buffers that are block ``i``'s inputs. These are the
+  very arrays of ``y`` (no copying on the way), built once;
+* ``events``, ``stopped``: the run's events and, when a block ended it early,
+  its :class:`~hybridsim.errors.StopRequest`;
+* ``blocks``: the blocks whose equations this run uses - the system's, or
+  copies with other parameters (:meth:`~hybridsim.engine.block.Block.with_params`)
+  for a run with parameters given at run time; ``params`` their numbers.
+"""
+import numpy as np
+
+
+class Context:
+    """Holds the state and signal values of one simulation of a system."""
+
+    def __init__(self, system, blocks=None):
+        self.system = system
+        self.blocks = list(blocks) if blocks is not None else list(system.blocks)
+        self.params = tuple(b.params for b in self.blocks)
+        blocks = self.blocks
+        self.t = 0.0
+        self.y = [[np.zeros(p.width) for p in b.outputs] for b in blocks]
+        self.u = [[self.y[a][o] for (a, o) in system.sources[i]] for i in range(len(blocks))]
+        self.xc = np.zeros(system.n_x)
+        self.xd = [np.zeros(b.n_discrete) for b in blocks]
+        self.events = None   # the run's located and time events (hybridsim.engine.events.EventSet)
+        self.stopped = None  # a block's StopRequest that ended the run
+        self._initialize()
+
+    def _initialize(self):
+        late = []
+        for i, b in enumerate(self.blocks):
+            if b.init_needs_inputs:
+                late.append(i)
+                continue
+            self._set_initial(i, b.initial_state(None))
+        # provisional outputs at t = 0, then the blocks that need inputs; again while one such
+        # block's start depends on another's (a sensor filter on a pre-loaded wrist), in any order
+        for _ in range(len(late)):
+            self.evaluate(range(len(self.blocks)), 0.0, self.xc)
+            for i in late:
+                self._set_initial(i, self.blocks[i].initial_state(self.u[i]))
+            if len(late) == 1:
+                break
+
+    def _set_initial(self, i, x0):
+        s = self.system.xslices[i]
+        if s is not None:
+            self.xc[s] = x0
+        elif self.blocks[i].n_discrete:
+            self.xd[i] = np.array(x0, dtype=float).reshape(self.blocks[i].n_discrete)
+
+    def block_state(self, i, xc):
+        """The state a block's functions see: a view of ``xc`` or its discrete state."""
+        s = self.system.xslices[i]
+        return xc[s] if s is not None else self.xd[i]
+
+    def evaluate(self, path, t, xc):
+        """Compute the outputs of the blocks in ``path`` (in order) at (t, xc)."""
+        blocks, y, u = self.blocks, self.y, self.u
+        for i in path:
+            outs = blocks[i].output(t, self.block_state(i, xc), u[i])
+            for buf, v in zip(y[i], outs):
+                buf[:] = v

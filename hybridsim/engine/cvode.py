@@ -1,0 +1,147 @@
+"""CVODE (SUNDIALS' variable-order BDF) for the continuous states, through scikit-sundae.
+
+:class:`CVode` has the interface of :class:`~hybridsim.engine.solvers.ScipySolver`
+(``advance`` and ``advance_to_event``), so it runs wherever a scipy solver
+does: the generic path and Model Exchange FMUs. Between two stops (sample
+hits, events) one CVODE integration runs:
+
+* log times inside the interval come from CVODE's own interpolant (its
+  ``CV_NORMAL`` output, never a step landed on purpose), so logging does not
+  change the steps taken;
+* zero crossings are found by CVODE's root finding (Hairer-style Illinois
+  iteration to a few units of round-off in t); a crossing of an event with an
+  action returns to the caller (the actions run and CVODE restarts there, at
+  order 1), a crossing without one restarts CVODE in place, so a switch is
+  never stepped across;
+* ``tstop`` is the next stop: CVODE never integrates past a sample hit, where
+  the held inputs change.
+
+Its Newton iteration uses a dense finite-difference Jacobian, which suits the
+stiff contact and friction laws and an FMU that gives no Jacobian; one call of
+the right-hand side per Newton iteration rather than per stage is why it is
+the solver to use for Model Exchange FMUs.
+"""
+import numpy as np
+
+from hybridsim.errors import SimulationError
+from hybridsim.engine.events import MAX_REPEATS
+
+#: internal steps CVODE may take between two requested outputs
+MAX_STEPS = 1_000_000
+#: restarts at switches without actions within one interval (more: the switch chatters)
+MAX_RESTARTS = 10_000
+
+
+class CVode:
+    """SUNDIALS CVODE with restarts at sample hits and at zero crossings.
+
+    Parameters
+    ----------
+    rtol : float
+        Relative tolerance.
+    atol : float or array_like
+        Absolute tolerance, one for every state or one per state (in the
+        states' units).
+    max_step : float
+        Longest internal step in s (inf: no limit).
+    method : {"BDF", "Adams"}
+        BDF (orders 1-5) for stiff systems, Adams-Moulton for smooth ones.
+    """
+
+    def __init__(self, rtol=1e-8, atol=1e-10, max_step=np.inf, method="BDF"):
+        try:
+            import sksundae  # noqa: F401
+        except ImportError:  # pragma: no cover - a core dependency
+            raise ImportError("solver cvode needs scikit-sundae: pip install scikit-sundae") from None
+        if method not in ("BDF", "Adams"):
+            raise ValueError(f"CVODE method must be 'BDF' or 'Adams', got {method!r}")
+        self.rtol, self.atol, self.max_step, self.method = float(rtol), atol, float(max_step), method
+        self.name = "cvode"
+
+    def advance(self, f, t0, t1, x, t_out=(), events=None, check=None):
+        """Integrate from ``t0`` to ``t1`` restarting at every zero crossing of ``events``;
+        returns ``(x, states at t_out)``."""
+        return self.advance_to_event(f, t0, t1, x, t_out, None, None, events=events, check=check)[1::2]
+
+    def advance_to_event(self, f, t0, t1, x, t_out, g, directions, events=None, check=None, step=None):
+        """Like :meth:`advance`, stopping at the first crossing of ``g`` (in ``directions``).
+
+        Returns ``(t_stop, x_stop, fired, outs)`` as
+        :meth:`~hybridsim.engine.solvers.ScipySolver.advance_to_event`: ``fired`` (a
+        mask over the functions of ``g``) is None when ``t_stop`` is ``t1``.
+        ``events`` (zero crossings without actions) restart CVODE without stopping;
+        one that fires more than ``MAX_REPEATS`` times in the interval is stepped
+        over for the rest of it (a solution sliding along the switch). ``check(t, x)``
+        (the divergence check) sees the state at every point CVODE returns: log times,
+        zero crossings and ``t1``; so does ``step(t, x)`` when given, after ``check`` (True: a step
+        event there, returned with ``fired`` a mask of no functions). CVODE's internal steps are
+        not seen: ``step`` is called at the points it returns, not after each of its steps.
+        """
+        from sksundae.cvode import CVODE
+
+        x = np.array(x, float)
+        pending = sorted(float(tb) for tb in t_out)
+        outs = []
+        while pending and pending[0] <= t0:  # a log time at the start (after an event)
+            pending.pop(0)
+            outs.append(x.copy())
+        n_a = len(directions) if g is not None else 0
+        n_r = np.atleast_1d(events(t0, x)).size if events is not None else 0
+        muted = np.zeros(n_r, dtype=bool)
+
+        def rhs(t, y, yp):
+            yp[:] = f(t, y)
+
+        def roots(t, y, out):
+            if n_a:
+                out[:n_a] = g(t, y)
+            if n_r:
+                out[n_a:] = np.where(muted, 1.0, events(t, y))
+
+        roots.terminal = [True] * (n_a + n_r)
+        roots.direction = [int(d) for d in (directions if n_a else ())] + [0] * n_r
+        opts = dict(method=self.method, rtol=self.rtol, atol=self.atol, max_num_steps=MAX_STEPS,
+                    max_step=0.0 if not np.isfinite(self.max_step) else self.max_step)
+        if n_a + n_r:
+            opts.update(eventsfn=roots, num_events=n_a + n_r)
+        cv = CVODE(rhs, **opts)
+        self._check(cv.init_step(t0, x), t0)
+        hits = np.zeros(n_r, dtype=int)
+        t = t0
+        for _ in range(MAX_RESTARTS):
+            target = pending[0] if pending else t1
+            res = cv.step(target, tstop=t1)
+            self._check(res, t)
+            t, y = float(np.atleast_1d(res.t)[-1]), np.array(res.y, float).reshape(-1)
+            if check is not None:
+                check(t, y)
+            asked = step is not None and step(t, y)
+            if res.status == 2:  # a root
+                which = np.asarray(res.i_events, float).reshape(-1, n_a + n_r)[-1] != 0
+                while pending and pending[0] <= t:
+                    pending.pop(0)
+                    outs.append(y.copy())
+                if which[:n_a].any() or asked:
+                    return t, y, which[:n_a].copy(), outs
+                hits += which[n_a:]
+                muted |= hits > MAX_REPEATS
+                self._check(cv.init_step(t, y), t)  # restart at the switch, at order 1
+                continue
+            if asked:  # a log time here is logged after the step event, as after a time event
+                return t, y, np.zeros(n_a, dtype=bool), outs
+            if pending and t >= pending[0]:
+                pending.pop(0)
+                outs.append(y.copy())
+            if t >= t1 or (not pending and res.status == 1):
+                return t1, y, None, outs
+        raise SimulationError(f"more than {MAX_RESTARTS} zero crossings before t={t1:.6g} s "
+                              "(a switch is chattering)")
+
+    @staticmethod
+    def _check(res, t):
+        """Raise :class:`SimulationError` for a failed CVODE call (``t``: where it started)."""
+        if res.status < 0:
+            raise SimulationError(f"solver cvode failed after t={t:.6g} s: {res.message}")
+
+    def __repr__(self):
+        return f"CVode({self.method}, rtol={self.rtol:g})"

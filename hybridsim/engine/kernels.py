@@ -1,0 +1,62 @@
+"""Block equations as pure functions: the form every path can run.
+
+A block that sets ``kernels = Kernels(output=f, derivatives=g, update=h)``
+writes its equations once, as functions ``f(p, t, x, u)`` of
+
+* ``p``: the block's numbers, the tuple (or namedtuple) ``block.params``;
+* ``t``: time, s;
+* ``x``: its state, an indexable sequence of floats (a tuple or 1-D array);
+* ``u``: its inputs, one indexable sequence of floats per input port;
+
+returning what the block method would (outputs: one sequence per port;
+derivatives and update: one sequence). :class:`~hybridsim.engine.block.Block` calls
+them with ``self.params`` on the generic path; :mod:`hybridsim.engine.fused` calls
+them from its generated Python RK4; :mod:`hybridsim.engine.compiled` compiles them
+with numba into one loop. So a kernel keeps to what numba's nopython mode
+accepts: arithmetic, ``math``, small numpy operations, indexing, other
+functions marked :func:`kernel` - no attributes of blocks, no ``None``
+values in ``p``.
+"""
+from typing import Callable, NamedTuple, Optional
+
+_MARKED = []  # every function marked @kernel (numba may compile any of them)
+
+try:  # loop over a tuple whose items differ in type (arrays and tuples of floats)
+    from numba import literal_unroll as unroll
+except ImportError:  # pragma: no cover - numba is optional; in Python the tuple itself
+    def unroll(items):
+        """``items`` itself: numba's ``literal_unroll`` outside numba."""
+        return items
+
+
+class Kernels(NamedTuple):
+    """The pure functions of a block; a missing one means the block has none.
+
+    ``zero_crossings(p, t, x, u)`` returns the block's event functions (a
+    sequence of floats); ``event_action(p, t, x, u, fired)`` the state after
+    the events ``fired`` (a tuple of bools, one per event function).
+    ``python_only``: the kernels call a Python library (Pinocchio's rigid-body
+    algorithms): the fused path runs them, the compiled path refuses the block.
+    """
+
+    output: Optional[Callable] = None
+    derivatives: Optional[Callable] = None
+    update: Optional[Callable] = None
+    zero_crossings: Optional[Callable] = None
+    event_action: Optional[Callable] = None
+    python_only: bool = False
+
+
+def kernel(fn):
+    """Mark ``fn`` as a kernel or a helper that kernels call.
+
+    The function is returned unchanged (plain Python); the compiled path
+    registers every marked function with numba before compiling.
+    """
+    _MARKED.append(fn)
+    return fn
+
+
+def marked():
+    """The functions marked with :func:`kernel` so far."""
+    return list(_MARKED)
