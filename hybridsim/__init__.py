@@ -16,7 +16,7 @@ if _os.path.isfile(_os.path.join(_root, "pyproject.toml")) and _os.path.isdir(_o
     __path__.append(_root)  # noqa: F821 - a package's __path__
 del _os, _root
 
-from hybridsim.api import build, check, load, run_experiment, simulate, write_outputs
+from hybridsim.api import build, check, load, simulate, write_outputs
 from hybridsim.engine.block import Block
 from hybridsim.engine.diagram import Diagram
 from hybridsim.errors import (CompiledPathError, DiagramError, FMUError, HybridsimError, InputError,
@@ -27,6 +27,7 @@ from hybridsim.engine import registry
 from hybridsim.engine.simulator import Simulator
 from hybridsim.engine.solvers import RK4, ExplicitRK, Heun, ScipySolver
 from hybridsim.engine.cvode import CVode
+from hybridsim.runs.variants import run_experiment
 
 __all__ = ["registry", "Block", "Diagram", "Simulator", "RK4", "Heun", "ExplicitRK", "ScipySolver", "CVode", "register", "simulate", "load",
            "build", "check", "from_control", "run_experiment", "write_outputs", "HybridsimError", "InputError",

@@ -4,18 +4,16 @@
 >>> res = hs.simulate("diagrams/fig9_force_and_position.yaml", rate=120, t_end=1.0)
 >>> res.t, res["ctrl.ft.CF[0]"]
 
-:func:`run_experiment` runs every variant of a file and adds metrics;
-:func:`write_outputs` writes CSV, plots and ``metrics.json`` atomically.
+:func:`write_outputs` writes CSV, plots and ``metrics.json`` atomically for the runs of
+:func:`hybridsim.runs.variants.run_experiment` (every variant of a file, with metrics).
 """
 import json
-import os
 from pathlib import Path
 
-from hybridsim.analysis import metrics as _metrics
 from hybridsim.files import atomic_dir, safe_name, unique_names
 from hybridsim.format import tables
 from hybridsim.format import DiagramFile
-from hybridsim.engine.simulator import Simulator, on_terminal
+from hybridsim.engine.simulator import Simulator
 from hybridsim.engine.solvers import FIXED_STEP, ScipySolver
 
 
@@ -168,48 +166,6 @@ def simulate(path_or_file, variant=None, progress=False, **overrides):
     system, simulator, settings = build(path_or_file, variant, **overrides)
     simulator.progress = progress
     return simulator.run(settings["simulation"]["t_end"])
-
-
-def _run_variant(f, label, variant, progress=False):
-    system, simulator, settings = build(f, variant)
-    simulator.progress = progress
-    result = simulator.run(settings["simulation"]["t_end"])
-    m = _metrics.compute(result, settings["signals"], settings["metrics"])
-    m["wall_time_s"] = result.meta["wall_time_s"]
-    result.context = None  # the final state stays in the worker
-    return {"label": label, "overrides": variant, "result": result, "metrics": m}, settings
-
-
-def run_experiment(path_or_file, progress=False, jobs=None, **overrides):
-    """Run every variant of a file; returns ``(file, runs, settings)``.
-
-    ``runs`` is a list of dicts with keys ``label``, ``overrides``, ``result``
-    and ``metrics``, in variant order. Several variants run in parallel on
-    ``jobs`` processes (default: one per core); ``jobs=1`` runs them here.
-    """
-    f = path_or_file if isinstance(path_or_file, DiagramFile) else load(path_or_file, **overrides)
-    variants = f.variants()
-    jobs = min(len(variants), jobs or os.cpu_count() or 1)
-    if jobs <= 1:
-        out = [_run_variant(f, label, v, progress) for label, v in variants]
-    else:
-        from concurrent.futures import ProcessPoolExecutor
-
-        bar = None
-        if progress:
-            from tqdm import tqdm
-
-            bar = tqdm(total=len(variants), unit="run", delay=1.0, leave=False, disable=not on_terminal())
-        with ProcessPoolExecutor(jobs) as pool:
-            futures = [pool.submit(_run_variant, f, label, v) for label, v in variants]
-            out = []
-            for fut in futures:
-                out.append(fut.result())
-                if bar is not None:
-                    bar.update(1)
-        if bar is not None:
-            bar.close()
-    return f, [r for r, _ in out], out[-1][1]
 
 
 def write_outputs(f, runs, settings, outdir, only_ours=False):

@@ -19,9 +19,14 @@ def exp():
 
 
 def test_changes_split_into_run_time_and_structural(exp):
-    params, structural = exp.split({"ctrl.fpi.Kp": [1, 1], "arm.stick_band": 2e-4, "rate": 80, "friction": True})
+    params, structural = exp.split({"ctrl.fpi.Kp": [1, 1], "arm.stick_band": 2e-4, "rate": 80, "delay_ticks": 1})
     assert params == {"ctrl.fpi.Kp": [1, 1], "arm.stick_band": 2e-4}
-    assert structural == {"rate": 80, "friction": True}  # names the file resolves while loading
+    assert structural == {"rate": 80, "delay_ticks": 1}  # a rate and a delay line change the structure
+    # for runs, a name only block numbers use is made at run time in every block that uses it; a width is not
+    assert exp.split({"Kr": 8e5})[1] == {"Kr": 8e5}
+    params, structural = exp.split({"Kr": 8e5, "ctrl.fpi.Kp": [1, 2, 3]}, names=True)
+    assert params["surface.Kr"] == 8e5 and params["arm.balance"]["Kr"] == 8e5
+    assert structural == {"ctrl.fpi.Kp": [1, 2, 3]}
     same, p = exp.changed({"ctrl.fpi.Kp": [1, 1]})
     assert same is exp and p == {"ctrl.fpi.Kp": [1, 1]}
     same, p = exp.changed({"rate": exp.file.params["rate"]})  # the value it has: no rebuild

@@ -17,6 +17,7 @@ import pytest
 
 from hybridsim import api
 from hybridsim.app.cli import main
+from hybridsim.runs import variants
 from hybridsim.errors import (DiagramError, FMUError, InputError, LoaderError, OutputError,
                               ParameterError, SimulationError)
 
@@ -91,7 +92,7 @@ def test_output_path_that_is_a_file_is_refused_and_untouched(tmp_path, capsys):
 
 def test_output_under_a_file_is_refused_before_the_simulation(tmp_path, capsys, monkeypatch):
     (tmp_path / "afile").write_text("x")
-    monkeypatch.setattr(api, "run_experiment", lambda *a, **k: pytest.fail("simulated before checking -o"))
+    monkeypatch.setattr(variants, "run_experiment", lambda *a, **k: pytest.fail("simulated before checking -o"))
     code, _, err = run(capsys, "run", write(tmp_path, GOOD), "-q", "-o", tmp_path / "afile" / "o")
     assert code == 2 and "is not a folder" in err
 
@@ -100,7 +101,7 @@ def test_output_under_a_file_is_refused_before_the_simulation(tmp_path, capsys, 
 def test_output_under_an_unwritable_folder_is_refused_before_the_simulation(tmp_path, capsys, monkeypatch):
     ro = tmp_path / "ro"
     ro.mkdir(mode=0o555)
-    monkeypatch.setattr(api, "run_experiment", lambda *a, **k: pytest.fail("simulated before checking -o"))
+    monkeypatch.setattr(variants, "run_experiment", lambda *a, **k: pytest.fail("simulated before checking -o"))
     code, _, err = run(capsys, "run", write(tmp_path, GOOD), "-q", "-o", ro / "o")
     assert code == 2 and "no permission" in err
 
@@ -417,9 +418,9 @@ def test_sweep_with_no_points_exits_2(tmp_path, capsys):
 
 
 def test_sweep_dask_address_that_does_not_answer_exits_2(tmp_path, capsys, monkeypatch):
-    from hybridsim.runs import sweep
+    from hybridsim.runs import executor
 
-    monkeypatch.setattr(sweep, "DASK_TIMEOUT_S", 1)
+    monkeypatch.setattr(executor, "DASK_TIMEOUT_S", 1)
     d = write(tmp_path, GOOD)
     s = write(tmp_path, f"diagram: {d}\ngrid: {{k: [1, 2]}}\n", "s.yaml")
     t0 = time.perf_counter()

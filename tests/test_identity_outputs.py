@@ -336,7 +336,7 @@ signals: {force: 'p$x.y[0]', force_desired: 'z.y[0]'}
 
     import matplotlib.pyplot as plt
 
-    from hybridsim.api import run_experiment
+    from hybridsim.runs.variants import run_experiment
     from hybridsim.report.plots import experiment_figure
 
     f, runs, settings = run_experiment(write(tmp_path, text))

@@ -5,6 +5,7 @@ import math
 import pytest
 from hypothesis import given, settings, strategies as st
 
+from hybridsim.paper import claims as cl
 from hybridsim.paper import reproduce as rp
 from hybridsim.paper.joint_search import PLAUSIBLE, PRINTED, model_overrides, penalty, summarize
 from hybridsim.engine.registry import default
@@ -47,16 +48,16 @@ finite = st.floats(0.0, 5.0, allow_nan=False)
 def test_claim_margins_agree_with_the_verdicts(rise, over, sse, out):
     runs = [run({"rise_time_s": r, "overshoot_pct": o, "ss_force_error_filtered_N": e, "contact_lost": t > 0,
                  "time_out_of_contact_s": t}, rate=60, force=f) for r, o, e, t, f in zip(rise, over, sse, out, (1, 5, 10))]
-    for c in rp.claims_fig7(runs):
+    for c in cl.claims_fig7(runs):
         if abs(c.margin) > 1e-12:  # on a threshold the verdict's < or <= decides
             assert (c.margin > 0) == c[3], (c, c.margin)
 
 
 def test_fig8_and_fig10_margins_hand_checked():
     m = {"contact_lost": True, "first_loss_s": 1.0, "time_out_of_contact_s": 0.25, "force_error_max_filtered_N": 3.5}
-    c8 = rp.claims_fig8([run(m)])
+    c8 = cl.claims_fig8([run(m)])
     assert [c.margin for c in c8] == [pytest.approx(-0.25), pytest.approx((1.75 - 3.5) / 1.75)]
-    c10 = rp.claims_fig10([run({**m, "contact_lost": False, "force_error_max_filtered_N": 0.8})])
+    c10 = cl.claims_fig10([run({**m, "contact_lost": False, "force_error_max_filtered_N": 0.8})])
     assert [c.margin for c in c10] == [pytest.approx(0.2), 1.0] and all(c[3] for c in c10)
 
 
@@ -87,11 +88,11 @@ def test_the_search_judges_the_printed_model_as_hinges_does(tmp_path):
     from hybridsim.paper.hinges import judge_model
     from hybridsim.paper.joint_search import joint_search
 
-    res = joint_search(1, jobs=2, outdir=tmp_path / "js")
+    res = joint_search(1, 2, outdir=tmp_path / "js")
     assert res["trials"][0]["model"] == PRINTED
     counts = judge_model((), 2)
     assert {int(r): k for r, k in res["trials"][0]["held"].items()} == {r: k for r, (k, _) in counts.items()}
-    again = joint_search(1, jobs=2, outdir=tmp_path / "js")
+    again = joint_search(1, 2, outdir=tmp_path / "js")
     assert again["wall_time_s"] < 5.0 and again["trials"] == res["trials"]
 
 

@@ -5,6 +5,7 @@ import math
 
 import pytest
 
+from hybridsim.paper import claims as cl
 from hybridsim.paper import reproduce as rp
 
 
@@ -14,10 +15,10 @@ def run(metrics, **ov):
 
 def test_fig7_criteria_hand_checked():
     good = {"rise_time_s": 0.15, "overshoot_pct": 5.0, "ss_force_error_filtered_N": 0.5, "contact_lost": False}
-    claims = rp.claims_fig7([run(good, rate=60, force=f) for f in (1, 5, 10)])
+    claims = cl.claims_fig7([run(good, rate=60, force=f) for f in (1, 5, 10)])
     assert [c[3] for c in claims] == [True, True, True, True]
     bad = dict(good, ss_force_error_filtered_N=1.2)
-    claims = rp.claims_fig7([run(good, rate=60), run(bad, rate=60), run(bad, rate=120)])
+    claims = cl.claims_fig7([run(good, rate=60), run(bad, rate=60), run(bad, rate=120)])
     assert [c[3] for c in claims] == [True, True, False, True]
     assert "1.20 N" in claims[2][2]
 
@@ -115,7 +116,7 @@ def test_each_claim_states_how_it_is_measured(small_report):
 def test_fig7_conventions_follow_its_settings():
     settings = {"simulation": {"t_end": 2.5, "step": 1e-4, "log_period": 0.0005},
                 "metrics": {"step_time": 0.5, "ss_window": 1.0}}
-    rise, over, steady, contact = rp.conventions("Fig 7", settings)
+    rise, over, steady, contact = cl.conventions("Fig 7", settings)
     assert rise.startswith("10-90 % of the step at 0.5 s") and "12 Hz" in rise
     assert "over the last 1 s (1.5-2.5 s)" in steady and "2.5 s runs, logged every 0.5 ms" in steady
 

@@ -5,6 +5,7 @@ import pandas as pd
 import pytest
 
 from hybridsim.runs import sweep as sw
+from hybridsim.runs.experiment import Experiment
 from hybridsim.app.cli import main
 
 from conftest import DIAGRAMS
@@ -48,21 +49,18 @@ def test_serial_pool_and_dask_give_the_same_table(sweep_file, tmp_path):
     assert (tmp_path / "serial" / "heatmap.png").stat().st_size > 5000
 
 
-def test_resume_runs_only_the_missing_points(sweep_file, tmp_path, monkeypatch):
+def test_resume_runs_only_the_missing_points(sweep_file, tmp_path):
     out = tmp_path / "o"
     sw.run_sweep(sweep_file, out, jobs=1, progress=False)
     lines = (out / "points.jsonl").read_text().splitlines()
     # an interrupted sweep: one point never finished, another's line was cut mid-write
     (out / "points.jsonl").write_text("\n".join(lines[:2]) + "\n" + lines[2][:40])
-    calls = []
-    real = sw.run_point
-    monkeypatch.setattr(sw, "run_point", lambda *a, **k: calls.append(a[2]["key"]) or real(*a, **k))
     sw.run_sweep(sweep_file, out, jobs=1, progress=False)
-    assert len(calls) == 2
-    keys = [json.loads(x)["key"] for x in (out / "points.jsonl").read_text().splitlines()
-            if x.startswith("{") and x.endswith("}")]
-    assert len(set(keys)) == 4
+    whole = [x for x in (out / "points.jsonl").read_text().splitlines() if x.startswith("{") and x.endswith("}")]
+    assert len(whole) == 4  # the two kept, and only the two missing ones run again
+    assert len({json.loads(x)["key"] for x in whole}) == 4
     assert len(pd.read_csv(out / "sweep.csv")) == 4
+    pd.testing.assert_frame_equal(table(out / "sweep.csv"), table(tmp_path / "o" / "sweep.csv"))
 
 
 def test_failing_point_is_recorded_not_fatal(tmp_path, capsys):
@@ -86,8 +84,8 @@ def test_random_design_is_seeded(tmp_path):
     p = tmp_path / "r.yaml"
     p.write_text(f"diagram: {DIAGRAMS / 'fig7_force_steps.yaml'}\nrandom: {{n: 3, seed: 7, ranges: {{Kr: [8.0e5, 1.0e6]}}}}\n")
     a, b = sw.Sweep(p).points(), sw.Sweep(p).points()
-    assert [x["params"] for x in a] == [x["params"] for x in b]
-    assert all(8e5 <= x["params"]["Kr"] <= 1e6 for x in a)
+    assert [x.label for x in a] == [x.label for x in b] and len(a) == 3
+    assert all(8e5 <= x.label["Kr"] <= 1e6 for x in a)
 
 
 @pytest.mark.slow
@@ -116,13 +114,19 @@ def runtime_file(tmp_path):
     return p
 
 
-def test_chunked_sweep_gives_the_point_by_point_table(runtime_file, tmp_path, monkeypatch):
-    # every point changes block numbers only: chunks of one built diagram per worker
+def counted_rebuilds(monkeypatch):
+    """The changes of every experiment built anew from a point's changes (here, in this process)."""
     calls = []
-    real = sw.run_point
-    monkeypatch.setattr(sw, "run_point", lambda *a, **k: calls.append(1) or real(*a, **k))
+    real = Experiment.rebuilt
+    monkeypatch.setattr(Experiment, "rebuilt", lambda self, ch: calls.append(ch) or real(self, ch))
+    return calls
+
+
+def test_chunked_sweep_gives_the_point_by_point_table(runtime_file, tmp_path, monkeypatch):
+    # every point changes block numbers only (Kp, and Kr through the diagram's params): one built diagram
+    calls = counted_rebuilds(monkeypatch)
     sw.run_sweep(runtime_file, tmp_path / "chunks", jobs=1, progress=False)
-    assert calls == []  # no point was run on its own
+    assert calls == []  # no point was built on its own
     sw.run_sweep(runtime_file, tmp_path / "points", jobs=1, progress=False, batch=False)
     assert len(calls) == 10
     sw.run_sweep(runtime_file, tmp_path / "pool", jobs=2, progress=False)
@@ -148,12 +152,10 @@ def test_a_point_that_changes_structure_runs_on_its_own(tmp_path, monkeypatch):
     p = tmp_path / "rate.yaml"
     p.write_text(f"diagram: {DIAGRAMS / 'fig7_force_steps.yaml'}\n"
                  "set: {force: 5.0, simulation.t_end: 0.3}\ngrid: {rate: [60, 120]}\n")
-    assert not sw.Sweep(p).runtime_points(sw.Sweep(p).points())  # a rate is the diagram's structure
-    calls = []
-    real = sw.run_point
-    monkeypatch.setattr(sw, "run_point", lambda *a, **k: calls.append(1) or real(*a, **k))
+    assert not sw.Sweep(p).experiment.runtime("rate", 120, names=True)  # a rate is the diagram's structure
+    calls = counted_rebuilds(monkeypatch)
     rows = sw.run_sweep(p, tmp_path / "o", jobs=1, progress=False)
-    assert len(calls) == 2 and all(r["status"] == "ok" for r in rows)
+    assert calls == [{"rate": 60}, {"rate": 120}] and all(r["status"] == "ok" for r in rows)
 
 
 def test_a_bad_swept_value_stops_the_sweep_before_any_run(tmp_path):

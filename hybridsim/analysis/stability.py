@@ -22,6 +22,8 @@ import numpy as np
 from hybridsim.format import tables
 from hybridsim.api import load
 from hybridsim.runs.experiment import Experiment
+from hybridsim.runs.grid import Grid
+from hybridsim.runs.many import Linearize, run_many
 from hybridsim.analysis.linearize import LinearizationError
 from hybridsim.analysis.lti import hand_modes
 
@@ -248,23 +250,22 @@ def analyze(path, at=None, sweeps=True, **overrides):
             continue
         out["loops"][name] = {"signal": sig, **margins(L)}
         out["_objects"]["loops"][name] = L
-    out["cases"] = {}
-    for cname, cov in cfg["cases"].items():
-        out["cases"][cname] = _stability_row(exp.closed_loop(cov, at), set=cov)
+    loops = Linearize(at)  # each point's closed loop, a run-time change of this build where it can be
+    cases = run_many(exp, Grid(cfg["cases"].values()), measure=loops)
+    out["cases"] = {c: _stability_row(cl, set=cov) for (c, cov), cl in zip(cfg["cases"].items(), cases)}
     if not sweeps:
         return out
     rp = cfg["rate_param"]
     out["rates"] = []
     if rp in f.params:
-        for r in cfg["rates"]:
-            out["rates"].append(_stability_row(exp.closed_loop({rp: r}, at), rate_hz=r))
+        rates = run_many(exp, Grid.values({rp: cfg["rates"]}), measure=loops)
+        out["rates"] = [_stability_row(cl, rate_hz=r) for r, cl in zip(cfg["rates"], rates)]
     out["gains"] = {}
     for gname, ref in cfg["gains"].items():
         value = param_value(f, ref)
-        rows = []
-        for s in cfg["scales"]:
-            rows.append(_stability_row(exp.closed_loop({ref: (value * s).tolist()}, at), scale=s))
-        out["gains"][gname] = {"param": ref, "value": value.tolist(), "sweep": rows,
+        scaled = run_many(exp, Grid.scaled({ref: cfg["scales"]}, {ref: value}), measure=loops)
+        out["gains"][gname] = {"param": ref, "value": value.tolist(),
+                               "sweep": [_stability_row(cl, scale=s) for s, cl in zip(cfg["scales"], scaled)],
                                "critical_scale": critical_scale(exp, {}, ref, value, at=at)}
     return out
 

@@ -91,13 +91,14 @@ def _find_diagram(path):
 def cmd_run(args):
     """`hybridsim run`: every variant of a diagram, then CSV, figures and metrics. Returns the exit status."""
     from hybridsim import api
+    from hybridsim.runs.variants import run_experiment
 
     f = _load(args.diagram, list(args.set or []) + (["simulation.compiled=true"] if args.compiled else []))
     outdir = check_output_dir(Path(args.output) if args.output else Path("out") / safe_name(f.name))
     api.check(f)
     n = len(f.variants())
     print(f"running {f.name} ({n} run{'s' if n > 1 else ''}) ...", file=sys.stderr)
-    f, runs, settings = api.run_experiment(f, progress=not args.quiet)
+    f, runs, settings = run_experiment(f, progress=not args.quiet)
     api.write_outputs(f, runs, settings, outdir, only_ours=not args.output)
     for r in runs:
         m = r["metrics"]

@@ -2,10 +2,13 @@
 
 What is about that one experiment lives here, not in the generic layers:
 
-* :mod:`.reproduce` - the claims of each figure, how each is measured, the
-  damping searches and the ``hybridsim reproduce`` report;
+* :mod:`.claims` - the claims of each figure, how each is measured, and
+  :func:`~.claims.judge` (runs through :func:`hybridsim.runs.many.run_many`);
 * :mod:`.hinges` - what each claim hinges on: the assumptions the paper does
-  not state, varied one at a time, and the best stated model.
+  not state, varied one at a time, and the best stated model;
+* :mod:`.joint_search` - every assumption at once (Optuna's TPE);
+* :mod:`.reproduce` - ``hybridsim reproduce``: the damping searches, the stability
+  analysis, the sensitivities; :mod:`.report` writes its page.
 
 The model's constants (Kw, Kr, the link offset, the hand mass) are read from
 the defaults of the blocks that own them, never typed again here.

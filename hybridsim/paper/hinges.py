@@ -13,22 +13,39 @@ also re-judged with the step halved and the runs 0.5 s longer (the
 steady-state windows move by 0.5 s): a verdict that changes is "fragile".
 """
 import math
+from typing import Callable, NamedTuple
 
-from hybridsim.paper.reproduce import FAMILIES, _evaluate, _pool_map, conventions
+from hybridsim.api import load
+from hybridsim.paper.claims import FAMILIES, conventions, file_of, judge
+from hybridsim.runs.executor import using
 
-#: name -> (values tried, overrides for a value, the value as printed or None, unit, continuous);
-#: for an on/off assumption the value 1 is on and 0 (as printed) off
+
+class Assumption(NamedTuple):
+    """An assumption the paper does not state: the values tried, the diagram overrides of a value, the
+    value as printed (None: not a value of this family), its unit and whether it varies continuously
+    (then a flip is bisected). For an on/off assumption the value 1 is on and 0 (as printed) off."""
+
+    values: list
+    overrides: Callable
+    printed: object
+    unit: str
+    continuous: bool
+
+
+def _stribeck(v):
+    return {"arm.friction_model": "stribeck", "arm.stribeck_velocity": [v, v]}
+
+
 ASSUMPTIONS = {
-    "stick band": ([1e-4, 2e-4, 4e-4, 8e-4], lambda s: {"arm.stick_band": s}, 1e-4, "rad/s, m/s", True),
-    "Stribeck velocity": ([1e-3, 3e-3, 1e-2, 3e-2],
-                          lambda s: {"arm.friction_model": "stribeck", "arm.stribeck_velocity": [s, s]},
-                          None, "rad/s, m/s", True),
-    "LuGre friction": ([1.0], lambda s: {"arm.friction_model": "lugre"}, 0.0, "", False),
-    "joint damping s": ([1.0, 4.0, 16.0, 64.0], FAMILIES["joint"], 0.0, "x (10 N m s/rad, 100 N s/m)", True),
-    "wrist damping s": ([1.0, 4.0, 16.0, 64.0], FAMILIES["wrist"], 0.0, "x 20 N s/m", True),
-    "sensor filter": ([0.002, 0.005, 0.01, 0.02], lambda s: {"sensor_tau": s}, 0.0, "s", True),
-    "computation delay": ([1], lambda s: {"delay_ticks": s}, 0, "ticks", False),
-    "actuator lag": ([0.005, 0.01, 0.02, 0.04], lambda s: {"actuator_tau": s}, 0.0, "s", True),
+    "stick band": Assumption([1e-4, 2e-4, 4e-4, 8e-4], lambda v: {"arm.stick_band": v}, 1e-4, "rad/s, m/s", True),
+    "Stribeck velocity": Assumption([1e-3, 3e-3, 1e-2, 3e-2], _stribeck, None, "rad/s, m/s", True),
+    "LuGre friction": Assumption([1.0], lambda v: {"arm.friction_model": "lugre"}, 0.0, "", False),
+    "joint damping s": Assumption([1.0, 4.0, 16.0, 64.0], FAMILIES["joint"], 0.0, "x (10 N m s/rad, 100 N s/m)",
+                                  True),
+    "wrist damping s": Assumption([1.0, 4.0, 16.0, 64.0], FAMILIES["wrist"], 0.0, "x 20 N s/m", True),
+    "sensor filter": Assumption([0.002, 0.005, 0.01, 0.02], lambda v: {"sensor_tau": v}, 0.0, "s", True),
+    "computation delay": Assumption([1], lambda v: {"delay_ticks": v}, 0, "ticks", False),
+    "actuator lag": Assumption([0.005, 0.01, 0.02, 0.04], lambda v: {"actuator_tau": v}, 0.0, "s", True),
 }
 #: the experiments judged (eq 18 has no controller: nothing here moves it)
 JUDGED = {"Fig 7": {"rate": 60}, "Fig 8": {}, "Fig 9": {}, "Fig 10": {}}
@@ -38,7 +55,7 @@ def _verdicts(results):
     return [[c[3] for c in claims] for claims, _, _ in results]
 
 
-def hinge_search(name, assumption, jobs, extra=None, bisections=2, values=None, printed=None):
+def hinge_search(name, assumption, executor=None, extra=None, bisections=2, values=None, printed=None):
     """Per claim of experiment ``name``: where its verdict flips as ``assumption`` varies.
 
     Parameters
@@ -47,8 +64,8 @@ def hinge_search(name, assumption, jobs, extra=None, bisections=2, values=None, 
         An experiment of :data:`JUDGED` ("Fig 7", ...).
     assumption : str
         A key of :data:`ASSUMPTIONS`.
-    jobs : int
-        Worker processes.
+    executor : Executor or int, optional
+        Where the runs go (:class:`~hybridsim.runs.executor.Executor`, or a number of processes).
     extra : dict, optional
         Overrides added to every run (e.g. ``{"compiled": True}``).
     bisections : int
@@ -69,7 +86,7 @@ def hinge_search(name, assumption, jobs, extra=None, bisections=2, values=None, 
     grid, ov, at, _, continuous = ASSUMPTIONS[assumption]
     grid = list(values or grid)
     base = JUDGED[name]
-    results = _pool_map([(name, {**base, **ov(v)}) for v in grid], jobs, extra)
+    results = judge([(name, {**base, **ov(v)}) for v in grid], executor, extra)
     claims = [c[0] for c in results[0][0]]
     seen = dict(zip(grid, _verdicts(results)))  # value -> verdicts: each value runs once
     if printed is not None and at is not None:
@@ -77,7 +94,7 @@ def hinge_search(name, assumption, jobs, extra=None, bisections=2, values=None, 
 
     def verdicts(v):
         if v not in seen:
-            seen[v] = _verdicts(_pool_map([(name, {**base, **ov(v)})], 1, extra))[0]
+            seen[v] = _verdicts(judge([(name, {**base, **ov(v)})], executor, extra))[0]
         return seen[v]
 
     tried = sorted(seen.items())
@@ -134,7 +151,7 @@ def describe(search, c, holds_as_printed=False):
     return f"{verb} at {name} = " + ", ".join(f"{v:.3g}" for v in hits) + unit
 
 
-def fragile(name, printed, jobs, extra=None, step=1e-4):
+def fragile(name, printed, executor=None, extra=None, step=1e-4):
     """Which as-printed verdicts (``printed``) of ``name`` change with the step halved or the runs
     0.5 s longer.
 
@@ -143,20 +160,12 @@ def fragile(name, printed, jobs, extra=None, step=1e-4):
     list of bool
         One per claim: True when the verdict is fragile.
     """
-    from hybridsim.api import load
-
     base = JUDGED[name]
-    t_end = float(load(_file(name)).data.get("simulation", {}).get("t_end", 1.0))
-    half, longer = _verdicts(_pool_map([(name, {**base, "step": step / 2}),
-                                        (name, {**base, "t_end": t_end + 0.5})], jobs, extra))
+    t_end = float(load(file_of(name)).data.get("simulation", {}).get("t_end", 1.0))
+    half, longer = _verdicts(judge([(name, {**base, "step": step / 2}),
+                                    (name, {**base, "t_end": t_end + 0.5})], executor, extra))
     return [not (printed[c] == half[c] == longer[c]) if c < min(len(half), len(longer)) else True
             for c in range(len(printed))]
-
-
-def _file(name):
-    from hybridsim.paper.reproduce import DIAGRAMS, EXPERIMENTS
-
-    return DIAGRAMS / next(e[1] for e in EXPERIMENTS if e[0] == name)
 
 
 def stated_models(searches):
@@ -173,7 +182,7 @@ def stated_models(searches):
     return (models + [f + g for f in friction for g in lag])[:12]
 
 
-def judge_claims(ov, jobs, extra=None, names=tuple(JUDGED)):
+def judge_claims(ov, executor=None, extra=None, names=tuple(JUDGED)):
     """The claims judged under overrides ``ov`` per servo rate: {rate: [(experiment, Claim), ...]}.
 
     Figs 7, 8 and 10 run at each rate; Fig 9 compares its own three rates, so its claims count at each.
@@ -182,7 +191,7 @@ def judge_claims(ov, jobs, extra=None, names=tuple(JUDGED)):
     items = [(n, {**ov, "rate": rate}) for rate in (60, 80, 120) for n in per_rate]
     if "Fig 9" in names:
         items.append(("Fig 9", ov))
-    results = _pool_map(items, jobs, extra)
+    results = judge(items, executor, extra)
     fig9 = [("Fig 9", c) for c in results[-1][0]] if "Fig 9" in names else []
     out = {}
     for k, rate in enumerate((60, 80, 120)):
@@ -192,13 +201,13 @@ def judge_claims(ov, jobs, extra=None, names=tuple(JUDGED)):
     return out
 
 
-def judge_model(model, jobs, extra=None, names=tuple(JUDGED)):
+def judge_model(model, executor=None, extra=None, names=tuple(JUDGED)):
     """Claims held under ``model`` (((assumption, value), ...)) per servo rate: {rate: (held, total)}."""
     ov = {}
     for assumption, value in model:
-        ov.update(ASSUMPTIONS[assumption][1](value))
+        ov.update(ASSUMPTIONS[assumption].overrides(value))
     return {rate: (sum(c[3] for _, c in claims), len(claims))
-            for rate, claims in judge_claims(ov, jobs, extra, names).items()}
+            for rate, claims in judge_claims(ov, executor, extra, names).items()}
 
 
 #: the two-parameter searches: (assumption, values) x (assumption, values), on a coarse grid
@@ -208,7 +217,7 @@ PAIRS = [
 ]
 
 
-def pair_search(name, first, second, jobs, extra=None):
+def pair_search(name, first, second, executor=None, extra=None):
     """Per claim of ``name``: its verdict over a grid of two assumptions at once.
 
     ``first`` and ``second`` are (assumption, values). Returns
@@ -217,8 +226,8 @@ def pair_search(name, first, second, jobs, extra=None):
     (a1, v1s), (a2, v2s) = first, second
     base = JUDGED[name]
     points = [(v1, v2) for v1 in v1s for v2 in v2s]
-    items = [(name, {**base, **ASSUMPTIONS[a1][1](v1), **ASSUMPTIONS[a2][1](v2)}) for v1, v2 in points]
-    results = _pool_map(items, jobs, extra)
+    items = [(name, {**base, **ASSUMPTIONS[a1].overrides(v1), **ASSUMPTIONS[a2].overrides(v2)}) for v1, v2 in points]
+    results = judge(items, executor, extra)
     claims = max(([c[0] for c in r[0]] for r in results), key=len)
     return {"experiment": name, "assumptions": [a1, a2], "claims": claims,
             "grid": [(v1, v2, vs) for (v1, v2), vs in zip(points, _verdicts(results))]}
@@ -241,7 +250,7 @@ def describe_pair(search, c):
     return f"holds only with both {a1} and {a2} at ({a1}, {a2}) = {pts}"
 
 
-def _warm_up(names, chosen, jobs, extra):
+def _warm_up(names, chosen, executor, extra):
     """On the compiled path: one run of each diagram structure the analysis will use, all at once.
 
     Most assumptions change a diagram's structure (a friction kernel, a filter's
@@ -250,17 +259,18 @@ def _warm_up(names, chosen, jobs, extra):
     time; warmed up together, the two compile different ones and every later
     run loads its module from the cache.
     """
-    items = [(n, {**JUDGED[n], **ASSUMPTIONS[a][1](ASSUMPTIONS[a][0][0])}) for n in names for a in chosen]
-    lag = ASSUMPTIONS["actuator lag"][1](ASSUMPTIONS["actuator lag"][0][0]) if "actuator lag" in chosen else None
+    first = {a: ASSUMPTIONS[a].overrides(ASSUMPTIONS[a].values[0]) for a in chosen}
+    items = [(n, {**JUDGED[n], **first[a]}) for n in names for a in chosen]
+    lag = first.get("actuator lag")
     for friction in ("Stribeck velocity", "LuGre friction"):  # the stated models' friction x lag pairs
         if lag and friction in chosen:
-            ov = ASSUMPTIONS[friction][1](ASSUMPTIONS[friction][0][0])
-            items += [(n, {**JUDGED[n], **ov, **lag}) for n in names]
-    _pool_map(items, jobs, extra)
+            items += [(n, {**JUDGED[n], **first[friction], **lag}) for n in names]
+    judge(items, executor, extra)
 
 
-def hinges(jobs, extra=None, experiments=None, assumptions=None, bisections=2, progress=None):
-    """The whole analysis: searches, fragility, stated models and the best of them.
+def hinges(executor=None, extra=None, experiments=None, assumptions=None, bisections=2, progress=None):
+    """The whole analysis: searches, fragility, stated models and the best of them, on ``executor``
+    (an :class:`~hybridsim.runs.executor.Executor` or a number of processes; one pool for all of it).
 
     Returns
     -------
@@ -268,22 +278,26 @@ def hinges(jobs, extra=None, experiments=None, assumptions=None, bisections=2, p
         ``rows`` (per experiment and claim: as printed, fragile, what it hinges on),
         ``searches``, ``models`` (each with its claims held per rate) and ``best``.
     """
-    say = progress or (lambda msg: None)
+    with using(executor) as ex:
+        return _hinges(ex, extra, experiments, assumptions, bisections, progress or (lambda msg: None))
+
+
+def _hinges(ex, extra, experiments, assumptions, bisections, say):
     names = [n for n in JUDGED if experiments is None or n in experiments]
     chosen = [a for a in ASSUMPTIONS if assumptions is None or a in assumptions]
     searches, rows, pairs = [], [], []
     if (extra or {}).get("compiled"):
         say("compiling each structure the analysis uses, two at a time (numba; cached for later runs)")
-        _warm_up(names, chosen, jobs, extra)
+        _warm_up(names, chosen, ex, extra)
     for name in names:
         say(f"{name}: what its claims hinge on ({len(chosen)} assumptions)")
-        printed, _, settings = _evaluate((name, {**JUDGED[name], **(extra or {})}))
+        ((printed, _, settings),) = judge([(name, JUDGED[name])], ex, extra)
         how = conventions(name, settings) if settings else []
         verdicts = [c[3] for c in printed]
-        weak = fragile(name, verdicts, jobs, extra)
-        mine = [hinge_search(name, a, jobs, extra, bisections, printed=verdicts) for a in chosen]
+        weak = fragile(name, verdicts, ex, extra)
+        mine = [hinge_search(name, a, ex, extra, bisections, printed=verdicts) for a in chosen]
         searches += mine
-        grids = [pair_search(name, f, s, jobs, extra) for f, s in PAIRS if f[0] in chosen and s[0] in chosen]
+        grids = [pair_search(name, f, s, ex, extra) for f, s in PAIRS if f[0] in chosen and s[0] in chosen]
         pairs += grids
         for c, (text, criterion, ours, ok) in enumerate(printed):
             hinge = [d for d in (describe(s, c, ok) for s in mine if c < len(s["flips"])) if d]
@@ -295,7 +309,7 @@ def hinges(jobs, extra=None, experiments=None, assumptions=None, bisections=2, p
                          "as_printed": "fragile" if weak[c] else ("holds" if ok else "fails"),
                          "convention": how[c] if c < len(how) else "", "hinges_on": hinge or [nothing]})
     say("judging the stated models at 60, 80 and 120 Hz")
-    models = [{"model": [list(m) for m in model], "held": judge_model(model, jobs, extra, names)}
+    models = [{"model": [list(m) for m in model], "held": judge_model(model, ex, extra, names)}
               for model in stated_models(searches)]
     best = max(models, key=lambda m: (sum(h for h, _ in m["held"].values()), -len(m["model"])), default=None)
     return {"rows": rows, "searches": searches, "pairs": pairs, "models": models, "best": best}

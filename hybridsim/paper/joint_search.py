@@ -36,10 +36,12 @@ import time
 
 import numpy as np
 
-from hybridsim.tune.space import Parameter
-from hybridsim.tune.store import Store, fingerprint, point_key
+from hybridsim.paper.claims import KW, M3, file_of
 from hybridsim.paper.hinges import ASSUMPTIONS, JUDGED, judge_claims
-from hybridsim.paper.reproduce import KW, M3
+from hybridsim.runs.executor import using
+from hybridsim.runs.grid import point_key
+from hybridsim.runs.store import Store
+from hybridsim.tune.space import Parameter
 
 SPACE = [
     Parameter("friction law", values=["karnopp", "stribeck", "lugre"]),
@@ -67,17 +69,17 @@ def model_overrides(model):
     A damping s at the lower bound (0.1) is the model as printed (no damping), and so are
     a zero filter, lag or delay.
     """
-    ov = dict(ASSUMPTIONS["stick band"][1](model["stick band"]))
+    ov = dict(ASSUMPTIONS["stick band"].overrides(model["stick band"]))
     if model["friction law"] == "stribeck":
-        ov.update(ASSUMPTIONS["Stribeck velocity"][1](model["Stribeck velocity"]))
+        ov.update(ASSUMPTIONS["Stribeck velocity"].overrides(model["Stribeck velocity"]))
     elif model["friction law"] == "lugre":
-        ov.update(ASSUMPTIONS["LuGre friction"][1](1.0))
+        ov.update(ASSUMPTIONS["LuGre friction"].overrides(1.0))
     for name in ("joint damping s", "wrist damping s"):
         if model[name] > SPACE[3].low * (1 + 1e-9):
-            ov.update(ASSUMPTIONS[name][1](model[name]))
+            ov.update(ASSUMPTIONS[name].overrides(model[name]))
     for name in ("sensor filter", "computation delay", "actuator lag"):
         if model[name]:
-            ov.update(ASSUMPTIONS[name][1](model[name]))
+            ov.update(ASSUMPTIONS[name].overrides(model[name]))
     return ov
 
 
@@ -86,10 +88,10 @@ def penalty(model):
     return sum(PENALTY_PER_DOUBLING * math.log2(model[p] / lim) for p, lim in PLAUSIBLE.items() if model[p] > lim)
 
 
-def evaluate(model, jobs, extra=None):
+def evaluate(model, executor=None, extra=None):
     """Judge ``model``: ``claims`` ({rate: [[experiment, claim, ours, holds, margin]]}), ``held``
     ({rate: count}), ``penalty`` and ``score``."""
-    judged = judge_claims(model_overrides(model), jobs, extra)
+    judged = judge_claims(model_overrides(model), executor, extra)
     claims = {str(rate): [[name, c[0], c[2], bool(c[3]), c.margin] for name, c in cl] for rate, cl in judged.items()}
     held = {r: sum(c[3] for c in cl) for r, cl in claims.items()}
     soft = sum(max(c[4], -1.0) for cl in claims.values() for c in cl if not c[3])
@@ -98,15 +100,15 @@ def evaluate(model, jobs, extra=None):
             "score": sum(held.values()) - pen + SOFT * soft}
 
 
-def joint_search(trials, jobs, extra=None, seed=0, outdir=None, progress=None):
+def joint_search(trials, executor=None, extra=None, seed=0, outdir=None, progress=None):
     """Search :data:`SPACE` with Optuna's TPE for ``trials`` models; returns the search's summary.
 
     Parameters
     ----------
     trials : int
         Models judged (each: 10 experiment runs, 3 variants in Fig 7's).
-    jobs : int
-        Worker processes for each model's runs.
+    executor : Executor or int, optional
+        Where each model's runs go (:class:`~hybridsim.runs.executor.Executor`, or a number of processes).
     extra : dict, optional
         Overrides added to every run (``{"compiled": True}``).
     seed : int
@@ -133,11 +135,12 @@ def joint_search(trials, jobs, extra=None, seed=0, outdir=None, progress=None):
     if outdir is not None:
         from hybridsim.api import load
         from hybridsim.files import make_output_dir
-        from hybridsim.paper.reproduce import DIAGRAMS, EXPERIMENTS
+        from hybridsim.format.identity import identity, run_files
 
-        files = sorted({str(p) for name, fname, *_ in EXPERIMENTS if name in JUDGED
-                        for p in load(DIAGRAMS / fname).files})
-        store = Store(make_output_dir(outdir), fingerprint(repr((SPACE_TEXT, extra)), files), force=True)
+        files = sorted({str(p) for name in JUDGED for p in run_files(load(file_of(name)))})
+        store = Store(make_output_dir(outdir), identity(files, {"space": SPACE_TEXT, "extra": extra}),
+                      "evaluations.jsonl", "search-manifest.json", "search", "another search space or hybridsim",
+                      force=True)
     # the two starts are the only trials not drawn by TPE, whatever the budget: a larger budget then asks
     # for the same first models, and a rerun with more trials reads them back from the store
     sampler = optuna.samplers.TPESampler(seed=seed, n_startup_trials=len(STARTS), multivariate=True)
@@ -145,18 +148,19 @@ def joint_search(trials, jobs, extra=None, seed=0, outdir=None, progress=None):
     for start in STARTS[:trials]:
         study.enqueue_trial(start)
     done = []
-    for k in range(trials):
-        trial = study.ask()
-        model = {p.path: p.suggest(trial) for p in SPACE}
-        key = point_key(model)
-        rec = dict(store.get(key), from_store=True) if store and store.get(key) else None
-        if rec is None:
-            rec = {"key": key, "model": model, **evaluate(model, jobs, extra), "quantities": {}}
-            if store:
-                store.add([rec])
-        study.tell(trial, rec["score"])
-        done.append(rec)
-        say(f"joint search {k + 1}/{trials}: {_line(rec)}")
+    with using(executor) as ex:
+        for k in range(trials):
+            trial = study.ask()
+            model = {p.path: p.suggest(trial) for p in SPACE}
+            key = point_key(model)
+            rec = dict(store.get(key), from_store=True) if store and store.get(key) else None
+            if rec is None:
+                rec = {"key": key, "model": model, **evaluate(model, ex, extra)}
+                if store:
+                    store.add({key: rec})
+            study.tell(trial, rec["score"])
+            done.append(rec)
+            say(f"joint search {k + 1}/{trials}: {_line(rec)}")
     return summarize(done, time.perf_counter() - t0)
 
 

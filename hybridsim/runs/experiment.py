@@ -1,67 +1,201 @@
-"""An experiment: a diagram file parsed and built once, and the changes made to it.
+"""An experiment: a diagram file parsed once, built once per variant, and the changes made to it.
 
-``Experiment(path, **overrides)`` holds the parsed file, the built system, its
-simulator and settings. A change of a block parameter (``ctrl.fpi.Kp``) is made
-at run time - a fresh context with the block rebuilt
+``Experiment(path, **overrides)`` holds the parsed file; its system, simulator and
+settings are built when first asked for. A change of a block parameter
+(``ctrl.fpi.Kp``), or of a ``params`` name that only block numbers use, is made at run
+time - a fresh context with the blocks rebuilt
 (:meth:`~hybridsim.engine.system.System.create_context`), no re-parse and no rebuild;
-only a change of structure or rate, or of a ``params`` name the file resolves
-while loading, builds a new experiment. The analysis and the report take one.
+only a change of structure or rate, or of a name the file resolves while loading (a
+setting, a variant, a subsystem's parameter), builds a new experiment
+(:meth:`Experiment.split`). The analysis, the report and
+:func:`~hybridsim.runs.many.run_many` take one.
+
+An experiment pickles as what it was made from (file, variant, overrides): a worker
+process builds it once and keeps it for every later call of the same experiment.
 """
+import copy
+import json
+from collections import OrderedDict
+
 import numpy as np
 
-from hybridsim.api import build, load
-from hybridsim.errors import InputError, ParameterError
+from hybridsim.api import SIMULATION_KEYS, build, load
+from hybridsim.errors import HybridsimError, InputError, ParameterError
 from hybridsim.format.settings import horizon_problems
 from hybridsim.analysis.linearize import Linearization, LinearizationError, start_outputs
 
+#: experiments a worker process keeps built (each with its simulator, maybe a compiled loop)
+KEPT = 8
+_KEPT = OrderedDict()
+
 
 class Experiment:
-    """A diagram file, built once (one variant), with its overrides.
+    """A diagram file, parsed once, with its overrides; built (one variant) when first run.
 
     Parameters
     ----------
-    path : str or Path
-        The diagram file.
-    variant : str, optional
-        The variant to build (default: the first).
+    path : str, Path or DiagramFile
+        The diagram file, or one parsed already (:func:`hybridsim.api.load`).
+    variant : dict, optional
+        The variant to build (``{"rate": 60}``, as :meth:`variants` gives them; default:
+        the file's ``params`` as they are).
     **overrides
         As ``hybridsim --set``: ``params`` names, ``block.param``, simulation keys.
     """
 
     def __init__(self, path, variant=None, **overrides):
-        self.path, self.variant, self.overrides = path, variant, dict(overrides)
-        self.file = load(path, **overrides)
-        self.system, self.simulator, self.settings = build(self.file, variant)
-        self._at = {}  # at -> (Linearization, closed loop) of this experiment unchanged
+        from hybridsim.format import DiagramFile
 
+        self.variant, self.overrides = variant, dict(overrides)
+        if isinstance(path, DiagramFile):  # parsed already (its own overrides applied): kept as it is
+            self.path, self.file, self._given = path.path, path, True
+            if overrides:
+                self.file = copy.deepcopy(path)
+                self.file.apply({(f"simulation.{k}" if k in SIMULATION_KEYS else k): v for k, v in overrides.items()})
+        else:
+            self.path, self.file, self._given = path, load(path, **overrides), False
+        self._start()
+
+    def _start(self, records=None):
+        self.records = records  # what the simulator logs: None (the file's log), "metrics" or a list
+        self._system = self._settings = self._simulator = None
+        self._at = {}  # at -> (Linearization, closed loop) of this experiment unchanged
+        self._checked = {}  # (key, value) -> whether it is a run-time change
+        self._variants = None
+
+    def _like(self, variant, records):
+        """This experiment (the same parsed file) for ``variant``, recording ``records``."""
+        exp = Experiment.__new__(Experiment)
+        exp.path, exp.variant, exp.overrides, exp.file, exp._given = (self.path, variant, self.overrides, self.file,
+                                                                       self._given)
+        exp._start(records)
+        return exp
+
+    def __reduce__(self):  # what it was made from: a worker builds it once (see _kept)
+        if self._given:  # a parsed file given, not a path: it travels itself
+            return _of_file, (self.file, self.variant, self.records)
+        return _kept, (str(self.path), self.variant, self.overrides, self.records)
+
+    # -- what it is built into ----------------------------------------------------------------
+    @property
+    def system(self):
+        """The built :class:`~hybridsim.engine.system.System` (the simulator's, once that is built)."""
+        if self._system is None:
+            diagram, self._settings = self.file.build(self.variant)
+            self._system = diagram.build()
+        return self._system
+
+    @property
+    def settings(self):
+        """The variant's settings (simulation, log, signals, metrics, ...)."""
+        if self._settings is None:
+            self._settings = self.file.build(self.variant)[1]
+        return self._settings
+
+    @property
+    def simulator(self):
+        """The :class:`~hybridsim.engine.simulator.Simulator` (built on first use; on the compiled
+        path that generates or loads the compiled loop)."""
+        if self._simulator is None:
+            log = self.records
+            if log == "metrics":
+                log = list(self.settings["signals"].values())
+            self._system, self._simulator, self._settings = build(self.file, self.variant, log=log)
+        return self._simulator
+
+    @property
+    def t_end(self):
+        """The run length, s."""
+        return float(self.settings["simulation"]["t_end"])
+
+    def variants(self):
+        """``[(label, experiment)]``: one experiment per variant of the file (this one when it has
+        none, or when it is one variant already); they share the parsed file."""
+        if self._variants is None:
+            self._variants = [("", self)] if self.variant is not None else \
+                [(label, self if not v else self._like(v, self.records)) for label, v in self.file.variants()]
+        return self._variants
+
+    def recording(self, signals):
+        """This experiment recording only ``signals`` (a list of ``block.port``, or "metrics": what its
+        metrics read; None: the file's ``log`` and ``signals``)."""
+        return self if signals == self.records else self._like(self.variant, signals)
+
+    # -- changes -------------------------------------------------------------------------------
     def _unchanged(self, key, value):
-        """Whether ``key = value`` is what this experiment already has (a ``params`` name)."""
-        if key not in self.file.params:
+        """Whether ``key = value`` is what this experiment (its variant) already has (a ``params`` name)."""
+        params = {**self.file.params, **(self.variant or {})}
+        if key not in params:
             return False
         try:
-            return np.array_equal(np.asarray(value, float), np.asarray(self.file.params[key], float))
+            return np.array_equal(np.asarray(value, float), np.asarray(params[key], float))
         except (TypeError, ValueError):
-            return value == self.file.params[key]
+            return value == params[key]
 
-    def split(self, changes):
-        """(run-time ``{"block.param": value}``, structural overrides) of ``changes``: a key naming a
-        parameter of a block of the built system is a run-time change; any other needs a rebuild."""
-        params, structural = {}, {}
+    def runtime(self, key, value, names=False):
+        """Whether ``key = value`` can be given at run time: a parameter of a block of the built system
+        that the block takes without a change of structure; with ``names``, also a ``params`` name
+        whose every use is such a parameter (runs take it; :meth:`closed_loop` rebuilds for a name:
+        a block's structure check misses some switches a linearization sees, such as friction on/off)."""
+        if not names and str(key).rpartition(".")[0] not in self.system.index:
+            return False
+        tag = json.dumps([key, value], sort_keys=True, default=str)
+        if tag not in self._checked:
+            try:
+                self.system.blocks_with(self.params_of({key: value}))
+                self._checked[tag] = True
+            except (HybridsimError, ValueError, TypeError, KeyError):
+                self._checked[tag] = False
+        return self._checked[tag]
+
+    def params_of(self, changes):
+        """``changes`` as run-time block parameters ``{"block.param": value}`` (a ``params`` name becomes
+        every block parameter that refers to it); not checked (:meth:`runtime` checks)."""
+        index = self.system.index
+        if all(str(k).rpartition(".")[0] in index for k in changes):
+            return dict(changes)
+        return self.file.runtime_params(changes, self.variant)
+
+    def _sort(self, changes, names=False):
+        """(run-time changes, structural changes) of ``changes``, as given (see :meth:`split`)."""
+        named, structural = {}, {}
         for key, value in (changes or {}).items():
-            block = str(key).rpartition(".")[0]
-            if block in self.system.index:
-                params[key] = value
-            elif not self._unchanged(key, value):
+            if self._unchanged(key, value):
+                continue
+            if self.runtime(key, value, names):
+                named[key] = value
+            else:
                 structural[key] = value
-        return params, structural
+        return named, structural
+
+    def split(self, changes, names=False):
+        """(run-time ``{"block.param": value}``, structural overrides) of ``changes``: what
+        :meth:`runtime` accepts (with ``names``: ``params`` names too) is made at run time; anything
+        else needs a rebuild."""
+        named, structural = self._sort(changes, names)
+        return (self.params_of(named) if named else {}), structural
+
+    def rebuilt(self, structural):
+        """A new experiment with ``structural`` overrides added (parsed and built anew)."""
+        if self._given:
+            exp = Experiment(self.file, self.variant, **structural)
+            exp.overrides = {**self.overrides, **structural}
+        else:
+            exp = Experiment(self.path, self.variant, **{**self.overrides, **structural})
+        return exp.recording(self.records)
 
     def changed(self, changes):
         """(experiment, run-time params) for ``changes``: this experiment when every change can be made at
         run time, else a new one built with the structural changes (and the rest at run time)."""
-        params, structural = self.split(changes)
-        if not structural:
-            return self, params
-        return Experiment(self.path, self.variant, **{**self.overrides, **structural}), params
+        named, structural = self._sort(changes)
+        exp = self.rebuilt(structural) if structural else self
+        return exp, (exp.params_of(named) if named else {})
+
+    # -- runs and linear models ----------------------------------------------------------------
+    def run(self, params=None):
+        """One run with run-time ``params`` (``{"block.param": value}``): a
+        :class:`~hybridsim.engine.result.Result`."""
+        return self.simulator.run(self.t_end, params=params or None)
 
     def operating_point(self, params=None, at=None):
         """(context, t): the initial state with ``params`` (None: the system's own, started by the
@@ -86,7 +220,7 @@ class Experiment:
         try:
             ctx, t = exp.operating_point(params, at)
         except ParameterError:  # a run-time change of structure (a width): build it instead
-            exp, params = Experiment(self.path, self.variant, **{**self.overrides, **changes}), {}
+            exp, params = self.rebuilt(changes), {}
             ctx, t = exp.operating_point(None, at)
         lin = Linearization(exp.system, ctx, t)
         if exp is self and not params:
@@ -107,3 +241,21 @@ class Experiment:
         if exp is self and not params:
             self._at[at] = (lin, cl)
         return cl
+
+
+def _kept(path, variant, overrides, records):
+    """The experiment of (path, variant, overrides, records) this process built before, or a new one
+    (kept: the last :data:`KEPT`)."""
+    tag = json.dumps([path, variant, overrides, records], sort_keys=True, default=str)
+    exp = _KEPT.pop(tag, None)
+    if exp is None:
+        exp = Experiment(path, variant, **overrides).recording(records)
+    _KEPT[tag] = exp
+    while len(_KEPT) > KEPT:
+        _KEPT.popitem(last=False)
+    return exp
+
+
+def _of_file(file, variant, records):
+    """The experiment of a parsed ``file`` (sent whole to a worker)."""
+    return Experiment(file, variant).recording(records)

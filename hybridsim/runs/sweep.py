@@ -1,4 +1,4 @@
-"""Parameter sweeps: many runs of one diagram, reduced to a tidy table.
+"""Parameter sweeps: many runs of one diagram from a sweep file, reduced to a tidy table.
 
 A sweep file::
 
@@ -15,45 +15,42 @@ A sweep file::
     traces: false              # also keep each run's CSV
     stability: true            # also the linearized closed loop's largest |z|
 
-Every point is one run (per variant of the diagram) reduced to its metrics
-(rise time, overshoot, steady-state error, contact lost, max position error,
-and the stability verdict: whether the run completed). Points run in
-parallel on all local cores, or on a Dask cluster (``--dask ADDRESS``).
+Every point is run on every variant of the diagram by :func:`~hybridsim.runs.many.run_many`
+(on all local cores, or a Dask cluster with ``--dask ADDRESS``) and each run reduced to
+one row of metrics (rise time, overshoot, steady-state error, contact lost, max position
+error; ``status`` failed with the message for a run that diverged). Points that change
+only block numbers run as run-time parameters of one built diagram per worker, logging
+only what the metrics read (on the compiled path: one compiled loop for every point).
 
-Resuming: each finished point is appended as one JSON line to
-``points.jsonl`` in the output folder, keyed by a hash of its overrides; a
-second run of the same sweep skips the points already there, so an
-interrupted sweep loses and duplicates nothing. The folder's
-``sweep-manifest.json`` holds a fingerprint of everything else a point's
-numbers depend on (every file its runs read, ``set``, ``stability``, the hybridsim version:
-:mod:`hybridsim.format.identity`): a different sweep into the same folder is refused, or
-with ``force`` starts afresh (the old points kept as ``points.jsonl.old``).
-A point whose run diverges is recorded as failed, with the message, and the
-sweep carries on. Every point's parameters are checked before any runs.
+Resuming: each finished point is one line of ``points.jsonl`` in the output folder
+(:class:`~hybridsim.runs.store.Store`), keyed by a hash of its overrides; a second run of the
+same sweep runs only the points not there. ``sweep-manifest.json`` holds the identity of
+everything else a point's numbers depend on (every file its runs read, ``set``,
+``stability``, the hybridsim version: :mod:`hybridsim.format.identity`): a different sweep
+into the same folder is refused, or with ``force`` started afresh (the old points kept as
+``points.jsonl.old``). Every swept value is checked before any point runs.
 """
-import hashlib
-import itertools
-import json
-import os
-import time
 from pathlib import Path
 
 import numpy as np
 
 from hybridsim import limits
 from hybridsim.errors import HybridsimError, InputError, LoaderError
-from hybridsim.files import atomic_file, locked_output_dir, note_written
-from hybridsim.format.identity import check_sweep
+from hybridsim.files import locked_output_dir
 from hybridsim.format import parse_file
-from hybridsim.runs.sweep_chunks import BATCH_CHUNK, RuntimeCheck, _execute_chunks, run_chunk  # noqa: F401
+from hybridsim.format.identity import check_sweep
+from hybridsim.runs.executor import Executor
+from hybridsim.runs.experiment import Experiment
+from hybridsim.runs.grid import Grid
+from hybridsim.runs.many import Simulate, run_many
+from hybridsim.runs.store import Store
+from hybridsim.runs.table import heatmaps, write_table
 
-#: seconds to wait for a Dask scheduler to answer
-DASK_TIMEOUT_S = 10
 SWEEP_KEYS = {"diagram", "set", "grid", "scale", "random", "traces", "stability"}
 
 
 class Sweep:
-    """A parsed sweep file: the diagram, fixed overrides and the list of points."""
+    """A parsed sweep file: the diagram, fixed overrides (``fixed``) and the axes of its points."""
 
     def __init__(self, path):
         self.path = Path(path)
@@ -92,7 +89,8 @@ class Sweep:
             self._check_random(self.random, lines["random"])
         self.traces = bool(data.get("traces", False))
         self.stability = bool(data.get("stability", False))
-        self._base = None
+        self.compiled = False  # every run compiled (``simulation.compiled: true``; not in the identity)
+        self._experiment = None
 
     def _check_random(self, spec, line):
         bad = set(spec) - {"n", "seed", "ranges"}
@@ -111,103 +109,71 @@ class Sweep:
                 raise LoaderError(f"random: range of {k!r} must be [low, high] with finite low <= high, "
                                   f"got {v!r}", self.path, ranges.lines[k])
 
-    def _base_value(self, ref):
-        """Value of a parameter or block parameter in the diagram (for scaling)."""
-        from hybridsim.analysis.stability import param_value
-        from hybridsim.api import load
+    @property
+    def experiment(self):
+        """The diagram with ``set`` (and the compiled path when asked): what every point changes."""
+        if self._experiment is None:
+            fixed = {**self.fixed, **({"simulation.compiled": True} if self.compiled else {})}
+            self._experiment = Experiment(self.diagram, **fixed)
+        return self._experiment
 
-        if self._base is None:
-            self._base = load(self.diagram, **self.fixed)
-            self._base_values = {}
-        f = self._base
-        if ref in self._base_values:  # every point of a scaled axis asks again
-            return self._base_values[ref].copy()
+    def _base_value(self, ref):
+        """Value of a parameter or block parameter in the diagram with ``set`` (for scaling)."""
+        f = self.experiment.file
         if "." not in ref:
             if ref not in f.params:
                 raise InputError(f"{self.path}: sweep: no parameter {ref!r} in {self.diagram.name}")
-            value = np.asarray(f.params[ref], float)
-        else:
-            try:
-                value = param_value(f, ref)
-            except (KeyError, ValueError, TypeError) as exc:
-                raise InputError(f"{self.path}: sweep: cannot scale {ref!r}: {exc}") from None
-        self._base_values[ref] = value
-        return value.copy()
+            return np.asarray(f.params[ref], float)
+        try:
+            return f.param_value(ref)
+        except (HybridsimError, KeyError, ValueError, TypeError) as exc:
+            raise InputError(f"{self.path}: sweep: cannot scale {ref!r}: {exc}") from None
+
+    def axes(self):
+        """The table columns of the swept axes, in order (a scaled one as ``name*``)."""
+        return list(self.grid) + [f"{k}*" for k in self.scale]
 
     def points(self):
-        """List of dicts: 'params' (what the table shows) and 'overrides' (what runs)."""
-        pts = []
-        axes = [(k, v, False) for k, v in self.grid.items()] + [(k, v, True) for k, v in self.scale.items()]
-        total = (int(np.prod([len(v) for _, v, _ in axes])) if axes else 0) + \
-            (int(self.random.get("n", 10)) if self.random else 0)
+        """The sweep's :class:`~hybridsim.runs.grid.Grid`: grid x scale (full factorial), then the random draws."""
+        total = (int(np.prod([len(v) for v in [*self.grid.values(), *self.scale.values()]]))
+                 if self.grid or self.scale else 0) + (int(self.random.get("n", 10)) if self.random else 0)
         if total > limits.MAX_RUNS:
             raise InputError(f"{self.path}: the sweep has {total} points; at most {limits.MAX_RUNS}")
-        if axes:
-            for combo in itertools.product(*(v for _, v, _ in axes)):
-                params, ov = {}, {}
-                for (k, _, scaled), val in zip(axes, combo):
-                    if scaled:
-                        params[f"{k}*"] = float(val)
-                        ov[k] = (self._base_value(k) * float(val)).tolist()
-                    else:
-                        params[k] = val
-                        ov[k] = val
-                pts.append({"params": params, "overrides": ov})
+        pts = Grid()
+        if self.grid or self.scale:
+            pts = Grid.values(self.grid) * Grid.scaled(self.scale, {k: self._base_value(k) for k in self.scale})
         if self.random:
-            rng = np.random.default_rng(int(self.random.get("seed", 0)))
-            for _ in range(int(self.random.get("n", 10))):
-                params = {k: float(rng.uniform(lo, hi)) for k, (lo, hi) in self.random["ranges"].items()}
-                pts.append({"params": params, "overrides": dict(params)})
-        if not pts:
+            pts = pts + Grid.random(self.random["ranges"], self.random.get("n", 10), self.random.get("seed", 0))
+        if not len(pts):
             raise InputError(f"{self.path}: the sweep has no points (give grid, scale or random)")
-        for p in pts:
-            p["key"] = point_key(p["overrides"])
         return pts
-
 
     def validate(self):
         """Check the diagram, ``set`` and every swept value before any point runs.
 
-        Each grid value, each scale factor and both ends of each random range
-        are checked as one run would be (:func:`hybridsim.api.check`), so a
-        sweep naming an unknown parameter or a bad value stops here with exit 2.
+        Each grid value, each scale factor and both ends of each random range are checked
+        as one run would be: a run-time change by the blocks it reaches, anything else by
+        :func:`hybridsim.api.check` of the diagram with it. A sweep naming an unknown
+        parameter or a bad value stops here with exit 2.
         """
         from hybridsim.api import check, load
 
-        base = load(self.diagram, **self.fixed)
-        check(base)
-        quick = self._quick = RuntimeCheck(base)
-        seen = set()
+        exp = self.experiment
+        check(exp.file)
         tries = [(k, v) for k, vals in self.grid.items() for v in vals]
         tries += [(k, (self._base_value(k) * float(v)).tolist()) for k, vals in self.scale.items() for v in vals]
         if self.random:
             tries += [(k, float(v)) for k, rng in self.random["ranges"].items() for v in rng]
         for key, value in tries:
-            tag = json.dumps([key, value], sort_keys=True, default=str)
-            if tag in seen:
-                continue
-            seen.add(tag)
-            if quick.accepts(key, value):
+            if all(v._unchanged(key, value) or v.runtime(key, value, names=True) for _, v in exp.variants()):
                 continue
             try:
                 check(load(self.diagram, **{**self.fixed, key: value}))
             except InputError as exc:
                 raise InputError(f"{self.path}: swept value {key} = {value!r}: {exc}") from None
 
-    def runtime_points(self, pts):
-        """True when every point of ``pts`` changes only run-time parameters of the diagram
-        (then the points of a worker share one built diagram: :func:`run_chunk`)."""
-        from hybridsim.api import load
-
-        quick = self.__dict__.get("_quick") or RuntimeCheck(load(self.diagram, **self.fixed))
-        self._quick = quick
-        for p in pts:
-            if not all(quick.accepts(k, v) for k, v in p["overrides"].items()):
-                return False
-        return True
-
     def fingerprint(self):
-        """A hash of everything a point's numbers depend on besides its own overrides: every file
+        """The identity of everything a point's numbers depend on besides its own overrides: every file
         the runs read (diagram, extends, subsystems, URDFs and meshes, FMUs, plugins, files named
         in the sweep), ``set``, ``stability`` and hybridsim's version (:mod:`hybridsim.format.identity`)."""
         from hybridsim.format.identity import sweep_identity
@@ -219,280 +185,98 @@ def _number(v):
     return isinstance(v, (int, float)) and not isinstance(v, bool) and bool(np.isfinite(v))
 
 
-def point_key(overrides):
-    """A short stable hash of one point's overrides (its resume key in points.jsonl)."""
-    text = json.dumps(overrides, sort_keys=True, default=float)
-    return hashlib.sha1(text.encode()).hexdigest()[:16]
+class Row:
+    """A sweep's reduce: a run to its row of the table (and its CSV under ``traces``); the first
+    variant's row of each point also gets the linearized loop's growth of ``analysis``."""
 
+    def __init__(self, traces=None, analysis=None):
+        self.traces, self.analysis = traces, analysis
 
-def run_point(diagram, fixed, point, traces_dir=None, stability=False):
-    """Run one point (all variants); returns a list of result rows. Never raises
-    for a failing run: the row says 'failed' and why."""
-    from hybridsim.api import run_experiment
+    def __call__(self, run):
+        """The table row of :class:`~hybridsim.runs.many.Run` ``run``."""
+        from hybridsim.analysis import metrics
 
-    rows = []
-    t0 = time.perf_counter()
-    extra = {}
-    if stability:
-        extra["linear_largest_abs_z"] = _linear_growth(diagram, {**fixed, **point["overrides"]})
-    try:
-        f, runs, _ = run_experiment(diagram, jobs=1, **{**fixed, **point["overrides"]})
-    except HybridsimError as exc:
-        return [{"key": point["key"], **point["params"], "variant": "", "status": "failed",
-                 "message": str(exc).splitlines()[0], "wall_time_s": time.perf_counter() - t0}]
-    for r in runs:
-        m = {k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in r["metrics"].items()
-             if not isinstance(v, (list, dict))}
-        rows.append({"key": point["key"], **point["params"], "variant": r["label"], "status": "ok",
-                     "message": "", **m, **extra})
-        if traces_dir:
-            r["result"].to_csv(Path(traces_dir) / f"{point['key']}{('_' + r['label']) if r['label'] else ''}.csv")
-    return rows
+        p = run.point
+        head = {"key": p.key, **p.label, "variant": run.label}
+        if run.error is not None:
+            row = {**head, "status": "failed", "message": str(run.error).splitlines()[0], "wall_time_s": 0.0}
+        else:
+            settings = run.experiment.settings
+            m = metrics.compute(run.result, settings["signals"], settings["metrics"])
+            m["wall_time_s"] = run.result.meta["wall_time_s"]
+            row = {**head, "status": "ok", "message": "",
+                   **{k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in m.items()
+                      if not isinstance(v, (list, dict))}}
+            if self.traces:
+                run.result.to_csv(Path(self.traces) / f"{p.key}{('_' + run.label) if run.label else ''}.csv")
+        if self.analysis is not None and run.index == 0:
+            row["linear_largest_abs_z"] = self._growth(p.changes)
+        return row
 
-
-def _linear_growth(diagram, overrides):
-    """Largest |z| of the linearized closed loop on the diagram's analysis branch."""
-    from hybridsim.analysis.stability import largest_abs_z, settings_of
-    from hybridsim.api import load
-
-    try:
-        cfg = settings_of(load(diagram, **overrides))
-        return largest_abs_z(diagram, {**cfg["set"], **overrides})
-    except HybridsimError:
-        return None
-
-
-def _load_done(jsonl):
-    done = {}
-    if jsonl.exists():
-        for line in jsonl.read_text().splitlines():
-            try:
-                rec = json.loads(line)
-            except json.JSONDecodeError:
-                continue  # a line cut by a crash: that point runs again
-            done[rec["key"]] = rec["rows"]
-    return done
-
-
-def _append(jsonl, key, rows):
-    _append_many(jsonl, {key: rows})
-
-
-def _append_many(jsonl, finished):
-    """Append one JSON line per finished point ``{key: rows}``, in one write."""
-    line = "".join(json.dumps({"key": key, "rows": rows}, default=_jsonable) + "\n"
-                   for key, rows in finished.items())
-    if jsonl.exists() and jsonl.stat().st_size:
-        with open(jsonl, "rb") as fh:
-            fh.seek(-1, os.SEEK_END)
-            if fh.read(1) != b"\n":  # a line cut by a crash: start ours on a fresh line
-                line = "\n" + line
-    with open(jsonl, "a") as fh:  # one write of whole lines
-        fh.write(line)
-        fh.flush()
-        os.fsync(fh.fileno())
-    note_written(jsonl)
-
-
-def _jsonable(v):
-    if isinstance(v, (np.floating, np.integer)):
-        return v.item()
-    if isinstance(v, np.bool_):
-        return bool(v)
-    return str(v)
+    def _growth(self, changes):
+        try:
+            cl = self.analysis.closed_loop(changes)
+        except HybridsimError:
+            return None
+        return None if cl is None else cl.growth
 
 
 def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False, force=False, batch=True):
-    """Run (or resume) a sweep; returns the table as a list of row dicts.
+    """Run (or resume) a sweep; returns the table as a list of row dicts (one per point and variant).
 
-    ``compiled``: run every point on the compiled path (as ``simulation.compiled:
-    true`` in ``set``); the same numbers, so finished points are reused either way.
-    ``force``: start afresh when ``outdir`` holds points of a different sweep
-    (otherwise that is an :class:`~hybridsim.errors.InputError`).
-    Points that differ only in run-time parameters (block numbers, not a
-    rate, a width or a setting) run in chunks on one built diagram per worker
-    process (:func:`run_chunk`: on the compiled path one compiled loop for
-    every point), logging only what the metrics read, each chunk appended to
-    ``points.jsonl`` as it finishes; ``batch=False`` runs each point on its
-    own instead (the same table).
-    Raises InputError before anything runs for a bad sweep file, diagram,
-    parameter or value, or a Dask address that does not answer.
+    Parameters
+    ----------
+    path : str or Path
+        The sweep file.
+    outdir : str or Path
+        Output folder: ``points.jsonl``, ``sweep-manifest.json``, ``sweep.csv``,
+        ``sweep.parquet``, ``heatmap.png`` (and ``traces/``). One sweep at a time writes it.
+    jobs : int, optional
+        Local processes (default: one per core).
+    dask : str or distributed.Client, optional
+        A Dask scheduler address (or client) to run the points on instead.
+    progress : bool
+        A progress bar on a terminal.
+    compiled : bool
+        Every point on the compiled path (as ``simulation.compiled: true`` in ``set``); the same
+        numbers, so finished points are reused either way.
+    force : bool
+        Start afresh when ``outdir`` holds the points of a different sweep (otherwise that is an
+        :class:`~hybridsim.errors.InputError`).
+    batch : bool
+        Points that change only block numbers run as run-time parameters of one built diagram
+        per worker, in chunks; False builds every point anew from the file (the same table).
+
+    Raises InputError before anything runs for a bad sweep file, diagram, parameter or value,
+    or a Dask address that does not answer.
     """
     sw = Sweep(path)
-    if jobs is not None and (isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1):
-        raise InputError(f"jobs must be a whole number >= 1, got {jobs!r}")
+    ex = Executor(jobs, dask)
     pts = sw.points()
+    sw.compiled = bool(compiled)
     sw.validate()
-    if compiled:
-        sw.fixed["simulation.compiled"] = True
-    fixed_run = dict(sw.fixed)
-    sw.fixed.pop("simulation.compiled", None)  # the same numbers either way: not in the fingerprint
     fp = sw.fingerprint()
-    sw.fixed = fixed_run
-    client = _dask_client(dask) if isinstance(dask, str) else dask
-    try:
-        with locked_output_dir(outdir) as outdir:  # one sweep per folder at a time
-            jsonl = outdir / "points.jsonl"
-            _claim(outdir, jsonl, fp, sw, force)
-            return _run(sw, pts, outdir, jsonl, jobs, client, progress, batch)
-    finally:
-        if client is not None and isinstance(dask, str):
-            client.close()
+    analysis = None
+    if sw.stability:
+        from hybridsim.analysis.stability import settings_of
 
-
-def _dask_client(address):
-    """A Dask client for ``address``, or InputError when nothing answers within DASK_TIMEOUT_S."""
-    from distributed import Client
-
-    try:
-        return Client(address, timeout=f"{DASK_TIMEOUT_S}s")
-    except (OSError, TimeoutError, ValueError, TypeError) as exc:
-        raise InputError(f"cannot reach a Dask scheduler at {address!r} within {DASK_TIMEOUT_S} s "
-                         f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else 'no answer'}); "
-                         "is the scheduler running and the address right (tcp://HOST:8786)?") from None
-
-
-def _claim(outdir, jsonl, fp, sw, force):
-    """Make ``outdir`` this sweep's: refuse points of another sweep unless ``force``."""
-    manifest = outdir / "sweep-manifest.json"
-    old = None
-    if manifest.exists():
-        try:
-            old = json.loads(manifest.read_text()).get("fingerprint")
-        except (OSError, ValueError, AttributeError):
-            old = "unreadable"
-    has_points = jsonl.exists() and jsonl.stat().st_size > 0
-    if has_points and old != fp:
-        why = ("no sweep-manifest.json says which sweep they belong to" if old is None else
-               "a file its runs read (the diagram, a file it extends, a subsystem, URDF, FMU, plugin or a "
-               "file the sweep names), 'set', 'stability' or the hybridsim version changed")
-        if not force:
-            raise InputError(f"{outdir} holds points of a different sweep ({why}); they would "
-                             "not match this one. Use another -o, or --force to start afresh "
-                             "(the old points are kept as points.jsonl.old)")
-        os.replace(jsonl, jsonl.with_name("points.jsonl.old"))
-    if old != fp or not manifest.exists():
-        with atomic_file(manifest) as fh:
-            json.dump({"fingerprint": fp, "sweep": str(sw.path), "diagram": str(sw.diagram)}, fh, indent=1)
-
-
-def _run(sw, pts, outdir, jsonl, jobs, dask, progress, use_batch=True):
-    """Run the points of ``pts`` not yet in ``jsonl``; write the table and heat map."""
-    done = _load_done(jsonl)
-    todo = [p for p in pts if p["key"] not in done]
-    traces = None
-    if sw.traces:
-        traces = outdir / "traces"
-        traces.mkdir(exist_ok=True)
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        from hybridsim.engine.simulator import on_terminal
-
-        bar = tqdm(total=len(pts), initial=len(pts) - len(todo), unit="run", smoothing=0.1, disable=not on_terminal(),
-                   desc=sw.path.stem)
-    args = (str(sw.diagram), sw.fixed, sw.stability)
-    batched = use_batch and not sw.stability and bool(todo) and sw.runtime_points(todo)
-    try:
-        if batched:
-            for finished in _execute_chunks(todo, args, traces, jobs, dask):
-                _append_many(jsonl, finished)  # one write and one fsync per chunk
-                done.update(finished)
-                if bar is not None:
-                    bar.update(len(finished))
-        else:
-            for key, rows in _execute(todo, args, traces, jobs, dask):
-                _append(jsonl, key, rows)
-                done[key] = rows
-                if bar is not None:
-                    bar.update(1)
-    finally:
-        if bar is not None:
-            bar.close()
-    table = [row for p in pts if p["key"] in done for row in done[p["key"]]]
-    write_table(table, outdir)
-    heatmaps(table, sw, outdir)
+        analysis = Experiment(sw.diagram, **{**settings_of(sw.experiment.file)["set"], **sw.fixed})
+    with ex, locked_output_dir(outdir) as outdir:  # one sweep per folder at a time
+        store = Store(outdir, fp, "points.jsonl", "sweep-manifest.json", "sweep",
+                      "a file its runs read (the diagram, a file it extends, a subsystem, URDF, FMU, plugin or "
+                      "a file the sweep names), 'set', 'stability' or the hybridsim version changed",
+                      force, {"sweep": str(sw.path), "diagram": str(sw.diagram)})
+        traces = None
+        if sw.traces:
+            traces = outdir / "traces"
+            traces.mkdir(exist_ok=True)
+        measure = Simulate(Row(traces, analysis), records=None if traces else "metrics", rebuild=not batch)
+        done = run_many(sw.experiment, pts, ex, measure=measure, store=store, progress=progress,
+                        desc=sw.path.stem)
+        table = []
+        for rows in done:
+            growth = rows[0].get("linear_largest_abs_z") if sw.stability else None
+            table += [{**r, "linear_largest_abs_z": growth} if sw.stability else r for r in rows]
+        write_table(table, outdir)
+        heatmaps(table, sw.axes(), outdir)
     return table
-
-
-def _execute(todo, args, traces, jobs, dask):
-    """Yield (key, rows) as points finish: serially, on local processes, or on Dask."""
-    diagram, fixed, stability = args
-    if dask:
-        from distributed import as_completed
-
-        futs = {dask.submit(run_point, diagram, fixed, p, traces, stability, pure=False): p["key"] for p in todo}
-        for fut in as_completed(futs):
-            yield futs[fut], fut.result()
-        return
-    jobs = jobs or os.cpu_count() or 1
-    if jobs <= 1 or len(todo) <= 1:
-        for p in todo:
-            yield p["key"], run_point(diagram, fixed, p, traces, stability)
-        return
-    from concurrent.futures import ProcessPoolExecutor, as_completed as done_first
-
-    with ProcessPoolExecutor(jobs) as pool:
-        futs = {pool.submit(run_point, diagram, fixed, p, traces, stability): p["key"] for p in todo}
-        for fut in done_first(futs):
-            yield futs[fut], fut.result()
-
-
-def write_table(rows, outdir):
-    """sweep.csv and sweep.parquet (tidy: one row per point and variant), atomically."""
-    import pandas as pd
-
-    df = pd.DataFrame(rows)
-    with atomic_file(Path(outdir) / "sweep.csv") as fh:
-        df.to_csv(fh, index=False)
-    with atomic_file(Path(outdir) / "sweep.parquet", "wb") as fh:
-        df.to_parquet(fh, index=False)
-    return df
-
-
-def heatmaps(rows, sw, outdir):
-    """A heat map of the main metrics over the first two swept parameters."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import pandas as pd
-
-    axes = list(sw.grid) + [f"{k}*" for k in sw.scale]
-    if len(axes) < 2 or not rows:
-        return
-    df = pd.DataFrame(rows)
-    xa, ya = axes[0], axes[1]
-    metrics = [m for m in ("ss_force_error_filtered_N", "overshoot_pct", "contact_lost") if m in df]
-    if not metrics:
-        return
-    fig, axs = plt.subplots(1, len(metrics), figsize=(4.6 * len(metrics), 3.8), squeeze=False)
-    for ax, m in zip(axs[0], metrics):
-        piv = df[df["status"] == "ok"].groupby([ya, xa])[m].mean().unstack(xa).astype(float)
-        im = ax.imshow(piv.values, origin="lower", aspect="auto", cmap="viridis")
-        ax.set_xticks(range(len(piv.columns)), [f"{v:g}" for v in piv.columns])
-        ax.set_yticks(range(len(piv.index)), [f"{v:g}" for v in piv.index])
-        ax.set_xlabel(xa)
-        ax.set_ylabel(ya)
-        ax.set_title(m, fontsize=9)
-        fig.colorbar(im, ax=ax, shrink=0.8)
-        # the paper's operating point: scale 1 of a scaled axis, or the base value
-        px = _index_of_one(piv.columns, xa)
-        py = _index_of_one(piv.index, ya)
-        if px is not None and py is not None:
-            ax.plot(px, py, "r*", ms=14, label="paper (Appendix A)")
-            ax.legend(fontsize=7, loc="upper right")
-    fig.tight_layout()
-    with atomic_file(Path(outdir) / "heatmap.png", "wb") as fh:
-        fig.savefig(fh, format="png", dpi=110)
-    plt.close(fig)
-
-
-def _index_of_one(values, axis):
-    if not axis.endswith("*"):
-        return None
-    for k, v in enumerate(values):
-        if abs(float(v) - 1.0) < 1e-12:
-            return k
-    return None

@@ -7,10 +7,10 @@ constraints on the same quantities, and the optimiser. :func:`run_tune` does
 what ``hybridsim tune`` does; see docs/tune.md.
 
 Modules: :mod:`.space` (parameters and their scales), :mod:`.spec` (the tune
-file), :mod:`.quantities` (what is measured at a point), :mod:`.store`
-(evaluated points, for resuming), :mod:`.executor` (many points at once),
-:mod:`.drivers` (the optimisers), :mod:`.outputs` (overlay, tables, plots),
-:mod:`.run` (the whole command).
+file), :mod:`.quantities` (what is measured at a point), :mod:`.drivers` (the
+optimisers), :mod:`.outputs` (overlay, tables, plots), :mod:`.run` (the whole
+command). The points run through :func:`hybridsim.runs.many.run_many`, with its
+executor and resume store (``evaluations.jsonl``).
 """
 from hybridsim.tune.run import evaluate_point, run_tune
 from hybridsim.tune.spec import TuneSpec, load_tune

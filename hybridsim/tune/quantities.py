@@ -1,7 +1,7 @@
 """What a point measures: its runs' metrics, step responses and the linearized loop.
 
 :func:`measure` runs one point (every variant of the tune file, and every
-variant of the diagram) through the public API (:func:`hybridsim.api.run_experiment`,
+variant of the diagram) through the public API (:func:`hybridsim.runs.variants.run_experiment`,
 :func:`hybridsim.analysis.stability.linearization` and :func:`hybridsim.analysis.stability.margins`)
 and reduces each quantity to one number over the runs. It never raises for a
 run that diverges (the point is "failed", with the message); a quantity that
@@ -151,7 +151,7 @@ def measure(spec, values=None):
         ``status`` ("ok" or "failed"), ``message``, ``quantities`` ({name: number, NaN where a run
         gave none}), ``wall_s``.
     """
-    from hybridsim.api import run_experiment
+    from hybridsim.runs.variants import run_experiment
 
     t0 = time.perf_counter()
     ov = dict(spec.fixed)

@@ -7,7 +7,6 @@ the executor with the store (resumable), and writes into the output folder
 ``evaluations.csv``, ``evaluations.jsonl``, ``convergence.png`` and, for two
 objectives, ``pareto.png`` and ``pareto.csv``.
 """
-import functools
 import math
 import time
 from pathlib import Path
@@ -15,11 +14,12 @@ from pathlib import Path
 import numpy as np
 
 from hybridsim.files import make_output_dir
+from hybridsim.runs.grid import point
+from hybridsim.runs.many import run_many
 from hybridsim.tune import drivers
 from hybridsim.tune import outputs
 from hybridsim.tune.quantities import measure
 from hybridsim.tune.spec import load_tune
-from hybridsim.tune.store import Store, fingerprint, point_key
 
 
 def evaluate_point(spec, values=None):
@@ -27,73 +27,91 @@ def evaluate_point(spec, values=None):
     return measure(spec, values)
 
 
-def _worker(spec, values):
-    return measure(spec, values)
+def violations(spec, rec):
+    """Each constraint's relative violation in record ``rec`` (0 inside its bounds)."""
+    return [q.violation(rec["quantities"].get(q.name)) for q in spec.constraints]
+
+
+def objectives(spec, rec):
+    """The objective values of record ``rec`` (NaN where none)."""
+    return [rec["quantities"].get(q.name, math.nan) for q in spec.objectives]
+
+
+def score(spec, rec):
+    """The penalised scalar a minimiser sees (:mod:`.drivers`)."""
+    if rec["status"] != "ok":
+        return drivers.FAILED
+    objs = objectives(spec, rec)
+    if any(not np.isfinite(v) for v in objs):
+        return drivers.FAILED
+    viol = sum(violations(spec, rec))
+    if viol > 0:
+        return drivers.INFEASIBLE + 1e6 * min(viol, 1e3)
+    q = spec.objectives[0]
+    return objs[0] if q.goal == "min" else -objs[0]
+
+
+def judged(spec, rec):
+    """``rec`` with ``feasible`` and ``score`` (from its status and quantities)."""
+    feasible = rec["status"] == "ok" and not any(v > 0 for v in violations(spec, rec)) and \
+        all(np.isfinite(v) for v in objectives(spec, rec))
+    return {**rec, "feasible": feasible, "score": score(spec, rec)}
+
+
+class PointMeasure:
+    """The tuner's measure for :func:`~hybridsim.runs.many.run_many`: a point's record (``key``,
+    ``values``, ``status``, ``message``, ``quantities``, ``wall_s``, ``feasible``, ``score``)."""
+
+    def __init__(self, spec):
+        self.spec = spec
+
+    def __call__(self, experiment, pt):
+        """Measure point ``pt`` (its changes are the parameter values) and judge it."""
+        got = measure(self.spec, pt.changes or None)
+        rec = {"key": pt.key, "values": pt.changes, "status": got["status"], "message": got["message"],
+               "quantities": got["quantities"], "wall_s": got.get("wall_s", 0.0)}
+        return judged(self.spec, rec)
 
 
 class Evaluator:
-    """Points to records, through the store (a point seen before is not run again) and the executor.
+    """Points to records through :func:`~hybridsim.runs.many.run_many` (a point in the store is not
+    run again) on one executor.
 
     A record: ``n`` (evaluation number), ``key``, ``values``, ``status``, ``message``,
     ``quantities``, ``feasible``, ``score`` (the penalised scalar, :mod:`.drivers`).
     """
 
-    def __init__(self, spec, store, executor, bar=None):
-        self.spec, self.store, self.ex, self.bar = spec, store, executor, bar
+    def __init__(self, spec, store, executor, experiment, bar=None):
+        self.spec, self.store, self.ex, self.experiment, self.bar = spec, store, executor, experiment, bar
         self.objectives_q = spec.objectives
         self.history = []
         self.ran = 0
 
     @property
     def width(self):
+        """How many points run at once."""
         return self.ex.width
 
     def violations(self, rec):
         """Each constraint's relative violation (0 inside its bounds)."""
-        return [q.violation(rec["quantities"].get(q.name)) for q in self.spec.constraints]
+        return violations(self.spec, rec)
 
     def objectives(self, rec):
         """The objective values of ``rec`` (NaN where none)."""
-        return [rec["quantities"].get(q.name, math.nan) for q in self.spec.objectives]
+        return objectives(self.spec, rec)
 
     def score(self, rec):
         """The penalised scalar a minimiser sees (:mod:`.drivers`)."""
-        if rec["status"] != "ok":
-            return drivers.FAILED
-        objs = self.objectives(rec)
-        if any(not np.isfinite(v) for v in objs):
-            return drivers.FAILED
-        viol = sum(self.violations(rec))
-        if viol > 0:
-            return drivers.INFEASIBLE + 1e6 * min(viol, 1e3)
-        q = self.spec.objectives[0]
-        return objs[0] if q.goal == "min" else -objs[0]
-
-    def _finish(self, key, values, rec):
-        rec = {"key": key, "values": values, "status": rec["status"], "message": rec["message"],
-               "quantities": rec["quantities"], "wall_s": rec.get("wall_s", 0.0)}
-        rec["feasible"] = rec["status"] == "ok" and not any(v > 0 for v in self.violations(rec)) and \
-            all(np.isfinite(v) for v in self.objectives(rec))
-        rec["score"] = self.score(rec)
-        return rec
+        return score(self.spec, rec)
 
     def batch(self, points):
         """Records for ``points`` (``{path: value}`` each), in order; new ones run in parallel."""
-        keys = [point_key(p) for p in points]
-        todo = {}
-        for k, p in zip(keys, points):
-            if self.store.get(k) is None and k not in todo:
-                todo[k] = p
-        if todo:
-            got = self.ex.map(functools.partial(_worker, self.spec), list(todo.values()))
-            new = [self._finish(k, todo[k], g) for k, g in zip(todo, got)]
-            self.store.add(new)
-            self.ran += len(new)
+        pts = [point(p) for p in points]
+        self.ran += len({p.key for p in pts if p.key not in self.store})
+        recs = run_many(self.experiment, pts, self.ex, measure=PointMeasure(self.spec), store=self.store)
         out = []
-        for k, p in zip(keys, points):
-            rec = dict(self.store.get(k))
-            rec["n"] = len(self.history) + 1
-            rec = {**rec, **{f: self._finish(k, p, rec)[f] for f in ("feasible", "score")}}
+        for p, rec in zip(pts, recs):
+            rec = {**judged(self.spec, {**rec, "values": p.changes}), "n": len(self.history) + 1}
             self.history.append(rec)
             out.append(rec)
             if self.bar is not None:
@@ -160,36 +178,36 @@ def run_tune(path, outdir, jobs=None, dask=None, progress=True, force=False, com
         ``evaluations`` (points the optimiser asked for), ``ran`` (run now, not from the store),
         ``wall_time_s``, ``files``.
     """
-    from hybridsim.api import load
-    from hybridsim.tune.executor import Executor
+    from hybridsim.format.identity import identity, run_files
+    from hybridsim.runs.executor import Executor
+    from hybridsim.runs.experiment import Experiment
+    from hybridsim.runs.progress import bar as progress_bar
+    from hybridsim.runs.store import Store
 
     t0 = time.perf_counter()
     spec = load_tune(path)
+    ex = Executor(jobs, dask)
     if compiled:
         spec.fixed["simulation.compiled"] = True
-    fp = fingerprint(spec.text, load(spec.diagram, **spec.fixed).files,
-                     {"set": {k: v for k, v in spec.fixed.items() if k != "simulation.compiled"}})
+    exp = Experiment(spec.diagram, **spec.fixed)
+    fp = identity(run_files(exp.file), {"tune": spec.text,
+                                        "set": {k: v for k, v in spec.fixed.items() if k != "simulation.compiled"}})
     outdir = make_output_dir(Path(outdir))
-    store = Store(outdir, fp, force)
-    bar = None
-    total = drivers.budget(spec.method, spec.options, len(spec.parameters))
-    if progress:
-        from tqdm import tqdm
-
-        from hybridsim.engine.simulator import on_terminal
-
-        bar = tqdm(total=total, unit="point", desc="tune", disable=not on_terminal())
+    store = Store(outdir, fp, "evaluations.jsonl", "tune-manifest.json", "search",
+                  "another diagram or tune file, a file its runs read, or the hybridsim version", force,
+                  {"tune_file": str(spec.path), "diagram": str(spec.diagram)})
+    shown = progress_bar(drivers.budget(spec.method, spec.options, len(spec.parameters)), desc="tune",
+                         unit="point", show=progress)
     try:
-        with Executor(jobs, dask) as ex:
-            ev = Evaluator(spec, store, ex)
+        with ex:
+            ev = Evaluator(spec, store, ex, exp)
             before = ev.batch([{}])[0]  # the diagram as it is (and a check of every quantity)
             before["values"] = None
             ev.history.clear()
-            ev.bar = bar
+            ev.bar = shown
             drivers.run(spec.method, spec.options, spec.parameters, ev, _start(spec))
     finally:
-        if bar is not None:
-            bar.close()
+        shown.close()
     return _write(spec, outdir, ev, before, time.perf_counter() - t0)
 
 

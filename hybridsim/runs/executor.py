@@ -1,0 +1,125 @@
+"""Where many runs happen: here, on local processes, or on a Dask cluster - one argument chooses.
+
+:class:`Executor` is the only pool of hybridsim (a compiled
+:meth:`~hybridsim.engine.simulator.Simulator.run_batch` keeps its threads inside the
+engine). It hands out picklable calls and gives their results back as they finish;
+the pool (or the Dask client) stays up between calls until the executor closes, so a
+search that asks for points a few at a time, or a worker that keeps what it built
+(:mod:`hybridsim.runs.experiment`), pays for starting once.
+"""
+import contextlib
+import os
+
+from hybridsim.errors import InputError
+
+#: seconds to wait for a Dask scheduler to answer
+DASK_TIMEOUT_S = 10
+
+
+class Executor:
+    """Runs calls serially (``jobs=1``), on ``jobs`` local processes, or on a Dask cluster.
+
+    Parameters
+    ----------
+    jobs : int, optional
+        Local processes (default: one per core); 1 runs everything here, in order.
+    dask : str or distributed.Client, optional
+        A scheduler address (``tcp://host:8786``; connected on entry, closed on exit) or a
+        client (left open); then ``jobs`` is not used.
+
+    Use it as a context manager; the pool or client closes on the way out. Raises
+    :class:`~hybridsim.errors.InputError` for a bad ``jobs`` or a scheduler that does not
+    answer within :data:`DASK_TIMEOUT_S`.
+    """
+
+    def __init__(self, jobs=None, dask=None):
+        if jobs is not None and (isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1):
+            raise InputError(f"jobs must be a whole number >= 1, got {jobs!r}")
+        self.jobs = jobs or os.cpu_count() or 1
+        self.dask = dask
+        self._pool = self._client = None
+
+    def __enter__(self):
+        if self.dask is not None and self._client is None:
+            self._client = connect(self.dask) if isinstance(self.dask, str) else self.dask
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def close(self):
+        """Shut the local pool down and close a client this executor opened."""
+        if self._pool is not None:
+            self._pool.shutdown(cancel_futures=True)
+            self._pool = None
+        if self._client is not None and isinstance(self.dask, str):
+            self._client.close()
+        self._client = None
+
+    @property
+    def width(self):
+        """How many calls run at once (the batch size worth asking for)."""
+        if self._client is not None:
+            return max(1, sum(self._client.nthreads().values()))
+        return self.jobs
+
+    def as_completed(self, fn, items):
+        """Yield ``(index, fn(item))`` for each of ``items`` as it finishes (here: in order).
+
+        An exception raised by a call is raised here, when its turn comes."""
+        items = list(items)
+        if self._client is not None:
+            from distributed import as_completed
+
+            futures = {self._client.submit(fn, item, pure=False): k for k, item in enumerate(items)}
+            for fut in as_completed(futures):
+                yield futures[fut], fut.result()
+            return
+        if self.jobs <= 1 or len(items) <= 1:
+            for k, item in enumerate(items):
+                yield k, fn(item)
+            return
+        from concurrent.futures import as_completed
+
+        if self._pool is None:
+            from concurrent.futures import ProcessPoolExecutor
+
+            self._pool = ProcessPoolExecutor(self.jobs)
+        futures = {self._pool.submit(fn, item): k for k, item in enumerate(items)}
+        try:
+            for fut in as_completed(futures):
+                yield futures[fut], fut.result()
+        finally:
+            for fut in futures:
+                fut.cancel()
+
+    def map(self, fn, items):
+        """``[fn(item) for item in items]``, in parallel, in order."""
+        items = list(items)
+        out = [None] * len(items)
+        for k, value in self.as_completed(fn, items):
+            out[k] = value
+        return out
+
+
+def connect(address):
+    """A Dask client for ``address``, or InputError when nothing answers within DASK_TIMEOUT_S."""
+    from distributed import Client
+
+    try:
+        return Client(address, timeout=f"{DASK_TIMEOUT_S}s")
+    except (OSError, TimeoutError, ValueError, TypeError) as exc:
+        raise InputError(f"cannot reach a Dask scheduler at {address!r} within {DASK_TIMEOUT_S} s "
+                         f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else 'no answer'}); "
+                         "is the scheduler running and the address right (tcp://HOST:8786)?") from None
+
+
+@contextlib.contextmanager
+def using(executor=None, jobs=None):
+    """The executor to run on: ``executor`` itself when it is one (left open), else a new
+    :class:`Executor` of ``executor`` (or ``jobs``) local processes, closed on the way out."""
+    if isinstance(executor, Executor):
+        yield executor
+        return
+    with Executor(executor if executor is not None else jobs) as ex:
+        yield ex

@@ -1,0 +1,106 @@
+"""Finished points kept on disk, one JSON line each: what makes many runs resumable.
+
+A :class:`Store` is an append-only file of ``{"key": ..., "value": ...}`` lines in an
+output folder (``points.jsonl`` for a sweep, ``evaluations.jsonl`` for a tune) beside a
+manifest that holds the identity of everything else the values depend on
+(:func:`hybridsim.format.identity.identity`: every file the runs read, the settings, the
+hybridsim version). A second run with the same identity reads the finished points back
+and runs only the others; an interrupted run loses at most the points not yet written (a
+line cut by a crash is dropped and its point runs again). A store of another identity in
+the folder is refused, or with ``force`` set aside (``NAME.old``) and started afresh.
+"""
+import json
+import os
+from pathlib import Path
+
+from hybridsim.errors import InputError
+from hybridsim.files import atomic_file, note_written
+
+
+class Store:
+    """The finished points of one job in ``folder`` (see the module doc).
+
+    Parameters
+    ----------
+    folder : Path
+        The output folder (made, and locked where that matters, by the caller).
+    identity : str
+        What the values depend on besides their point (:func:`~hybridsim.format.identity.identity`).
+    name : str
+        The file of points, e.g. ``points.jsonl``.
+    manifest : str
+        The file that holds ``identity``, e.g. ``sweep-manifest.json``.
+    what : str
+        What a point belongs to, for the message that refuses another's ("sweep", "search").
+    changed : str
+        What may have changed, for that message.
+    force : bool
+        Set another job's points aside and start afresh instead of refusing.
+    about : dict, optional
+        More to write into the manifest (what the job was: its file, its diagram).
+    """
+
+    def __init__(self, folder, identity, name, manifest, what, changed, force=False, about=None):
+        folder = Path(folder)
+        self.path, self.what = folder / name, what
+        manifest = folder / manifest
+        old = None
+        if manifest.exists():
+            try:
+                old = json.loads(manifest.read_text()).get("fingerprint")
+            except (OSError, ValueError, AttributeError):
+                old = "unreadable"
+        if self.path.exists() and self.path.stat().st_size and old != identity:
+            why = f"no {manifest.name} says which {what} they belong to" if old is None else changed
+            if not force:
+                raise InputError(f"{folder} holds points of a different {what} ({why}); they would not match "
+                                 f"this one. Use another output folder (-o), or --force to start afresh (the old "
+                                 f"points are kept as {name}.old)")
+            os.replace(self.path, self.path.with_name(name + ".old"))
+        if old != identity:
+            with atomic_file(manifest) as fh:
+                json.dump({"fingerprint": identity, **(about or {})}, fh, indent=1, default=str)
+        self.done = {}
+        if self.path.exists():
+            for line in self.path.read_text().splitlines():
+                try:
+                    rec = json.loads(line)
+                    self.done[rec["key"]] = rec["value"]
+                except (json.JSONDecodeError, KeyError, TypeError):
+                    continue  # a line cut by a crash (or of an older layout): that point runs again
+
+    def __contains__(self, key):
+        return key in self.done
+
+    def get(self, key, default=None):
+        """The stored value of ``key``, or ``default``."""
+        return self.done.get(key, default)
+
+    def add(self, values):
+        """Append ``{key: value}`` (JSON-able values), one line each, in one write and one fsync."""
+        if not values:
+            return
+        text = "".join(json.dumps({"key": k, "value": v}, default=_jsonable) + "\n" for k, v in values.items())
+        if self.path.exists() and self.path.stat().st_size:
+            with open(self.path, "rb") as fh:
+                fh.seek(-1, os.SEEK_END)
+                if fh.read(1) != b"\n":  # a line cut by a crash: start ours on a fresh line
+                    text = "\n" + text
+        with open(self.path, "a") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        note_written(self.path)
+        self.done.update(values)
+
+
+def _jsonable(v):
+    import numpy as np
+
+    if isinstance(v, (np.floating, np.integer)):
+        return v.item()
+    if isinstance(v, np.bool_):
+        return bool(v)
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    return str(v)

@@ -1,0 +1,62 @@
+"""A sweep's table and heat map: ``sweep.csv``, ``sweep.parquet`` and ``heatmap.png``, written atomically."""
+from pathlib import Path
+
+from hybridsim.files import atomic_file
+
+
+def write_table(rows, outdir):
+    """sweep.csv and sweep.parquet (tidy: one row per point and variant), atomically."""
+    import pandas as pd
+
+    df = pd.DataFrame(rows)
+    with atomic_file(Path(outdir) / "sweep.csv") as fh:
+        df.to_csv(fh, index=False)
+    with atomic_file(Path(outdir) / "sweep.parquet", "wb") as fh:
+        df.to_parquet(fh, index=False)
+    return df
+
+
+def heatmaps(rows, axes, outdir):
+    """A heat map of the main metrics over the first two swept parameters ``axes`` (table columns)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import pandas as pd
+
+    if len(axes) < 2 or not rows:
+        return
+    df = pd.DataFrame(rows)
+    xa, ya = axes[0], axes[1]
+    metrics = [m for m in ("ss_force_error_filtered_N", "overshoot_pct", "contact_lost") if m in df]
+    if not metrics:
+        return
+    fig, axs = plt.subplots(1, len(metrics), figsize=(4.6 * len(metrics), 3.8), squeeze=False)
+    for ax, m in zip(axs[0], metrics):
+        piv = df[df["status"] == "ok"].groupby([ya, xa])[m].mean().unstack(xa).astype(float)
+        im = ax.imshow(piv.values, origin="lower", aspect="auto", cmap="viridis")
+        ax.set_xticks(range(len(piv.columns)), [f"{v:g}" for v in piv.columns])
+        ax.set_yticks(range(len(piv.index)), [f"{v:g}" for v in piv.index])
+        ax.set_xlabel(xa)
+        ax.set_ylabel(ya)
+        ax.set_title(m, fontsize=9)
+        fig.colorbar(im, ax=ax, shrink=0.8)
+        # the paper's operating point: scale 1 of a scaled axis, or the base value
+        px = _index_of_one(piv.columns, xa)
+        py = _index_of_one(piv.index, ya)
+        if px is not None and py is not None:
+            ax.plot(px, py, "r*", ms=14, label="paper (Appendix A)")
+            ax.legend(fontsize=7, loc="upper right")
+    fig.tight_layout()
+    with atomic_file(Path(outdir) / "heatmap.png", "wb") as fh:
+        fig.savefig(fh, format="png", dpi=110)
+    plt.close(fig)
+
+
+def _index_of_one(values, axis):
+    if not axis.endswith("*"):
+        return None
+    for k, v in enumerate(values):
+        if abs(float(v) - 1.0) < 1e-12:
+            return k
+    return None
