@@ -91,6 +91,7 @@ class Sweep:
         self.stability = bool(data.get("stability", False))
         self.compiled = False  # every run compiled (``simulation.compiled: true``; not in the identity)
         self._experiment = None
+        self._base = {}  # parameter -> its value in the diagram with set (what a scale multiplies)
 
     def _check_random(self, spec, line):
         bad = set(spec) - {"n", "seed", "ranges"}
@@ -119,15 +120,18 @@ class Sweep:
 
     def _base_value(self, ref):
         """Value of a parameter or block parameter in the diagram with ``set`` (for scaling)."""
-        f = self.experiment.file
-        if "." not in ref:
-            if ref not in f.params:
-                raise InputError(f"{self.path}: sweep: no parameter {ref!r} in {self.diagram.name}")
-            return np.asarray(f.params[ref], float)
-        try:
-            return f.param_value(ref)
-        except (HybridsimError, KeyError, ValueError, TypeError) as exc:
-            raise InputError(f"{self.path}: sweep: cannot scale {ref!r}: {exc}") from None
+        if ref not in self._base:
+            f = self.experiment.file
+            if "." not in ref:
+                if ref not in f.params:
+                    raise InputError(f"{self.path}: sweep: no parameter {ref!r} in {self.diagram.name}")
+                self._base[ref] = np.asarray(f.params[ref], float)
+            else:
+                try:
+                    self._base[ref] = f.param_value(ref)  # a subsystem's parameter reads its file
+                except (HybridsimError, KeyError, ValueError, TypeError) as exc:
+                    raise InputError(f"{self.path}: sweep: cannot scale {ref!r}: {exc}") from None
+        return self._base[ref]
 
     def axes(self):
         """The table columns of the swept axes, in order (a scaled one as ``name*``)."""
