@@ -1,28 +1,37 @@
-"""Benchmark: compiled sweep throughput, runs per second per point, local pool vs Dask.
+"""Benchmark: compiled sweep throughput, where each point's time goes, local pool vs Dask.
 
-Run on demand:  python benchmarks/bench_sweep.py [--small 40] [--large 440] [--jobs 2]
+Run on demand:  python benchmarks/bench_sweep.py [--small 40] [--large 440] [--jobs 2] [--no-dask]
 
 The sweep: Fig 9 (diagrams/fig9_force_and_position.yaml) at 120 Hz, 4 s simulated,
 ``scale:`` over ``ctrl.fpi.Kp``, ``simulation.compiled: true``. In one process run:
 
-1. the baseline: one compiled run of the same diagram (median of 20, after the warm-up
-   that compiles or reads the cached loop) - ``jobs / t_run`` is what ``jobs`` cores
-   could do if the sweep machinery cost nothing;
-2. the local process pool (``--jobs``): a sweep of ``--small`` and one of ``--large``
+1. the baseline: one compiled run of the same diagram logging what the sweep logs (the
+   signals its metrics read), CPU time, median of 20 after the warm-up that compiles or
+   reads the cached loop; ``jobs / t_run`` is what ``jobs`` cores could do if the sweep
+   machinery cost nothing;
+2. where a point's time goes: ``--small`` points through ``run_many`` here (no pool), the
+   CPU time of each part measured by wrapping it (contexts, the compiled loop, the
+   engine around it, metrics, the row, the store), and the pickled size and time of a
+   chunk's task and rows (what crosses to a worker and back);
+3. the local process pool (``--jobs``): a sweep of ``--small`` and one of ``--large``
    points, each into an empty folder; the marginal rate is
-   ``(large - small) / (t_large - t_small)`` (start-up, imports and the table cancel);
-3. the same two sweeps on a local Dask cluster of ``--jobs`` worker processes (one
+   ``(large - small) / (t_large - t_small)`` (start-up, imports and the table cancel), in
+   wall time and in CPU time of this process and its workers;
+4. the same two sweeps on a local Dask cluster of ``--jobs`` worker processes (one
    thread each), warmed by a 4-point sweep so that both sizes find built workers.
 
-The ratios are against the baseline of the same run, so a loaded machine shows in
-both. The numbers go to the terminal and a dated section of benchmarks/RESULTS.md.
+On a machine other jobs share, wall times are inflated; the CPU figures and the ratios
+measured in the same run are the ones to compare. The output goes to the terminal and a
+dated section of benchmarks/RESULTS.md.
 """
 import argparse
 import os
+import pickle
 import statistics
 import sys
 import tempfile
 import time
+from collections import defaultdict
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -48,22 +57,21 @@ def main():
     ap.add_argument("--no-dask", action="store_true")
     args = ap.parse_args()
     os.environ.setdefault("NUMBA_NUM_THREADS", "1")
-    import hybridsim as hs
+    from hybridsim.runs.experiment import Experiment
     from hybridsim.runs.sweep import run_sweep
 
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         small, large = sweep_file(tmp / "small.yaml", args.small), sweep_file(tmp / "large.yaml", args.large)
-        _, sim, settings = hs.build(DIAGRAM, rate=120, t_end=4.0, compiled=True)
-        sim.run(4.0)  # compiles, or reads the cached loop
-        single = statistics.median(_timed(lambda: sim.run(4.0)) for _ in range(20))
+        exp = Experiment(DIAGRAM, rate=120, t_end=4.0, compiled=True).recording("metrics")
+        exp.run()  # compiles, or reads the cached loop
+        single = statistics.median(_cpu(exp.run) for _ in range(20))
+        parts = breakdown(small, args.small)
 
-        single_cpu = statistics.median(_cpu(lambda: sim.run(4.0)) for _ in range(10))
-
-        def timed_sweep(spec, label, client=None, **kw):
+        def timed_sweep(spec, label, client=None):
             """(wall s, CPU s of this process and its workers) of one sweep."""
             before = _cpu_now(client)
-            wall = _timed(lambda: run_sweep(spec, tmp / label, progress=False, jobs=args.jobs, dask=client, **kw))
+            wall = _timed(lambda: run_sweep(spec, tmp / label, progress=False, jobs=args.jobs, dask=client))
             return wall, _cpu_now(client) - before
 
         timed_sweep(sweep_file(tmp / "warm.yaml", 4), "warm")
@@ -76,29 +84,130 @@ def main():
                               dashboard_address=None) as cl, Client(cl) as client:
                 timed_sweep(tmp / "warm.yaml", "dask-warm", client)
                 dask = (timed_sweep(small, "dask-small", client), timed_sweep(large, "dask-large", client))
+    report(args, single, parts, pool, dask)
+
+
+def breakdown(spec, n):
+    """CPU seconds per point of each part of a sweep's point, run here (see the module doc)."""
+    from hybridsim.analysis import metrics
+    from hybridsim.engine import compiled, simulator, system
+    from hybridsim.runs import many, store, sweep
+
+    spent = defaultdict(float)
+    patched = []
+
+    def wrap(owner, name, part):
+        real = getattr(owner, name)
+
+        def timed(*a, **k):
+            t0 = time.process_time()
+            try:
+                return real(*a, **k)
+            finally:
+                spent[part] += time.process_time() - t0
+
+        setattr(owner, name, timed)
+        patched.append((owner, name, real))
+
+    def wrap_loop(self, *a, **k):  # the numba function itself, inside CompiledLoop.run
+        fn = self.run_fn
+        if not getattr(fn, "_timed", False):
+            def timed(*a2, **k2):
+                t0 = time.process_time()
+                try:
+                    return fn(*a2, **k2)
+                finally:
+                    spent["compiled loop (numba)"] += time.process_time() - t0
+            timed._timed = True
+            self.run_fn = timed
+        return real_loop(self, *a, **k)
+
+    real_loop = compiled.CompiledLoop.run
+    compiled.CompiledLoop.run = wrap_loop
+    patched.append((compiled.CompiledLoop, "run", real_loop))
+    wrap(compiled.CompiledLoop, "run", "engine: compiled run, all")
+    wrap(system.System, "create_context", "engine: contexts (with_params, initial outputs)")
+    wrap(simulator.Simulator, "_run", "engine: one run, all")
+    wrap(metrics, "compute", "metrics")
+    wrap(sweep.Row, "__call__", "row, all")
+    wrap(many.Simulate, "__call__", "chunk, all")
+    wrap(store.Store, "add", "store (points.jsonl)")
+    try:
+        sw = sweep.Sweep(spec)
+        pts = sw.points()
+        measure = many.Simulate(sweep.Row(), records="metrics")
+        with tempfile.TemporaryDirectory() as out:
+            st = store.Store(out, "x", "points.jsonl", "m.json", "sweep", "")
+            many.run_many(sw.experiment, list(pts)[:2], 1, measure=measure)  # built once, as a worker does
+            spent.clear()
+            t0 = time.process_time()
+            many.run_many(sw.experiment, pts, 1, measure=measure, store=st)
+            total = time.process_time() - t0
+        tasks, _ = many._tasks(sw.experiment, list(pts), 2, measure)
+        task = tasks[0]
+        rows = many._work(task)
+    finally:
+        for owner, name, real in reversed(patched):
+            setattr(owner, name, real)
+    pickle.loads(pickle.dumps(task))  # a worker's first task builds its experiment; later ones find it kept
+    t0 = time.process_time()
+    sent, back = pickle.dumps(task), pickle.dumps(rows)
+    pickle.loads(sent)
+    pickle.loads(back)
+    ipc = (time.process_time() - t0) / len(task[4])
+    run_all = spent["engine: one run, all"]
+    loop_all = spent["engine: compiled run, all"]
+    numba = spent["compiled loop (numba)"]
+    out = {
+        "compiled loop (numba)": numba,
+        "engine around the loop (arrays, copy back)": loop_all - numba,
+        "engine: contexts (with_params, initial outputs)": spent["engine: contexts (with_params, initial outputs)"],
+        "engine: rest of a run (snapshot, final outputs, result)": run_all - loop_all,
+        "metrics": spent["metrics"],
+        "the row (metrics to a table row)": spent["row, all"] - spent["metrics"],
+        "store (points.jsonl, one write per chunk)": spent["store (points.jsonl)"],
+    }
+    accounted = sum(out.values())
+    out["the rest (points, chunks, run_many)"] = total - accounted
+    per_point = {k: v / n for k, v in out.items()}
+    per_point["_ipc"] = ipc
+    per_point["_sent"] = len(sent) / len(task[4])
+    per_point["_back"] = len(back) / len(task[4])
+    per_point["_total"] = total / n
+    return per_point
+
+
+def report(args, single, parts, pool, dask):
     n = args.large - args.small
     ideal = args.jobs / single
-    lines = [f"one compiled run (baseline): {single * 1e3:.2f} ms wall, {single_cpu * 1e3:.2f} ms CPU; "
+    lines = [f"one compiled run as the sweep runs it (baseline): {single * 1e3:.2f} ms CPU; "
              f"{args.jobs} cores at that speed: {ideal:.0f} runs/s", "",
-             "| executor | small sweep s | large sweep s | marginal runs/s (wall) | of the baseline's "
-             "| CPU ms per point (marginal) | runs/s on idle cores (jobs / CPU per point) |",
-             "|---|---|---|---|---|---|---|"]
-    rates = {}
+             f"where a point's CPU time goes ({args.small} points run here, no pool):", "",
+             "| part | ms per point | share |", "|---|---|---|"]
+    for part, v in parts.items():
+        if not part.startswith("_"):
+            lines.append(f"| {part} | {v * 1e3:.3f} | {v / parts['_total']:.1%} |")
+    lines += [f"| all | {parts['_total'] * 1e3:.3f} | 100% |", "",
+              f"to and from a worker per point: {parts['_sent']:.0f} bytes sent, {parts['_back']:.0f} bytes back, "
+              f"{parts['_ipc'] * 1e3:.3f} ms CPU to pickle and unpickle both", "",
+              "| executor | small sweep s | large sweep s | marginal runs/s (wall) | of the baseline's "
+              "| CPU ms per point (marginal) | runs/s on idle cores (jobs / CPU per point) |",
+              "|---|---|---|---|---|---|---|"]
+    rates, cpu_rates = {}, {}
     for label, t in (("process pool", pool), ("Dask", dask)):
         if t is None:
             continue
         (w0, c0), (w1, c1) = t
         rates[label] = n / (w1 - w0)
         cpu = (c1 - c0) / n
+        cpu_rates[label] = args.jobs / cpu
         lines.append(f"| {label} ({args.jobs}) | {w0:.2f} | {w1:.2f} | {rates[label]:.0f} | "
-                     f"{rates[label] / ideal:.0%} | {cpu * 1e3:.2f} | {args.jobs / cpu:.0f} |")
+                     f"{rates[label] / ideal:.0%} | {cpu * 1e3:.2f} | {cpu_rates[label]:.0f} |")
     if "Dask" in rates:
-        lines += ["", f"Dask / process pool, marginal rate (wall): {rates['Dask'] / rates['process pool']:.2f}"]
+        lines += ["", f"Dask / process pool, marginal rate: {rates['Dask'] / rates['process pool']:.2f} (wall), "
+                      f"{cpu_rates['Dask'] / cpu_rates['process pool']:.2f} (CPU)"]
     lines += ["", f"machine load average at the end: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores"]
-    text = "\n".join(lines)
-    print(text)
-    _write_section(f"Compiled Fig 9 sweep, 120 Hz, 4 s, scale ctrl.fpi.Kp: {args.small} and {args.large} "
-                   f"points, {args.jobs} jobs (bench_sweep.py)", text)
+    print("\n".join(lines))
 
 
 def _cpu(fn):
@@ -131,27 +240,8 @@ def _timed(fn):
     return time.perf_counter() - t0
 
 
-def _write_section(title, body):
-    """Append a dated section (``## date — title (issue 25)``) to benchmarks/RESULTS.md: the
-    shared writer when there is one, else a plain append (the file merges by union)."""
-    try:
-        from results import write_section  # benchmarks/results.py
-    except ImportError:
-        write_section = None
-    if write_section is not None:
-        try:
-            return write_section(title, body)
-        except TypeError:  # another signature: write plainly
-            pass
-    path = ROOT / "benchmarks" / "RESULTS.md"
-    machine = f"Machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} when it finished."
-    with open(path, "a") as fh:
-        fh.write(f"\n## {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())} — {title} (issue 25)\n\n"
-                 f"{machine}\n\n{body}\n")
-
-
 if __name__ == "__main__":
     from results import recorded  # benchmarks/results.py: the dated section in RESULTS.md
 
-    with recorded("Sweep executors (serial, local pool, Dask)"):
+    with recorded("Compiled Fig 9 sweep: where a point's time goes; local pool vs Dask (bench_sweep.py)"):
         main()
