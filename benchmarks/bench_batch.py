@@ -10,12 +10,13 @@ logs) and the diagrams' default 0.5 ms. Rows:
 
 * floor - one built simulator, ``sim.run(t_end, params=...)`` and the metrics
   in a Python loop, one thread: the per-run cost with nothing around it;
-* sweep, batch - ``hybridsim sweep --compiled`` (``run_sweep``): points as
-  run-time parameters of one built diagram, ``Simulator.run_batch`` on 2
-  threads, points.jsonl, sweep.csv/parquet and the heat map included;
-* sweep, process pool - the same sweep with ``batch=False``: each point
-  builds its diagram from YAML in a pool of 2 processes (the path before the
-  batch call existed).
+* sweep, batch - ``hybridsim sweep --compiled`` (``run_sweep``) on 2 processes:
+  points as run-time parameters of one built diagram per worker, chunks of
+  ``Simulator.run_batch``, points.jsonl, sweep.csv/parquet and the heat map
+  included;
+* sweep, each point built - the same sweep with ``batch=False``: each point
+  builds its diagram from YAML (the reference the batches equal), on the
+  same 2 processes.
 """
 import argparse
 import os
@@ -64,8 +65,8 @@ def main():
                 metrics.compute(r, settings["signals"], settings["metrics"])
             floor = time.perf_counter() - t0
             rows = [("floor (single runs)", floor)]
-            for label, kw in (("sweep, batch (2 thr)", {"jobs": 2}),
-                              ("sweep, process pool 2", {"jobs": 2, "batch": False})):
+            for label, kw in (("sweep, batch (2 proc)", {"jobs": 2}),
+                              ("sweep, each built (2)", {"jobs": 2, "batch": False})):
                 if kw.get("batch") is False and n > 100:
                     m = 100  # the slow path: fewer points, rate scaled
                     spec2 = tmp / f"p{lp}.yaml"
