@@ -2,13 +2,12 @@
 
 ``Experiment(path, **overrides)`` holds the parsed file; its system, simulator and
 settings are built when first asked for. A change of a block parameter
-(``ctrl.fpi.Kp``), or of a ``params`` name that only block numbers use, is made at run
-time - a fresh context with the blocks rebuilt
-(:meth:`~hybridsim.engine.system.System.create_context`), no re-parse and no rebuild;
-only a change of structure or rate, or of a name the file resolves while loading (a
-setting, a variant, a subsystem's parameter), builds a new experiment
-(:meth:`Experiment.split`). The analysis, the report and
-:func:`~hybridsim.runs.many.run_many` take one.
+(``ctrl.fpi.Kp``) is made at run time - a fresh context with the block rebuilt
+(:meth:`~hybridsim.engine.system.System.create_context`), no re-parse and no rebuild -
+and for runs so is a ``params`` name that only block numbers use (``Kr``); a change of
+structure or rate, or of a name the file resolves while loading (a setting, a variant,
+a subsystem's parameter), builds a new experiment (:meth:`Experiment.split`). The
+analysis, the report and :func:`~hybridsim.runs.many.run_many` take one.
 
 An experiment pickles as what it was made from (file, variant, overrides): a worker
 process builds it once and keeps it for every later call of the same experiment.
