@@ -19,6 +19,10 @@ DASK_TIMEOUT_S = 10
 class Executor:
     """Runs calls serially (``jobs=1``), on ``jobs`` local processes, or on a Dask cluster.
 
+    Use it as a context manager; the pool or client closes on the way out. Raises
+    :class:`~hybridsim.errors.InputError` for a bad ``jobs`` or a scheduler that does not
+    answer within :data:`DASK_TIMEOUT_S`.
+
     Parameters
     ----------
     jobs : int, optional
@@ -26,10 +30,6 @@ class Executor:
     dask : str or distributed.Client, optional
         A scheduler address (``tcp://host:8786``; connected on entry, closed on exit) or a
         client (left open); then ``jobs`` is not used.
-
-    Use it as a context manager; the pool or client closes on the way out. Raises
-    :class:`~hybridsim.errors.InputError` for a bad ``jobs`` or a scheduler that does not
-    answer within :data:`DASK_TIMEOUT_S`.
     """
 
     def __init__(self, jobs=None, dask=None):

@@ -228,6 +228,9 @@ class Row:
 def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False, force=False, batch=True):
     """Run (or resume) a sweep; returns the table as a list of row dicts (one per point and variant).
 
+    Raises InputError before anything runs for a bad sweep file, diagram, parameter or value,
+    or a Dask address that does not answer.
+
     Parameters
     ----------
     path : str or Path
@@ -250,9 +253,6 @@ def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False,
     batch : bool
         Points that change only block numbers run as run-time parameters of one built diagram
         per worker, in chunks; False builds every point anew from the file (the same table).
-
-    Raises InputError before anything runs for a bad sweep file, diagram, parameter or value,
-    or a Dask address that does not answer.
     """
     sw = Sweep(path)
     ex = Executor(jobs, dask)
