@@ -28,6 +28,11 @@ from hybridsim.engine.simulator import Simulator
 from hybridsim.engine.solvers import RK4, ExplicitRK, Heun, ScipySolver
 from hybridsim.engine.cvode import CVode
 
+# The wing over the generic layers: force control's signal roles, metrics, figure layout and hand
+# mode register themselves; the picture module lets Jupyter show a Diagram.
+from hybridsim import forcecontrol  # noqa: E402,F401
+from hybridsim.report import picture as _picture  # noqa: E402,F401
+
 __all__ = ["registry", "Block", "Diagram", "Simulator", "RK4", "Heun", "ExplicitRK", "ScipySolver", "CVode", "register", "simulate", "load",
            "build", "check", "from_control", "run_experiment", "write_outputs", "HybridsimError", "InputError",
            "DiagramError", "LoaderError", "RateError", "ParameterError", "OutputError",

@@ -218,7 +218,7 @@ def write_outputs(f, runs, settings, outdir, only_ours=False):
     CSV names cannot collide (a short hash where two labels slug alike);
     ``only_ours`` (a default folder): replace no file hybridsim did not write.
     """
-    from hybridsim.report.plots import experiment_figure
+    from hybridsim.report.figures import experiment_figure
 
     outdir = Path(outdir)
     name = safe_name(f.name)

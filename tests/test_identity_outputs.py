@@ -337,7 +337,7 @@ signals: {force: 'p$x.y[0]', force_desired: 'z.y[0]'}
     import matplotlib.pyplot as plt
 
     from hybridsim.api import run_experiment
-    from hybridsim.report.plots import experiment_figure
+    from hybridsim.report.figures import experiment_figure
 
     f, runs, settings = run_experiment(write(tmp_path, text))
     runs[0]["result"].signals["p$x.y"][:] = math.nan

@@ -42,7 +42,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from hybridsim.errors import InputError
-from hybridsim.analysis.lti import ContinuousModel, DiscreteModel, hand_modes  # noqa: F401 (re-exported)
+from hybridsim.analysis.lti import ContinuousModel, DiscreteModel
 from hybridsim.engine.result import parse_signal
 
 

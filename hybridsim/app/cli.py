@@ -141,7 +141,7 @@ def cmd_check(args):
 
 def cmd_draw(args):
     """`hybridsim draw`: a picture of the diagram. Returns the exit status."""
-    from hybridsim.report.plots import draw_diagram
+    from hybridsim.report.picture import draw_diagram
     from hybridsim.files import atomic_file
 
     f = _load(args.diagram, args.set)

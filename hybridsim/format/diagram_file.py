@@ -10,7 +10,8 @@ from hybridsim.engine.registry import closest
 from hybridsim.format import tables
 from hybridsim.format.expand import ExpandMixin, count_blocks
 from hybridsim.format.extends import read_merged
-from hybridsim.format.kinds import ListOf, MapOf, Record, Text
+from hybridsim.format.kinds import ListOf, MapOf, Text
+from hybridsim.format.tables import Record
 from hybridsim.format.overrides import OverridesMixin
 from hybridsim.format.settings import SettingsMixin
 from hybridsim.format.values import _plain

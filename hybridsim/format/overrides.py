@@ -107,9 +107,7 @@ class OverridesMixin:
         if _is_subsystem(spec):
             if pname in spec:  # the subsystem block sets it
                 return np.asarray(self._resolve(spec[pname], str(self.path), self.params), float)
-            from hybridsim.format.diagram_file import DiagramFile
-
-            sub = DiagramFile(subsystem_path(spec, "."))
+            sub = type(self)(subsystem_path(spec, "."))  # the subsystem's own file, parsed alike
             sub.apply({k: self._resolve(v, str(self.path), self.params) for k, v in spec.items()
                        if k not in ("type", "file")})
             return sub.param_value(pname)

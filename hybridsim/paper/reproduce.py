@@ -344,7 +344,7 @@ def reproduce(outdir, jobs=None, progress=None, experiments=None, grid=GRID, bis
     models kept in ``outdir/joint_search/`` for a rerun).
     """
     extra = {"compiled": True} if compiled else {}
-    from hybridsim.report.plots import experiment_figure
+    from hybridsim.report.figures import experiment_figure
     import matplotlib.pyplot as plt
 
     say = progress or (lambda msg: None)

@@ -27,7 +27,7 @@ from hybridsim.api import build, load  # noqa: E402
 from hybridsim.runs.experiment import Experiment  # noqa: E402
 from hybridsim.files import atomic_dir  # noqa: E402
 from hybridsim.analysis.linearize import Linearization, LinearizationError  # noqa: E402
-from hybridsim.report.plots import draw_diagram  # noqa: E402
+from hybridsim.report.picture import draw_diagram  # noqa: E402
 
 
 def _unit_circle(ax):
