@@ -177,7 +177,7 @@ def test_disk_full_is_exit_5_with_the_os_message(tmp_path, capsys, monkeypatch):
     def full(*a, **k):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(a[-1]))
 
-    monkeypatch.setattr(files.os, "replace", full)
+    monkeypatch.setattr(os, "replace", full)
     code, _, err = run(capsys, "run", write(tmp_path, GOOD), "-q", "-o", tmp_path / "o")
     assert code == 5 and "No space left on device" in err and "ENOSPC" in err
     assert not (tmp_path / "o").exists()

@@ -146,3 +146,19 @@ def sweep_schema():
     out = tables.section_schema(tables.SWEEP)
     out.update({"$schema": "https://json-schema.org/draft/2020-12/schema", "title": "hybridsim sweep"})
     return out
+
+
+def write_schema(path):
+    """Write the diagram format's JSON Schema (:func:`diagram_schema`) to ``path`` (a ``.json`` file),
+    atomically; ``hybridsim schema -o FILE``. Returns the path.
+
+    Attach it to a diagram with its first line ``# yaml-language-server: $schema=PATH``.
+    """
+    import json
+
+    from hybridsim.files import atomic_file, check_output_file
+
+    out = check_output_file(path, ["json"])
+    with atomic_file(out, "w") as fh:
+        fh.write(json.dumps(diagram_schema(), indent=1) + "\n")
+    return out

@@ -154,7 +154,7 @@ _VEC = Either(Number(), ListOf(Number()))
 _NONNEG_VEC = Either(Number(0), ListOf(Number(0)))
 _ROBOT = [
     Setting("urdf", Text(nonempty=True), None, "a robot model file (relative: to the working folder)"),
-    Setting("robot", Text(nonempty=True), None, "a shipped robot: fig3_arm, ur3, ur5, ur10, panda, kinova, iiwa"),
+    Setting("robot", Text(nonempty=True), None, "a shipped robot by name (ur5, panda, ...: the robot_arm block's docs list them)"),
     Setting("frame", Text(nonempty=True), None, "the tool frame (default: the model's last frame)"),
 ]
 

@@ -25,7 +25,7 @@ import numpy as np
 from hybridsim.analysis import stability as an
 from hybridsim.api import run_experiment
 from hybridsim.errors import SimulationError
-from hybridsim.app.examples import diagrams_folder
+from hybridsim.shipped import diagrams_folder
 from hybridsim.files import atomic_dir
 from hybridsim.engine.registry import default
 from hybridsim.blocks.paper.surface import Surface
