@@ -50,6 +50,48 @@ def _block_library():
     return "\n".join(out)
 
 
+def _commands():
+    """docs/_generated/commands.md: every command with its description and options, from the parser
+    ``hybridsim --help`` prints (hybridsim/app: one module per command)."""
+    import argparse
+
+    from hybridsim.app.cli import build_parser
+
+    def options(parser):
+        rows = []
+        for a in parser._actions:
+            if isinstance(a, (argparse._HelpAction, argparse._SubParsersAction)):
+                continue
+            name = ", ".join(a.option_strings) or (a.metavar or a.dest).upper()
+            if a.option_strings and a.nargs != 0:
+                name += f" {a.metavar or a.dest.upper()}"
+            text = (a.help or "").replace("|", "\\|").replace("<", "\\<")
+            if a.choices:
+                text += f" (one of {', '.join(map(str, a.choices))})"
+            rows.append(f"| `{name}` | {text} |")
+        return ["| argument | meaning |", "| --- | --- |", *rows, ""] if rows else []
+
+    def commands(parser, prefix):
+        sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
+        if sub is None:
+            return []
+        out = []
+        for name, sp in sub.choices.items():
+            full = f"{prefix} {name}"
+            if any(isinstance(a, argparse._SubParsersAction) for a in sp._actions):
+                out += [f"## `{full}`", "", sp.description or "", ""] + commands(sp, full)
+                continue
+            out += [f"## `{full}`", "", (sp.description or "").replace("<", "\\<"), "", "```text", sp.format_usage().strip(), "```", ""]
+            out += options(sp)
+        return out
+
+    parser = build_parser()
+    return "\n".join(["# Commands", "",
+                       "Generated from the command's own parser when the documentation is built: the same text "
+                       "as `hybridsim COMMAND --help`. Every command also takes `--plugin MODULE`.", "",
+                       "```text", parser.format_usage().strip(), "```", ""] + commands(parser, "hybridsim"))
+
+
 def _api():
     """docs/_generated/api.md: one section per module of the package."""
     import hybridsim
@@ -71,7 +113,7 @@ def _api():
 def _generate(app):
     gen = HERE / "_generated"
     gen.mkdir(exist_ok=True)
-    for fname, text in (("blocks.md", _block_library()), ("api.md", _api())):
+    for fname, text in (("blocks.md", _block_library()), ("commands.md", _commands()), ("api.md", _api())):
         path = gen / fname
         if not path.exists() or path.read_text() != text:  # unchanged files keep Sphinx's cache valid
             path.write_text(text)
