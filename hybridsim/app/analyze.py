@@ -6,6 +6,7 @@ from hybridsim.format import tables
 
 
 def add(sub):
+    """The argparse spec of this module\'s command(s), added to ``sub`` (the subcommands)."""
     a = sub.add_parser("analyze", help="linearize: closed-loop poles, margins, rate and gain sweeps",
                        description="Linearize the diagram about its initial state (or the state at --at "
                                    "seconds) and print the closed-loop poles (sampled-data, exact at the "
@@ -27,6 +28,7 @@ def add(sub):
 
 
 def analyze(args):
+    """Do the command: one call of the Python API, its result printed; returns the exit status."""
     from hybridsim.analysis.stability import summary_lines
     from hybridsim.report.stability import write_analysis
 
@@ -38,6 +40,7 @@ def analyze(args):
 
 
 def report(args):
+    """Do the command: one call of the Python API, its result printed; returns the exit status."""
     from hybridsim.report.stability import write_report
 
     f = options.diagram(args)

@@ -2,6 +2,7 @@
 
 
 def add(sub):
+    """The argparse spec of this module\'s command(s), added to ``sub`` (the subcommands)."""
     p = sub.add_parser("blocks", help="list the block types",
                        description="Every registered block type (the library's and the plugins') by group, "
                                    "with its one-line description; -v adds parameters with their defaults, "
@@ -11,6 +12,7 @@ def add(sub):
 
 
 def run(args):
+    """Do the command: one call of the Python API, its result printed; returns the exit status."""
     from hybridsim.format.catalog import catalog
 
     for k, (group, infos) in enumerate(catalog().items()):

@@ -3,6 +3,7 @@ from hybridsim.app import options
 
 
 def add(sub):
+    """The argparse spec of this module\'s command(s), added to ``sub`` (the subcommands)."""
     p = sub.add_parser("check", help="validate a diagram without running it",
                        description="Build every variant of a diagram as a run would (blocks, wires, rates, "
                                    "settings, the sizes of the run) without running it: a diagram that passes "
@@ -12,6 +13,7 @@ def add(sub):
 
 
 def run(args):
+    """Do the command: one call of the Python API, its result printed; returns the exit status."""
     from hybridsim import api
 
     f = options.diagram(args)

@@ -3,6 +3,7 @@ from hybridsim.app import options
 
 
 def add(sub):
+    """The argparse spec of this module\'s command(s), added to ``sub`` (the subcommands)."""
     p = sub.add_parser("draw", help="render the diagram as a picture (one colour per rate)",
                        description="Draw a diagram (its first variant): the forward path left to right, "
                                    "feedback routed around it (Graphviz's dot where it is installed, else "
@@ -17,6 +18,7 @@ def add(sub):
 
 
 def run(args):
+    """Do the command: one call of the Python API, its result printed; returns the exit status."""
     from hybridsim.report.picture import write_picture
 
     out, note = write_picture(options.diagram(args), args.output, expand=args.expand)

@@ -3,6 +3,7 @@ from pathlib import Path
 
 
 def add(sub):
+    """The argparse spec of this module\'s command(s), added to ``sub`` (the subcommands)."""
     p = sub.add_parser("examples", help="copy the shipped diagrams into a folder you can edit",
                        description="Copy every shipped diagram (the paper's figures, the Fig 6 "
                                    "controller subsystem, the examples and the sweeps) into a folder. "
@@ -13,6 +14,7 @@ def add(sub):
 
 
 def run(args):
+    """Do the command: one call of the Python API, its result printed; returns the exit status."""
     from hybridsim.shipped import copy_examples
 
     written, kept = copy_examples(args.output)

@@ -2,6 +2,7 @@
 
 
 def add(sub):
+    """The argparse spec of this module\'s command(s), added to ``sub`` (the subcommands)."""
     fm = sub.add_parser("fmu", help="FMU tools: 'hybridsim fmu build' exports the plant",
                         description="Build the plant FMU, or export a diagram as an FMU.")
     fsub = fm.add_subparsers(dest="fmu_command", metavar="FMU_COMMAND")
@@ -31,6 +32,7 @@ def add(sub):
 
 
 def build(args):
+    """Do the command: one call of the Python API, its result printed; returns the exit status."""
     from hybridsim.app.options import note
     from hybridsim.fmus.build import write_plant_fmu
 
@@ -41,6 +43,7 @@ def build(args):
 
 
 def export(args):
+    """Do the command: one call of the Python API, its result printed; returns the exit status."""
     from hybridsim.fmi.export import export_fmu
 
     out = export_fmu(args.diagram, args.output, fmi=args.fmi)

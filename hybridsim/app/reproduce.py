@@ -6,6 +6,7 @@ from hybridsim.app import options
 
 
 def add(sub):
+    """The argparse spec of this module\'s command(s), added to ``sub`` (the subcommands)."""
     p = sub.add_parser("reproduce", help="run every experiment of the paper and check its claims",
                        description="Run Figs 7-10 and eq 18 as printed, check each of the paper's claims, "
                                    "search the smallest damping that reproduces what fails, explain it with "
@@ -25,6 +26,7 @@ def add(sub):
 
 
 def run(args):
+    """Do the command: one call of the Python API, its result printed; returns the exit status."""
     from hybridsim.files import check_output_dir
     from hybridsim.paper.reproduce import reproduce
 

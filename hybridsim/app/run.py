@@ -10,6 +10,7 @@ DESCRIPTION = ("Simulate a diagram (all its variants) and write, atomically, a C
 
 
 def add(sub):
+    """The argparse spec of this module\'s command(s), added to ``sub`` (the subcommands)."""
     p = sub.add_parser("run", help=HELP, description=DESCRIPTION)
     options.add_diagram(p)
     p.add_argument("-o", "--output", metavar="OUTDIR", help="output folder (default out/<name>)")
@@ -22,6 +23,7 @@ def add(sub):
 
 
 def run(args):
+    """Do the command: one call of the Python API, its result printed; returns the exit status."""
     from hybridsim import api
 
     f = options.diagram(args, ["simulation.compiled=true"] if args.compiled else [])

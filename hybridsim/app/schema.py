@@ -4,6 +4,7 @@ import sys
 
 
 def add(sub):
+    """The argparse spec of this module\'s command(s), added to ``sub`` (the subcommands)."""
     p = sub.add_parser("schema", help="write a JSON Schema of the diagram format (for editors)",
                        description="Generate a JSON Schema of the diagram format from the block registry "
                                    "(every block type with its parameters and defaults, plugins included) and "
@@ -15,6 +16,7 @@ def add(sub):
 
 
 def run(args):
+    """Do the command: one call of the Python API, its result printed; returns the exit status."""
     from hybridsim.format.schema import diagram_schema, write_schema
 
     if not args.output:

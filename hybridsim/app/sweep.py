@@ -5,6 +5,7 @@ from hybridsim.app import options
 
 
 def add(sub):
+    """The argparse spec of this module\'s command(s), added to ``sub`` (the subcommands)."""
     p = sub.add_parser("sweep", help="run a parameter sweep in parallel (resumable)",
                        description="Run every point of a sweep file (grid, scaled gains, seeded random) "
                                    "on all local cores or a Dask cluster, reduce each run to metrics, "
@@ -20,6 +21,7 @@ def add(sub):
 
 
 def run(args):
+    """Do the command: one call of the Python API, its result printed; returns the exit status."""
     from hybridsim.files import output_dir, safe_name
     from hybridsim.runs.sweep import run_sweep
 

@@ -5,6 +5,7 @@ from hybridsim.app import options
 
 
 def add(sub):
+    """The argparse spec of this module\'s command(s), added to ``sub`` (the subcommands)."""
     p = sub.add_parser("tune", help="search parameters for objectives under constraints (resumable)",
                        description="Search the parameters a tune file names (bounds, log scale, integer or "
                                    "choice) for its objectives (run metrics, step responses, loop margins, "
@@ -21,6 +22,7 @@ def add(sub):
 
 
 def run(args):
+    """Do the command: one call of the Python API, its result printed; returns the exit status."""
     from hybridsim.files import output_dir, safe_name
     from hybridsim.tune import run_tune
     from hybridsim.tune.report import summary_lines
