@@ -37,7 +37,7 @@ def _block_library():
         for b in infos:
             out += [f"### `{b.type_name}`", ""]
             rows = [f"| `{p}` | required |" for p in b.required]
-            rows += [f"| `{p}` | `{v!r}` |" for p, v in b.optional.items()]
+            rows += [f"| `{p}` | `{v!r}` |" for p, v in b.defaults.items()]
             if rows:
                 out += ["| parameter | default |", "| --- | --- |", *rows, ""]
             if b.inputs is not None:

@@ -27,7 +27,7 @@ def lines(b, verbose):
     out = [f"  {b.type_name:26s} {b.doc}"]
     if not verbose:
         return out
-    shown = list(b.required) + [f"{p}={v!r}" for p, v in b.optional.items()]
+    shown = list(b.required) + [f"{p}={v!r}" for p, v in b.defaults.items()]
     out.append(f"  {'':26s} parameters: {', '.join(shown) or 'none'}")
     if b.inputs is not None:
         port = lambda p: f"{p[0]}[{p[1]}]"  # noqa: E731

@@ -2,10 +2,10 @@
 
 Each command is a module of this package with its argparse spec (``add``) and a
 ``run(args)`` that makes one call of the Python API and prints the result
-(:mod:`.run`, :mod:`.check`, :mod:`.draw`, :mod:`.analyze` (analyze, report),
-:mod:`.sweep`, :mod:`.tune`, :mod:`.reproduce`, :mod:`.fmu` (build, export),
-:mod:`.examples`, :mod:`.blocks`, :mod:`.schema`); this module assembles them and
-turns every failure into its message and exit status.
+(``hybridsim.app.run``, ``check``, ``draw``, ``analyze`` (analyze, report), ``sweep``,
+``tune``, ``reproduce``, ``fmu`` (build, export), ``examples``, ``blocks``, ``schema``);
+this module assembles them (:data:`COMMANDS`) and turns every failure into its message
+and exit status.
 
 Exit status by origin (the table in :mod:`hybridsim.errors`): 0 success; 2 bad
 input; 3 the model diverged or its solver failed; 4 an FMU; 5 the environment

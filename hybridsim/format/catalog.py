@@ -13,7 +13,7 @@ from hybridsim.engine.registry import groups, lookup, parameters
 class BlockInfo:
     """One block type as the library lists it.
 
-    ``required``: parameter names without a default; ``optional``: ``{name: default}``;
+    ``required``: parameter names without a default; ``defaults``: ``{name: default}`` of the others;
     ``inputs``/``outputs``: ``[(port, width)]`` of the block built with its defaults (None
     when it cannot be built so, e.g. it needs a file); ``rate_hz`` and ``states`` likewise.
     """
@@ -22,7 +22,7 @@ class BlockInfo:
     cls: type
     doc: str
     required: list
-    optional: dict
+    defaults: dict
     inputs: list = None
     outputs: list = None
     rate_hz: float = None
@@ -46,7 +46,7 @@ def block_info(type_name):
     sig = inspect.signature(cls.__init__).parameters
     lines = (cls.__doc__ or "").strip().splitlines()
     doc = lines[0] if lines else f"(no description: {cls.__module__}.{cls.__qualname__} has no docstring)"
-    info = dict(type_name=type_name, cls=cls, doc=doc, required=req, optional={p: sig[p].default for p in opt})
+    info = dict(type_name=type_name, cls=cls, doc=doc, required=req, defaults={p: sig[p].default for p in opt})
     try:  # the ports of a block with its defaults (a block that needs a file has none to show)
         blk = cls(name="b")
     except Exception:  # noqa: BLE001 - only for showing
