@@ -12,26 +12,25 @@ from hybridsim.errors import InputError
 from hybridsim.format.yamlio import parse_value
 
 
-def jobs(text):
-    """A number of processes (argparse type): a whole number >= 1."""
+def _whole(text, many="", one=""):
+    """``text`` as a whole number >= 1, else argparse's error ("of processes", "process")."""
     try:
         n = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expects a whole number of processes, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expects a whole number{many}, got {text!r}") from None
     if n < 1:
-        raise argparse.ArgumentTypeError(f"expects at least 1 process, got {n}")
+        raise argparse.ArgumentTypeError(f"expects at least 1{one}, got {n}")
     return n
+
+
+def jobs(text):
+    """A number of processes (argparse type): a whole number >= 1."""
+    return _whole(text, " of processes", " process")
 
 
 def count(text):
     """A whole number >= 1 (argparse type)."""
-    try:
-        n = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expects a whole number, got {text!r}") from None
-    if n < 1:
-        raise argparse.ArgumentTypeError(f"expects at least 1, got {n}")
-    return n
+    return _whole(text)
 
 
 def seconds(text):

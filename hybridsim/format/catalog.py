@@ -29,13 +29,15 @@ class BlockInfo:
     states: int = 0
 
 
-def block_info(type_name):
+def block_info(type_name, ports=True):
     """A :class:`BlockInfo` of registered block type ``type_name``.
 
     Parameters
     ----------
     type_name : str
         e.g. ``"gain"``.
+    ports : bool
+        Build the block with its defaults to read its ports, rate and states (else they are None/0).
 
     Returns
     -------
@@ -47,6 +49,8 @@ def block_info(type_name):
     lines = (cls.__doc__ or "").strip().splitlines()
     doc = lines[0] if lines else f"(no description: {cls.__module__}.{cls.__qualname__} has no docstring)"
     info = dict(type_name=type_name, cls=cls, doc=doc, required=req, defaults={p: sig[p].default for p in opt})
+    if not ports:
+        return BlockInfo(**info)
     try:  # the ports of a block with its defaults (a block that needs a file has none to show)
         blk = cls(name="b")
     except Exception:  # noqa: BLE001 - only for showing
