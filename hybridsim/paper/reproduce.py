@@ -185,7 +185,7 @@ def conventions(name, settings):
 
     Says the run length, the log grid, the window and whether the force is
     the 12 Hz display-filtered one (causal 2nd-order Butterworth, started in
-    steady state: :func:`hybridsim.analysis.metrics.display_filter`) or raw.
+    steady state: :func:`hybridsim.forcecontrol.metrics.display_filter`) or raw.
     """
     sim, m = settings["simulation"], settings.get("metrics") or {}
     t_end, log = float(sim["t_end"]), float(sim.get("log_period") or sim["step"])
