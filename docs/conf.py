@@ -5,7 +5,6 @@ block registry and the package's modules, into ``_generated/``: nothing there
 is written by hand.
 """
 import importlib
-import inspect
 import pkgutil
 from pathlib import Path
 
@@ -28,36 +27,69 @@ html_title = "hybridsim"
 
 def _block_library():
     """docs/_generated/blocks.md: every registered block type by group, with its parameters and ports."""
-    from hybridsim.engine.registry import GROUP_ORDER, group, lookup, parameters, types
+    from hybridsim.format.catalog import catalog
 
-    by_group = {}
-    for name in types():
-        by_group.setdefault(group(lookup(name)), []).append(name)
-    order = [g for g in GROUP_ORDER if g in by_group] + sorted(set(by_group) - set(GROUP_ORDER))
     out = ["# The block library", "",
            "Generated from the block registry when the documentation is built "
            "(`hybridsim blocks -v` prints the same). Units are in each block's description.", ""]
-    for g in order:
+    for g, infos in catalog().items():
         out += [f"## {g}", ""]
-        for name in sorted(by_group[g]):
-            cls = lookup(name)
-            req, opt = parameters(cls)
-            sig = inspect.signature(cls.__init__).parameters
-            out += [f"### `{name}`", ""]
-            rows = [f"| `{p}` | {'required' if p in req else f'`{sig[p].default!r}`'} |" for p in req + opt]
+        for b in infos:
+            out += [f"### `{b.type_name}`", ""]
+            rows = [f"| `{p}` | required |" for p in b.required]
+            rows += [f"| `{p}` | `{v!r}` |" for p, v in b.defaults.items()]
             if rows:
                 out += ["| parameter | default |", "| --- | --- |", *rows, ""]
-            try:
-                blk = cls(name="b")
-                port = lambda p: f"`{p.name}[{p.width}]`"  # noqa: E731
-                out += [f"Inputs {', '.join(map(port, blk.inputs)) or 'none'}; "
-                        f"outputs {', '.join(map(port, blk.outputs)) or 'none'}"
-                        + (f"; {blk.n_continuous} continuous states" if blk.n_continuous else "") + ".", ""]
-            except Exception:  # noqa: BLE001 - a block that needs a file (an FMU) has no default ports
-                pass
-            out += ["```{eval-rst}", f".. autoclass:: {cls.__module__}.{cls.__qualname__}",
+            if b.inputs is not None:
+                port = lambda p: f"`{p[0]}[{p[1]}]`"  # noqa: E731
+                out += [f"Inputs {', '.join(map(port, b.inputs)) or 'none'}; "
+                        f"outputs {', '.join(map(port, b.outputs)) or 'none'}"
+                        + (f"; {b.states} continuous states" if b.states else "") + ".", ""]
+            out += ["```{eval-rst}", f".. autoclass:: {b.cls.__module__}.{b.cls.__qualname__}",
                     "   :no-members:", "   :no-index:", "```", ""]
     return "\n".join(out)
+
+
+def _commands():
+    """docs/_generated/commands.md: every command with its description and options, from the parser
+    ``hybridsim --help`` prints (hybridsim/app: one module per command)."""
+    import argparse
+
+    from hybridsim.app.cli import build_parser
+
+    def options(parser):
+        rows = []
+        for a in parser._actions:
+            if isinstance(a, (argparse._HelpAction, argparse._SubParsersAction)):
+                continue
+            name = ", ".join(a.option_strings) or (a.metavar or a.dest).upper()
+            if a.option_strings and a.nargs != 0:
+                name += f" {a.metavar or a.dest.upper()}"
+            text = (a.help or "").replace("|", "\\|").replace("<", "\\<")
+            if a.choices:
+                text += f" (one of {', '.join(map(str, a.choices))})"
+            rows.append(f"| `{name}` | {text} |")
+        return ["| argument | meaning |", "| --- | --- |", *rows, ""] if rows else []
+
+    def commands(parser, prefix):
+        sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
+        if sub is None:
+            return []
+        out = []
+        for name, sp in sub.choices.items():
+            full = f"{prefix} {name}"
+            if any(isinstance(a, argparse._SubParsersAction) for a in sp._actions):
+                out += [f"## `{full}`", "", sp.description or "", ""] + commands(sp, full)
+                continue
+            out += [f"## `{full}`", "", (sp.description or "").replace("<", "\\<"), "", "```text", sp.format_usage().strip(), "```", ""]
+            out += options(sp)
+        return out
+
+    parser = build_parser()
+    return "\n".join(["# Commands", "",
+                       "Generated from the command's own parser when the documentation is built: the same text "
+                       "as `hybridsim COMMAND --help`. Every command also takes `--plugin MODULE`.", "",
+                       "```text", parser.format_usage().strip(), "```", ""] + commands(parser, "hybridsim"))
 
 
 def _api():
@@ -81,7 +113,7 @@ def _api():
 def _generate(app):
     gen = HERE / "_generated"
     gen.mkdir(exist_ok=True)
-    for fname, text in (("blocks.md", _block_library()), ("api.md", _api())):
+    for fname, text in (("blocks.md", _block_library()), ("commands.md", _commands()), ("api.md", _api())):
         path = gen / fname
         if not path.exists() or path.read_text() != text:  # unchanged files keep Sphinx's cache valid
             path.write_text(text)

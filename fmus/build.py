@@ -29,3 +29,30 @@ def build_plant_fmu(out="plant.fmu", fmi=2):
     extra = {"sources/buildDescription.xml": pm.build_description()} if fmi == 3 else {}
     return build_fmu(out, pm.MODEL_NAME, [here / f for f in pm.C_FILES[fmi]], pm.model_description(fmi),
                      headers, extra_files=extra)
+
+
+def write_plant_fmu(output=None, fmi=2):
+    """Build the plant FMU into a file of the user's (``hybridsim fmu build``).
+
+    Parameters
+    ----------
+    output : path-like, optional
+        The ``.fmu`` to write. Default ``plant.fmu`` in the working folder, where a
+        ``plant.fmu`` hybridsim did not write is kept and the next free name
+        ``plant-2.fmu``, ... is used.
+    fmi : {2, 3}
+        The FMI version.
+
+    Returns
+    -------
+    (pathlib.Path, str or None)
+        The FMU written, and a note saying why it is not the default name (or None).
+    """
+    from hybridsim.files import check_output_file, default_output_file, note_written
+
+    out, note = check_output_file(output or "plant.fmu", ["fmu"]), None
+    if not output:
+        out, note = default_output_file(out)
+    out = build_plant_fmu(out, fmi=fmi)
+    note_written(out)
+    return Path(out), note

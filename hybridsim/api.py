@@ -102,8 +102,12 @@ def load(path, **overrides):
     Keys: a name in ``params`` (``rate=80``), a block parameter
     (``**{"arm.damping": [5, 50]}``), or a simulation setting (``t_end=1``).
     """
-    ov = {(f"simulation.{k}" if k in SIMULATION_KEYS else k): v for k, v in overrides.items()}
-    return DiagramFile(path, ov)
+    return DiagramFile(path, load_keys(overrides))
+
+
+def load_keys(overrides):
+    """``overrides`` with a bare simulation setting (``t_end``) named as a path (``simulation.t_end``)."""
+    return {(f"simulation.{k}" if k in SIMULATION_KEYS else k): v for k, v in overrides.items()}
 
 
 def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
@@ -174,7 +178,7 @@ def write_outputs(f, runs, settings, outdir, only_ours=False):
     CSV names cannot collide (a short hash where two labels slug alike);
     ``only_ours`` (a default folder): replace no file hybridsim did not write.
     """
-    from hybridsim.report.plots import experiment_figure
+    from hybridsim.report.figures import experiment_figure
 
     outdir = Path(outdir)
     name = safe_name(f.name)
@@ -194,4 +198,45 @@ def write_outputs(f, runs, settings, outdir, only_ours=False):
                         for r in runs]}
         (tmp / "metrics.json").write_text(json.dumps(doc, indent=2, default=float) + "\n")
     return outdir
+
+
+
+def _file(source, overrides):
+    """The DiagramFile of ``source`` (a path, or a DiagramFile whose overrides ``overrides`` extend)."""
+    if isinstance(source, DiagramFile):
+        return DiagramFile(source.path, {**source.overrides, **load_keys(overrides)}) if overrides else source
+    return load(source, **overrides)
+
+
+def run(source, outdir=None, progress=False, jobs=None, **overrides):
+    """Run every variant of a diagram and write its CSV, figure and metrics; ``hybridsim run``.
+
+    Parameters
+    ----------
+    source : str, Path or DiagramFile
+        The diagram.
+    outdir : path-like, optional
+        The output folder (default ``out/<name>``, where no file hybridsim did not write is replaced).
+    progress : bool
+        A progress bar on a terminal.
+    jobs : int, optional
+        Processes for several variants (default one per core).
+    **overrides
+        As :func:`load` takes them.
+
+    Returns
+    -------
+    dict
+        ``file`` (the DiagramFile), ``runs`` (as :func:`run_experiment`), ``settings`` and ``outdir``.
+    """
+    from hybridsim.files import output_dir
+
+    f = _file(source, overrides)
+    outdir, only_ours = output_dir(outdir, Path("out") / safe_name(f.name), whole=False)
+    check(f)
+    from hybridsim.runs.variants import run_experiment
+
+    f, runs, settings = run_experiment(f, progress=progress, jobs=jobs)
+    write_outputs(f, runs, settings, outdir, only_ours=only_ours)
+    return {"file": f, "runs": runs, "settings": settings, "outdir": outdir}
 

@@ -22,7 +22,8 @@ from hypothesis import strategies as st
 
 from hybridsim.app.cli import main
 from hybridsim.format import tables
-from hybridsim.format.kinds import (Bool, Choice, Either, Kind, ListOf, MapOf, Number, PathText, Record, Signal,
+from hybridsim.format.tables import Record
+from hybridsim.format.kinds import (Bool, Choice, Either, Kind, ListOf, MapOf, Number, PathText, Signal,
                                     Text)
 
 #: the exit statuses hybridsim documents (hybridsim/errors.py)
@@ -109,7 +110,7 @@ def diagrams(draw):
         doc["variants"] = {draw(st.sampled_from(["k", "rate", "nope"])): draw(st.lists(ODD | st.floats(1, 3),
                                                                                     max_size=3))}
     if draw(st.integers(0, 3)) == 0:
-        doc["signals"] = draw(st.dictionaries(st.sampled_from(tables.SIGNAL_ROLES + ["forse"]),
+        doc["signals"] = draw(st.dictionaries(st.sampled_from(tables.keys(tables.SIGNALS) + ["forse"]),
                                               st.sampled_from(SIGNALS) | ODD, max_size=3))
     return doc
 

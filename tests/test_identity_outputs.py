@@ -177,7 +177,7 @@ def test_disk_full_is_exit_5_with_the_os_message(tmp_path, capsys, monkeypatch):
     def full(*a, **k):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(a[-1]))
 
-    monkeypatch.setattr(files.os, "replace", full)
+    monkeypatch.setattr(os, "replace", full)
     code, _, err = run(capsys, "run", write(tmp_path, GOOD), "-q", "-o", tmp_path / "o")
     assert code == 5 and "No space left on device" in err and "ENOSPC" in err
     assert not (tmp_path / "o").exists()
@@ -337,7 +337,7 @@ signals: {force: 'p$x.y[0]', force_desired: 'z.y[0]'}
     import matplotlib.pyplot as plt
 
     from hybridsim.runs.variants import run_experiment
-    from hybridsim.report.plots import experiment_figure
+    from hybridsim.report.figures import experiment_figure
 
     f, runs, settings = run_experiment(write(tmp_path, text))
     runs[0]["result"].signals["p$x.y"][:] = math.nan

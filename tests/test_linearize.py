@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 import hybridsim as hs
-from hybridsim.analysis.linearize import Linearization, LinearizationError, zoh
+from hybridsim.analysis.jacobians import zoh
+from hybridsim.analysis.linearize import Linearization, LinearizationError
 
 from hybridsim.blocks.continuous.linear import StateSpace
 

@@ -3,7 +3,7 @@ import matplotlib.pyplot as plt
 import pytest
 
 import hybridsim as hs
-from hybridsim.report.plots import experiment_figure
+from hybridsim.report.figures import experiment_figure
 from conftest import DIAGRAMS
 
 
@@ -28,7 +28,7 @@ def test_the_diagram_picture_keeps_every_box_and_wire_on_the_canvas(graphviz, mo
 
     from matplotlib.patches import FancyArrowPatch
 
-    from hybridsim.report.plots import draw_diagram
+    from hybridsim.report.picture import draw_diagram
 
     if graphviz and shutil.which("dot") is None:
         pytest.skip("Graphviz's dot is not installed (the layered layout is tested)")

@@ -122,7 +122,7 @@ def test_a_dot_in_a_block_name_is_refused(tmp_path, capsys):
 
 
 def test_draw_shows_a_subsystem_as_one_box_or_expanded(nested, tmp_path):
-    from hybridsim.report.plots import draw_diagram
+    from hybridsim.report.picture import draw_diagram
 
     system = hs.build(nested)[0]
     boxes = lambda fig: {t.get_text() for t in fig.axes[0].texts}  # noqa: E731

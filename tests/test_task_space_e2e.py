@@ -78,7 +78,7 @@ def test_the_rigid_body_arm_runs_the_papers_experiment():
     """Fig 10 with the Fig 3 arm as one rigid body (URDF by Pinocchio): it starts at first touch and
     tracks the ramp about as the printed model does (measured max filtered error over 0.75-2.5 s at
     60 Hz: 2.14 N, the printed model 2.16 N; both fail the paper's 1 N)."""
-    from hybridsim.analysis.metrics import display_filter
+    from hybridsim.forcecontrol.metrics import display_filter
 
     paper = hs.simulate(DIAGRAMS / "fig10_force_ramp.yaml", t_end=1.5)
     body = hs.simulate(DIAGRAMS / "fig10_rigid_body.yaml", t_end=1.5)

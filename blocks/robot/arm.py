@@ -66,7 +66,7 @@ def urdf_path(urdf=None, robot=None):
                                      f"(robot: one of {', '.join(ROBOTS)}), one of them")
     if robot is not None:
         if robot in OWN_ROBOTS:
-            from hybridsim.app.examples import diagrams_folder
+            from hybridsim.shipped import diagrams_folder
 
             return diagrams_folder() / "robots" / OWN_ROBOTS[robot]
         if robot not in ROBOTS:

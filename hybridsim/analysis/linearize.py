@@ -1,82 +1,34 @@
 """Linearize a diagram about an operating point; the exact sampled-data loop.
 
-Method
-------
-A built system splits into
+A built system splits into the continuous part ``xc' = f(xc, h)`` (``h``: the held
+outputs of discrete and piecewise-constant blocks) and the *tick pass* at each
+sample hit, a function of ``s = (xc, xd, yd)`` (continuous and discrete states,
+held discrete outputs). Both are linearized by central differences
+(:mod:`.jacobians`, checked against a step four times smaller); between hits the
+continuous part is discretized exactly by zero-order hold, and the product over
+the hits of one hyperperiod is the closed loop lifted to it - exact for any mix
+of rates. States whose columns vanish are dropped (only zero eigenvalues go).
 
-* the continuous part: ``xc' = f(xc, h)``, where ``h`` are the held values
-  (outputs of discrete and piecewise-constant blocks) that the right-hand
-  side reads. Linearized numerically: ``A = df/dxc``, ``B = df/dh``
-  (central differences, step checked against a step four times smaller);
-* the *tick pass* at each sample hit: outputs in dependency order, then the
-  due discrete blocks' updates. As a function of the state
-  ``s = (xc, xd, yd)`` (continuous states, discrete states, held outputs of
-  discrete blocks) it gives ``h``, ``xd+`` and ``yd+``; linearized the same way.
-
-Between hits ``h`` is constant, so the continuous part is discretized exactly
-by zero-order hold, ``xc(t+tau) = Phi(tau) xc + Gamma(tau) h`` (matrix
-exponential). One hit and the interval after it give a matrix ``M_k``; the
-product over all hits of one hyperperiod (the least common multiple of the
-periods) is the closed loop lifted to that period - exact for any mix of rates.
-States whose columns vanish (held outputs overwritten at every hyperperiod)
-are removed; this drops only eigenvalues at zero.
-
-Loop openings (analysis points) replace the value of a signal sampled at the
-hits by an external input ``v`` and measure the value the diagram computes
-there, ``y``; the loop transfer is ``L = -y/v`` (negative-feedback convention,
-closed loop ``1/(1+L)``), a discrete python-control system at the servo period.
-
-A diagram with nothing sampled is linearized as the continuous system it is:
-the closed loop is ``xc' = A xc`` (poles in the s-plane), and a loop opened at
-any signal the right-hand side computes is a continuous ``L(s)``, with the same
-sign convention.
-
-Time-varying sources are frozen at the operating time; the nonsmooth blocks
-(friction, contact, limiters) are linearized on the branch the operating point
-lies on - choose the branch with parameter overrides (e.g. ``arm.friction``).
+A loop opened at a signal (an analysis point) replaces its value at the hits by
+an input ``v`` and measures what the diagram computes there, ``y``; the loop
+transfer is ``L = -y/v`` (closed loop ``1/(1+L)``). A diagram with nothing sampled
+is the continuous system ``xc' = A xc`` with continuous loops ``L(s)``. Sources are
+frozen at the operating time; nonsmooth blocks are linearized on the branch the
+operating point lies on (choose it with overrides). docs/stability.md has the method.
 """
 import math
 
 import control
 import numpy as np
-from scipy.linalg import expm
 
 from hybridsim.errors import InputError
-from hybridsim.analysis.lti import ContinuousModel, DiscreteModel, hand_modes  # noqa: F401 (re-exported)
+from hybridsim.analysis.jacobians import checked_jacobian, jacobian, nonzero_columns, zoh
+from hybridsim.analysis.lti import ContinuousModel, DiscreteModel
 from hybridsim.engine.result import parse_signal
 
 
 class LinearizationError(InputError):
     """A diagram or analysis setting that cannot be linearized as asked (exit 2)."""
-
-
-def zoh(A, B, tau):
-    """(Phi, Gamma) of x' = A x + B u with u held over ``tau`` seconds."""
-    n, m = A.shape[0], B.shape[1]
-    aug = np.zeros((n + m, n + m))
-    aug[:n, :n], aug[:n, n:] = A * tau, B * tau
-    E = expm(aug)
-    return E[:n, :n], E[:n, n:]
-
-
-def _jacobian(fun, x0, steps):
-    """Central-difference Jacobian of ``fun`` at ``x0`` with per-entry steps."""
-    f0 = fun(x0)
-    J = np.zeros((f0.size, x0.size))
-    for j in range(x0.size):
-        e = np.zeros_like(x0)
-        e[j] = steps[j]
-        J[:, j] = (fun(x0 + e) - fun(x0 - e)) / (2 * steps[j])
-    return J
-
-
-def checked_jacobian(fun, x0, steps):
-    """Jacobian and an estimate of its error (difference to steps / 4)."""
-    J1 = _jacobian(fun, x0, steps)
-    J2 = _jacobian(fun, x0, steps / 4)
-    if not J2.size:  # no continuous state (or no input): nothing to difference
-        return J2, 0.0
-    return J2, float(np.max(np.abs(J2 - J1)) / max(np.max(np.abs(J2)), 1e-300))
 
 
 def start_outputs(system, ctx, t=0.0):
@@ -154,6 +106,10 @@ class Linearization:
     def _steps(self, v, floor):
         return self.rel_step * np.maximum(np.abs(v), floor)
 
+    def _floor_x(self):
+        """The smallest difference step base of each continuous state: 1e4 x its absolute tolerance."""
+        return np.maximum(np.where(np.isnan(self.system.atol), 1e-9, self.system.atol) * 1e4, 1e-9)
+
     def state_names(self):
         """Names of the entries of s = (xc, xd, yd)."""
         sysm = self.system
@@ -177,8 +133,7 @@ class Linearization:
         """(A, B): xc' = A dxc + B dh about the operating point; h = held inputs."""
         rhs = self._rhs()
         t = self.t
-        atol = np.where(np.isnan(self.system.atol), 1e-9, self.system.atol)
-        floor_x = np.maximum(atol * 1e4, 1e-9)
+        floor_x = self._floor_x()
 
         def fx(x):
             self._write(self.h_ports, self.h0)
@@ -228,9 +183,8 @@ class Linearization:
             self.ctx.evaluate(path, self.t, self.xc0)
             return measure()
 
-        atol = np.where(np.isnan(self.system.atol), 1e-9, self.system.atol)
-        C = _jacobian(gx, self.xc0.copy(), self._steps(self.xc0, np.maximum(atol * 1e4, 1e-9)))
-        D = _jacobian(gh, self.h0.copy(), self._steps(self.h0, 1e-3))
+        C = jacobian(gx, self.xc0.copy(), self._steps(self.xc0, self._floor_x()))
+        D = jacobian(gh, self.h0.copy(), self._steps(self.h0, 1e-3))
         self._write(self.h_ports, self.h0)
         return C, D
 
@@ -288,8 +242,7 @@ class Linearization:
     def _pass_matrices(self, due, inject=None, measure=None):
         """Linearized pass: [h; xd+; yd+ (; y)] = P [s (; v)]."""
         s0 = self._state0()
-        atol = np.where(np.isnan(self.system.atol), 1e-9, self.system.atol)
-        floor = np.concatenate([np.maximum(atol * 1e4, 1e-9),
+        floor = np.concatenate([self._floor_x(),
                                 np.full(self.xd0.size + self.yd0.size, 1e-3)])
         v0 = np.zeros(1)
         if inject is not None and inject[3] == "replace":
@@ -346,7 +299,7 @@ class Linearization:
             P = self._pass_matrices(due)
             Mk, _ = self._step_matrix(P, A, B, tau)
             M = Mk @ M
-        keep = _nonzero_columns(M)
+        keep = nonzero_columns(M)
         names = [n for n, k in zip(self.state_names(), keep) if k]
         return DiscreteModel(M[np.ix_(keep, keep)], H, names, self.fd_error)
 
@@ -371,7 +324,7 @@ class Linearization:
         ns = self._state0().size
         M, N = self._step_matrix(P[:-1], A, B, tau, n_in=1)
         Cy, Dy = P[-1:, :ns], P[-1:, ns:]
-        keep = _nonzero_columns(np.vstack([M, Cy]))
+        keep = nonzero_columns(np.vstack([M, Cy]))
         return control.ss(M[np.ix_(keep, keep)], N[keep], Cy[:, keep], Dy, H)
 
     def loop(self, signal):
@@ -438,28 +391,9 @@ class Linearization:
             fun(np.concatenate([self.xc0, v0]), injecting=False)
             v0 = np.array([ctx.y[inject[0]][inject[1]][inject[2]]])
         z0 = np.concatenate([self.xc0, v0])
-        atol = np.where(np.isnan(sysm.atol), 1e-9, sysm.atol)
-        floor = np.concatenate([np.maximum(atol * 1e4, 1e-9), [1e-3]])
+        floor = np.concatenate([self._floor_x(), [1e-3]])
         J, err = checked_jacobian(fun, z0, self._steps(z0, floor))
         self.fd_error = max(self.fd_error, err)
         ctx.y[inject[0]][inject[1]][:] = kept
         self._write(self.h_ports, self.h0)
         return control.ss(J[:n, :n], J[:n, n:], J[n:, :n], J[n:, n:])
-
-
-def _nonzero_columns(M):
-    """States to keep: drop, repeatedly, those whose column is zero.
-
-    ``M`` has one column per state and one row per state, possibly followed by
-    output rows. A state whose column vanishes (in the rows of the states kept
-    and the outputs) influences nothing; dropping it removes a zero eigenvalue.
-    """
-    n = M.shape[1]
-    extra = np.ones(M.shape[0] - n, bool)
-    keep = np.ones(n, bool)
-    while True:
-        rows = np.concatenate([keep, extra])
-        zero = keep & ~np.any(M[rows] != 0, axis=0)
-        if not zero.any():
-            return keep
-        keep &= ~zero

@@ -122,10 +122,18 @@ class ContinuousModel:
         return sorted(rows, key=lambda r: -r["pole"].real)
 
 
-def hand_modes(A, near_hz=None):
-    """Oscillatory eigenfrequencies (Hz) of a continuous A, highest first."""
+def oscillatory_modes(A):
+    """Oscillatory eigenfrequencies (Hz, to 1e-6) of a continuous A, highest first.
+
+    Parameters
+    ----------
+    A : (n, n) array
+        x' = A x.
+
+    Returns
+    -------
+    list of float
+        ``|Im s| / 2 pi`` of each eigenvalue with ``Im s > 0``, without repeats.
+    """
     ev = np.linalg.eigvals(A)
-    f = sorted({round(abs(e.imag) / (2 * np.pi), 6) for e in ev if e.imag > 0}, reverse=True)
-    if near_hz is not None:
-        return min(f, key=lambda x: abs(x - near_hz)) if f else None
-    return f
+    return sorted({round(abs(e.imag) / (2 * np.pi), 6) for e in ev if e.imag > 0}, reverse=True)

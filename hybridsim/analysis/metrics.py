@@ -1,14 +1,85 @@
-"""Figures of merit of a run: the numbers the paper quotes.
+"""Figures of merit of a run, from the signals a diagram names in its ``signals`` section.
 
-All functions take uniformly sampled arrays (the simulator's log grid). Force
-metrics are computed on the force as logged ("raw", it carries the ~272 Hz hand
-oscillation) and after the paper's 12 Hz display filter ("filtered"): a causal
-2nd-order Butterworth low-pass, started in steady state at the first sample.
+The metrics are registered (:func:`register`), the way blocks are: each set
+reads the roles it knows from ``signals`` (a dict role -> 1-D array on the log
+grid) and the diagram's ``metrics`` settings, and returns a flat dict of numbers;
+:func:`compute` runs every set and :func:`describe` turns the numbers into the
+phrases ``hybridsim run`` prints. The generic layers register none (a diagram
+without roles has none); :mod:`hybridsim.forcecontrol` registers those of force
+control.
+
+The signal functions below are the building blocks, on uniformly sampled arrays
+(the simulator's log grid): a low-pass filter, a step's rise and overshoot, the
+largest error in a window, the frequency of an oscillation.
 """
 import functools
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import signal as _sig
+
+
+@dataclass(frozen=True)
+class MetricSet:
+    """Metrics computed together: ``compute(t, signals, config) -> dict`` and ``describe(metrics) -> [phrase]``."""
+
+    name: str
+    compute: object
+    describe: object = None
+
+
+METRIC_SETS = []
+
+
+def register(name, compute, describe=None):
+    """Add a set of metrics that every run computes.
+
+    Parameters
+    ----------
+    name : str
+        A short name (a second registration under the same name replaces the first).
+    compute : callable
+        ``compute(t, signals, config) -> dict``: ``t`` the log times (s), ``signals`` the diagram's
+        roles as ``{role: 1-D array}``, ``config`` its ``metrics`` settings. It returns ``{}`` when the
+        roles it needs are not there.
+    describe : callable, optional
+        ``describe(metrics) -> list of str``: phrases for the terminal ("rise 0.120 s") from the
+        metrics of a run (all sets' together).
+    """
+    METRIC_SETS[:] = [m for m in METRIC_SETS if m.name != name] + [MetricSet(name, compute, describe)]
+
+
+def compute(result, signals, config=None):
+    """All metrics the registered sets can compute from a run, as a flat dict.
+
+    Parameters
+    ----------
+    result : hybridsim.engine.result.Result
+        The run.
+    signals : dict
+        The diagram's roles: ``{role: "block.port[i]"}`` (its ``signals`` section).
+    config : dict, optional
+        The diagram's ``metrics`` settings.
+
+    Returns
+    -------
+    dict
+        ``{metric name: number, bool or None}``.
+    """
+    cfg = dict(config or {})
+    arrays = {}
+    for role, ref in signals.items():
+        v = result[ref]
+        arrays[role] = v[:, 0] if v.ndim == 2 else v
+    out = {}
+    for m in METRIC_SETS:
+        out.update(m.compute(result.t, arrays, cfg))
+    return out
+
+
+def describe(metrics):
+    """The phrases of the registered sets for one run's ``metrics`` (see :func:`register`)."""
+    return [p for m in METRIC_SETS if m.describe is not None for p in m.describe(metrics)]
 
 
 @functools.lru_cache(maxsize=64)
@@ -18,8 +89,18 @@ def _butter2(wn):
     return b, a, _sig.lfilter_zi(b, a)
 
 
-def display_filter(t, y, cutoff=12.0):
-    """Causal 2nd-order Butterworth low-pass of ``y`` at ``cutoff`` Hz."""
+def lowpass(t, y, cutoff):
+    """Causal 2nd-order Butterworth low-pass of ``y`` at ``cutoff`` Hz, started in steady state at ``y[0]``.
+
+    Parameters
+    ----------
+    t : array
+        Uniform sample times (s); fewer than 3 leave ``y`` as it is.
+    y : array
+        The samples.
+    cutoff : float
+        Cutoff frequency (Hz); at or above Nyquist the filter passes up to 0.99 of Nyquist.
+    """
     y = np.asarray(y, float)
     if len(t) < 3:
         return y.copy()
@@ -59,22 +140,6 @@ def max_abs_error(t, y, y_d, window=None):
     return float(np.max(np.abs(np.asarray(y)[m] - np.asarray(y_d)[m])))
 
 
-def contact_report(t, contact):
-    """Was contact lost after it was first made? Returns a dict."""
-    c = np.asarray(contact) > 0.5
-    if not c.any():
-        return {"contact_lost": True, "first_loss_s": float(t[0]) if len(t) else None,
-                "time_out_of_contact_s": float(t[-1] - t[0]) if len(t) else 0.0}
-    first = int(np.argmax(c))
-    lost = ~c[first:]
-    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
-    return {
-        "contact_lost": bool(lost.any()),
-        "first_loss_s": float(t[first:][lost][0]) if lost.any() else None,
-        "time_out_of_contact_s": float(lost.sum() * dt),
-    }
-
-
 def dominant_frequency(t, y):
     """Frequency (Hz) of the main oscillation of ``y``, from its mean-crossings.
 
@@ -88,49 +153,3 @@ def dominant_frequency(t, y):
         return None
     tc = t[idx] - z[idx] * (t[idx + 1] - t[idx]) / (z[idx + 1] - z[idx])
     return float((idx.size - 1) / (2.0 * (tc[-1] - tc[0])))
-
-
-def compute(result, signals, config=None):
-    """All metrics a diagram's ``signals`` roles allow, as a flat dict.
-
-    ``config`` (the diagram's ``metrics`` section) may hold ``step_time``
-    (s, when the force command steps), ``ss_window`` (s at the end of the run
-    taken as steady state, default 0.5), ``error_window`` ([t0, t1] for the
-    force tracking error), ``filter_cutoff`` (Hz, default 12).
-    """
-    cfg = dict(config or {})
-    t = result.t
-
-    def sig(role):
-        v = result[signals[role]]
-        return v[:, 0] if v.ndim == 2 else v
-
-    out = {}
-    cutoff = float(cfg.get("filter_cutoff", 12.0))
-    if "force" in signals and "force_desired" in signals:
-        f, fd = sig("force"), sig("force_desired")
-        ff = display_filter(t, f, cutoff)
-        ss = float(cfg.get("ss_window", 0.5))
-        win = (t[-1] - ss, t[-1])
-        out["ss_force_error_filtered_N"] = max_abs_error(t, ff, fd, win)
-        out["ss_force_error_raw_N"] = max_abs_error(t, f, fd, win)
-        out["final_force_filtered_N"] = float(np.mean(ff[t >= win[0]]))
-        if "step_time" in cfg:
-            ts = float(cfg["step_time"])
-            before = fd[t < ts]
-            y0 = float(before[-1]) if before.size else float(fd[0])
-            step = step_response(t, ff, ts, y0, float(fd[-1]))
-            out["rise_time_s"] = step["rise_time_s"]
-            out["overshoot_pct"] = step["overshoot_pct"]
-        if "error_window" in cfg:
-            w = [float(v) for v in cfg["error_window"]]
-            out["force_error_max_filtered_N"] = max_abs_error(t, ff, fd, w)
-            out["force_error_max_raw_N"] = max_abs_error(t, f, fd, w)
-    if "position" in signals and "position_desired" in signals:
-        out["max_position_error_m"] = max_abs_error(
-            t, sig("position"), sig("position_desired"))
-    if "contact" in signals:
-        out.update(contact_report(t, sig("contact")))
-    if "oscillation" in signals:
-        out["oscillation_hz"] = dominant_frequency(t, sig("oscillation"))
-    return out

@@ -4,16 +4,17 @@ Reads an optional ``analysis`` section of the diagram::
 
     analysis:
       set: {friction: false}          # the branch to linearize on (overrides)
-      points: {force: ctrl.dF.y[0], position: ctrl.dX.y[1]}   # loop openings
+      points: {inner: ctrl.dF.y[0], outer: ctrl.dX.y[1]}   # loop openings
       rate_param: rate                # the parameter that sets the servo rate
       rates: [30, 45, 60, 80, 120, 240, 480]
       gains: {Kfp: ctrl.fpi.Kp, Kfi: ctrl.fpi.Ki, Kpp: ctrl.pid.Kp, Kpi: ctrl.pid.Ki, Kpd: ctrl.pid.Kd}
       scales: [0.125, 0.25, 0.5, 1, 2, 4, 8]
       cases: {limiter_saturated: {ctrl.fpi.Ki: [0, 0]}}
-      hand_mode_hz: 272.5             # report the plant mode nearest this
 
 Every entry has a default; all results are plain data (numbers, lists) plus
-python-control objects, so plotting and computing stay separate.
+python-control objects, so plotting and computing stay separate. A wing adds
+settings to the section and results computed from the plant
+(:mod:`hybridsim.analysis.extras`).
 """
 
 import control
@@ -25,7 +26,8 @@ from hybridsim.runs.experiment import Experiment
 from hybridsim.runs.grid import Grid
 from hybridsim.runs.many import Linearize, run_many
 from hybridsim.analysis.linearize import LinearizationError
-from hybridsim.analysis.lti import hand_modes
+from hybridsim.analysis import extras
+from hybridsim.analysis.lti import oscillatory_modes
 
 DEFAULTS = {k: v for k, v in tables.defaults(tables.ANALYSIS).items() if k not in ("compare", "step")}
 KEYS = tables.keys(tables.ANALYSIS)  # the table checks the section; "compare" and "step" are read by hybridsim.report.stability
@@ -235,12 +237,11 @@ def analyze(path, at=None, sweeps=True, **overrides):
         "growth": cl.growth,
         "integrator_modes": cl.integrator_modes,
         "stable": cl.stable,
-        "plant_modes_hz": hand_modes(A),
+        "plant_modes_hz": oscillatory_modes(A),
         "fd_error": lin.fd_error,
         "loops": {},
+        **extras.compute_all(cfg, A),
     }
-    if cfg["hand_mode_hz"]:
-        out["hand_mode_hz"] = hand_modes(A, float(cfg["hand_mode_hz"]))
     out["_objects"] = {"closed_loop": cl, "loops": {}}
     for name, sig in cfg["points"].items():
         try:
@@ -287,8 +288,7 @@ def summary_lines(res):
             continue
         lines.append(f"    {p['re']:+.4f}{p['im']:+.4f}j  {p['abs']:.4f}  {p['freq_hz']:8.2f}  {p['damping']:+.4f}")
         seen += 1
-    if "hand_mode_hz" in res:
-        lines.append(f"  plant mode nearest eq 18: {res['hand_mode_hz']:.2f} Hz")
+    lines += [f"  {line}" for line in extras.lines(res)]
     for name, m in res["loops"].items():
         if "error" in m:
             lines.append(f"  loop {name} ({m['signal']}): {m['error']}")

@@ -1,0 +1,1 @@
+"""The ``hybridsim`` command line: one module per command over the Python API (:mod:`.cli` assembles them)."""

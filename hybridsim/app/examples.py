@@ -1,72 +1,25 @@
-"""The shipped diagrams: where they are installed, and a copy a user can edit.
-
-They live in the package (``hybridsim.diagrams``: the repository's
-``diagrams/`` folder), so an install from a wheel has them too and every
-command works from any folder. ``hybridsim examples -o DIR`` copies them.
-"""
-import importlib.util
-import shutil
+"""``hybridsim examples``: copy the shipped diagrams into a folder to edit."""
 from pathlib import Path
 
-from hybridsim.errors import OutputError
-from hybridsim.files import atomic_file, check_output_dir, make_output_dir
+
+def add(sub):
+    """The argparse spec of this module\'s command(s), added to ``sub`` (the subcommands)."""
+    p = sub.add_parser("examples", help="copy the shipped diagrams into a folder you can edit",
+                       description="Copy every shipped diagram (the paper's figures, the Fig 6 "
+                                   "controller subsystem, the examples and the sweeps) into a folder. "
+                                   "Files that exist there are left as they are.")
+    p.add_argument("-o", "--output", default="hybridsim-diagrams", metavar="DIR",
+                   help="the folder to copy into (default hybridsim-diagrams)")
+    p.set_defaults(func=run)
 
 
-def diagrams_folder():
-    """The folder of the shipped diagrams.
+def run(args):
+    """Do the command: one call of the Python API, its result printed; returns the exit status."""
+    from hybridsim.shipped import copy_examples
 
-    Returns
-    -------
-    pathlib.Path
-        The installed ``hybridsim/diagrams`` (or the checkout's ``diagrams/``).
-    """
-    spec = importlib.util.find_spec("hybridsim.diagrams")
-    if spec is None or not spec.submodule_search_locations:
-        raise OutputError("the shipped diagrams are not installed (hybridsim.diagrams is missing)")
-    return Path(list(spec.submodule_search_locations)[0])
-
-
-def shipped(name):
-    """The path of a shipped diagram by file name (``"fig9_force_and_position.yaml"``).
-
-    Parameters
-    ----------
-    name : str
-        A file name inside the shipped diagrams folder (subfolders allowed).
-
-    Returns
-    -------
-    pathlib.Path
-    """
-    return diagrams_folder() / name
-
-
-def copy_examples(out):
-    """Copy every shipped diagram (with its subfolders) into ``out``; never replace a file.
-
-    Parameters
-    ----------
-    out : path-like
-        The folder to copy into (created when missing).
-
-    Returns
-    -------
-    (list of pathlib.Path, list of pathlib.Path)
-        The files written and the files left as they were (they existed).
-    """
-    out = check_output_dir(Path(out))
-    make_output_dir(out)
-    src = diagrams_folder()
-    written, kept = [], []
-    for f in sorted(src.rglob("*")):
-        if f.suffix.lower() not in (".yaml", ".yml", ".md", ".urdf") or "__pycache__" in f.parts:
-            continue
-        dest = out / f.relative_to(src)
-        if dest.exists():
-            kept.append(dest)
-            continue
-        dest.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_file(dest, "wb") as fh, open(f, "rb") as fin:
-            shutil.copyfileobj(fin, fh)
-        written.append(dest)
-    return written, kept
+    written, kept = copy_examples(args.output)
+    for f in kept:
+        print(f"kept {f} (it exists; hybridsim does not replace it)")
+    print(f"wrote {len(written)} diagram file(s) into {args.output}/: try "
+          f"'hybridsim run {Path(args.output) / 'fig9_force_and_position.yaml'}'")
+    return 0

@@ -121,19 +121,13 @@ class Diagram:
         return [(b.name, p.name) for b in self.blocks.values() for p in b.inputs
                 if p.default is not None and (b.name, p.name) not in driven]
 
+    #: a function diagram -> SVG text, for Jupyter; the engine draws nothing itself
+    #: (:mod:`hybridsim.report.picture` sets it when imported, as ``import hybridsim`` does)
+    to_svg = None
+
     def _repr_svg_(self):
         """The diagram as an SVG picture (Jupyter shows it when a diagram is a cell's value)."""
-        import io
-
-        import matplotlib.pyplot as plt
-
-        from hybridsim.report.plots import draw_diagram
-
-        fig = draw_diagram(self.build(), self.name)
-        buf = io.StringIO()
-        fig.savefig(buf, format="svg")
-        plt.close(fig)
-        return buf.getvalue()
+        return None if Diagram.to_svg is None else Diagram.to_svg(self)
 
     def build(self):
         """Check the diagram and return its runnable :class:`System`.

@@ -186,8 +186,31 @@ def lookup(type_name):
     return _TYPES.get(type_name)
 
 
-#: the order `hybridsim blocks` lists groups in (others follow, sorted)
-GROUP_ORDER = ["paper", "control", "math", "sources", "sinks", "FMU", "robots", "examples"]
+#: the order `hybridsim blocks` lists groups in (others follow, sorted); see :func:`list_first`
+GROUP_ORDER = ["control", "math", "sources", "sinks", "FMU", "robot", "examples"]
+
+
+def list_first(group_name):
+    """List block group ``group_name`` before the others (a library's own blocks first)."""
+    if group_name in GROUP_ORDER:
+        GROUP_ORDER.remove(group_name)
+    GROUP_ORDER.insert(0, group_name)
+
+
+def groups():
+    """Every registered block type by group, in listing order.
+
+    Returns
+    -------
+    dict
+        ``{group: [type names, sorted]}``, the groups in :data:`GROUP_ORDER`'s order, then
+        the others sorted.
+    """
+    by_group = {}
+    for name in types():
+        by_group.setdefault(group(lookup(name)), []).append(name)
+    order = [g for g in GROUP_ORDER if g in by_group] + sorted(set(by_group) - set(GROUP_ORDER))
+    return {g: by_group[g] for g in order}
 
 
 def group(cls):

@@ -148,7 +148,7 @@ def export_fmu(diagram, out, fmi=2, name=None):
     diagram : path-like
         The YAML diagram file.
     out : path-like
-        The ``.fmu`` to write.
+        The ``.fmu`` to write (checked first: a folder, an unknown suffix or no permission is refused).
     fmi : {2, 3}
         FMI version (pythonfmu for 2.0, pythonfmu3 for 3.0).
     name : str, optional
@@ -161,8 +161,10 @@ def export_fmu(diagram, out, fmi=2, name=None):
     """
     from hybridsim import __version__
     from hybridsim import api
+    from hybridsim.files import check_output_file
     from hybridsim.format.diagram_file import DiagramFile
 
+    check_output_file(out, ["fmu"])  # a path that cannot be written is refused before anything is built
     if fmi not in (2, 3):
         raise FMUError(f"FMI version must be 2 or 3, got {fmi!r}")
     try:

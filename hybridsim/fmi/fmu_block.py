@@ -28,12 +28,13 @@ import numpy as np
 
 from hybridsim.fmi import log as fmi_log
 from hybridsim.engine.block import Block
-from hybridsim.errors import FMUError, ParameterError, StopRequest
+from hybridsim.errors import FMUError, StopRequest
 from hybridsim.fmi.model_exchange import ModelExchange, _raise
+from hybridsim.fmi.start_values import start_values
 from hybridsim.fmi.build import build_fmu, find_compiler, fmi_headers  # noqa: F401 - hybridsim.fmi.fmu_block.build_fmu
-from hybridsim.fmi.variables import (_INDEXED, PORT_TYPES, _access, _by_type, _check_members, _group,  # noqa: F401
-                            _nominal, _settable, _size, _start, _text_parameter, to_fmi)
-from hybridsim.engine.registry import closest, register
+from hybridsim.fmi.variables import (PORT_TYPES, _access, _by_type, _check_members, _group,  # noqa: F401
+                                     _nominal, _size, _start, to_fmi)
+from hybridsim.engine.registry import register
 
 GROUP = "FMU"  # where `hybridsim blocks` lists this module's blocks
 
@@ -91,36 +92,7 @@ class FMUBlock(ModelExchange, Block):
                            f"it has: {', '.join(sorted(binaries)) or 'none'}")
         self.model_identifier = kind.modelIdentifier
         byname = {v.name: v for v in md.modelVariables}
-        self.parameters = {}
-        if parameters is not None and not isinstance(parameters, dict):
-            raise ParameterError("parameters", f"must map variable names to values, got {parameters!r}")
-        for pname, value in (parameters or {}).items():
-            var = byname.get(pname)
-            if var is not None and var.type in ("String", "Binary"):
-                self.parameters[pname] = _text_parameter(var, value)
-                continue
-            for v in (value if isinstance(value, (list, tuple)) else [value]):
-                if not isinstance(v, (bool, int, float)) or not np.isfinite(float(v)):
-                    raise ParameterError("parameters", f"{pname}: must be a finite number or a list of "
-                                                       f"them, got {value!r}")
-            first = 0 if f"{pname}[0]" in byname else 1  # the element names the FMU declares
-            if pname not in byname and f"{pname}[{first}]" in byname and isinstance(value, (list, tuple)):
-                last = max(int(m.group(2)) for m in map(_INDEXED.match, byname) if m and m.group(1) == pname)
-                if len(value) != last - first + 1:
-                    raise ParameterError("parameters", f"{pname}: the FMU has {last - first + 1} elements "
-                                         f"{pname}[{first}] .. {pname}[{last}], got {len(value)} values")
-                for k, v in enumerate(value, start=first):  # b: [1, 2] sets b[1], b[2] (or b[0], b[1])
-                    if f"{pname}[{k}]" not in byname:
-                        raise FMUError(f"FMU {str(self.path)!r} has no variable {pname}[{k}]")
-                    self.parameters[f"{pname}[{k}]"] = _settable(byname[f"{pname}[{k}]"], v)
-                continue
-            if pname not in byname:
-                raise FMUError(f"FMU {str(self.path)!r} has no variable {pname!r}{closest(pname, byname)}")
-            var = byname[pname]
-            if _size(var) > 1 and (not isinstance(value, (list, tuple)) or len(value) != _size(var)):
-                raise ParameterError("parameters", f"{pname} is an array of {_size(var)} elements "
-                                                   f"{list(var.shape)}: give {_size(var)} values, got {value!r}")
-            self.parameters[pname] = _settable(var, value)
+        self.parameters = start_values(self.path, byname, parameters)
         # text and bytes cannot cross the diagram: such inputs keep their start values, such
         # outputs are not ports (both listed in text_variables)
         self.text_variables = [f"{v.name} ({v.type} {v.causality})" for v in md.modelVariables

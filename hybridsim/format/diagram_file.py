@@ -10,7 +10,8 @@ from hybridsim.engine.registry import closest
 from hybridsim.format import tables
 from hybridsim.format.expand import ExpandMixin, count_blocks
 from hybridsim.format.extends import read_merged
-from hybridsim.format.kinds import ListOf, MapOf, Record, Text
+from hybridsim.format.kinds import ListOf, MapOf, Text
+from hybridsim.format.tables import Record
 from hybridsim.format.overrides import OverridesMixin
 from hybridsim.format.settings import SettingsMixin
 from hybridsim.format.values import _plain
@@ -42,6 +43,7 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
         ``{"rate": 80, "arm.damping": [10, 100], "simulation.t_end": 1}``:
         a bare name sets ``params``; ``block.param`` a block parameter;
         ``simulation.key`` a setting (see :class:`~.paths.ParamPath`).
+        Kept, with those :meth:`apply` adds, as ``overrides``.
     """
 
     def __init__(self, path, overrides=None):
@@ -65,6 +67,7 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
         self.description = str(data.get("description", ""))
         self.params = _Dict(data.get("params") or {})
         self.params.lines = getattr(data.get("params"), "lines", {}) or {}
+        self.overrides = {}  # every override applied, as given (a copy of the file is parsed with them)
         self.apply(overrides or {})
 
     def _fail(self, message, line=None):

@@ -2,7 +2,9 @@
 
 A kind's :meth:`problem` returns None for a good value, else a short phrase
 ("must be a positive number, got 'x'"). The tables of :mod:`.tables` are
-built from these, so validation, the JSON Schema and the docs page agree.
+built from these, so validation, the JSON Schema and the docs page agree (a
+section within a section, :class:`~.tables.Record`, is a kind made of a table:
+it lives with the tables).
 """
 import math
 import re
@@ -201,24 +203,3 @@ class MapOf(Kind):
     def schema(self):
         value = self.value.schema()
         return {"type": "object", "additionalProperties": {"anyOf": [value, REF_SCHEMA]} if value else {}}
-
-
-class Record(Kind):
-    """A mapping with its own table of settings (checked by :func:`.tables.check`)."""
-
-    def __init__(self, table, name):
-        self.table, self.name = table, name
-        self.text = f"a mapping of {name} settings"
-
-    def problem(self, v):
-        from hybridsim.format.tables import check_values
-
-        if not isinstance(v, dict):
-            return self._got(v)
-        got = check_values(self.table, v, self.name)
-        return "; ".join(msg for msg, _ in got) or None
-
-    def schema(self):
-        from hybridsim.format.tables import section_schema
-
-        return section_schema(self.table)

@@ -12,7 +12,7 @@ from hybridsim.errors import LoaderError
 from hybridsim.engine.registry import closest, default, lookup
 from hybridsim.format.paths import ParamPath
 from hybridsim.format.tables import SIMULATION, keys
-from hybridsim.format.values import _is_subsystem, _plain, _references, subsystem_path
+from hybridsim.format.values import _is_subsystem, _references, subsystem_path
 from hybridsim.format.yamlio import _Dict
 
 SIM_KEYS = keys(SIMULATION)
@@ -35,6 +35,7 @@ class OverridesMixin:
         parameter's current value (from the file, else the block's default).
         """
         for key, value in overrides.items():
+            self.overrides[key] = value
             path = self._path(key)
             if path.index is not None:
                 value = self._element_set(path, value, key)
@@ -107,9 +108,7 @@ class OverridesMixin:
         if _is_subsystem(spec):
             if pname in spec:  # the subsystem block sets it
                 return np.asarray(self._resolve(spec[pname], str(self.path), self.params), float)
-            from hybridsim.format.diagram_file import DiagramFile
-
-            sub = DiagramFile(subsystem_path(spec, "."))
+            sub = type(self)(subsystem_path(spec, "."))  # the subsystem's own file, parsed alike
             sub.apply({k: self._resolve(v, str(self.path), self.params) for k, v in spec.items()
                        if k not in ("type", "file")})
             return sub.param_value(pname)

@@ -13,8 +13,9 @@ Widths and wiring are checked by ``hybridsim check``.
 """
 import inspect
 
+from hybridsim.engine.registry import types
 from hybridsim.format import tables
-from hybridsim.engine.registry import lookup, parameters, types
+from hybridsim.format.catalog import block_info
 
 SCHEMA_ID = "https://hybridsim.invalid/diagram.schema.json"
 _REF = {"type": "string", "pattern": r"^\$[A-Za-z_][A-Za-z0-9_]*$", "description": "a name in 'params'"}
@@ -74,18 +75,12 @@ def block_schema(type_name):
     -------
     dict
     """
-    cls = lookup(type_name)
-    required, optional = parameters(cls)
-    sig = inspect.signature(cls.__init__).parameters
-    props = {"type": {"const": type_name}}
-    for name in required + optional:
-        default = sig[name].default
-        entry = _kind(None if default is inspect.Parameter.empty else default)
-        if default is not inspect.Parameter.empty:
-            shown = _json_default(default)
-            if shown is not _NO_JSON:
-                entry = {**entry, "default": shown}
-        props[name] = entry
+    info = block_info(type_name, ports=False)
+    cls, required = info.cls, info.required
+    props = {"type": {"const": type_name}, **{name: _kind(None) for name in required}}
+    for name, default in info.defaults.items():
+        shown = _json_default(default)
+        props[name] = {**_kind(default), **({"default": shown} if shown is not _NO_JSON else {})}
     if cls.__module__.startswith("hybridsim."):
         for s in tables.BLOCK_SETTINGS.get(type_name, ()):  # a table says more than a default does
             if s.key in props:
@@ -128,8 +123,7 @@ def diagram_schema():
             "wires": {"type": "array", "items": wire},
             "simulation": sim,
             "log": {"type": "array", "items": ref},
-            "signals": {"type": "object", "propertyNames": {"enum": tables.SIGNAL_ROLES},
-                        "additionalProperties": ref},
+            "signals": tables.section_schema(tables.SIGNALS),
             "metrics": tables.section_schema(tables.METRICS),
             "variants": {"type": "object", "additionalProperties": {"type": "array", "minItems": 1}},
             "plot": tables.section_schema(tables.PLOT),
@@ -146,4 +140,20 @@ def sweep_schema():
     """The JSON Schema of a sweep file, from its table."""
     out = tables.section_schema(tables.SWEEP)
     out.update({"$schema": "https://json-schema.org/draft/2020-12/schema", "title": "hybridsim sweep"})
+    return out
+
+
+def write_schema(path):
+    """Write the diagram format's JSON Schema (:func:`diagram_schema`) to ``path`` (a ``.json`` file),
+    atomically; ``hybridsim schema -o FILE``. Returns the path.
+
+    Attach it to a diagram with its first line ``# yaml-language-server: $schema=PATH``.
+    """
+    import json
+
+    from hybridsim.files import atomic_file, check_output_file
+
+    out = check_output_file(path, ["json"])
+    with atomic_file(out, "w") as fh:
+        fh.write(json.dumps(diagram_schema(), indent=1) + "\n")
     return out

@@ -181,10 +181,11 @@ class SettingsMixin:
         plot, _, more = self._section("plot", params)
         problems += more
         signals = self.data.get("signals") or _Dict()
+        roles = tables.keys(tables.SIGNALS)
         for role, ref in signals.items():
-            if role not in tables.SIGNAL_ROLES:
+            if role not in roles:
                 problems.append(f"{self.path}:{signals.lines[role]}: unknown signal role {role!r}"
-                                f"{closest(role, tables.SIGNAL_ROLES)}; roles: {', '.join(tables.SIGNAL_ROLES)}")
+                                f"{closest(role, roles)}; roles: {', '.join(roles) or 'none are registered'}")
             elif not isinstance(ref, str):
                 problems.append(f"{self.path}:{signals.lines[role]}: signal {role!r} must be a signal "
                                 f"'block.port[i]', got {ref!r}")

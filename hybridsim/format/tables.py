@@ -4,33 +4,58 @@ The same tables drive validation (:func:`problems`, with file:line and "did
 you mean"), the JSON Schema (:mod:`hybridsim.format.schema`), the Python API's
 defaults (:func:`defaults`), ``hybridsim --help`` and ``docs/settings.md``
 (:func:`markdown`).
+
+The generic tables name only what the generic layers read. A wing adds its own
+keys to a section with :func:`extend` when it is imported: the signal roles of
+``signals`` (none are generic), the settings of its metrics, figures and
+analysis results (:mod:`hybridsim.forcecontrol` adds those of force control).
 """
-from dataclasses import dataclass
+import copy
+from dataclasses import dataclass, replace
 
 from hybridsim import limits
 from hybridsim.engine.registry import closest
-from hybridsim.format.kinds import (Bool, Choice, Either, Kind, ListOf, MapOf, Number, PathText, Record, Signal, Text)
+from hybridsim.format.kinds import REF_SCHEMA, Bool, Choice, Either, Kind, ListOf, MapOf, Number, PathText, Signal, Text
 
 # documented: the tables and functions (Setting's fields would shadow other names in the API pages)
-__all__ = ["SIMULATION", "METRICS", "PLOT", "ANALYSIS", "ANALYSIS_STEP", "SWEEP", "SWEEP_RANDOM", "DIAGRAM",
-           "BLOCK_SETTINGS", "SECTIONS", "SOLVERS", "SIGNAL_ROLES", "keys", "defaults", "check_values", "problems",
+__all__ = ["SIMULATION", "SIGNALS", "METRICS", "PLOT", "ANALYSIS", "ANALYSIS_STEP", "SWEEP", "SWEEP_RANDOM", "DIAGRAM",
+           "BLOCK_SETTINGS", "SECTIONS", "SOLVERS", "Record", "extend", "keys", "defaults", "check_values", "problems",
            "section_schema", "markdown", "help_text"]
 
 SOLVERS = ["rk4", "heun", "radau", "bdf", "lsoda", "rk45", "rk23", "dop853", "cvode"]
 FIXED_STEP_SOLVERS = ("rk4", "heun")
-SIGNAL_ROLES = ["force", "force_desired", "position", "position_desired", "contact",
-                "surface", "hand", "oscillation"]
 
 
 @dataclass(frozen=True)
 class Setting:
-    """One key of a section: its kind (type and range), default and a one-line doc."""
+    """One key of a section: its kind (type and range), default and a one-line doc.
+
+    ``owner``: the package that added the key with :func:`extend` ("" for the generic ones).
+    """
 
     key: str
     kind: Kind
     default: object
     doc: str
     required: bool = False
+    owner: str = ""
+
+
+class Record(Kind):
+    """A mapping with its own table of settings (checked by :func:`check_values`)."""
+
+    def __init__(self, table, name, text=None):
+        self.table, self.name = table, name
+        self.text = text or f"a mapping of {name} settings"
+
+    def problem(self, v):
+        if not isinstance(v, dict):
+            return self._got(v)
+        got = check_values(self.table, v, self.name)
+        return "; ".join(msg for msg, _ in got) or None
+
+    def schema(self):
+        return section_schema(self.table)
 
 
 _POS = Number(0, low_open=True)
@@ -53,20 +78,14 @@ SIMULATION = [
     Setting("locate_switches", Bool(), False, "locate the switches of piecewise blocks within a step"),
 ]
 
-METRICS = [
-    Setting("step_time", Number(0, unit="s"), None,
-            "when the force command steps (without it: no rise time or overshoot)"),
-    Setting("ss_window", _TIME, 0.5, "the span at the end of a run taken as steady state"),
-    Setting("error_window", ListOf(Number(unit="s"), exact=2, increasing=True), None,
-            "[t0, t1]: the span of the force tracking error"),
-    Setting("filter_cutoff", Number(0, low_open=True, unit="Hz"), 12.0, "cutoff of the display filter"),
-]
+#: the signal roles: ``signals: {role: signal}`` names the signals that figures and metrics read
+SIGNALS = []
+
+#: the settings of the metrics (:mod:`hybridsim.analysis.metrics`; a wing adds those of its own)
+METRICS = []
 
 PLOT = [
     Setting("title", Text(), None, "the figure's title (default: the description, else the name)"),
-    Setting("position_label", Text(), "position", "name of the position panel"),
-    Setting("force_label", Text(), "force", "name of the force panel"),
-    Setting("surface_label", Text(), "surface", "name of the surface trace"),
 ]
 
 ANALYSIS_STEP = [
@@ -86,7 +105,6 @@ ANALYSIS = [
     Setting("gains", MapOf(PathText()), {}, "gains of the gain sweep: {name: block parameter path}"),
     Setting("scales", ListOf(_POS), [0.125, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0], "factors of the gain sweep"),
     Setting("cases", MapOf(_OVERRIDES), {}, "other branches: {name: {parameter path: value}}"),
-    Setting("hand_mode_hz", Number(0, low_open=True, unit="Hz"), None, "report the plant mode nearest this"),
     Setting("at", Number(0, unit="s", text="a time in seconds >= 0"), None, "linearize about the state at this time (default: the initial)"),
     Setting("compare", MapOf(_OVERRIDES), {}, "the report's other settings: {name: {parameter path: value}}"),
     Setting("step", Record(ANALYSIS_STEP, "analysis.step"), None,
@@ -122,7 +140,7 @@ DIAGRAM = [
     Setting("wires", ListOf(Kind(), min_len=0), [], "'a.out -> b.in' or [a.out, b.in]"),
     Setting("simulation", Record(SIMULATION, "simulation"), {}, "how a run is integrated and logged"),
     Setting("log", ListOf(Signal(), min_len=0), [], "signals logged"),
-    Setting("signals", MapOf(Signal(), what="role"), {}, "roles for plots and metrics: {role: signal}"),
+    Setting("signals", Record(SIGNALS, "signals", "a mapping {role: a signal 'block.port[i]'}"), {}, "roles for figures and metrics: {role: signal}"),
     Setting("metrics", Record(METRICS, "metrics"), {}, "settings of the figures of merit"),
     Setting("variants", MapOf(ListOf(Kind())), {}, "a grid of runs: {name in params: [values]}"),
     Setting("plot", Record(PLOT, "plot"), {}, "the figure's title and panel names"),
@@ -136,7 +154,7 @@ _VEC = Either(Number(), ListOf(Number()))
 _NONNEG_VEC = Either(Number(0), ListOf(Number(0)))
 _ROBOT = [
     Setting("urdf", Text(nonempty=True), None, "a robot model file (relative: to the working folder)"),
-    Setting("robot", Text(nonempty=True), None, "a shipped robot: fig3_arm, ur3, ur5, ur10, panda, kinova, iiwa"),
+    Setting("robot", Text(nonempty=True), None, "a shipped robot by name (ur5, panda, ...: the robot_arm block's docs list them)"),
     Setting("frame", Text(nonempty=True), None, "the tool frame (default: the model's last frame)"),
 ]
 
@@ -171,8 +189,32 @@ BLOCK_SETTINGS = {
         Setting("gravity", ListOf(Number(), exact=3), [0.0, 0.0, -9.81], "gravity in the base frame (m/s^2)")],
 }
 
-SECTIONS = {"diagram": DIAGRAM, "simulation": SIMULATION, "metrics": METRICS, "plot": PLOT,
+SECTIONS = {"diagram": DIAGRAM, "simulation": SIMULATION, "signals": SIGNALS, "metrics": METRICS, "plot": PLOT,
             "analysis": ANALYSIS, "analysis.step": ANALYSIS_STEP, "sweep": SWEEP, "random": SWEEP_RANDOM}
+
+
+def extend(section, settings, owner):
+    """Add ``settings`` (:class:`Setting` rows) to the table of ``section`` (a key of :data:`SECTIONS`).
+
+    Parameters
+    ----------
+    section : str
+        e.g. ``"signals"``, ``"metrics"``, ``"plot"``, ``"analysis"``.
+    settings : list of Setting
+        The new keys; a key the section has already is refused, unless it is the same row
+        (importing a wing twice adds nothing).
+    owner : str
+        The package that adds them (``__name__``), shown in ``docs/settings.md``.
+    """
+    table = SECTIONS[section]
+    for s in settings:
+        s = replace(s, owner=owner)
+        old = next((t for t in table if t.key == s.key), None)
+        if old == s:
+            continue
+        if old is not None:
+            raise ValueError(f"{owner}: {section} setting {s.key!r} is {old.owner or 'generic'}'s already")
+        table.append(s)
 
 
 def keys(table):
@@ -181,8 +223,6 @@ def keys(table):
 
 def defaults(table):
     """``{key: default}`` of a table (the Python API's defaults)."""
-    import copy
-
     return {s.key: copy.deepcopy(s.default) for s in table}
 
 
@@ -228,8 +268,6 @@ def problems(table, data, section, path, lines=None, line0=None):
 
 def section_schema(table):
     """The JSON Schema of one section (closed: unknown keys are refused)."""
-    from hybridsim.format.kinds import REF_SCHEMA
-
     props = {}
     for s in table:
         sch = s.kind.schema()
@@ -250,29 +288,30 @@ def _default_text(v):
     return f"`{v}`" if not isinstance(v, str) else f"`{v!r}`"
 
 
+def _rows(table):
+    """A table's rows of the settings page."""
+    out = ["| key | value | default | meaning |", "|---|---|---|---|"]
+    for s in table:
+        cells = [f"`{s.key}`" + (" (required)" if s.required else ""), s.kind.text, _default_text(s.default),
+                 s.doc + (f" (from `{s.owner}`)" if s.owner else "")]
+        out.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+    return out + [""]
+
+
 def markdown():
     """The text of ``docs/settings.md``: every table, and the limits."""
     out = ["# Settings", "",
            "Every section of a diagram file and of a sweep file, generated from the tables in",
-           "`hybridsim/format/tables.py` (the same tables check a file, give the JSON Schema and",
-           "the Python API's defaults). A test checks that this page is current.", ""]
-    titles = {"diagram": "Sections of a diagram file", "simulation": "simulation", "metrics": "metrics",
-              "plot": "plot", "analysis": "analysis", "analysis.step": "analysis: step",
+           "`hybridsim/format/tables.py` and the keys the packages of a wing add to them",
+           "(the same tables check a file, give the JSON Schema and the Python API's defaults).",
+           "A test checks that this page is current.", ""]
+    titles = {"diagram": "Sections of a diagram file", "simulation": "simulation", "signals": "signals (roles)",
+              "metrics": "metrics", "plot": "plot", "analysis": "analysis", "analysis.step": "analysis: step",
               "sweep": "A sweep file", "random": "sweep: random"}
     for name, table in SECTIONS.items():
-        out += [f"## {titles[name]}", "", "| key | value | default | meaning |", "|---|---|---|---|"]
-        for s in table:
-            cells = [f"`{s.key}`" + (" (required)" if s.required else ""), s.kind.text,
-                     _default_text(s.default), s.doc]
-            out.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
-        out.append("")
+        out += [f"## {titles[name]}", ""] + _rows(table)
     for tname, table in BLOCK_SETTINGS.items():
-        out += [f"## Block type {tname}", "", "| key | value | default | meaning |", "|---|---|---|---|"]
-        for s in table:
-            cells = [f"`{s.key}`" + (" (required)" if s.required else ""), s.kind.text,
-                     _default_text(s.default), s.doc]
-            out.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
-        out.append("")
+        out += [f"## Block type {tname}", ""] + _rows(table)
     out += ["## Limits", "",
             "Checked before any work starts. Each can be changed for one command with its environment",
             "variable, e.g. `HYBRIDSIM_MAX_STEPS=1e9 hybridsim run d.yaml`.", "",

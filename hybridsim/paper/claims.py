@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from hybridsim.app.examples import diagrams_folder
+from hybridsim.shipped import diagrams_folder
 from hybridsim.blocks.paper.surface import Surface
 from hybridsim.blocks.paper.wrist import Wrist
 from hybridsim.engine.registry import default

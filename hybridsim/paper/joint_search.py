@@ -217,7 +217,8 @@ def _claim_name(c, rate):
     return f"{c[0]}: {c[1]}" + ("" if c[0] == "Fig 9" else f" at {rate} Hz")
 
 
-def _fmt_model(model):
+def model_text(model):
+    """A model of the joint search in words: "friction karnopp, stick band 0.0002, ..."."""
     out = [f"friction {model['friction law']}", f"stick band {model['stick band']:.3g}"]
     if model["friction law"] == "stribeck":
         out.append(f"Stribeck velocity {model['Stribeck velocity']:.3g}")
@@ -248,7 +249,7 @@ def joint_html(res):
     rows = "".join(
         f"<tr><td>{f['rate']}</td><td>{esc(f['experiment'])}</td><td>{esc(f['claim'])}</td>"
         f"<td>{esc(f['best_model_value'])}</td><td>{esc(f['closest_value'])} (margin {f['closest_margin']:+.2f}"
-        f"{', holds' if f['closest_held'] else ''}) with {esc(_fmt_model(f['closest_model']))}</td>"
+        f"{', holds' if f['closest_held'] else ''}) with {esc(model_text(f['closest_model']))}</td>"
         f"<td>{esc(_trade(f))}</td></tr>" for f in res["failing"])
     claims = "".join(f"<tr><td>{r}</td><td>{esc(c[0])}</td><td>{esc(c[1])}</td><td>{esc(c[2])}</td>"
                      f"<td>{'holds' if c[3] else 'fails'}</td></tr>"
@@ -260,8 +261,8 @@ wrist damping, sensor filter, computation delay, actuator lag): {res['evaluation
 ({res.get('judged_now', res['evaluations'])} of them in this run, the rest read back) in {res['wall_time_s']:.0f} s, each by the claims of Figs 7, 8 and 10 at 60, 80 and 120 Hz and Fig 9's over its own
 rates. Score: claims held summed over the rates, minus {res['penalty_per_doubling']:g} claim per doubling of a
 value above its limit of plausibility ({esc(lim)}), plus 0.01 per failing claim times its margin (≥ −1).</p>
-<p><b>Best model found</b>: {esc(_fmt_model(best['model']))}: {held(best)}, penalty {best['penalty']:.2f}.
-Most claims regardless of plausibility: {esc(_fmt_model(most['model']))}: {held(most)}.</p>
+<p><b>Best model found</b>: {esc(model_text(best['model']))}: {held(best)}, penalty {best['penalty']:.2f}.
+Most claims regardless of plausibility: {esc(model_text(most['model']))}: {held(most)}.</p>
 <table><tr><th>rate (Hz)</th><th>experiment</th><th>claim</th><th>ours</th><th>verdict</th></tr>{claims}</table>
 <h3>Claims still failing in the best model</h3>
 <table><tr><th>rate</th><th>experiment</th><th>claim</th><th>best model</th><th>closest reached (model)</th>

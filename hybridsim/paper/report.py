@@ -4,6 +4,7 @@ import csv
 import html
 
 from hybridsim.paper.joint_search import joint_html
+from hybridsim.report import html as page
 
 FAMILY_UNITS = {"joint": "b = s (10 N m s/rad, 100 N s/m)", "wrist": "bw = s 20 N s/m"}
 
@@ -60,18 +61,10 @@ def page(report, imgs, folder):
         f"<td>{ {True: 'lost', False: 'kept', None: 'diverged'}[s['contact_lost']] }</td></tr>"
         for s in report["sensitivities"])
     hinge_html = _hinges_html(report.get("hinges")) + joint_html(report.get("joint_search"))
-    figs = ""
-    for title, stem in imgs:
-        data = base64.b64encode((folder / f"{stem}.png").read_bytes()).decode()
-        figs += (f"<figure><img src='data:image/png;base64,{data}'/>"
-                 f"<figcaption>{esc(title)}</figcaption></figure>")
+    figs = "".join(page.figure(page.file_base64(folder / f"{stem}.png"), title) for title, stem in imgs)
     n_ok = sum(c["reproduced"] for e in report["experiments"] for c in e["claims"])
     n = sum(len(e["claims"]) for e in report["experiments"])
-    return f"""<!DOCTYPE html><html><head><meta charset="utf-8"><title>Does hybridsim reproduce Raibert & Craig (1981)?</title>
-<style>body{{font-family:sans-serif;max-width:1150px;margin:2em auto;color:#222}}table{{border-collapse:collapse;margin:1em 0}}
-td,th{{border:1px solid #ccc;padding:3px 7px;font-size:13px;vertical-align:top}}th{{background:#eee}}
-figure{{display:inline-block;width:48%;margin:0.3em}}img{{width:100%}}figcaption{{font-size:12px}}</style></head><body>
-<h1>Does the model reproduce the paper?</h1>
+    return page.page("Does hybridsim reproduce Raibert & Craig (1981)?", f"""<h1>Does the model reproduce the paper?</h1>
 <p>{n_ok} of {n} claims reproduced by the model as printed (docs/model.md: no viscous damping).
 Every run, search and analysis on this page took {report['wall_time_s']:.0f} s in all.</p>
 <h2>Claims</h2><table><tr><th>experiment</th><th>the paper's claim</th><th>criterion</th><th>how it is measured</th><th>our number</th><th>verdict</th><th>why</th></tr>{rows}</table>
@@ -84,9 +77,7 @@ Every run, search and analysis on this page took {report['wall_time_s']:.0f} s i
 <table><tr><th>model</th><th>servo rate (Hz)</th><th>largest |z|</th><th>least damping ratio</th><th>force-loop phase margin (deg)</th></tr>{srows}</table>
 <h2>Sensitivities</h2><table><tr><th>experiment</th><th>variation</th><th>claims reproduced</th><th>steady error (N)</th>
 <th>overshoot (%)</th><th>max position error (mm)</th><th>contact</th></tr>{sens}</table>
-<h2>Figures</h2>{figs}
-</body></html>
-"""
+<h2>Figures</h2>{figs}""", width=1150, figure_width="48%")
 
 
 def _hinges_html(h):

@@ -218,7 +218,7 @@ def _write(outdir, report, figures):
     import matplotlib.pyplot as plt
 
     from hybridsim.format import DiagramFile
-    from hybridsim.report.plots import experiment_figure
+    from hybridsim.report.figures import experiment_figure
 
     with atomic_dir(outdir) as tmp:
         imgs = []

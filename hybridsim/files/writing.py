@@ -1,31 +1,6 @@
-"""Output files: atomic, only ours, never a user's file lost.
-
-* Every file is written to a temporary name in its folder and renamed into
-  place (``os.replace`` is atomic), so a reader never sees half a result.
-* An output folder may be the user's own: hybridsim writes the files of this
-  run into it and touches nothing else (no deleting, no mode change). A path
-  that exists and is not a folder is refused (:class:`OutputError`).
-* Temporaries live in hybridsim's own subfolder of the output folder,
-  ``.hybridsim/`` (``tmp-PID-XXXX``), removed (with the subfolder, once
-  empty) when the write ends, on errors, Ctrl-C and SIGTERM; the next write
-  into the folder removes those whose process is gone (after a SIGKILL).
-  Nothing outside ``.hybridsim/`` is ever removed, and no name in the user's
-  folder is matched against a pattern.
-* hybridsim's state folder (``$HYBRIDSIM_CACHE``, else ``~/.cache/hybridsim``)
-  records a hash of each file hybridsim wrote, so a default output name
-  (``hybridsim draw d.yaml`` without ``-o``) replaces only a file hybridsim
-  wrote (:func:`default_output_file`), and holds the output folders' locks:
-  one writer per folder at a time (:func:`output_lock`); a second is refused
-  before it changes anything.
-* Every destination is checked before the first file moves into place, so a
-  refused write leaves the folder as it was.
-* Names that come from a diagram become file names only through
-  :func:`safe_name` (no separators, no ``..``).
-* Files get the mode the user's umask gives (as ``open`` would), not 0600.
-"""
+"""Writing output files: atomic, only ours, never a user's file lost (see :mod:`hybridsim.files`)."""
 import contextlib
 import errno
-import hashlib
 import os
 import re
 import shutil
@@ -33,30 +8,16 @@ import tempfile
 from pathlib import Path
 
 from hybridsim.errors import OutputError
+from hybridsim.files.state import (OWN, check_default_dir, output_lock, record_written, tmp_prefix,
+                                   written_by_hybridsim)
 
-OWN = ".hybridsim"  # hybridsim's own subfolder of an output folder
 _TMP = re.compile(r"^tmp-(\d+)-[A-Za-z0-9_]+$")
-
-
-def safe_name(name, default="diagram"):
-    """``name`` as a plain file name: letters, digits, ``-_.+=,``; no path, no leading dot.
-
-    >>> safe_name("../../x")
-    'x'
-    """
-    text = re.sub(r"[^A-Za-z0-9_.+=,-]+", "-", str(name))
-    text = text.strip(".-")
-    return text[:120] or default
 
 
 def _umask():
     mask = os.umask(0)
     os.umask(mask)
     return mask
-
-
-def _tmp_prefix():
-    return f"tmp-{os.getpid()}-"
 
 
 def own_folder(folder):
@@ -76,8 +37,8 @@ def _own_temp(folder, folder_too=False):
         own = own_folder(folder)
         try:
             if folder_too:
-                return tempfile.mkdtemp(dir=own, prefix=_tmp_prefix())
-            return tempfile.mkstemp(dir=own, prefix=_tmp_prefix())
+                return tempfile.mkdtemp(dir=own, prefix=tmp_prefix())
+            return tempfile.mkstemp(dir=own, prefix=tmp_prefix())
         except FileNotFoundError:
             if attempt == 2:
                 raise
@@ -87,118 +48,6 @@ def _drop_own(folder):
     """Remove ``folder/.hybridsim`` when nothing is left in it."""
     with contextlib.suppress(OSError):
         (Path(folder) / OWN).rmdir()
-
-
-def state_dir(kind):
-    """hybridsim's state folder ``kind`` (``written``, ``locks``): under ``$HYBRIDSIM_CACHE``, else
-    ``$XDG_CACHE_HOME/hybridsim`` or ``~/.cache/hybridsim``; a private temporary folder if none is writable."""
-    root = os.environ.get("HYBRIDSIM_CACHE") or Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "hybridsim"
-    for base in (Path(root), Path(tempfile.gettempdir()) / f"hybridsim-{os.getuid()}"):
-        try:
-            (base / kind).mkdir(parents=True, exist_ok=True)
-            if os.access(base / kind, os.W_OK):
-                return base / kind
-        except OSError:
-            continue
-    raise OutputError("hybridsim has no writable state folder: set HYBRIDSIM_CACHE to a writable folder")
-
-
-def _key(path):
-    return hashlib.sha256(str(Path(path).resolve()).encode()).hexdigest()[:32]
-
-
-def _digest(path):
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
-
-
-def _record(folder, names):
-    """Note (in the state folder) the hashes of the files ``names`` just written into ``folder``."""
-    try:
-        book = state_dir("written")
-    except OutputError:
-        return
-    for n in names:
-        with contextlib.suppress(OSError):
-            target = Path(folder) / n
-            fd, tmp = tempfile.mkstemp(dir=book, prefix=_tmp_prefix())
-            with os.fdopen(fd, "w") as fh:
-                fh.write(_digest(target))
-            os.replace(tmp, book / _key(target))
-
-
-def written_by_hybridsim(path):
-    """Whether the file ``path`` is, byte for byte, the one hybridsim last wrote there."""
-    try:
-        return (state_dir("written") / _key(path)).read_text().strip() == _digest(path)
-    except (OSError, OutputError):
-        return False
-
-
-def note_written(path):
-    """Record that hybridsim has just written (or appended to) the file ``path``."""
-    path = Path(path)
-    _record(path.parent, [path.name])
-
-
-def check_default_dir(folder):
-    """A default output folder (no ``-o``) may be written only when every file in it is one
-    hybridsim wrote there: else :class:`OutputError`, before any work, naming the first other file."""
-    folder = Path(folder)
-    if not folder.is_dir():
-        return folder
-    for p in sorted(folder.rglob("*")):
-        if OWN in p.relative_to(folder).parts or not p.is_file():
-            continue
-        if not written_by_hybridsim(p):
-            raise OutputError(f"{str(p)!r} exists and hybridsim did not write it; {folder} is this "
-                              "command's default output folder: give -o to write into it anyway, or "
-                              "choose another (nothing was written)")
-    return folder
-
-
-def default_output_file(path):
-    """``(path, note)``: the file a default output name may write, never a file hybridsim did not write.
-
-    ``path`` itself when it does not exist or hybridsim wrote it; else the
-    first free ``NAME-2.EXT``, ``NAME-3.EXT``, ... with a note saying so.
-    """
-    path = Path(path)
-    if not path.exists() or (path.is_file() and written_by_hybridsim(path)):
-        return path, None
-    for k in range(2, 1000):
-        alt = path.with_name(f"{path.stem}-{k}{path.suffix}")
-        if not alt.exists() or (alt.is_file() and written_by_hybridsim(alt)):
-            return alt, (f"note: {path} exists and hybridsim did not write it; writing {alt} instead "
-                         "(-o chooses the name)")
-    raise OutputError(f"{path} and its numbered alternatives exist; choose a name with -o")
-
-
-@contextlib.contextmanager
-def output_lock(folder):
-    """Hold ``folder``'s lock (in the state folder) for the block: one writer per folder at a time.
-
-    Raises OutputError (exit 2) at once, having changed nothing, while
-    another process holds it.
-    """
-    import fcntl
-
-    fd = os.open(state_dir("locks") / f"{_key(folder)}.lock", os.O_RDWR | os.O_CREAT, 0o666)
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "?"
-            raise OutputError(f"another hybridsim (process {holder}) is writing into {str(folder)!r}; "
-                              "wait for it to finish or choose another output folder (-o)") from None
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, str(os.getpid()).encode(), 0)
-        yield Path(folder)
-    finally:
-        os.close(fd)  # releases the lock
 
 
 def check_output_dir(path):
@@ -331,7 +180,7 @@ def atomic_file(path, mode="w"):
         _drop_own(path.parent)
         raise
     _drop_own(path.parent)
-    _record(path.parent, [path.name])
+    record_written(path.parent, [path.name])
 
 
 def _check_destinations(tmp, path, only_ours):
@@ -387,7 +236,7 @@ def atomic_dir(path, only_ours=False):
                 os.chmod(src, mode)
                 os.replace(src, dst)
                 moved.append(str(dst.relative_to(path)))
-            _record(path, [m for m in moved if "/" not in m])
+            record_written(path, [m for m in moved if "/" not in m])
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         _drop_own(path)
@@ -399,20 +248,26 @@ def atomic_dir(path, only_ours=False):
     _drop_own(path)
 
 
-def unique_names(labels, stem, default="run"):
-    """File stems for ``labels`` (run labels) that cannot collide: ``stem_slug``, with a short hash of
-    the label where two slugs (or a slug and ``stem`` itself) would be the same name (case-folded)."""
-    slugs = [(stem + "_" + _slug(lab, default)) if lab else stem for lab in labels]
-    seen = {}
-    for s in slugs:
-        seen[s.lower()] = seen.get(s.lower(), 0) + 1
-    out = []
-    for lab, s in zip(labels, slugs):
-        if seen[s.lower()] > 1:
-            s = f"{s}_{hashlib.sha1(str(lab).encode()).hexdigest()[:6]}"
-        out.append(s)
-    return out
+def output_dir(outdir, default, whole=True):
+    """The output folder of a command: ``outdir`` checked (:func:`check_output_dir`), else ``default``.
 
+    Parameters
+    ----------
+    outdir : path-like or None
+        The folder the user gave (``-o``).
+    default : path-like
+        The command's default folder, used when ``outdir`` is None.
+    whole : bool
+        With the default folder: refuse it unless every file already in it is hybridsim's
+        (:func:`~.state.check_default_dir`); else only the files a write replaces are checked, then
+        (``atomic_dir(..., only_ours=True)``).
 
-def _slug(label, default="run"):
-    return safe_name("".join(c if c.isalnum() or c in "-." else "-" for c in str(label).replace("=", "")), default)
+    Returns
+    -------
+    (pathlib.Path, bool)
+        The folder, and whether it is the default (write only hybridsim's files there).
+    """
+    if outdir:
+        return check_output_dir(Path(outdir)), False
+    path = check_output_dir(Path(default))
+    return (check_default_dir(path) if whole else path), True

@@ -1,0 +1,59 @@
+"""The start values an fmu block sets (its ``parameters``), checked against the FMU's variables."""
+import numpy as np
+
+from hybridsim.engine.registry import closest
+from hybridsim.errors import FMUError, ParameterError
+from hybridsim.fmi.variables import _INDEXED, _settable, _size, _text_parameter
+
+
+def start_values(path, byname, parameters):
+    """``{variable name: value to set}`` from a block's ``parameters``.
+
+    Parameters
+    ----------
+    path : Path
+        The FMU (for messages).
+    byname : dict
+        The FMU's model variables by name.
+    parameters : dict or None
+        ``{name: value}``: a number (or Boolean), a list for an array or for indexed variables
+        (``b: [1, 2]`` sets ``b[1]``, ``b[2]``, or ``b[0]``, ``b[1]``), a text for a String or Binary.
+
+    Raises
+    ------
+    ParameterError
+        A value that is not a finite number, or the wrong number of them (exit 2).
+    FMUError
+        A name the FMU does not have.
+    """
+    out = {}
+    if parameters is not None and not isinstance(parameters, dict):
+        raise ParameterError("parameters", f"must map variable names to values, got {parameters!r}")
+    for pname, value in (parameters or {}).items():
+        var = byname.get(pname)
+        if var is not None and var.type in ("String", "Binary"):
+            out[pname] = _text_parameter(var, value)
+            continue
+        for v in (value if isinstance(value, (list, tuple)) else [value]):
+            if not isinstance(v, (bool, int, float)) or not np.isfinite(float(v)):
+                raise ParameterError("parameters", f"{pname}: must be a finite number or a list of "
+                                                   f"them, got {value!r}")
+        first = 0 if f"{pname}[0]" in byname else 1  # the element names the FMU declares
+        if pname not in byname and f"{pname}[{first}]" in byname and isinstance(value, (list, tuple)):
+            last = max(int(m.group(2)) for m in map(_INDEXED.match, byname) if m and m.group(1) == pname)
+            if len(value) != last - first + 1:
+                raise ParameterError("parameters", f"{pname}: the FMU has {last - first + 1} elements "
+                                     f"{pname}[{first}] .. {pname}[{last}], got {len(value)} values")
+            for k, v in enumerate(value, start=first):  # b: [1, 2] sets b[1], b[2] (or b[0], b[1])
+                if f"{pname}[{k}]" not in byname:
+                    raise FMUError(f"FMU {str(path)!r} has no variable {pname}[{k}]")
+                out[f"{pname}[{k}]"] = _settable(byname[f"{pname}[{k}]"], v)
+            continue
+        if pname not in byname:
+            raise FMUError(f"FMU {str(path)!r} has no variable {pname!r}{closest(pname, byname)}")
+        var = byname[pname]
+        if _size(var) > 1 and (not isinstance(value, (list, tuple)) or len(value) != _size(var)):
+            raise ParameterError("parameters", f"{pname} is an array of {_size(var)} elements "
+                                               f"{list(var.shape)}: give {_size(var)} values, got {value!r}")
+        out[pname] = _settable(var, value)
+    return out

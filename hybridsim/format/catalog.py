@@ -1,0 +1,71 @@
+"""The block library as data: each registered type's group, description, parameters and ports.
+
+``hybridsim blocks`` prints it and the documentation's block page is generated
+from it (docs/conf.py), so both say the same.
+"""
+import inspect
+from dataclasses import dataclass
+
+from hybridsim.engine.registry import groups, lookup, parameters
+
+
+@dataclass(frozen=True)
+class BlockInfo:
+    """One block type as the library lists it.
+
+    ``required``: parameter names without a default; ``defaults``: ``{name: default}`` of the others;
+    ``inputs``/``outputs``: ``[(port, width)]`` of the block built with its defaults (None
+    when it cannot be built so, e.g. it needs a file); ``rate_hz`` and ``states`` likewise.
+    """
+
+    type_name: str
+    cls: type
+    doc: str
+    required: list
+    defaults: dict
+    inputs: list = None
+    outputs: list = None
+    rate_hz: float = None
+    states: int = 0
+
+
+def block_info(type_name, ports=True):
+    """A :class:`BlockInfo` of registered block type ``type_name``.
+
+    Parameters
+    ----------
+    type_name : str
+        e.g. ``"gain"``.
+    ports : bool
+        Build the block with its defaults to read its ports, rate and states (else they are None/0).
+
+    Returns
+    -------
+    BlockInfo
+    """
+    cls = lookup(type_name)
+    req, opt = parameters(cls)
+    sig = inspect.signature(cls.__init__).parameters
+    lines = (cls.__doc__ or "").strip().splitlines()
+    doc = lines[0] if lines else f"(no description: {cls.__module__}.{cls.__qualname__} has no docstring)"
+    info = dict(type_name=type_name, cls=cls, doc=doc, required=req, defaults={p: sig[p].default for p in opt})
+    if not ports:
+        return BlockInfo(**info)
+    try:  # the ports of a block with its defaults (a block that needs a file has none to show)
+        blk = cls(name="b")
+    except Exception:  # noqa: BLE001 - only for showing
+        return BlockInfo(**info)
+    return BlockInfo(**info, inputs=[(p.name, p.width) for p in blk.inputs],
+                     outputs=[(p.name, p.width) for p in blk.outputs],
+                     rate_hz=float(1 / blk.period) if blk.period else None, states=blk.n_continuous)
+
+
+def catalog():
+    """Every registered block type by group, in listing order.
+
+    Returns
+    -------
+    dict
+        ``{group: [BlockInfo, ...]}`` (types sorted within a group).
+    """
+    return {g: [block_info(name) for name in names] for g, names in groups().items()}

@@ -1,0 +1,71 @@
+"""Every command's work is one public function of the Python API, callable with a path or a parsed file."""
+import json
+
+import pytest
+
+from conftest import DIAGRAMS, GOOD, write
+import hybridsim as hs
+from hybridsim.format import DiagramFile
+
+
+def test_run_writes_what_the_command_writes(tmp_path):
+    done = hs.run(write(tmp_path, GOOD), tmp_path / "o", t_end=0.2)
+    assert sorted(p.name for p in done["outdir"].iterdir()) == ["d.csv", "d.png", "d.svg", "metrics.json"]
+    assert done["runs"][0]["result"].t[-1] == pytest.approx(0.2)
+    f = DiagramFile(write(tmp_path, GOOD, "e.yaml"), {"k": 3.0})  # a parsed file brings its overrides along
+    done = hs.run(f, tmp_path / "p", t_end=0.2)
+    assert done["runs"][0]["result"]["zoh.y"][-1, 0] == pytest.approx(3.0)  # k = 3 after the step
+
+
+def test_write_analysis_returns_the_results_and_writes_them(tmp_path):
+    from hybridsim.report.stability import write_analysis
+
+    res = write_analysis(DIAGRAMS / "eq18_hand_oscillation.yaml", tmp_path)
+    assert res["domain"] == "continuous" and "_objects" in res
+    doc = json.loads((tmp_path / "analysis.json").read_text())
+    assert doc["hand_mode_hz"] == pytest.approx(272.5, abs=0.1) and "_objects" not in doc
+
+
+def test_write_picture_never_replaces_a_users_file(tmp_path, monkeypatch):
+    from hybridsim.report.picture import write_picture
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "d.png").write_text("mine")
+    out, note = write_picture(write(tmp_path, GOOD))
+    assert out.name == "d-2.png" and "did not write" in note and (tmp_path / "d.png").read_text() == "mine"
+    out, note = write_picture(write(tmp_path, GOOD), tmp_path / "x.svg", expand=True)
+    assert note is None and out.read_text().startswith("<?xml")
+
+
+def test_write_schema_and_the_catalog(tmp_path):
+    from hybridsim.format.catalog import block_info, catalog
+    from hybridsim.format.schema import write_schema
+
+    out = write_schema(tmp_path / "s.json")
+    assert json.loads(out.read_text())["title"] == "hybridsim diagram"
+    gain = block_info("gain")
+    assert gain.inputs == [("u", 1)] and gain.outputs == [("y", 1)] and gain.states == 0
+    groups = catalog()
+    assert list(groups)[0] == "paper" and "gain" in [b.type_name for b in groups["math"]]
+
+
+def test_find_diagram_names_a_shipped_one(tmp_path, monkeypatch):
+    from hybridsim.shipped import find_diagram
+
+    monkeypatch.chdir(tmp_path)
+    path, note = find_diagram("diagrams/fig10_force_ramp.yaml")
+    assert path.is_file() and "using the shipped" in note
+    here = write(tmp_path, GOOD)
+    assert find_diagram(here) == (here, None)
+
+
+def test_the_html_helper():
+    from hybridsim.report import html
+
+    assert html.fmt(None) == "–" and html.fmt(True) == "yes" and html.fmt(2 / 3) == "0.6667"
+    table = html.table([{"a": 1.23456, "b": "<x>"}], ["a", "b"], head=["A", "B"])
+    assert table == "<table><tr><th>A</th><th>B</th></tr><tr><td>1.235</td><td>&lt;x&gt;</td></tr></table>"
+    page = html.page("T & U", "<p>body</p>", width=900)
+    assert "<title>T &amp; U</title>" in page and "max-width:900px" in page and page.endswith("</html>\n")
+    assert html.figure("QUJD", "a < b") == ("<figure><img src='data:image/png;base64,QUJD'/>"
+                                           "<figcaption>a &lt; b</figcaption></figure>")
