@@ -4,7 +4,7 @@ import csv
 import html
 
 from hybridsim.paper.joint_search import joint_html
-from hybridsim.report import html as page
+from hybridsim.report import html as html_page
 
 FAMILY_UNITS = {"joint": "b = s (10 N m s/rad, 100 N s/m)", "wrist": "bw = s 20 N s/m"}
 
@@ -27,7 +27,6 @@ def write_metrics_csv(path, report):
 
 def page(report, imgs, folder):
     """The report's HTML page; ``imgs``: (title, stem) of the figures' PNGs in ``folder`` (embedded)."""
-    import base64
 
     esc = html.escape
     rows = ""
@@ -61,10 +60,10 @@ def page(report, imgs, folder):
         f"<td>{ {True: 'lost', False: 'kept', None: 'diverged'}[s['contact_lost']] }</td></tr>"
         for s in report["sensitivities"])
     hinge_html = _hinges_html(report.get("hinges")) + joint_html(report.get("joint_search"))
-    figs = "".join(page.figure(page.file_base64(folder / f"{stem}.png"), title) for title, stem in imgs)
+    figs = "".join(html_page.figure(html_page.file_base64(folder / f"{stem}.png"), title) for title, stem in imgs)
     n_ok = sum(c["reproduced"] for e in report["experiments"] for c in e["claims"])
     n = sum(len(e["claims"]) for e in report["experiments"])
-    return page.page("Does hybridsim reproduce Raibert & Craig (1981)?", f"""<h1>Does the model reproduce the paper?</h1>
+    return html_page.page("Does hybridsim reproduce Raibert & Craig (1981)?", f"""<h1>Does the model reproduce the paper?</h1>
 <p>{n_ok} of {n} claims reproduced by the model as printed (docs/model.md: no viscous damping).
 Every run, search and analysis on this page took {report['wall_time_s']:.0f} s in all.</p>
 <h2>Claims</h2><table><tr><th>experiment</th><th>the paper's claim</th><th>criterion</th><th>how it is measured</th><th>our number</th><th>verdict</th><th>why</th></tr>{rows}</table>
