@@ -73,9 +73,10 @@ class CVode:
         one that fires more than ``MAX_REPEATS`` times in the interval is stepped
         over for the rest of it (a solution sliding along the switch). ``check(t, x)``
         (the divergence check) sees the state at every point CVODE returns: log times,
-        zero crossings and ``t1``; so does ``step(t, x)`` when given, after ``check`` (True: a step
-        event there, returned with ``fired`` a mask of no functions). CVODE's internal steps are
-        not seen: ``step`` is called at the points it returns, not after each of its steps.
+        zero crossings and ``t1``, in order, before an error raised after them; so does
+        ``step(t, x)`` when given, after ``check`` (True: a step event there, returned with
+        ``fired`` a mask of no functions). CVODE's internal steps are not seen: ``step`` is
+        called at the points it returns, not after each of its steps.
         """
         from sksundae.cvode import CVODE
 
@@ -88,15 +89,31 @@ class CVode:
         n_a = len(directions) if g is not None else 0
         n_r = np.atleast_1d(events(t0, x)).size if events is not None else 0
         muted = np.zeros(n_r, dtype=bool)
+        failed = []  # the exception a callback raised: CVODE then fails fast on NaN, the points
+        # before it are checked in order, and the exception is raised after them
 
         def rhs(t, y, yp):
-            yp[:] = f(t, y)
+            if failed:
+                yp[:] = np.nan
+                return
+            try:
+                yp[:] = f(t, y)
+            except Exception as exc:  # noqa: BLE001 - raised again after CVODE returns
+                failed.append(exc)
+                yp[:] = np.nan
 
         def roots(t, y, out):
-            if n_a:
-                out[:n_a] = g(t, y)
-            if n_r:
-                out[n_a:] = np.where(muted, 1.0, events(t, y))
+            if failed:
+                out[:] = np.nan
+                return
+            try:
+                if n_a:
+                    out[:n_a] = g(t, y)
+                if n_r:
+                    out[n_a:] = np.where(muted, 1.0, events(t, y))
+            except Exception as exc:  # noqa: BLE001 - as in rhs
+                failed.append(exc)
+                out[:] = np.nan
 
         roots.terminal = [True] * (n_a + n_r)
         roots.direction = [int(d) for d in (directions if n_a else ())] + [0] * n_r
@@ -105,37 +122,69 @@ class CVode:
         if n_a + n_r:
             opts.update(eventsfn=roots, num_events=n_a + n_r)
         cv = CVODE(rhs, **opts)
-        self._check(cv.init_step(t0, x), t0)
         hits = np.zeros(n_r, dtype=int)
-        t = t0
-        for _ in range(MAX_RESTARTS):
-            target = pending[0] if pending else t1
-            res = cv.step(target, tstop=t1)
-            self._check(res, t)
-            t, y = float(np.atleast_1d(res.t)[-1]), np.array(res.y, float).reshape(-1)
-            if check is not None:
-                check(t, y)
-            asked = step is not None and step(t, y)
-            if res.status == 2:  # a root
-                which = np.asarray(res.i_events, float).reshape(-1, n_a + n_r)[-1] != 0
-                while pending and pending[0] <= t:
-                    pending.pop(0)
-                    outs.append(y.copy())
-                if which[:n_a].any() or asked:
-                    return t, y, which[:n_a].copy(), outs
-                hits += which[n_a:]
-                muted |= hits > MAX_REPEATS
-                self._check(cv.init_step(t, y), t)  # restart at the switch, at order 1
-                continue
-            if asked:  # a log time here is logged after the step event, as after a time event
-                return t, y, np.zeros(n_a, dtype=bool), outs
-            if pending and t >= pending[0]:
+        t, y = t0, x
+        for _ in range(MAX_RESTARTS):  # one segment each: from (t, y) to t1 or a crossing
+            if step is None and pending:
+                t, y, res = self._solve(cv, t, y, pending, t1, outs, check, failed)
+                asked = False
+            else:
+                t, y, res, asked = self._steps(cv, t, y, pending, t1, outs, check, step, failed)
+            if res.status != 2:  # t1, or a step event (asked) before it
+                return (t, y, np.zeros(n_a, dtype=bool), outs) if asked else (t1, y, None, outs)
+            which = np.asarray(res.i_events, float).reshape(-1, n_a + n_r)[-1] != 0
+            while pending and pending[0] <= t:
                 pending.pop(0)
                 outs.append(y.copy())
-            if t >= t1 or (not pending and res.status == 1):
-                return t1, y, None, outs
+            if which[:n_a].any() or asked:
+                return t, y, which[:n_a].copy(), outs
+            hits += which[n_a:]
+            muted |= hits > MAX_REPEATS  # then restart at the switch, at order 1
         raise SimulationError(f"more than {MAX_RESTARTS} zero crossings before t={t1:.6g} s "
                               "(a switch is chattering)")
+
+    def _solve(self, cv, t, y, pending, t1, outs, check, failed):
+        """One segment through every log time in one CVODE call (no Python between them).
+
+        Returns ``(t, y, result)`` at ``t1`` or at a crossing; the log times passed are
+        moved from ``pending`` to ``outs``, each state seen by ``check`` first.
+        """
+        res = cv.solve(np.array([t, *pending, t1]), y)
+        ts, ys = res.t, res.y
+        last = len(ts) - 1  # rows 1 .. last-1: log times; row last: t1, a crossing or a failure
+        if check is not None:
+            for k in range(1, last + (res.status >= 0 and not failed)):
+                check(float(ts[k]), ys[k])
+        self._raise(res, t, failed)
+        outs.extend(ys[1:last])
+        del pending[:last - 1]
+        return (float(ts[last]) if res.status == 2 else t1), ys[last].copy(), res
+
+    def _steps(self, cv, t, y, pending, t1, outs, check, step, failed):
+        """One segment one log time at a time, with ``step`` after each; returns
+        ``(t, y, result, asked)`` at ``t1``, a crossing or a step event (``asked``)."""
+        self._raise(cv.init_step(t, y), t, failed)
+        while True:
+            res = cv.step(pending[0] if pending else t1, tstop=t1)
+            self._raise(res, t, failed)
+            t, y = float(res.t), res.y
+            if check is not None:
+                check(t, y)
+            asked = step is not None and bool(step(t, y))
+            if res.status == 2 or asked:  # a log time here is logged after the step event
+                return t, y, res, asked
+            if pending and t >= pending[0]:
+                pending.pop(0)
+                outs.append(y)
+            if t >= t1 or (not pending and res.status == 1):
+                return t1, y, res, False
+
+    @classmethod
+    def _raise(cls, res, t, failed):
+        """The exception a callback raised, else :meth:`_check`."""
+        if failed:
+            raise failed[0]
+        cls._check(res, t)
 
     @staticmethod
     def _check(res, t):

@@ -11,6 +11,7 @@ import ctypes
 import numpy as np
 
 from hybridsim.errors import FMUError, StopRequest
+from hybridsim.fmi.calls import BoundCalls
 
 
 def _raise(exc):
@@ -21,6 +22,9 @@ def _raise(exc):
 class ModelExchange:
     """The Model Exchange half of :class:`hybridsim.fmi.fmu_block.FMUBlock` (a mixin: it uses the block's
     ``_fmu``, ``_call``, ``_set_inputs``, ``nx``, ``nz`` and ``in_discrete``)."""
+
+    _sent_state = None  # (t, states) last given to the instance; None: set them again
+    _calls = None  # the instance's bound calls (hybridsim.fmi.calls)
 
     def _discrete_inputs(self, t, x, u):
         """Model Exchange: discrete-time inputs that changed enter the FMU through event mode."""
@@ -42,45 +46,46 @@ class ModelExchange:
         differ from the last ones set (a right-hand side sets them for the outputs and again for
         the derivatives)."""
         key = (t, np.asarray(x, dtype=float).tobytes())
-        if key != self.__dict__.get("_sent_state"):
+        if key != self._sent_state:
             self._sent_state = None
-            fmu = self._fmu
+            calls = self._calls or self._bind_calls()
             try:
-                fmu.setTime(t)
+                calls.set_time(t)
             except Exception as exc:  # noqa: BLE001 - the message is built only on failure
                 self._call(f"setTime({t:.9g})", _raise, exc)
             if self.nx:
-                buf, ptr = self._buffer("x", self.nx)
-                buf[:] = x
+                calls.x[:] = x
                 try:
-                    fmu.setContinuousStates(ptr, self.nx)
+                    calls.set_x()
                 except Exception as exc:  # noqa: BLE001
                     self._call(f"setContinuousStates at t={t:.9g}", _raise, exc)
             self._sent_state = key
         self._set_inputs(u)
 
-    def _buffer(self, name, n):
-        """A float array of ``n`` kept for the FMU calls, and its ctypes pointer."""
-        bufs = self.__dict__.get("_buffers")
-        if bufs is None:
-            bufs = self._buffers = {}
-        got = bufs.get(name)
-        if got is None:
-            buf = np.zeros(n)
-            got = bufs[name] = (buf, buf.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
-        return got
+    def _bind_calls(self):
+        """Bind the continuous-time FMI functions and output getters of the current instance
+        (once per instance)."""
+        self._calls = BoundCalls(self._fmu, self.fmi3, self.nx, self.nz, self.out_types)
+        return self._calls
+
+    def _me_outputs(self):
+        """The outputs, one port after the other, through the bound getters."""
+        calls = self._calls or self._bind_calls()
+        vals = calls.outputs(np.zeros(self.n_out),
+                             lambda typ, exc: self._call(f"get {typ} outputs", _raise, exc))
+        return tuple(vals[a:b] for a, b in zip(self.cuts[:-1], self.cuts[1:]))
 
     def derivatives(self, t, x, u):
         """The FMU's state derivatives at (t, x, u) (zero for the dummy state)."""
         self._me_set(t, x, u)
         if not self.nx:
             return np.zeros(1)  # the dummy state
-        dx, ptr = self._buffer("dx", self.nx)
+        calls = self._calls or self._bind_calls()
         try:
-            self._get_der(ptr, self.nx)
+            calls.get_dx()
         except Exception as exc:  # noqa: BLE001 - the message is built only on failure
             self._call("get derivatives", _raise, exc)
-        return dx.copy()
+        return calls.dx.copy()
 
     # -- Model Exchange events (FMI 2.0 and 3.0) -----------------------------------
     @property
@@ -152,9 +157,9 @@ class ModelExchange:
         if self.mode != "me" or not self.nz:
             return np.zeros(0)
         self._me_set(t, x, u)
-        z, ptr = self._buffer("z", self.nz)
+        calls = self._calls or self._bind_calls()
         try:
-            self._fmu.getEventIndicators(ptr, self.nz)
+            calls.get_z()
         except Exception as exc:  # noqa: BLE001 - the message is built only on failure
             self._call("getEventIndicators", _raise, exc)
-        return z.copy()
+        return calls.z.copy()
