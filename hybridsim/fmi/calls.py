@@ -5,8 +5,8 @@ simulated second; fmpy's wrappers (a Python method, argument arrays built,
 a status check and logging hook per call) cost several times the C functions
 themselves. :class:`BoundCalls` takes the same C functions from the FMU's
 shared library, gives them their FMI signatures once, and calls them on
-buffers allocated once, checking the status itself: a status above warning
-raises the ``FMICallException`` fmpy raises (function name and status).
+buffers allocated once; a status above warning becomes the ``FMICallException``
+fmpy raises (function name and status).
 """
 import ctypes
 
@@ -35,12 +35,11 @@ GETTERS = {
 GETTERS3 = {"Boolean": ("GetBoolean", np.bool_), "Enumeration": ("GetInt64", np.int64)}
 
 
-def _status(name, status):
-    """Raise fmpy's ``FMICallException`` for a status above warning."""
-    if status > 1:
-        from fmpy.fmi1 import FMICallException
+def error(name, status):
+    """fmpy's ``FMICallException`` for the FMI function ``name`` that returned ``status``."""
+    from fmpy.fmi1 import FMICallException
 
-        raise FMICallException(function=name, status=status)
+    return FMICallException(function=name, status=status)
 
 
 class BoundCalls:
@@ -65,23 +64,24 @@ class BoundCalls:
 
     def __init__(self, fmu, fmi3, nx, nz, out_types):
         prefix = "fmi3" if fmi3 else "fmi2"
-        self.component = fmu.component
         self.x, self.dx, self.z = np.zeros(nx), np.zeros(nx), np.zeros(nz)
         self.nx, self.nz = nx, nz
         self.names = {k: v[fmi3] for k, v in CONTINUOUS.items()}
         for key, name in self.names.items():
             args = [_P, ctypes.c_double] if key == "set_time" else [_P, _P, _N]
             setattr(self, "_" + key, self._bind(fmu, name, args))
-        self._px, self._pdx, self._pz = self.x.ctypes.data, self.dx.ctypes.data, self.z.ctypes.data
+        # the arguments as ctypes objects made once (converting Python ints costs more than the call)
+        self._c = _P(fmu.component)
+        self._ax, self._adx, self._az = ((self._c, _P(a.ctypes.data), _N(a.size)) for a in (self.x, self.dx, self.z))
         self._keep = []  # the value-reference arrays whose addresses the getters hold
-        self.getters = []  # (type, C name, function, its arguments after the instance, values, positions)
+        self.getters = []  # (type, C name, function, its arguments, values, positions)
         for typ, (positions, vrs, n) in out_types.items():
             suffix, dtype = (GETTERS3.get(typ) if fmi3 else None) or GETTERS[typ]
             name = prefix + suffix
             fn = self._bind(fmu, name, [_P, _P, _N, _P, _N] if fmi3 else [_P, _P, _N, _P])
             vr = np.array(vrs, dtype=np.uint32)
             values = np.zeros(n, dtype=dtype)
-            args = (vr.ctypes.data, len(vr), values.ctypes.data) + ((n,) if fmi3 else ())
+            args = (self._c, _P(vr.ctypes.data), _N(len(vr)), _P(values.ctypes.data)) + ((_N(n),) if fmi3 else ())
             self._keep.append(vr)
             self.getters.append((typ, name, fn, args, values, np.array(positions, dtype=np.intp)))
 
@@ -91,42 +91,41 @@ class BoundCalls:
         fn.restype, fn.argtypes = ctypes.c_int, argtypes
         return fn
 
-    def set_time(self, t):
-        """setTime(t) [s]."""
-        status = self._set_time(self.component, t)
-        if status > 1:
-            _status(self.names["set_time"], status)
+    def set_state(self, t, x):
+        """setTime(t) [s], then setContinuousStates(x) when there are states.
 
-    def set_x(self):
-        """setContinuousStates from ``self.x``."""
-        status = self._set_x(self.component, self._px, self.nx)
+        Returns None, or ``(C function, status)`` of the call that failed.
+        """
+        status = self._set_time(self._c, t)
         if status > 1:
-            _status(self.names["set_x"], status)
+            return self.names["set_time"], status
+        if self.nx:
+            np.copyto(self.x, x)
+            status = self._set_x(*self._ax)
+            if status > 1:
+                return self.names["set_x"], status
+        return None
 
     def get_dx(self):
-        """The state derivatives into ``self.dx``."""
-        status = self._get_dx(self.component, self._pdx, self.nx)
-        if status > 1:
-            _status(self.names["get_dx"], status)
+        """The state derivatives into ``self.dx``; returns the FMI status."""
+        return self._get_dx(*self._adx)
 
     def get_z(self):
-        """The event indicators into ``self.z``."""
-        status = self._get_z(self.component, self._pz, self.nz)
-        if status > 1:
-            _status(self.names["get_z"], status)
+        """The event indicators into ``self.z``; returns the FMI status."""
+        return self._get_z(*self._az)
+
+    def failure(self, key, status):
+        """fmpy's ``FMICallException`` for the call ``key`` (``"get_dx"``, ...) that returned ``status``."""
+        return error(self.names.get(key, key), status)
 
     def outputs(self, out, fail):
         """Every output into the float array ``out`` (at its element positions).
 
         ``fail(type, exception)`` is called for a failed getter (it raises).
         """
-        component = self.component
         for typ, name, fn, args, values, positions in self.getters:
-            status = fn(component, *args)
+            status = fn(*args)
             if status > 1:
-                try:
-                    _status(name, status)
-                except Exception as exc:  # noqa: BLE001 - handed to fail, which raises
-                    fail(typ, exc)
+                fail(typ, error(name, status))
             out[positions] = values
         return out

@@ -11,7 +11,7 @@ import ctypes
 import numpy as np
 
 from hybridsim.errors import FMUError, StopRequest
-from hybridsim.fmi.calls import BoundCalls
+from hybridsim.fmi.calls import BoundCalls, error
 
 
 def _raise(exc):
@@ -44,47 +44,47 @@ class ModelExchange:
     def _me_set(self, t, x, u):
         """Time, continuous states and inputs into the FMU; the time and states only when they
         differ from the last ones set (a right-hand side sets them for the outputs and again for
-        the derivatives)."""
-        key = (t, np.asarray(x, dtype=float).tobytes())
+        the derivatives), the inputs only when they differ from the last ones set."""
+        key = (t, (x if type(x) is np.ndarray else np.asarray(x, dtype=float)).tobytes())
         if key != self._sent_state:
             self._sent_state = None
-            calls = self._calls or self._bind_calls()
-            try:
-                calls.set_time(t)
-            except Exception as exc:  # noqa: BLE001 - the message is built only on failure
-                self._call(f"setTime({t:.9g})", _raise, exc)
-            if self.nx:
-                calls.x[:] = x
-                try:
-                    calls.set_x()
-                except Exception as exc:  # noqa: BLE001
-                    self._call(f"setContinuousStates at t={t:.9g}", _raise, exc)
+            failed = (self._calls or self._bind_calls()).set_state(t, x)
+            if failed is not None:
+                what = f"setTime({t:.9g})" if "SetTime" in failed[0] else f"setContinuousStates at t={t:.9g}"
+                self._call(what, _raise, error(*failed))
             self._sent_state = key
-        self._set_inputs(u)
+        if self.in_vars:
+            try:
+                same = b"".join([a.tobytes() for a in u]) == self._inputs_set
+            except AttributeError:  # not arrays: _set_inputs compares them
+                same = False
+            if not same:
+                self._set_inputs(u)
 
     def _bind_calls(self):
         """Bind the continuous-time FMI functions and output getters of the current instance
         (once per instance)."""
         self._calls = BoundCalls(self._fmu, self.fmi3, self.nx, self.nz, self.out_types)
+        self._port_bounds = list(zip(self.cuts[:-1].tolist(), self.cuts[1:].tolist()))
         return self._calls
 
     def _me_outputs(self):
         """The outputs, one port after the other, through the bound getters."""
-        calls = self._calls or self._bind_calls()
-        vals = calls.outputs(np.zeros(self.n_out),
-                             lambda typ, exc: self._call(f"get {typ} outputs", _raise, exc))
-        return tuple(vals[a:b] for a, b in zip(self.cuts[:-1], self.cuts[1:]))
+        vals = (self._calls or self._bind_calls()).outputs(np.zeros(self.n_out), self._outputs_failed)
+        return tuple([vals[a:b] for a, b in self._port_bounds])
+
+    def _outputs_failed(self, typ, exc):
+        self._call(f"get {typ} outputs", _raise, exc)
 
     def derivatives(self, t, x, u):
         """The FMU's state derivatives at (t, x, u) (zero for the dummy state)."""
         self._me_set(t, x, u)
         if not self.nx:
             return np.zeros(1)  # the dummy state
-        calls = self._calls or self._bind_calls()
-        try:
-            calls.get_dx()
-        except Exception as exc:  # noqa: BLE001 - the message is built only on failure
-            self._call("get derivatives", _raise, exc)
+        calls = self._calls
+        status = calls.get_dx()
+        if status > 1:
+            self._call("get derivatives", _raise, calls.failure("get_dx", status))
         return calls.dx.copy()
 
     # -- Model Exchange events (FMI 2.0 and 3.0) -----------------------------------
@@ -157,9 +157,8 @@ class ModelExchange:
         if self.mode != "me" or not self.nz:
             return np.zeros(0)
         self._me_set(t, x, u)
-        calls = self._calls or self._bind_calls()
-        try:
-            calls.get_z()
-        except Exception as exc:  # noqa: BLE001 - the message is built only on failure
-            self._call("getEventIndicators", _raise, exc)
+        calls = self._calls
+        status = calls.get_z()
+        if status > 1:
+            self._call("getEventIndicators", _raise, calls.failure("get_z", status))
         return calls.z.copy()
