@@ -21,6 +21,11 @@ stiff contact and friction laws and an FMU that gives no Jacobian; one call of
 the right-hand side per Newton iteration rather than per stage is why it is
 the solver to use for Model Exchange FMUs.
 """
+import contextlib
+import io
+import re
+import sys
+
 import numpy as np
 
 from hybridsim.errors import SimulationError
@@ -94,26 +99,28 @@ class CVode:
 
         def rhs(t, y, yp):
             if failed:
-                yp[:] = np.nan
+                yp.fill(np.nan)
                 return
             try:
-                yp[:] = f(t, y)
+                np.copyto(yp, f(t, y))
             except Exception as exc:  # noqa: BLE001 - raised again after CVODE returns
                 failed.append(exc)
-                yp[:] = np.nan
+                yp.fill(np.nan)
 
         def roots(t, y, out):
             if failed:
-                out[:] = np.nan
+                out.fill(np.nan)
                 return
             try:
+                if not n_r:
+                    np.copyto(out, g(t, y))
+                    return
                 if n_a:
                     out[:n_a] = g(t, y)
-                if n_r:
-                    out[n_a:] = np.where(muted, 1.0, events(t, y))
+                out[n_a:] = np.where(muted, 1.0, events(t, y))
             except Exception as exc:  # noqa: BLE001 - as in rhs
                 failed.append(exc)
-                out[:] = np.nan
+                out.fill(np.nan)
 
         roots.terminal = [True] * (n_a + n_r)
         roots.direction = [int(d) for d in (directions if n_a else ())] + [0] * n_r
@@ -149,13 +156,14 @@ class CVode:
         Returns ``(t, y, result)`` at ``t1`` or at a crossing; the log times passed are
         moved from ``pending`` to ``outs``, each state seen by ``check`` first.
         """
-        res = cv.solve(np.array([t, *pending, t1]), y)
+        with _Words() as words:
+            res = cv.solve(np.array([t, *pending, t1]), y)
         ts, ys = res.t, res.y
         last = len(ts) - 1  # rows 1 .. last-1: log times; row last: t1, a crossing or a failure
         if check is not None:
             for k in range(1, last + (res.status >= 0 and not failed)):
                 check(float(ts[k]), ys[k])
-        self._raise(res, t, failed)
+        self._raise(res, t, failed, words.said)
         outs.extend(ys[1:last])
         del pending[:last - 1]
         return (float(ts[last]) if res.status == 2 else t1), ys[last].copy(), res
@@ -163,10 +171,13 @@ class CVode:
     def _steps(self, cv, t, y, pending, t1, outs, check, step, failed):
         """One segment one log time at a time, with ``step`` after each; returns
         ``(t, y, result, asked)`` at ``t1``, a crossing or a step event (``asked``)."""
-        self._raise(cv.init_step(t, y), t, failed)
+        with _Words() as words:
+            res = cv.init_step(t, y)
+        self._raise(res, t, failed, words.said)
         while True:
-            res = cv.step(pending[0] if pending else t1, tstop=t1)
-            self._raise(res, t, failed)
+            with _Words() as words:
+                res = cv.step(pending[0] if pending else t1, tstop=t1)
+            self._raise(res, t, failed, words.said)
             t, y = float(res.t), res.y
             if check is not None:
                 check(t, y)
@@ -179,18 +190,41 @@ class CVode:
             if t >= t1 or (not pending and res.status == 1):
                 return t1, y, res, False
 
-    @classmethod
-    def _raise(cls, res, t, failed):
-        """The exception a callback raised, else :meth:`_check`."""
+    @staticmethod
+    def _raise(res, t, failed, said=""):
+        """The exception a callback raised; else a :class:`SimulationError` for a failed CVODE
+        call (``t``: where it started; ``said``: SUNDIALS' own words)."""
         if failed:
             raise failed[0]
-        cls._check(res, t)
-
-    @staticmethod
-    def _check(res, t):
-        """Raise :class:`SimulationError` for a failed CVODE call (``t``: where it started)."""
         if res.status < 0:
-            raise SimulationError(f"solver cvode failed after t={t:.6g} s: {res.message}")
+            raise SimulationError(f"solver cvode failed after t={t:.6g} s: {res.message}"
+                                  + (f" (SUNDIALS: {said})" if said else ""))
 
     def __repr__(self):
         return f"CVode({self.method}, rtol={self.rtol:g})"
+
+
+_SAYS = re.compile(r"\n\[(\w+), Error: (-?\d+)\] (.*?)\n\n", re.S)
+
+
+class _Words(contextlib.redirect_stdout):
+    """Around a scikit-sundae call: SUNDIALS' error messages (which it prints) go into
+    ``said`` instead of the standard output; anything else printed there is passed on."""
+
+    def __init__(self):
+        super().__init__(io.StringIO())
+        self.said = ""
+
+    def __enter__(self):
+        super().__enter__()
+        return self
+
+    def __exit__(self, *exc):
+        super().__exit__(*exc)
+        text = self._new_target.getvalue()
+        if text:
+            self.said = "; ".join(m.group(3).strip() for m in _SAYS.finditer(text))
+            rest = _SAYS.sub("", text)
+            if rest:
+                sys.stdout.write(rest)
+        return False
