@@ -83,7 +83,10 @@ class BoundCalls:
             values = np.zeros(n, dtype=dtype)
             args = (self._c, _P(vr.ctypes.data), _N(len(vr)), _P(values.ctypes.data)) + ((_N(n),) if fmi3 else ())
             self._keep.append(vr)
-            self.getters.append((typ, name, fn, args, values, np.array(positions, dtype=np.intp)))
+            first = positions[0]  # a slice when the positions are contiguous (the usual case)
+            contiguous = list(positions) == list(range(first, first + n))
+            where = slice(first, first + n) if contiguous else np.array(positions, dtype=np.intp)
+            self.getters.append((typ, name, fn, args, values, where))
 
     @staticmethod
     def _bind(fmu, name, argtypes):
