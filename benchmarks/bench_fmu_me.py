@@ -105,7 +105,7 @@ def main():
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(f"{args.repeat} alternating rounds; load average {load:.1f} at the end\n")
     print("| rtol | hybridsim solver | hybridsim CPU ms | fmpy CVode CPU ms | ratio (CPU) | ratio (wall) "
-          "| max abs q2 diff to fmpy (m) |")
+          "| max abs q2 diff to fmpy (rad) |")
     print("|---|---|---|---|---|---|---|")
     for rtol, name, c, w, fc, fw, err in rows:
         print(f"| {rtol:g} | {name} | {c * 1e3:.1f} | {fc * 1e3:.1f} | {c / fc:.2f} | {w / fw:.2f} | {err:.2g} |")
