@@ -229,3 +229,10 @@ def test_me_fmu_diagram_checks_and_runs_from_the_cli_on_cvode_and_on_a_scipy_sol
         q[solver] = table["plantq1"]
     assert "Traceback" not in "".join(capsys.readouterr())
     assert len(q["cvode"]) == len(q["bdf"]) == 11 and np.max(np.abs(q["cvode"] - q["bdf"])) < 1e-6
+
+
+def test_repeated_log_times_are_each_logged():
+    t_out = [0.25, 0.5, 0.5, 0.75]  # not a valid span for one CVODE call: taken one at a time
+    x1, outs = CVode(rtol=1e-10, atol=1e-12).advance(lambda t, x: -x, 0.0, 1.0, np.ones(1), t_out)
+    assert len(outs) == 4 and outs[1][0] == outs[2][0]
+    assert np.max(np.abs(np.ravel(outs) - np.exp(-np.array(t_out)))) < 1e-8
