@@ -164,3 +164,75 @@ def test_me_fmu_ball_bounces_at_the_closed_form_times_under_cvode(tmp_path):
             bounces.append(t)
     want = bounce_times(6, e=0.7)
     assert np.max(np.abs(np.array(bounces[:6]) - want)) < 1e-9
+
+
+def test_a_segment_in_one_call_gives_the_states_of_the_step_by_step_path():
+    # without a step callback CVODE runs every log time of a segment in one scikit-sundae call;
+    # with one it returns to Python at each: the same CVODE steps, so the same numbers to the bit
+    f = lambda t, x: A @ x  # noqa: E731
+    g = lambda t, x: np.array([x[0] - 1.5])  # noqa: E731 - x1 = 2 e^-t - ... falls through 1.5
+    t_out = np.linspace(0.001, 1.9, 400)
+    fast = CVode(rtol=1e-8, atol=1e-10).advance_to_event(f, 0.0, 2.0, np.array([1.0, 0.0]), t_out, g,
+                                                          np.array([-1.0]))
+    slow = CVode(rtol=1e-8, atol=1e-10).advance_to_event(f, 0.0, 2.0, np.array([1.0, 0.0]), t_out, g,
+                                                          np.array([-1.0]), step=lambda t, x: False)
+    assert fast[0] == slow[0] == pytest.approx(math.log(2 / 1.5), abs=1e-7)  # the crossing
+    assert list(fast[2]) == list(slow[2]) == [True]
+    assert np.array_equal(fast[1], slow[1]) and len(fast[3]) == len(slow[3]) == 61  # log times before it
+    assert all(np.array_equal(a, b) for a, b in zip(fast[3], slow[3]))
+
+
+def test_more_log_times_in_one_interval_than_restarts():
+    t_out = np.linspace(5e-5, 1 - 5e-5, 20_000)  # no sample hit between: one CVODE segment
+    x1, outs = CVode(rtol=1e-9, atol=1e-12).advance(lambda t, x: -x, 0.0, 1.0, np.ones(1), t_out)
+    assert len(outs) == 20_000
+    assert np.max(np.abs(np.ravel(outs) - np.exp(-t_out))) < 1e-8 and abs(x1[0] - math.exp(-1)) < 1e-8
+
+
+@pytest.mark.parametrize("where", ["rhs", "events"])
+def test_a_callback_error_comes_after_the_checks_of_the_points_before_it(where):
+    # x = 10 t; the callback fails past t = 0.6, the divergence check at x > 5 (the log time 0.55)
+    def f(t, x):
+        if where == "rhs" and t > 0.6:
+            raise ValueError(f"rhs failed at t={t:g}")
+        return np.array([10.0])
+
+    def g(t, x):
+        if where == "events" and t > 0.6:
+            raise ValueError(f"event function failed at t={t:g}")
+        return np.array([x[0] + 1.0])  # never crosses
+
+    def check(t, x):
+        if x[0] > 5.0 + 1e-6:
+            raise SimulationError(f"diverged at t={t:g}")
+
+    t_out = np.arange(1, 20) * 0.05
+    run = lambda **kw: CVode(rtol=1e-8).advance_to_event(f, 0.0, 1.0, np.zeros(1), t_out, g,  # noqa: E731
+                                                          np.array([0.0]), **kw)
+    with pytest.raises(SimulationError, match="diverged at t=0.55"):
+        run(check=check)
+    with pytest.raises(ValueError, match=f"{where.replace('events', 'event function')} failed"):
+        run()  # no check: the callback's own error, not CVODE's failure after it
+
+
+def test_me_fmu_diagram_checks_and_runs_from_the_cli_on_cvode_and_on_a_scipy_solver(plant, tmp_path, capsys):
+    from hybridsim.app.cli import main
+
+    q = {}
+    for solver in ("cvode", "bdf"):
+        common = [str(DIAGRAMS / "fig9_fmu_me.yaml"), "--set", f"fmu={plant}", "--set", f"simulation.solver={solver}"]
+        assert main(["check", *common]) == 0
+        out = tmp_path / solver
+        assert main(["run", *common, "--set", "simulation.t_end=0.005", "--set", "rate=120", "-q",
+                     "-o", str(out)]) == 0
+        table = np.genfromtxt(out / "fig9_fmu_me.csv", delimiter=",", names=True)
+        q[solver] = table["plantq1"]
+    assert "Traceback" not in "".join(capsys.readouterr())
+    assert len(q["cvode"]) == len(q["bdf"]) == 11 and np.max(np.abs(q["cvode"] - q["bdf"])) < 1e-6
+
+
+def test_repeated_log_times_are_each_logged():
+    t_out = [0.25, 0.5, 0.5, 0.75]  # not a valid span for one CVODE call: taken one at a time
+    x1, outs = CVode(rtol=1e-10, atol=1e-12).advance(lambda t, x: -x, 0.0, 1.0, np.ones(1), t_out)
+    assert len(outs) == 4 and outs[1][0] == outs[2][0]
+    assert np.max(np.abs(np.ravel(outs) - np.exp(-np.array(t_out)))) < 1e-8

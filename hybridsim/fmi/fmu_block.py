@@ -161,6 +161,7 @@ class FMUBlock(ModelExchange, Block):
             self.declare_continuous_state(self.nx or 1, atol=[1e-12 * n for n in nominals] or None)
         self._starts = np.array([x for v in self.in_vars for x in (_start(v) or [np.nan] * _size(v))])
         self._held = None  # the input values the FMU holds (its start values after instantiation)
+        self._inputs_set = None
         self._pending_stop = None  # a stop the FMU asked for at the end of a completed step
         self._fmu = None
         self._unzipdir = None
@@ -181,11 +182,14 @@ class FMUBlock(ModelExchange, Block):
         self.close()
         self._last_discrete = None
         self._held = self._starts.copy()
-        self._sent_state = None  # what the new instance was last given
+        self._inputs_set = None  # the input values last set in full (bytes): unchanged ones are skipped
+        self._sent_state = self._calls = None  # what the new instance was last given; its bound calls
         self._pending_stop = None
         self._unzipdir = tempfile.mkdtemp(prefix="hybridsim-fmu-")
         try:
-            fmpy.extract(str(self.path), unzipdir=self._unzipdir)
+            # what an instance needs, as fmpy.simulate_fmu extracts: not sources/ nor documentation/
+            fmpy.extract(str(self.path), unzipdir=self._unzipdir,
+                         include=lambda n: n.startswith(("binaries/", "resources/")))
         except Exception as exc:  # noqa: BLE001 - zipfile and fmpy raise many kinds
             self.close()
             raise FMUError(f"FMU {str(self.path)!r}: cannot extract: {exc}") from None
@@ -276,7 +280,7 @@ class FMUBlock(ModelExchange, Block):
     def __getstate__(self):
         state = dict(self.__dict__)
         state.update(_fmu=None, _unzipdir=None, _log_key=None, _callbacks=None, _get_der=None,
-                     _sent_state=None, _buffers={})
+                     _sent_state=None, _calls=None, _inputs_set=None)
         return state
 
     def _outputs(self):
@@ -292,6 +296,14 @@ class FMUBlock(ModelExchange, Block):
         """Set the inputs (``only``: those positions; default all but ME discrete-time ones)."""
         if not self.in_vars:
             return
+        key = None
+        if only is None:  # the inputs as bytes: as last set in full, there is nothing to write
+            try:
+                key = b"".join([a.tobytes() for a in u])
+            except AttributeError:  # not arrays
+                key = np.concatenate(u).tobytes()
+            if key == self._inputs_set:
+                return
         values = np.concatenate(u)
         skip = set() if only is not None else set(self.in_discrete)
         held, first = self._held, self.in_first
@@ -311,6 +323,8 @@ class FMUBlock(ModelExchange, Block):
                        [vr for vr, _ in pick], conv)
             for _, ks in pick:
                 held[ks] = values[ks]
+        if key is not None:
+            self._inputs_set = key
 
     def _port_name(self, k):
         """'block.port[j] (FMU variable name)' of flat input position ``k``, for messages."""
@@ -339,8 +353,8 @@ class FMUBlock(ModelExchange, Block):
             self._me_set(t, x, u)
             if self.in_discrete:
                 self._discrete_inputs(t, x, u)
-        else:
-            self._set_inputs(u)
+            return self._me_outputs()
+        self._set_inputs(u)
         return self._outputs()
 
     def update(self, t, x, u):

@@ -11,6 +11,7 @@ import ctypes
 import numpy as np
 
 from hybridsim.errors import FMUError, StopRequest
+from hybridsim.fmi.calls import BoundCalls, error
 
 
 def _raise(exc):
@@ -21,6 +22,9 @@ def _raise(exc):
 class ModelExchange:
     """The Model Exchange half of :class:`hybridsim.fmi.fmu_block.FMUBlock` (a mixin: it uses the block's
     ``_fmu``, ``_call``, ``_set_inputs``, ``nx``, ``nz`` and ``in_discrete``)."""
+
+    _sent_state = None  # (t, states) last given to the instance; None: set them again
+    _calls = None  # the instance's bound calls (hybridsim.fmi.calls)
 
     def _discrete_inputs(self, t, x, u):
         """Model Exchange: discrete-time inputs that changed enter the FMU through event mode."""
@@ -40,47 +44,48 @@ class ModelExchange:
     def _me_set(self, t, x, u):
         """Time, continuous states and inputs into the FMU; the time and states only when they
         differ from the last ones set (a right-hand side sets them for the outputs and again for
-        the derivatives)."""
-        key = (t, np.asarray(x, dtype=float).tobytes())
-        if key != self.__dict__.get("_sent_state"):
+        the derivatives), the inputs only when they differ from the last ones set."""
+        key = (t, (x if type(x) is np.ndarray else np.asarray(x, dtype=float)).tobytes())
+        if key != self._sent_state:
             self._sent_state = None
-            fmu = self._fmu
-            try:
-                fmu.setTime(t)
-            except Exception as exc:  # noqa: BLE001 - the message is built only on failure
-                self._call(f"setTime({t:.9g})", _raise, exc)
-            if self.nx:
-                buf, ptr = self._buffer("x", self.nx)
-                buf[:] = x
-                try:
-                    fmu.setContinuousStates(ptr, self.nx)
-                except Exception as exc:  # noqa: BLE001
-                    self._call(f"setContinuousStates at t={t:.9g}", _raise, exc)
+            failed = (self._calls or self._bind_calls()).set_state(t, x)
+            if failed is not None:
+                what = f"setTime({t:.9g})" if "SetTime" in failed[0] else f"setContinuousStates at t={t:.9g}"
+                self._call(what, _raise, error(*failed))
             self._sent_state = key
-        self._set_inputs(u)
+        if self.in_vars:
+            try:
+                same = b"".join([a.tobytes() for a in u]) == self._inputs_set
+            except AttributeError:  # not arrays: _set_inputs compares them
+                same = False
+            if not same:
+                self._set_inputs(u)
 
-    def _buffer(self, name, n):
-        """A float array of ``n`` kept for the FMU calls, and its ctypes pointer."""
-        bufs = self.__dict__.get("_buffers")
-        if bufs is None:
-            bufs = self._buffers = {}
-        got = bufs.get(name)
-        if got is None:
-            buf = np.zeros(n)
-            got = bufs[name] = (buf, buf.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
-        return got
+    def _bind_calls(self):
+        """Bind the continuous-time FMI functions and output getters of the current instance
+        (once per instance)."""
+        self._calls = BoundCalls(self._fmu, self.fmi3, self.nx, self.nz, self.out_types)
+        self._port_bounds = list(zip(self.cuts[:-1].tolist(), self.cuts[1:].tolist()))
+        return self._calls
+
+    def _me_outputs(self):
+        """The outputs, one port after the other, through the bound getters."""
+        vals = (self._calls or self._bind_calls()).outputs(np.zeros(self.n_out), self._outputs_failed)
+        return tuple([vals[a:b] for a, b in self._port_bounds])
+
+    def _outputs_failed(self, typ, exc):
+        self._call(f"get {typ} outputs", _raise, exc)
 
     def derivatives(self, t, x, u):
         """The FMU's state derivatives at (t, x, u) (zero for the dummy state)."""
         self._me_set(t, x, u)
         if not self.nx:
             return np.zeros(1)  # the dummy state
-        dx, ptr = self._buffer("dx", self.nx)
-        try:
-            self._get_der(ptr, self.nx)
-        except Exception as exc:  # noqa: BLE001 - the message is built only on failure
-            self._call("get derivatives", _raise, exc)
-        return dx.copy()
+        calls = self._calls
+        status = calls.get_dx()
+        if status > 1:
+            self._call("get derivatives", _raise, calls.failure("get_dx", status))
+        return calls.dx.copy()
 
     # -- Model Exchange events (FMI 2.0 and 3.0) -----------------------------------
     @property
@@ -152,9 +157,8 @@ class ModelExchange:
         if self.mode != "me" or not self.nz:
             return np.zeros(0)
         self._me_set(t, x, u)
-        z, ptr = self._buffer("z", self.nz)
-        try:
-            self._fmu.getEventIndicators(ptr, self.nz)
-        except Exception as exc:  # noqa: BLE001 - the message is built only on failure
-            self._call("getEventIndicators", _raise, exc)
-        return z.copy()
+        calls = self._calls
+        status = calls.get_z()
+        if status > 1:
+            self._call("getEventIndicators", _raise, calls.failure("get_z", status))
+        return calls.z.copy()
