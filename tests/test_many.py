@@ -95,7 +95,7 @@ def test_finished_points_are_read_back_not_run(ramp, tmp_path):
     assert len(whole) == 3  # only the point whose line was cut ran again
     with pytest.raises(InputError, match="different sweep .it changed.*--force"):
         Store(tmp_path / "o", "id2", "points.jsonl", "m.json", "sweep", "it changed")
-    Store(tmp_path / "o", "id2", "points.jsonl", "m.json", "sweep", "it changed", force=True)
+    Store(tmp_path / "o", "id2", "points.jsonl", "m.json", "sweep", "it changed", restart=True)
     assert (tmp_path / "o" / "points.jsonl.old").exists() and not (tmp_path / "o" / "points.jsonl").exists()
 
 

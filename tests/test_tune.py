@@ -178,7 +178,7 @@ def test_nelder_mead_improves_and_resumes(tmp_path):
                       "u.yaml")
     with pytest.raises(InputError, match="different search"):
         run_tune(other, tmp_path / "out", jobs=1, progress=False)
-    fresh = run_tune(other, tmp_path / "out", jobs=1, progress=False, force=True)
+    fresh = run_tune(other, tmp_path / "out", jobs=1, progress=False, restart=True)
     assert fresh["ran"] >= 3 and (tmp_path / "out" / "evaluations.jsonl.old").exists()
 
 

@@ -26,12 +26,13 @@ class MetricSet:
     name: str
     compute: object
     describe: object = None
+    headline: tuple = ()
 
 
 METRIC_SETS = []
 
 
-def register(name, compute, describe=None):
+def register(name, compute, describe=None, headline=()):
     """Add a set of metrics that every run computes.
 
     Parameters
@@ -45,8 +46,16 @@ def register(name, compute, describe=None):
     describe : callable, optional
         ``describe(metrics) -> list of str``: phrases for the terminal ("rise 0.120 s") from the
         metrics of a run (all sets' together).
+    headline : tuple of str, optional
+        The metrics a sweep's heat map shows first.
     """
-    METRIC_SETS[:] = [m for m in METRIC_SETS if m.name != name] + [MetricSet(name, compute, describe)]
+    METRIC_SETS[:] = [m for m in METRIC_SETS if m.name != name] + [MetricSet(name, compute, describe,
+                                                                            tuple(headline))]
+
+
+def headline():
+    """The registered sets' headline metrics, in registration order (what a sweep's heat map shows)."""
+    return [h for m in METRIC_SETS for h in m.headline]
 
 
 def compute(result, signals, config=None):

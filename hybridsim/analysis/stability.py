@@ -21,7 +21,7 @@ import control
 import numpy as np
 
 from hybridsim.format import tables
-from hybridsim.api import load
+from hybridsim.format.build import load
 from hybridsim.runs.experiment import Experiment
 from hybridsim.runs.grid import Grid
 from hybridsim.runs.many import Linearize, run_many

@@ -27,7 +27,7 @@ def run(args):
 
     out, _ = output_dir(args.output, Path("out") / safe_name(Path(args.sweep).stem))
     rows = run_sweep(options.path(args.sweep), out, jobs=args.jobs, dask=args.dask, progress=not args.quiet,
-                     compiled=args.compiled, force=args.force)
+                     compiled=args.compiled, restart=args.force)
     failed = [r for r in rows if r["status"] != "ok"]
     print(f"{len(rows)} rows ({len(failed)} failed) -> {out}/sweep.csv, sweep.parquet, heatmap.png, points.jsonl")
     for r in failed[:5]:

@@ -29,6 +29,6 @@ def run(args):
 
     out, _ = output_dir(args.output, Path("out") / ("tune_" + safe_name(Path(args.tune).stem)))
     res = run_tune(options.path(args.tune), out, jobs=args.jobs, dask=args.dask, progress=not args.quiet,
-                   force=args.force, compiled=args.compiled)
+                   restart=args.force, compiled=args.compiled)
     print("\n".join(summary_lines(res)))
     return 0

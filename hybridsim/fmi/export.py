@@ -160,7 +160,7 @@ def export_fmu(diagram, out, fmi=2, name=None):
         ``out``.
     """
     from hybridsim import __version__
-    from hybridsim import api
+    from hybridsim.format import build as api
     from hybridsim.files import check_output_file
     from hybridsim.format.diagram_file import DiagramFile
 

@@ -115,7 +115,7 @@ class Engine:
     # -- running ---------------------------------------------------------------------
     def start(self):
         """Build the diagram with the parameters set (exitInitializationMode)."""
-        from hybridsim import api
+        from hybridsim.format import build as api
         from hybridsim.fmi.runtime import DiagramStepper
 
         try:

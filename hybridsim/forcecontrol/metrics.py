@@ -106,4 +106,5 @@ def describe(m):
     return parts
 
 
-generic.register("forcecontrol", compute, describe)
+generic.register("forcecontrol", compute, describe,
+                 headline=("ss_force_error_filtered_N", "overshoot_pct", "contact_lost"))

@@ -128,7 +128,7 @@ def identity(files, extra=None):
 
 def sweep_identity(sweep):
     """The identity of a sweep's points besides their own overrides (its resume fingerprint)."""
-    from hybridsim.api import load
+    from hybridsim.format.build import load
 
     f = load(sweep.diagram, **sweep.fixed)
     files = set(run_files(f))

@@ -15,7 +15,7 @@ steady-state windows move by 0.5 s): a verdict that changes is "fragile".
 import math
 from typing import Callable, NamedTuple
 
-from hybridsim.api import load
+from hybridsim.format.build import load
 from hybridsim.paper.claims import FAMILIES, conventions, file_of, judge
 from hybridsim.runs.executor import using
 

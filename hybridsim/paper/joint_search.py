@@ -133,7 +133,7 @@ def joint_search(trials, executor=None, extra=None, seed=0, outdir=None, progres
     say = progress or (lambda msg: None)
     store = None
     if outdir is not None:
-        from hybridsim.api import load
+        from hybridsim.format.build import load
         from hybridsim.files import make_output_dir
         from hybridsim.format.identity import identity, run_files
 

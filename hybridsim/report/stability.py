@@ -19,7 +19,7 @@ import numpy as np
 from hybridsim.analysis import extras
 from hybridsim.analysis import stability as an
 from hybridsim.analysis.linearize import LinearizationError
-from hybridsim.api import build, load
+from hybridsim.format.build import build, load
 from hybridsim.files import atomic_dir, atomic_file, check_output_dir, output_dir, safe_name
 from hybridsim.format import DiagramFile
 from hybridsim.report import html

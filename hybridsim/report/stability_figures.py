@@ -9,7 +9,7 @@ import numpy as np
 
 from hybridsim.analysis import stability as an
 from hybridsim.analysis.linearize import Linearization
-from hybridsim.api import build
+from hybridsim.format.build import build
 from hybridsim.report.figures import pyplot
 from hybridsim.runs.experiment import Experiment
 

@@ -18,7 +18,7 @@ from collections import OrderedDict
 
 import numpy as np
 
-from hybridsim.api import SIMULATION_KEYS, build, load
+from hybridsim.format.build import SIMULATION_KEYS, build, load
 from hybridsim.errors import HybridsimError, InputError, ParameterError
 from hybridsim.format.settings import horizon_problems
 from hybridsim.analysis.linearize import Linearization, LinearizationError, start_outputs
@@ -34,7 +34,7 @@ class Experiment:
     Parameters
     ----------
     path : str, Path or DiagramFile
-        The diagram file, or one parsed already (:func:`hybridsim.api.load`).
+        The diagram file, or one parsed already (:func:`hybridsim.format.build.load`).
     variant : dict, optional
         The variant to build (``{"rate": 60}``, as :meth:`variants` gives them; default:
         the file's ``params`` as they are).

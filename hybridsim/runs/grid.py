@@ -27,7 +27,7 @@ class Point(NamedTuple):
     """One point: the changes made to the experiment, what a table shows, the resume key.
 
     ``experiment``: an :class:`~hybridsim.runs.experiment.Experiment` of its own, run
-    instead of the one :func:`~hybridsim.runs.many.run_many` is given (the paper's
+    instead of the one :func:`~hybridsim.runs.many.run_many` is given (the reproduction's
     searches mix diagrams); None for that one.
     """
 

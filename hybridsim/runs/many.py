@@ -1,7 +1,7 @@
 """Many runs of one experiment: :func:`run_many` (experiment, points, executor).
 
 Every "many runs" of hybridsim goes through here: a diagram's ``variants:``, sweep
-files, the analysis section's rate, gain and case sweeps, the paper's searches and
+files, the analysis section's rate, gain and case sweeps, the reproduction's searches and
 ``hybridsim tune``. What a point gives is its *measure*:
 
 * :class:`Simulate` (the default) runs the point on every variant of the experiment and

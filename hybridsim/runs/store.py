@@ -7,7 +7,7 @@ manifest that holds the identity of everything else the values depend on
 hybridsim version). A second run with the same identity reads the finished points back
 and runs only the others; an interrupted run loses at most the points not yet written (a
 line cut by a crash is dropped and its point runs again). A store of another identity in
-the folder is refused, or with ``force`` set aside (``NAME.old``) and started afresh.
+the folder is refused, or with ``restart`` set aside (``NAME.old``) and started afresh.
 """
 import json
 import os
@@ -34,13 +34,13 @@ class Store:
         What a point belongs to, for the message that refuses another's ("sweep", "search").
     changed : str
         What may have changed, for that message.
-    force : bool
+    restart : bool
         Set another job's points aside and start afresh instead of refusing.
     about : dict, optional
         More to write into the manifest (what the job was: its file, its diagram).
     """
 
-    def __init__(self, folder, identity, name, manifest, what, changed, force=False, about=None):
+    def __init__(self, folder, identity, name, manifest, what, changed, restart=False, about=None):
         folder = Path(folder)
         self.path, self.what = folder / name, what
         manifest = folder / manifest
@@ -52,7 +52,7 @@ class Store:
                 old = "unreadable"
         if self.path.exists() and self.path.stat().st_size and old != identity:
             why = f"no {manifest.name} says which {what} they belong to" if old is None else changed
-            if not force:
+            if not restart:
                 raise InputError(f"{folder} holds points of a different {what} ({why}); they would not match "
                                  f"this one. Use another output folder (-o), or --force to start afresh (the old "
                                  f"points are kept as {name}.old)")

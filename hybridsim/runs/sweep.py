@@ -2,23 +2,23 @@
 
 A sweep file::
 
-    diagram: ../diagrams/fig7_force_steps.yaml   # relative to this file
-    set: {force: 5.0, rate: 60, simulation.t_end: 1.5}   # fixed for every point
+    diagram: ../diagrams/examples/msd_pid.yaml   # relative to this file
+    set: {simulation.t_end: 5}  # fixed for every point
     grid:                      # full factorial over values ...
-      rate: [60, 120]
+      rate: [50, 100]
     scale:                     # ... and over multiples of a parameter's value
-      ctrl.fpi.Kp: [0.5, 1, 2]
+      pid.Kp: [0.5, 1, 2]
     random:                    # or/and: seeded uniform samples
       n: 20
       seed: 1
-      ranges: {Kr: [8.0e5, 1.0e6]}
+      ranges: {pid.Ki: [5.0, 20.0]}
     traces: false              # also keep each run's CSV
     stability: true            # also the linearized closed loop's largest |z|
 
 Every point is run on every variant of the diagram by :func:`~hybridsim.runs.many.run_many`
 (on all local cores, or a Dask cluster with ``--dask ADDRESS``) and each run reduced to
-one row of metrics (rise time, overshoot, steady-state error, contact lost, max position
-error; ``status`` failed with the message for a run that diverged). Points that change
+one row of metrics (those the registered metric sets compute from the diagram's ``signals``;
+``status`` failed with the message for a run that diverged). Points that change
 only block numbers run as run-time parameters of one built diagram per worker, logging
 only what the metrics read (on the compiled path: one compiled loop for every point).
 
@@ -27,7 +27,7 @@ Resuming: each finished point is one line of ``points.jsonl`` in the output fold
 same sweep runs only the points not there. ``sweep-manifest.json`` holds the identity of
 everything else a point's numbers depend on (every file its runs read, ``set``,
 ``stability``, the hybridsim version: :mod:`hybridsim.format.identity`): a different sweep
-into the same folder is refused, or with ``force`` started afresh (the old points kept as
+into the same folder is refused, or with ``restart`` started afresh (the old points kept as
 ``points.jsonl.old``). Every swept value is checked before any point runs.
 """
 from pathlib import Path
@@ -157,10 +157,10 @@ class Sweep:
 
         Each grid value, each scale factor and both ends of each random range are checked
         as one run would be: a run-time change by the blocks it reaches, anything else by
-        :func:`hybridsim.api.check` of the diagram with it. A sweep naming an unknown
+        :func:`hybridsim.format.build.check` of the diagram with it. A sweep naming an unknown
         parameter or a bad value stops here with exit 2.
         """
-        from hybridsim.api import check, load
+        from hybridsim.format.build import check, load
 
         exp = self.experiment
         check(exp.file)
@@ -225,7 +225,7 @@ class Row:
         return None if cl is None else cl.growth
 
 
-def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False, force=False, batch=True):
+def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False, restart=False, batch=True):
     """Run (or resume) a sweep; returns the table as a list of row dicts (one per point and variant).
 
     Raises InputError before anything runs for a bad sweep file, diagram, parameter or value,
@@ -247,7 +247,7 @@ def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False,
     compiled : bool
         Every point on the compiled path (as ``simulation.compiled: true`` in ``set``); the same
         numbers, so finished points are reused either way.
-    force : bool
+    restart : bool
         Start afresh when ``outdir`` holds the points of a different sweep (otherwise that is an
         :class:`~hybridsim.errors.InputError`).
     batch : bool
@@ -269,7 +269,7 @@ def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False,
         store = Store(outdir, fp, "points.jsonl", "sweep-manifest.json", "sweep",
                       "a file its runs read (the diagram, a file it extends, a subsystem, URDF, FMU, plugin or "
                       "a file the sweep names), 'set', 'stability' or the hybridsim version changed",
-                      force, {"sweep": str(sw.path), "diagram": str(sw.diagram)})
+                      restart, {"sweep": str(sw.path), "diagram": str(sw.diagram)})
         traces = None
         if sw.traces:
             traces = outdir / "traces"

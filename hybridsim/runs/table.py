@@ -28,7 +28,9 @@ def heatmaps(rows, axes, outdir):
         return
     df = pd.DataFrame(rows)
     xa, ya = axes[0], axes[1]
-    metrics = [m for m in ("ss_force_error_filtered_N", "overshoot_pct", "contact_lost") if m in df]
+    from hybridsim.analysis.metrics import headline
+
+    metrics = [m for m in headline() if m in df][:3]
     if not metrics:
         return
     fig, axs = plt.subplots(1, len(metrics), figsize=(4.6 * len(metrics), 3.8), squeeze=False)
@@ -41,11 +43,11 @@ def heatmaps(rows, axes, outdir):
         ax.set_ylabel(ya)
         ax.set_title(m, fontsize=9)
         fig.colorbar(im, ax=ax, shrink=0.8)
-        # the paper's operating point: scale 1 of a scaled axis, or the base value
+        # the diagram as it is: scale 1 of a scaled axis
         px = _index_of_one(piv.columns, xa)
         py = _index_of_one(piv.index, ya)
         if px is not None and py is not None:
-            ax.plot(px, py, "r*", ms=14, label="paper (Appendix A)")
+            ax.plot(px, py, "r*", ms=14, label="the diagram's own values")
             ax.legend(fontsize=7, loc="upper right")
     fig.tight_layout()
     with atomic_file(Path(outdir) / "heatmap.png", "wb") as fh:

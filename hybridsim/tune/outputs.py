@@ -35,7 +35,7 @@ def overlay(spec, values, outdir):
             sim[parts[1]] = value
         else:  # block.param, or sub.block.param (the subsystem passes block.param on)
             blocks.setdefault(parts[0], {})[".".join(parts[1:])] = value
-    from hybridsim.api import load
+    from hybridsim.format.build import load
 
     swept = load(spec.diagram).data.get("variants") or {}
     fixed = {k: [v] for k, v in params.items() if k in swept}  # a value set for a swept name ends that sweep

@@ -96,7 +96,7 @@ def _run_values(spec, f_runs, quantities):
 
 def _analysis_values(spec, ov, quantities):
     from hybridsim.analysis.stability import linearization, margins, settings_of
-    from hybridsim.api import load
+    from hybridsim.format.build import load
     from hybridsim.analysis.linearize import LinearizationError
 
     f = load(spec.diagram, **ov)

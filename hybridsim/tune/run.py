@@ -132,7 +132,7 @@ class Evaluator:
 def _start(spec):
     """The diagram's own values of the parameters as a unit vector, or None when one is outside its bounds."""
     from hybridsim.analysis.stability import param_value
-    from hybridsim.api import load
+    from hybridsim.format.build import load
 
     f = load(spec.diagram, **spec.fixed)
     u = []
@@ -151,7 +151,7 @@ def _start(spec):
     return np.array(u)
 
 
-def run_tune(path, outdir, jobs=None, dask=None, progress=True, force=False, compiled=False):
+def run_tune(path, outdir, jobs=None, dask=None, progress=True, restart=False, compiled=False):
     """Run (or resume) the search of tune file ``path``; returns a summary dict.
 
     Parameters
@@ -166,7 +166,7 @@ def run_tune(path, outdir, jobs=None, dask=None, progress=True, force=False, com
         A Dask scheduler address (or client) to run the points on instead.
     progress : bool
         A progress bar on the terminal.
-    force : bool
+    restart : bool
         Start afresh when ``outdir`` holds another search's points.
     compiled : bool
         Every run on the compiled path (``simulation.compiled: true``).
@@ -194,7 +194,7 @@ def run_tune(path, outdir, jobs=None, dask=None, progress=True, force=False, com
                                         "set": {k: v for k, v in spec.fixed.items() if k != "simulation.compiled"}})
     outdir = make_output_dir(Path(outdir))
     store = Store(outdir, fp, "evaluations.jsonl", "tune-manifest.json", "search",
-                  "another diagram or tune file, a file its runs read, or the hybridsim version", force,
+                  "another diagram or tune file, a file its runs read, or the hybridsim version", restart,
                   {"tune_file": str(spec.path), "diagram": str(spec.diagram)})
     shown = progress_bar(drivers.budget(spec.method, spec.options, len(spec.parameters)), desc="tune",
                          unit="point", show=progress)

@@ -256,8 +256,8 @@ class TuneSpec:
 
     def validate(self):
         """Check the diagram with ``set``, every variant and both ends (or every choice) of each parameter
-        as a run would (:func:`hybridsim.api.check`), before any point runs."""
-        from hybridsim.api import check, load
+        as a run would (:func:`hybridsim.format.build.check`), before any point runs."""
+        from hybridsim.format.build import check, load
 
         try:
             check(load(self.diagram, **self.fixed))

@@ -1,0 +1,167 @@
+"""From a diagram file to a runnable simulator: load, build, check, simulate.
+
+:func:`load` parses a file with overrides (:class:`~hybridsim.format.DiagramFile`),
+:func:`build` turns one of its variants into ``(system, simulator, settings)`` (the
+solver from the ``simulation`` settings, per-state tolerances, the compiled path
+when asked), :func:`check` builds every variant as a run would, without running,
+and :func:`simulate` runs one. The public API (:mod:`hybridsim.api`) re-exports them.
+"""
+from hybridsim.engine.simulator import Simulator
+from hybridsim.engine.solvers import FIXED_STEP, ScipySolver
+from hybridsim.format import tables
+from hybridsim.format.diagram_file import DiagramFile
+
+
+def make_solver(sim):
+    """Solver object from a diagram's ``simulation`` settings."""
+    name = str(sim.get("solver", "rk4")).lower()
+    if name in FIXED_STEP:
+        return FIXED_STEP[name](float(sim.get("step", _SIM["step"])))
+    if name == "cvode":
+        from hybridsim.engine.cvode import CVode
+
+        return CVode(rtol=float(sim.get("rtol", _SIM["rtol"])), atol=sim.get("atol", _SIM["atol"]),
+                     max_step=float(sim.get("max_step", _SIM["max_step"])))
+    method = {"radau": "Radau", "bdf": "BDF", "lsoda": "LSODA", "rk45": "RK45",
+              "rk23": "RK23", "dop853": "DOP853"}[name]
+    atol = sim.get("atol", _SIM["atol"])
+    return ScipySolver(method, rtol=float(sim.get("rtol", _SIM["rtol"])),
+                       atol=atol if not isinstance(atol, list) else _SIM["atol"], max_step=float(sim.get("max_step", _SIM["max_step"])))
+
+
+def _atol_vector(system, sim):
+    """Per-state absolute tolerances: ``atol`` given one per state, else a block's own where it
+    declares them and ``atol`` (a number) elsewhere."""
+    import numpy as np
+
+    from hybridsim.errors import InputError
+
+    given = sim.get("atol", _SIM["atol"])
+    if isinstance(given, (list, tuple)):
+        if len(given) != system.n_x:
+            raise InputError(f"simulation setting 'atol' has {len(given)} value(s); one per continuous "
+                             f"state needs {system.n_x} (or give one number)")
+        return np.asarray(given, float)
+    a = system.atol.copy()
+    a[np.isnan(a)] = float(given)
+    return a
+
+
+SIMULATION_KEYS = set(tables.keys(tables.SIMULATION))
+_SIM = tables.defaults(tables.SIMULATION)  # the defaults of every simulation setting, from its table
+
+
+def check_plugin_blocks(system):
+    """Evaluate each plugin block's outputs once, at t = 0, and check them against its declared ports.
+
+    Raises :class:`~hybridsim.errors.PluginFault` naming the plugin, the block
+    and what it did (raised, or returned the wrong number or width of outputs),
+    before the run starts.
+    """
+    import numpy as np
+
+    from hybridsim.errors import PluginFault
+    from hybridsim.engine.registry import _is_ours, plugin_fault
+
+    plugin = [i for i, b in enumerate(system.blocks) if not _is_ours(type(b).__module__)]
+    if not plugin:
+        return
+    try:
+        ctx = system.create_context()
+    except Exception as exc:  # noqa: BLE001 - a plugin's initial state or outputs may raise anything
+        raise (plugin_fault(exc) or exc) from None
+    for i in plugin:
+        b = system.blocks[i]
+        who = (f"plugin {type(b).__module__!r}: block {b.name!r} "
+               f"({getattr(type(b), 'type_name', type(b).__name__)})")
+        try:
+            outs = tuple(b.output(0.0, ctx.block_state(i, ctx.xc), ctx.u[i]))
+        except Exception as exc:  # noqa: BLE001
+            raise PluginFault(f"{who}: output() raised {type(exc).__name__}: {exc}", type(b).__module__,
+                              b.name) from None
+        if b.outputs and len(outs) != len(b.outputs):
+            raise PluginFault(f"{who}: output() returned {len(outs)} value(s); the block declares "
+                              f"{len(b.outputs)} output(s) ({', '.join(p.name for p in b.outputs)})",
+                              type(b).__module__, b.name)
+        for port, v in zip(b.outputs, outs):
+            try:
+                np.broadcast_to(np.asarray(v, float), (port.width,))
+            except (ValueError, TypeError):
+                raise PluginFault(f"{who}: output {port.name!r} returned shape {np.shape(v)}; the block "
+                                  f"declares width {port.width}", type(b).__module__, b.name) from None
+
+
+def load(path, **overrides):
+    """Parse a diagram file, applying ``overrides``.
+
+    Keys: a name in ``params`` (``rate=80``), a block parameter
+    (``**{"arm.damping": [5, 50]}``), or a simulation setting (``t_end=1``).
+    """
+    return DiagramFile(path, load_keys(overrides))
+
+
+def load_keys(overrides):
+    """``overrides`` with a bare simulation setting (``t_end``) named as a path (``simulation.t_end``)."""
+    return {(f"simulation.{k}" if k in SIMULATION_KEYS else k): v for k, v in overrides.items()}
+
+
+def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
+    """(system, simulator, settings) for one variant of a diagram file.
+
+    ``check_only``: do not generate the compiled module (only check that the
+    compiled path can take the diagram), as ``hybridsim check`` does.
+    ``log``: the signals to record, instead of the file's ``log`` and
+    ``signals`` (e.g. only the signals metrics need).
+    """
+    f = path_or_file if isinstance(path_or_file, DiagramFile) else load(path_or_file, **overrides)
+    diagram, settings = f.build(variant)
+    system = diagram.build()
+    check_plugin_blocks(system)
+    sim = settings["simulation"]
+    solver = make_solver(sim)
+    if not isinstance(solver, tuple(FIXED_STEP.values())):  # scipy and CVODE: per-state tolerances
+        solver.atol = _atol_vector(system, sim)
+    if log is None:
+        log = list(settings["log"]) + list(settings["signals"].values())
+    compiled = bool(sim.get("compiled", False))
+    if compiled and check_only:
+        from hybridsim.engine.compiled import problems
+        from hybridsim.errors import CompiledPathError
+
+        from hybridsim.engine.simulator import located_events
+
+        why = problems(system, solver, located_events(system, solver, bool(sim.get("locate_switches", False))))
+        if why:
+            raise CompiledPathError("cannot use the compiled path: " + "; ".join(why))
+    simulator = Simulator(system, solver, log=log,
+                          log_period=sim.get("log_period", _SIM["log_period"]),
+                          max_state=sim.get("max_state", _SIM["max_state"]), fused=bool(sim.get("fused", _SIM["fused"])),
+                          compiled=compiled and not check_only,
+                          locate_switches=bool(sim.get("locate_switches", _SIM["locate_switches"])))
+    return system, simulator, settings
+
+
+def check(path_or_file, **overrides):
+    """Validate every variant of a diagram file as a run would, without running it.
+
+    Builds each variant's system and simulator (what ``run`` does before its
+    first step), so a file that passes cannot fail later for a reason this
+    could have seen. Returns a summary dict: ``blocks``, ``states``,
+    ``rates`` (Hz, over all variants) and ``runs``. Raises the
+    :class:`~hybridsim.errors.InputError` of the first bad variant.
+    """
+    f = path_or_file if isinstance(path_or_file, DiagramFile) else load(path_or_file, **overrides)
+    rates, system = set(), None
+    variants = f.variants()
+    for label, variant in variants:
+        system, simulator, settings = build(f, variant, check_only=True)
+        rates |= {float(1 / b.period) for b in system.blocks if b.period}
+    return {"blocks": len(system.blocks), "states": system.n_x, "rates": sorted(rates),
+            "runs": len(variants)}
+
+
+def simulate(path_or_file, variant=None, progress=False, **overrides):
+    """Run one variant of a diagram file; returns a :class:`~hybridsim.engine.result.Result`."""
+    system, simulator, settings = build(path_or_file, variant, **overrides)
+    simulator.progress = progress
+    return simulator.run(settings["simulation"]["t_end"])
