@@ -106,7 +106,9 @@ def test_the_schema_and_the_api_defaults_come_from_the_tables():
     assert set(schema["properties"]["analysis"]["properties"]) == set(tables.keys(tables.ANALYSIS))
     assert schema["properties"]["analysis"]["properties"]["step"]["anyOf"][0]["required"] == ["input", "output"]
     assert set(sweep_schema()["properties"]) == set(tables.keys(tables.SWEEP))
-    assert api._SIM == tables.defaults(tables.SIMULATION)
+    from hybridsim.format import build
+
+    assert build._SIM == tables.defaults(tables.SIMULATION)
     from hybridsim.analysis.stability import DEFAULTS
 
     assert DEFAULTS["scales"] == tables.defaults(tables.ANALYSIS)["scales"]
