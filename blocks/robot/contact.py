@@ -88,5 +88,5 @@ class PlaneContact(Block):
         return np.array([self.depth(u[0])])
 
 
-# the fused path's kernels (blocks.robot.kernels); the methods above are the generic path's
+# the kernels of the fused and compiled paths (blocks.robot.kernels); the methods above are the generic path's
 PlaneContact.kernels = rk.PLANE

@@ -1,23 +1,52 @@
-"""Kernels of the robot blocks for the fused path: plain floats, one Pinocchio call per use.
+"""Kernels of the robot's plant blocks: robot_arm, robot_kinematics, gravity_torque, ft_sensor, plane_contact.
 
-The blocks' methods (:mod:`hybridsim.blocks.robot`) stay the generic path's
-reference; these are the same laws written for :mod:`hybridsim.engine.fused`, which
-calls them with tuples of floats and no buffers between blocks. The rigid-body
-algorithms stay Pinocchio's: the tool frame's Jacobian is computed once per
-right-hand side by ``robot_kinematics`` and reused by ``robot_arm`` for J^T w
-when both name the same robot and frame at the same joint positions
-(:data:`_JACOBIANS`), the forward dynamics is one call of the articulated-body
-algorithm. They are marked ``python_only``: numba cannot compile Pinocchio.
+The blocks' methods (:mod:`hybridsim.blocks.robot.arm`, ...) stay the generic path's reference;
+these are the same laws as pure functions ``f(p, t, x, u)`` (:mod:`hybridsim.engine.kernels`).
+
+The rigid-body kernels have two bodies. Called from Python (the fused path) they call Pinocchio,
+each algorithm once per right-hand side: the tool frame's placement and Jacobian are computed
+once for given joint positions, by ``robot_kinematics``, and reused by ``robot_arm`` for J^T w;
+the forward dynamics is one call of the articulated-body algorithm. Compiled by numba (the
+compiled path), a call of them is the twin ``*_compiled`` instead (numba's ``overload``), which
+runs :mod:`hybridsim.blocks.robot.rigid` on the arrays of the block's :class:`~.rigid.Tree`.
+``block.params`` holds numbers and arrays only: the Pinocchio model is found by its number
+(:func:`pinocchio_model`); a process without it (params sent to another process) runs the twin.
+The sensor's and the plane's kernels are plain float arithmetic, the same code on every path.
 """
 import math
 from typing import NamedTuple
 
 import numpy as np
 
-from hybridsim.engine.kernels import Kernels
+from hybridsim.engine.kernels import Kernels, kernel
 
-#: the last tool-frame Jacobian per (robot file, frame): (joint positions as bytes, 6xN array)
-_JACOBIANS = {}
+from hybridsim.blocks.robot import rigid
+
+try:
+    from numba.extending import overload
+except ImportError:  # pragma: no cover - numba is optional (the fast extra); then nothing compiles these
+    def overload(fn, **kw):
+        return lambda typer: typer
+
+#: the Pinocchio models of this process, by number: (model, data); and the numbers by key
+_MODELS, _NUMBERS = [], {}
+#: the tool frame's last pose and Jacobian per (robot file, frame): (q, p, R, J), q a tuple
+_TOOLS = {}
+
+
+def pinocchio_model(model, key):
+    """The number under which ``model`` (with its ``data``) is kept for the fused path; ``key``
+    names what makes it (robot file, its time, gravity): one model per key, however many blocks."""
+    number = _NUMBERS.get(key)
+    if number is None:
+        number = _NUMBERS[key] = len(_MODELS)
+        _MODELS.append((model, model.createData()))
+    return number
+
+
+def pinocchio_model_of(number):
+    """The Pinocchio model kept under ``number`` (never modify it: blocks share it)."""
+    return _MODELS[number][0]
 
 
 def _pin():
@@ -26,47 +55,90 @@ def _pin():
     return pinocchio
 
 
-def frame_jacobian(model, data, key, q):
-    """The tool frame's 6xN Jacobian (world axes at the frame's origin) at ``q`` (array).
-    Reuses the one computed last for ``key`` at the same ``q``; returns ``(J, fresh)``:
-    ``fresh`` when this call computed it (then ``data`` holds the frame placements at ``q``)."""
-    tag = q.tobytes()
-    got = _JACOBIANS.get(key)
-    if got is not None and got[0] == tag:
-        return got[1], False
+def _known(tree):
+    """True when this process holds the Pinocchio model of ``tree``."""
+    return 0 <= tree.model < len(_MODELS)
+
+
+def tool_frame(tree, tool, q):
+    """(p, R row by row, J) of the tool frame at ``q`` (a tuple) by Pinocchio, computed once per ``q``
+    for each tool (``tool``: a key naming the robot file and frame): p and R as lists, J a 6xN array."""
+    got = _TOOLS.get(tool)
+    if got is not None and got[0] == q:
+        return got[1], got[2], got[3]
     pin = _pin()
-    J = pin.computeFrameJacobian(model, data, q, key[1], pin.LOCAL_WORLD_ALIGNED)
-    _JACOBIANS[key] = (tag, J)
-    return J, True
+    model, data = _MODELS[tree.model]
+    fid = tool[1]
+    J = pin.computeFrameJacobian(model, data, np.array(q), fid, pin.LOCAL_WORLD_ALIGNED)
+    pose = pin.updateFramePlacement(model, data, fid)  # the joints' placements are those at q
+    got = _TOOLS[tool] = (q, pose.translation.tolist(), pose.rotation.ravel().tolist(), J)
+    return got[1], got[2], got[3]
 
 
 # -- robot_kinematics ------------------------------------------------------------------
 class KinematicsParams(NamedTuple):
-    model: object
-    data: object
-    key: tuple  # (robot file, frame id)
+    tree: rigid.Tree
+    tool: tuple   # (robot file number, frame id): the key of the tool frame's pose and Jacobian
 
 
 def kinematics_output(p, t, x, u):
     """p, R (row by row), twist = J q' and J (row by row) of the tool frame."""
-    q = np.array(u[0], float)
-    J, fresh = frame_jacobian(p.model, p.data, p.key, q)
-    pin = _pin()
-    if not fresh:  # the placements in data may be of another q
-        pin.forwardKinematics(p.model, p.data, q)
-    pose = pin.updateFramePlacement(p.model, p.data, p.key[1])
-    return (pose.translation.tolist(), pose.rotation.ravel().tolist(), (J @ np.array(u[1], float)).tolist(),
-            J.ravel().copy())
+    if not _known(p.tree):
+        return kinematics_output_compiled(p, t, x, u)
+    pos, R, J = tool_frame(p.tree, p.tool, tuple(u[0]))
+    return pos, R, (J @ np.array(u[1], float)).tolist(), J.ravel()
 
 
-KINEMATICS = Kernels(output=kinematics_output, python_only=True)
+@kernel
+def kinematics_output_compiled(p, t, x, u):
+    """:func:`kinematics_output` on :mod:`~hybridsim.blocks.robot.rigid`'s arrays."""
+    n = p.tree.parent.shape[0]
+    q, qd = np.empty(n), np.empty(n)
+    for i in range(n):
+        q[i], qd[i] = u[0][i], u[1][i]
+    R, pos, J = rigid.tool(p.tree, q)
+    return pos, R.ravel(), J @ qd, J.ravel()
+
+
+@overload(kinematics_output)
+def _kinematics_output_numba(p, t, x, u):
+    return kinematics_output_compiled
+
+
+KINEMATICS = Kernels(output=kinematics_output)
+
+
+# -- gravity_torque --------------------------------------------------------------------
+class GravityParams(NamedTuple):
+    tree: rigid.Tree
+
+
+def gravity_output(p, t, x, u):
+    """g(q), N m or N."""
+    if not _known(p.tree):
+        return gravity_output_compiled(p, t, x, u)
+    model, data = _MODELS[p.tree.model]
+    return (_pin().computeGeneralizedGravity(model, data, np.array(u[0], float)).copy(),)
+
+
+@kernel
+def gravity_output_compiled(p, t, x, u):
+    """:func:`gravity_output` on :mod:`~hybridsim.blocks.robot.rigid`'s arrays."""
+    return (rigid.gravity(p.tree, np.asarray(u[0])),)
+
+
+@overload(gravity_output)
+def _gravity_output_numba(p, t, x, u):
+    return gravity_output_compiled
+
+
+GRAVITY = Kernels(output=gravity_output)
 
 
 # -- robot_arm -----------------------------------------------------------------------
 class ArmParams(NamedTuple):
-    model: object       # with the arm's gravity
-    data: object
-    key: tuple          # (robot file, frame id) of the tool frame the wrench acts on
+    tree: rigid.Tree    # with the arm's gravity
+    tool: tuple         # the key of the tool frame the wrench acts on (see KinematicsParams)
     n: int
     b: np.ndarray       # viscous damping per joint
     friction: bool
@@ -83,40 +155,115 @@ class ArmParams(NamedTuple):
 
 def arm_output(p, t, x, u):
     """q and q'."""
+    if not _known(p.tree):
+        return arm_output_compiled(p, t, x, u)
     return (x[:p.n], x[p.n:2 * p.n])
 
 
-def _sliding_level(p, v):
+@kernel
+def arm_output_compiled(p, t, x, u):
+    """:func:`arm_output` as arrays."""
+    xa = np.asarray(x)
+    return (xa[:p.n].copy(), xa[p.n:2 * p.n].copy())
+
+
+@overload(arm_output)
+def _arm_output_numba(p, t, x, u):
+    return arm_output_compiled
+
+
+@kernel
+def sliding_level(p, v):
+    """g(v) per joint: Coulomb's level, or Stribeck's falling from the static one."""
     if not (p.stribeck or p.lugre):
-        return p.tau_c
+        return p.tau_c.copy()
     return p.tau_c + (p.tau_s - p.tau_c) * np.exp(-(v / p.v_s) ** 2)
+
+
+@kernel
+def bristle_rate(p, v, z):
+    """LuGre's z' = v - sigma0 |v| z / g(v) per joint (0 where g(v) = 0)."""
+    g = sliding_level(p, v)
+    zd = v.copy()
+    for i in range(v.shape[0]):
+        if g[i] > 0.0:
+            zd[i] -= p.sigma0[i] * abs(v[i]) * z[i] / g[i]
+    return zd
+
+
+@kernel
+def joint_friction(p, v, f, bias, m):
+    """B of eq 11 per joint under the non-friction force ``f``, with ``bias`` = C q' + g and ``m`` = diag M."""
+    level = sliding_level(p, v)
+    B = np.empty(v.shape[0])
+    for i in range(v.shape[0]):
+        if abs(v[i]) >= p.band:
+            B[i] = -np.sign(v[i]) * level[i]
+        else:
+            B[i] = min(max(-(f[i] - bias[i]) - m[i] * v[i] / p.t_stick, -p.tau_s[i]), p.tau_s[i])
+    return B
 
 
 def arm_derivatives(p, t, x, u):
     """(q', q'', z'): ABA under tau + J^T w - b q' + B (Karnopp, Stribeck or LuGre friction)."""
+    if not _known(p.tree):
+        return arm_derivatives_compiled(p, t, x, u)
     pin = _pin()
+    model, data = _MODELS[p.tree.model]
     n = p.n
-    x = np.array(x, float)
     q, v = x[:n], x[n:2 * n]
-    f = np.array(u[0], float) - p.b * v
+    qa, va = np.array(q), np.array(v)
+    f = np.array(u[0], float) - p.b * va
     if any(u[1]):
-        J, _ = frame_jacobian(p.model, p.data, p.key, q)
-        f = f + J.T @ np.array(u[1], float)
+        f += tool_frame(p.tree, p.tool, q)[2].T @ np.array(u[1], float)
     if p.lugre:
-        z = x[2 * n:]
-        g = _sliding_level(p, v)
-        zd = v - np.divide(p.sigma0 * np.abs(v) * z, g, out=np.zeros(n), where=g > 0)
-        acc = pin.aba(p.model, p.data, q, v, f - (p.sigma0 * z + p.sigma1 * zd))
-        return np.concatenate([v, acc, zd]).tolist()
+        z = np.array(x[2 * n:])
+        zd = bristle_rate(p, va, z)
+        acc = pin.aba(model, data, qa, va, f - (p.sigma0 * z + p.sigma1 * zd))
+        return v + tuple(acc.tolist()) + tuple(zd.tolist())
     if p.friction:
-        bias = pin.rnea(p.model, p.data, q, v, np.zeros(n))  # C(q, q') q' + g(q)
-        m = np.diag(pin.crba(p.model, p.data, q))
-        stuck = np.clip(-(f - bias) - m * v / p.t_stick, -p.tau_s, p.tau_s)
-        f = f + np.where(np.abs(v) >= p.band, -np.sign(v) * _sliding_level(p, v), stuck)
-    return np.concatenate([v, pin.aba(p.model, p.data, q, v, f)]).tolist()
+        bias = pin.rnea(model, data, qa, va, np.zeros(n))  # C(q, q') q' + g(q)
+        f = f + joint_friction(p, va, f, bias, np.diag(pin.crba(model, data, qa)))
+    return v + tuple(pin.aba(model, data, qa, va, f).tolist())
 
 
-ARM = Kernels(output=arm_output, derivatives=arm_derivatives, python_only=True)
+@kernel
+def arm_derivatives_compiled(p, t, x, u):
+    """:func:`arm_derivatives` on :mod:`~hybridsim.blocks.robot.rigid`'s arrays."""
+    n = p.n
+    xa = np.asarray(x)
+    q, v = xa[:n].copy(), xa[n:2 * n].copy()
+    R, pos = rigid.placements(p.tree, q)  # once, for J^T w and the dynamics
+    f = np.empty(n)
+    for i in range(n):
+        f[i] = u[0][i] - p.b[i] * v[i]
+    w = np.asarray(u[1])
+    if np.any(w != 0.0):
+        J = rigid.tool_at(p.tree, R, pos)[2]
+        for i in range(n):
+            for k in range(6):
+                f[i] += J[k, i] * w[k]
+    out = np.empty(xa.shape[0])
+    out[:n] = v
+    if p.lugre:
+        z = xa[2 * n:].copy()
+        zd = bristle_rate(p, v, z)
+        out[n:2 * n] = rigid.aba_at(p.tree, R, pos, v, f - (p.sigma0 * z + p.sigma1 * zd))
+        out[2 * n:] = zd
+        return out
+    if p.friction:
+        bias = rigid.rnea(p.tree, q, v, np.zeros(n))
+        f = f + joint_friction(p, v, f, bias, np.diag(rigid.crba(p.tree, q)).copy())
+    out[n:2 * n] = rigid.aba_at(p.tree, R, pos, v, f)
+    return out
+
+
+@overload(arm_derivatives)
+def _arm_derivatives_numba(p, t, x, u):
+    return arm_derivatives_compiled
+
+
+ARM = Kernels(output=arm_output, derivatives=arm_derivatives)
 
 
 # -- ft_sensor -----------------------------------------------------------------------
@@ -128,6 +275,7 @@ class SensorParams(NamedTuple):
     compensate: bool
 
 
+@kernel
 def _spring(p, x, u):
     """The spring-damper's force on the tool (base axes): -R (K R^T d + B R^T d')."""
     fp, R, tw = u[0], u[1], u[2]
@@ -141,6 +289,7 @@ def _spring(p, x, u):
             -(R[6] * a0 + R[7] * a1 + R[8] * a2))
 
 
+@kernel
 def sensor_output(p, t, x, u):
     """wrench on the flange, the tool's p and twist, the reading F (tare subtracted)."""
     f = _spring(p, x, u)
@@ -150,6 +299,7 @@ def sensor_output(p, t, x, u):
             (f[0] + c * g[0] - x[6], f[1] + c * g[1] - x[7], f[2] + c * g[2] - x[8], 0.0, 0.0, 0.0))
 
 
+@kernel
 def sensor_derivatives(p, t, x, u):
     """The tool's p' and p'' (m p'' = spring + m g + f_env); the tare is constant."""
     f, fe = _spring(p, x, u), u[3]
@@ -157,20 +307,22 @@ def sensor_derivatives(p, t, x, u):
             (f[2] + p.m * p.g[2] + fe[2]) / p.m, 0.0, 0.0, 0.0)
 
 
+@kernel
 def sensor_zero_crossings(p, t, x, u):
     """The tare input's crossing of 0.5 (a rising edge tares)."""
     return (u[4][0] - 0.5,)
 
 
+@kernel
 def sensor_event_action(p, t, x, u, fired):
     """A tare: the reading now (before taring) is stored, so the reading becomes zero."""
     f = _spring(p, x, u)
     c = p.m if p.compensate else 0.0
-    return tuple(x[:6]) + (f[0] + c * p.g[0], f[1] + c * p.g[1], f[2] + c * p.g[2])
+    return (x[0], x[1], x[2], x[3], x[4], x[5], f[0] + c * p.g[0], f[1] + c * p.g[1], f[2] + c * p.g[2])
 
 
 SENSOR = Kernels(output=sensor_output, derivatives=sensor_derivatives, zero_crossings=sensor_zero_crossings,
-                 event_action=sensor_event_action, python_only=True)  # python_only: not checked under numba
+                 event_action=sensor_event_action)
 
 
 # -- plane_contact ---------------------------------------------------------------------
@@ -184,10 +336,18 @@ class PlaneParams(NamedTuple):
     unilateral: bool
 
 
+@kernel
+def plane_depth(p, pt):
+    """Penetration (m) of the point ``pt`` into the plane: positive inside."""
+    n, c = p.n, p.point
+    return n[0] * (c[0] - pt[0]) + n[1] * (c[1] - pt[1]) + n[2] * (c[2] - pt[2])
+
+
+@kernel
 def plane_output(p, t, x, u):
     """wrench on the tool, F on the plane, contact, depth (the method's law in floats)."""
-    n, c, pt, tw = p.n, p.point, u[0], u[1]
-    d = n[0] * (c[0] - pt[0]) + n[1] * (c[1] - pt[1]) + n[2] * (c[2] - pt[2])
+    n, tw = p.n, u[1]
+    d = plane_depth(p, u[0])
     vn = tw[0] * n[0] + tw[1] * n[1] + tw[2] * n[2]
     fn = p.K * d - p.B * vn
     inside = d > 0.0 or not p.unilateral
@@ -199,4 +359,10 @@ def plane_output(p, t, x, u):
             (1.0 if fn > 0.0 else 0.0,), (d,))
 
 
-PLANE = Kernels(output=plane_output, python_only=True)  # python_only: not checked under numba
+@kernel
+def plane_zero_crossings(p, t, x, u):
+    """First touch and lift-off: the depth's sign."""
+    return (plane_depth(p, u[0]),)
+
+
+PLANE = Kernels(output=plane_output, zero_crossings=plane_zero_crossings)

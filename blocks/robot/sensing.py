@@ -11,7 +11,7 @@ import numpy as np
 from hybridsim.engine.block import Block
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks.robot import kernels as rk
+from hybridsim.blocks.robot import kernels as rk, task_kernels as tk
 from hybridsim.blocks.robot._frames import rotation as rotation_matrix
 from hybridsim.blocks._util import flag, scalar, vector
 
@@ -149,5 +149,6 @@ class ForceTorqueSensor(Block):
         return x
 
 
-# the fused path's kernels (blocks.robot.kernels); the methods above are the generic path's
+# the kernels of the fused and compiled paths (blocks.robot.kernels); the methods above are the generic path's
 ForceTorqueSensor.kernels = rk.SENSOR
+WrenchTransform.kernels = tk.WRENCH
