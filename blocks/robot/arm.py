@@ -247,6 +247,7 @@ class RobotArm(_RobotBlock):
             self.declare_continuous_state(2 * n, atol=[1e-10] * n + [1e-8] * n)
             if self.friction:
                 self.event_directions = [0] * n
+        self.kernels = rk.ARM_LUGRE if self.lugre else rk.ARM_FRICTION if self.friction else rk.ARM
         self.params = rk.ArmParams(self.tree, self.tool, n, self.b,
                                    self.friction, self.stribeck, self.lugre, self.tau_c, self.tau_s, self.v_s,
                                    self.sigma0, getattr(self, "sigma1", np.zeros(n)), self.band, self.t_stick)
@@ -387,7 +388,7 @@ class GravityTorque(_RobotBlock):
 
 
 # the kernels of the fused and compiled paths (blocks.robot.kernels); the methods above are the generic path's
-RobotArm.kernels = rk.ARM
+RobotArm.kernels = rk.ARM  # without joint friction (an arm with it takes its own, set in __init__)
 RobotKinematics.kernels = rk.KINEMATICS
 GravityTorque.kernels = rk.GRAVITY
 

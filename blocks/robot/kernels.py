@@ -204,38 +204,58 @@ def joint_friction(p, v, f, bias, m):
     return B
 
 
-def arm_derivatives(p, t, x, u):
-    """(q', q'', z'): ABA under tau + J^T w - b q' + B (Karnopp, Stribeck or LuGre friction)."""
-    if not _known(p.tree):
-        return arm_derivatives_compiled(p, t, x, u)
-    pin = _pin()
-    model, data = _MODELS[p.tree.model]
-    n = p.n
-    q, v = x[:n], x[n:2 * n]
-    qa, va = np.array(q), np.array(v)
-    f = np.array(u[0], float) - p.b * va
+def _applied(p, q, v, u):
+    """tau + J^T w - b q' (N m or N) by Pinocchio (``q`` a tuple, ``v`` an array)."""
+    f = np.array(u[0], float) - p.b * v
     if any(u[1]):
         f += tool_frame(p.tree, p.tool, q)[2].T @ np.array(u[1], float)
-    if p.lugre:
-        z = np.array(x[2 * n:])
-        zd = bristle_rate(p, va, z)
-        acc = pin.aba(model, data, qa, va, f - (p.sigma0 * z + p.sigma1 * zd))
-        return v + tuple(acc.tolist()) + tuple(zd.tolist())
-    if p.friction:
-        bias = pin.rnea(model, data, qa, va, np.zeros(n))  # C(q, q') q' + g(q)
-        f = f + joint_friction(p, va, f, bias, np.diag(pin.crba(model, data, qa)))
+    return f
+
+
+def arm_derivatives(p, t, x, u):
+    """(q', q''): ABA under tau + J^T w - b q' (no joint friction)."""
+    if not _known(p.tree):
+        return arm_derivatives_compiled(p, t, x, u)
+    model, data = _MODELS[p.tree.model]
+    q, v = x[:p.n], x[p.n:2 * p.n]
+    va = np.array(v)
+    return v + tuple(_pin().aba(model, data, np.array(q), va, _applied(p, q, va, u)).tolist())
+
+
+def arm_friction_derivatives(p, t, x, u):
+    """(q', q''): ABA under tau + J^T w - b q' + B, B the Karnopp law (eq 11), or Stribeck's, per joint."""
+    if not _known(p.tree):
+        return arm_friction_derivatives_compiled(p, t, x, u)
+    pin = _pin()
+    model, data = _MODELS[p.tree.model]
+    q, v = x[:p.n], x[p.n:2 * p.n]
+    qa, va = np.array(q), np.array(v)
+    f = _applied(p, q, va, u)
+    bias = pin.rnea(model, data, qa, va, np.zeros(p.n))  # C(q, q') q' + g(q)
+    f = f + joint_friction(p, va, f, bias, np.diag(pin.crba(model, data, qa)))
     return v + tuple(pin.aba(model, data, qa, va, f).tolist())
 
 
-@kernel
-def arm_derivatives_compiled(p, t, x, u):
-    """:func:`arm_derivatives` on :mod:`~hybridsim.blocks.robot.rigid`'s arrays."""
+def arm_lugre_derivatives(p, t, x, u):
+    """(q', q'', z'): ABA under tau + J^T w - b q' - (sigma0 z + sigma1 z'), LuGre's bristles per joint."""
+    if not _known(p.tree):
+        return arm_lugre_derivatives_compiled(p, t, x, u)
+    model, data = _MODELS[p.tree.model]
     n = p.n
-    xa = np.asarray(x)
-    q, v = xa[:n].copy(), xa[n:2 * n].copy()
-    R, pos = rigid.placements(p.tree, q)  # once, for J^T w and the dynamics
-    f = np.empty(n)
+    q, v = x[:n], x[n:2 * n]
+    va, z = np.array(v), np.array(x[2 * n:])
+    zd = bristle_rate(p, va, z)
+    f = _applied(p, q, va, u) - (p.sigma0 * z + p.sigma1 * zd)
+    return v + tuple(_pin().aba(model, data, np.array(q), va, f).tolist()) + tuple(zd.tolist())
+
+
+@kernel
+def applied_compiled(p, R, pos, x, u):
+    """(q', tau + J^T w - b q') at the joint placements (R, pos) of the state ``x``, as arrays."""
+    n = p.n
+    v, f = np.empty(n), np.empty(n)
     for i in range(n):
+        v[i] = x[n + i]
         f[i] = u[0][i] - p.b[i] * v[i]
     w = np.asarray(u[1])
     if np.any(w != 0.0):
@@ -243,19 +263,48 @@ def arm_derivatives_compiled(p, t, x, u):
         for i in range(n):
             for k in range(6):
                 f[i] += J[k, i] * w[k]
-    out = np.empty(xa.shape[0])
-    out[:n] = v
-    if p.lugre:
-        z = xa[2 * n:].copy()
-        zd = bristle_rate(p, v, z)
-        out[n:2 * n] = rigid.aba_at(p.tree, R, pos, v, f - (p.sigma0 * z + p.sigma1 * zd))
-        out[2 * n:] = zd
-        return out
-    if p.friction:
-        bias = rigid.rnea(p.tree, q, v, np.zeros(n))
-        f = f + joint_friction(p, v, f, bias, np.diag(rigid.crba(p.tree, q)).copy())
-    out[n:2 * n] = rigid.aba_at(p.tree, R, pos, v, f)
-    return out
+    return v, f
+
+
+@kernel
+def joints(p, x):
+    """q of the state ``x`` as an array."""
+    q = np.empty(p.n)
+    for i in range(p.n):
+        q[i] = x[i]
+    return q
+
+
+@kernel
+def arm_derivatives_compiled(p, t, x, u):
+    """:func:`arm_derivatives` on :mod:`~hybridsim.blocks.robot.rigid`'s arrays."""
+    R, pos = rigid.placements(p.tree, joints(p, x))  # once, for J^T w and the dynamics
+    v, f = applied_compiled(p, R, pos, x, u)
+    return np.concatenate((v, rigid.aba_at(p.tree, R, pos, v, f)))
+
+
+@kernel
+def arm_friction_derivatives_compiled(p, t, x, u):
+    """:func:`arm_friction_derivatives` on :mod:`~hybridsim.blocks.robot.rigid`'s arrays."""
+    q = joints(p, x)
+    R, pos = rigid.placements(p.tree, q)
+    v, f = applied_compiled(p, R, pos, x, u)
+    bias = rigid.rnea(p.tree, q, v, np.zeros(p.n))
+    f = f + joint_friction(p, v, f, bias, np.diag(rigid.crba(p.tree, q)).copy())
+    return np.concatenate((v, rigid.aba_at(p.tree, R, pos, v, f)))
+
+
+@kernel
+def arm_lugre_derivatives_compiled(p, t, x, u):
+    """:func:`arm_lugre_derivatives` on :mod:`~hybridsim.blocks.robot.rigid`'s arrays."""
+    n = p.n
+    R, pos = rigid.placements(p.tree, joints(p, x))
+    v, f = applied_compiled(p, R, pos, x, u)
+    z = np.empty(n)
+    for i in range(n):
+        z[i] = x[2 * n + i]
+    zd = bristle_rate(p, v, z)
+    return np.concatenate((v, rigid.aba_at(p.tree, R, pos, v, f - (p.sigma0 * z + p.sigma1 * zd)), zd))
 
 
 @overload(arm_derivatives)
@@ -263,7 +312,20 @@ def _arm_derivatives_numba(p, t, x, u):
     return arm_derivatives_compiled
 
 
+@overload(arm_friction_derivatives)
+def _arm_friction_derivatives_numba(p, t, x, u):
+    return arm_friction_derivatives_compiled
+
+
+@overload(arm_lugre_derivatives)
+def _arm_lugre_derivatives_numba(p, t, x, u):
+    return arm_lugre_derivatives_compiled
+
+
+#: the arm's kernels without joint friction, with Karnopp's or Stribeck's, and with LuGre's
 ARM = Kernels(output=arm_output, derivatives=arm_derivatives)
+ARM_FRICTION = Kernels(output=arm_output, derivatives=arm_friction_derivatives)
+ARM_LUGRE = Kernels(output=arm_output, derivatives=arm_lugre_derivatives)
 
 
 # -- ft_sensor -----------------------------------------------------------------------

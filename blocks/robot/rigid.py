@@ -409,6 +409,21 @@ def aba(tr, q, v, tau):
 
 @kernel
 def gravity(tr, q):
-    """g(q): the joint forces that hold the tree still against gravity."""
-    z = np.zeros(tr.parent.shape[0])
-    return rnea(tr, q, z, z)
+    """g(q): the joint forces that hold the tree still against gravity (RNEA at rest)."""
+    n = tr.parent.shape[0]
+    R, p = placements(tr, q)
+    W = np.empty((2, n, 6))  # accelerations (gravity's, as the base's rise), forces
+    acc, f = W[0], W[1]
+    base = np.zeros(6)
+    base[0], base[1], base[2] = -tr.gravity[0], -tr.gravity[1], -tr.gravity[2]
+    for j in range(n):
+        i = tr.parent[j]
+        motion_to_child(R[j], p[j], acc[i] if i >= 0 else base, acc[j])
+        times(tr.inertia[j], acc[j], f[j])
+    tau = np.empty(n)
+    for j in range(n - 1, -1, -1):
+        tau[j] = along_axis(tr, j, f[j])
+        i = tr.parent[j]
+        if i >= 0:
+            add_force_to_parent(R[j], p[j], f[j], f[i])
+    return tau
