@@ -28,9 +28,10 @@ except ImportError:  # pragma: no cover - numba is optional (the fast extra); th
     def overload(fn, **kw):
         return lambda typer: typer
 
-#: the Pinocchio models of this process, by number: (model, data); and the numbers by key
-_MODELS, _NUMBERS = [], {}
-#: the tool frame's last pose and Jacobian per (robot file, frame): (q, p, R, J), q a tuple
+#: the Pinocchio models of this process by number, (model, data); the numbers by key; Pinocchio
+_MODELS, _NUMBERS, _PIN = {}, {}, []
+#: per tool frame (robot file and frame): its last joint positions (a tuple), p and R (lists),
+#: J (6xN), J row by row and J^T, computed by Pinocchio
 _TOOLS = {}
 
 
@@ -39,8 +40,11 @@ def pinocchio_model(model, key):
     names what makes it (robot file, its time, gravity): one model per key, however many blocks."""
     number = _NUMBERS.get(key)
     if number is None:
+        import pinocchio
+
+        _PIN[:] = [pinocchio]
         number = _NUMBERS[key] = len(_MODELS)
-        _MODELS.append((model, model.createData()))
+        _MODELS[number] = (model, model.createData())
     return number
 
 
@@ -49,30 +53,17 @@ def pinocchio_model_of(number):
     return _MODELS[number][0]
 
 
-def _pin():
-    import pinocchio
-
-    return pinocchio
-
-
-def _known(tree):
-    """True when this process holds the Pinocchio model of ``tree``."""
-    return 0 <= tree.model < len(_MODELS)
-
-
-def tool_frame(tree, tool, q):
-    """(p, R row by row, J) of the tool frame at ``q`` (a tuple) by Pinocchio, computed once per ``q``
-    for each tool (``tool``: a key naming the robot file and frame): p and R as lists, J a 6xN array."""
+def tool_frame(model, data, tool, q):
+    """``(q, p, R, J, J row by row, J^T)`` of the tool frame ``tool`` (robot file number, frame id)
+    at the joint positions ``q`` (a tuple) by Pinocchio: computed once for given ``q``, whichever
+    block asks first (p and R row by row as lists, J in world axes at the frame's origin)."""
     got = _TOOLS.get(tool)
-    if got is not None and got[0] == q:
-        return got[1], got[2], got[3]
-    pin = _pin()
-    model, data = _MODELS[tree.model]
-    fid = tool[1]
-    J = pin.computeFrameJacobian(model, data, np.array(q), fid, pin.LOCAL_WORLD_ALIGNED)
-    pose = pin.updateFramePlacement(model, data, fid)  # the joints' placements are those at q
-    got = _TOOLS[tool] = (q, pose.translation.tolist(), pose.rotation.ravel().tolist(), J)
-    return got[1], got[2], got[3]
+    if got is None or got[0] != q:
+        pin = _PIN[0]
+        J = pin.computeFrameJacobian(model, data, np.array(q), tool[1], pin.LOCAL_WORLD_ALIGNED)
+        pose = pin.updateFramePlacement(model, data, tool[1])  # the joints' placements are those at q
+        got = _TOOLS[tool] = (q, pose.translation.tolist(), pose.rotation.ravel().tolist(), J, J.ravel(), J.T.copy())
+    return got
 
 
 # -- robot_kinematics ------------------------------------------------------------------
@@ -83,10 +74,11 @@ class KinematicsParams(NamedTuple):
 
 def kinematics_output(p, t, x, u):
     """p, R (row by row), twist = J q' and J (row by row) of the tool frame."""
-    if not _known(p.tree):
+    got = _MODELS.get(p.tree.model)
+    if got is None:  # no Pinocchio model here: the twin
         return kinematics_output_compiled(p, t, x, u)
-    pos, R, J = tool_frame(p.tree, p.tool, tuple(u[0]))
-    return pos, R, (J @ np.array(u[1], float)).tolist(), J.ravel()
+    _, pos, R, J, flat, _ = tool_frame(got[0], got[1], p.tool, tuple(u[0]))
+    return pos, R, (J @ np.array(u[1])).tolist(), flat
 
 
 @kernel
@@ -115,10 +107,10 @@ class GravityParams(NamedTuple):
 
 def gravity_output(p, t, x, u):
     """g(q), N m or N."""
-    if not _known(p.tree):
+    got = _MODELS.get(p.tree.model)
+    if got is None:
         return gravity_output_compiled(p, t, x, u)
-    model, data = _MODELS[p.tree.model]
-    return (_pin().computeGeneralizedGravity(model, data, np.array(u[0], float)).copy(),)
+    return (_PIN[0].computeGeneralizedGravity(got[0], got[1], np.array(u[0], float)).copy(),)
 
 
 @kernel
@@ -155,7 +147,7 @@ class ArmParams(NamedTuple):
 
 def arm_output(p, t, x, u):
     """q and q'."""
-    if not _known(p.tree):
+    if p.tree.model not in _MODELS:
         return arm_output_compiled(p, t, x, u)
     return (x[:p.n], x[p.n:2 * p.n])
 
@@ -204,33 +196,34 @@ def joint_friction(p, v, f, bias, m):
     return B
 
 
-def _applied(p, q, v, u):
+def _applied(p, model, data, q, v, u):
     """tau + J^T w - b q' (N m or N) by Pinocchio (``q`` a tuple, ``v`` an array)."""
-    f = np.array(u[0], float) - p.b * v
+    f = np.array(u[0]) - p.b * v
     if any(u[1]):
-        f += tool_frame(p.tree, p.tool, q)[2].T @ np.array(u[1], float)
+        f += tool_frame(model, data, p.tool, q)[5] @ np.array(u[1])
     return f
 
 
 def arm_derivatives(p, t, x, u):
     """(q', q''): ABA under tau + J^T w - b q' (no joint friction)."""
-    if not _known(p.tree):
+    got = _MODELS.get(p.tree.model)
+    if got is None:
         return arm_derivatives_compiled(p, t, x, u)
-    model, data = _MODELS[p.tree.model]
+    model, data = got
     q, v = x[:p.n], x[p.n:2 * p.n]
     va = np.array(v)
-    return v + tuple(_pin().aba(model, data, np.array(q), va, _applied(p, q, va, u)).tolist())
+    return v + tuple(_PIN[0].aba(model, data, np.array(q), va, _applied(p, model, data, q, va, u)).tolist())
 
 
 def arm_friction_derivatives(p, t, x, u):
     """(q', q''): ABA under tau + J^T w - b q' + B, B the Karnopp law (eq 11), or Stribeck's, per joint."""
-    if not _known(p.tree):
+    got = _MODELS.get(p.tree.model)
+    if got is None:
         return arm_friction_derivatives_compiled(p, t, x, u)
-    pin = _pin()
-    model, data = _MODELS[p.tree.model]
+    pin, (model, data) = _PIN[0], got
     q, v = x[:p.n], x[p.n:2 * p.n]
     qa, va = np.array(q), np.array(v)
-    f = _applied(p, q, va, u)
+    f = _applied(p, model, data, q, va, u)
     bias = pin.rnea(model, data, qa, va, np.zeros(p.n))  # C(q, q') q' + g(q)
     f = f + joint_friction(p, va, f, bias, np.diag(pin.crba(model, data, qa)))
     return v + tuple(pin.aba(model, data, qa, va, f).tolist())
@@ -238,15 +231,16 @@ def arm_friction_derivatives(p, t, x, u):
 
 def arm_lugre_derivatives(p, t, x, u):
     """(q', q'', z'): ABA under tau + J^T w - b q' - (sigma0 z + sigma1 z'), LuGre's bristles per joint."""
-    if not _known(p.tree):
+    got = _MODELS.get(p.tree.model)
+    if got is None:
         return arm_lugre_derivatives_compiled(p, t, x, u)
-    model, data = _MODELS[p.tree.model]
+    model, data = got
     n = p.n
     q, v = x[:n], x[n:2 * n]
     va, z = np.array(v), np.array(x[2 * n:])
     zd = bristle_rate(p, va, z)
-    f = _applied(p, q, va, u) - (p.sigma0 * z + p.sigma1 * zd)
-    return v + tuple(_pin().aba(model, data, np.array(q), va, f).tolist()) + tuple(zd.tolist())
+    f = _applied(p, model, data, q, va, u) - (p.sigma0 * z + p.sigma1 * zd)
+    return v + tuple(_PIN[0].aba(model, data, np.array(q), va, f).tolist()) + tuple(zd.tolist())
 
 
 @kernel
@@ -383,8 +377,10 @@ def sensor_event_action(p, t, x, u, fired):
     return (x[0], x[1], x[2], x[3], x[4], x[5], f[0] + c * p.g[0], f[1] + c * p.g[1], f[2] + c * p.g[2])
 
 
+#: the sensor's kernels with a tare input (its event) and without
 SENSOR = Kernels(output=sensor_output, derivatives=sensor_derivatives, zero_crossings=sensor_zero_crossings,
                  event_action=sensor_event_action)
+SENSOR_UNTARED = Kernels(output=sensor_output, derivatives=sensor_derivatives)
 
 
 # -- plane_contact ---------------------------------------------------------------------
@@ -408,8 +404,8 @@ def plane_depth(p, pt):
 @kernel
 def plane_output(p, t, x, u):
     """wrench on the tool, F on the plane, contact, depth (the method's law in floats)."""
-    n, tw = p.n, u[1]
-    d = plane_depth(p, u[0])
+    n, c, pt, tw = p.n, p.point, u[0], u[1]
+    d = n[0] * (c[0] - pt[0]) + n[1] * (c[1] - pt[1]) + n[2] * (c[2] - pt[2])  # as plane_depth
     vn = tw[0] * n[0] + tw[1] * n[1] + tw[2] * n[2]
     fn = p.K * d - p.B * vn
     inside = d > 0.0 or not p.unilateral

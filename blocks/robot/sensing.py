@@ -72,6 +72,8 @@ class ForceTorqueSensor(Block):
     tool's weight) without compensation, and zero with it or after taring; in
     steady contact, compensated, it reads the force on the environment
     exactly. The moments are zero (the tool's centre is the sensor's origin).
+    With ``tare: false`` the block has no ``tare`` input and no event to locate
+    (the stored reading stays zero).
 
     Parameters
     ----------
@@ -82,10 +84,11 @@ class ForceTorqueSensor(Block):
     gravity_compensation : bool    subtract the tool's weight from the reading
     p0 : [m]                  the tool's start position (base frame); default hanging in balance
                               under the flange at t = 0
+    tare : bool               a ``tare`` input (default true)
     """
 
     def __init__(self, name="ft", mass=0.5, stiffness=(1e5, 1e5, 1e5), damping=(100.0, 100.0, 100.0),
-                 gravity=(0.0, 0.0, -9.81), gravity_compensation=False, p0=None):
+                 gravity=(0.0, 0.0, -9.81), gravity_compensation=False, p0=None, tare=True):
         super().__init__(name)
         self.m = scalar(mass, "mass", "positive")
         self.K = vector(stiffness, "stiffness", 3, "positive")
@@ -97,7 +100,11 @@ class ForceTorqueSensor(Block):
         self.declare_input("R", 9)
         self.declare_input("twist", 6)
         self.declare_input("f_env", 6, default=np.zeros(6), optional=True)
-        self.declare_input("tare", 1, default=np.zeros(1), optional=True)
+        self.tare = flag(tare, "tare")
+        if self.tare:
+            self.declare_input("tare", 1, default=np.zeros(1), optional=True)
+            self.event_directions = [1]
+        self.kernels = rk.SENSOR if self.tare else rk.SENSOR_UNTARED
         self.declare_output("wrench", 6, depends_on=("p", "R", "twist"))
         self.declare_output("p", 3, depends_on=())
         self.declare_output("twist", 6, depends_on=("twist",))
@@ -105,7 +112,6 @@ class ForceTorqueSensor(Block):
         # the tool's position and velocity, and the reading stored at the last tare (constant between tares)
         self.declare_continuous_state(9, atol=[1e-12] * 3 + [1e-10] * 3 + [1e-9] * 3)
         self.init_needs_inputs = True
-        self.event_directions = [1]
         self.params = rk.SensorParams(self.m, tuple(self.K.tolist()), tuple(self.B.tolist()),
                                       tuple(self.g.tolist()), self.compensate)
 
@@ -140,8 +146,18 @@ class ForceTorqueSensor(Block):
         acc = (self._spring(x, u) + self.m * self.g + np.asarray(u[3], float)[:3]) / self.m
         return np.concatenate([np.asarray(x[3:6], float), acc, np.zeros(3)])
 
+    @property
+    def has_zero_crossings(self):
+        """True with a tare input (its rising edge is the sensor's one event)."""
+        return self.tare
+
+    @property
+    def has_event_action(self):
+        """True with a tare input."""
+        return self.tare
+
     def zero_crossings(self, t, x, u):
-        return np.array([float(u[4][0]) - 0.5])
+        return np.array([float(u[4][0]) - 0.5]) if self.tare else None
 
     def event_action(self, t, x, u, fired):
         x = np.array(x, float)
@@ -150,5 +166,5 @@ class ForceTorqueSensor(Block):
 
 
 # the kernels of the fused and compiled paths (blocks.robot.kernels); the methods above are the generic path's
-ForceTorqueSensor.kernels = rk.SENSOR
+ForceTorqueSensor.kernels = rk.SENSOR  # with a tare input (one without takes SENSOR_UNTARED, set in __init__)
 WrenchTransform.kernels = tk.WRENCH
