@@ -1,4 +1,4 @@
-"""Kernels of the robot's plant blocks: robot_arm, robot_kinematics, gravity_torque, ft_sensor, plane_contact.
+"""Kernels of the rigid-body blocks: robot_arm, robot_kinematics, gravity_torque.
 
 The blocks' methods (:mod:`hybridsim.blocks.robot.arm`, ...) stay the generic path's reference;
 these are the same laws as pure functions ``f(p, t, x, u)`` (:mod:`hybridsim.engine.kernels`).
@@ -11,9 +11,7 @@ compiled path), a call of them is the twin ``*_compiled`` instead (numba's ``ove
 runs :mod:`hybridsim.blocks.robot.rigid` on the arrays of the block's :class:`~.rigid.Tree`.
 ``block.params`` holds numbers and arrays only: the Pinocchio model is found by its number
 (:func:`pinocchio_model`); a process without it (params sent to another process) runs the twin.
-The sensor's and the plane's kernels are plain float arithmetic, the same code on every path.
 """
-import math
 from typing import NamedTuple
 
 import numpy as np
@@ -21,6 +19,7 @@ import numpy as np
 from hybridsim.engine.kernels import Kernels, kernel
 
 from hybridsim.blocks.robot import rigid
+from hybridsim.blocks.robot.rigid import aba_at, crba, gravity, placements, rnea, tool, tool_at
 
 try:
     from numba.extending import overload
@@ -88,7 +87,7 @@ def kinematics_output_compiled(p, t, x, u):
     q, qd = np.empty(n), np.empty(n)
     for i in range(n):
         q[i], qd[i] = u[0][i], u[1][i]
-    R, pos, J = rigid.tool(p.tree, q)
+    R, pos, J = tool(p.tree, q)
     return pos, R.ravel(), J @ qd, J.ravel()
 
 
@@ -116,7 +115,7 @@ def gravity_output(p, t, x, u):
 @kernel
 def gravity_output_compiled(p, t, x, u):
     """:func:`gravity_output` on :mod:`~hybridsim.blocks.robot.rigid`'s arrays."""
-    return (rigid.gravity(p.tree, np.asarray(u[0])),)
+    return (gravity(p.tree, np.asarray(u[0])),)
 
 
 @overload(gravity_output)
@@ -253,7 +252,7 @@ def applied_compiled(p, R, pos, x, u):
         f[i] = u[0][i] - p.b[i] * v[i]
     w = np.asarray(u[1])
     if np.any(w != 0.0):
-        J = rigid.tool_at(p.tree, R, pos)[2]
+        J = tool_at(p.tree, R, pos)[2]
         for i in range(n):
             for k in range(6):
                 f[i] += J[k, i] * w[k]
@@ -272,33 +271,33 @@ def joints(p, x):
 @kernel
 def arm_derivatives_compiled(p, t, x, u):
     """:func:`arm_derivatives` on :mod:`~hybridsim.blocks.robot.rigid`'s arrays."""
-    R, pos = rigid.placements(p.tree, joints(p, x))  # once, for J^T w and the dynamics
+    R, pos = placements(p.tree, joints(p, x))  # once, for J^T w and the dynamics
     v, f = applied_compiled(p, R, pos, x, u)
-    return np.concatenate((v, rigid.aba_at(p.tree, R, pos, v, f)))
+    return np.concatenate((v, aba_at(p.tree, R, pos, v, f)))
 
 
 @kernel
 def arm_friction_derivatives_compiled(p, t, x, u):
     """:func:`arm_friction_derivatives` on :mod:`~hybridsim.blocks.robot.rigid`'s arrays."""
     q = joints(p, x)
-    R, pos = rigid.placements(p.tree, q)
+    R, pos = placements(p.tree, q)
     v, f = applied_compiled(p, R, pos, x, u)
-    bias = rigid.rnea(p.tree, q, v, np.zeros(p.n))
-    f = f + joint_friction(p, v, f, bias, np.diag(rigid.crba(p.tree, q)).copy())
-    return np.concatenate((v, rigid.aba_at(p.tree, R, pos, v, f)))
+    bias = rnea(p.tree, q, v, np.zeros(p.n))
+    f = f + joint_friction(p, v, f, bias, np.diag(crba(p.tree, q)).copy())
+    return np.concatenate((v, aba_at(p.tree, R, pos, v, f)))
 
 
 @kernel
 def arm_lugre_derivatives_compiled(p, t, x, u):
     """:func:`arm_lugre_derivatives` on :mod:`~hybridsim.blocks.robot.rigid`'s arrays."""
     n = p.n
-    R, pos = rigid.placements(p.tree, joints(p, x))
+    R, pos = placements(p.tree, joints(p, x))
     v, f = applied_compiled(p, R, pos, x, u)
     z = np.empty(n)
     for i in range(n):
         z[i] = x[2 * n + i]
     zd = bristle_rate(p, v, z)
-    return np.concatenate((v, rigid.aba_at(p.tree, R, pos, v, f - (p.sigma0 * z + p.sigma1 * zd)), zd))
+    return np.concatenate((v, aba_at(p.tree, R, pos, v, f - (p.sigma0 * z + p.sigma1 * zd)), zd))
 
 
 @overload(arm_derivatives)
@@ -320,107 +319,3 @@ def _arm_lugre_derivatives_numba(p, t, x, u):
 ARM = Kernels(output=arm_output, derivatives=arm_derivatives)
 ARM_FRICTION = Kernels(output=arm_output, derivatives=arm_friction_derivatives)
 ARM_LUGRE = Kernels(output=arm_output, derivatives=arm_lugre_derivatives)
-
-
-# -- ft_sensor -----------------------------------------------------------------------
-class SensorParams(NamedTuple):
-    m: float
-    K: tuple
-    B: tuple
-    g: tuple
-    compensate: bool
-
-
-@kernel
-def _spring(p, x, u):
-    """The spring-damper's force on the tool (base axes): -R (K R^T d + B R^T d')."""
-    fp, R, tw = u[0], u[1], u[2]
-    K, B = p.K, p.B
-    d0, d1, d2 = x[0] - fp[0], x[1] - fp[1], x[2] - fp[2]
-    e0, e1, e2 = x[3] - tw[0], x[4] - tw[1], x[5] - tw[2]
-    a0 = K[0] * (R[0] * d0 + R[3] * d1 + R[6] * d2) + B[0] * (R[0] * e0 + R[3] * e1 + R[6] * e2)
-    a1 = K[1] * (R[1] * d0 + R[4] * d1 + R[7] * d2) + B[1] * (R[1] * e0 + R[4] * e1 + R[7] * e2)
-    a2 = K[2] * (R[2] * d0 + R[5] * d1 + R[8] * d2) + B[2] * (R[2] * e0 + R[5] * e1 + R[8] * e2)
-    return (-(R[0] * a0 + R[1] * a1 + R[2] * a2), -(R[3] * a0 + R[4] * a1 + R[5] * a2),
-            -(R[6] * a0 + R[7] * a1 + R[8] * a2))
-
-
-@kernel
-def sensor_output(p, t, x, u):
-    """wrench on the flange, the tool's p and twist, the reading F (tare subtracted)."""
-    f = _spring(p, x, u)
-    tw, g = u[2], p.g
-    c = p.m if p.compensate else 0.0
-    return ((-f[0], -f[1], -f[2], 0.0, 0.0, 0.0), (x[0], x[1], x[2]), (x[3], x[4], x[5], tw[3], tw[4], tw[5]),
-            (f[0] + c * g[0] - x[6], f[1] + c * g[1] - x[7], f[2] + c * g[2] - x[8], 0.0, 0.0, 0.0))
-
-
-@kernel
-def sensor_derivatives(p, t, x, u):
-    """The tool's p' and p'' (m p'' = spring + m g + f_env); the tare is constant."""
-    f, fe = _spring(p, x, u), u[3]
-    return (x[3], x[4], x[5], (f[0] + p.m * p.g[0] + fe[0]) / p.m, (f[1] + p.m * p.g[1] + fe[1]) / p.m,
-            (f[2] + p.m * p.g[2] + fe[2]) / p.m, 0.0, 0.0, 0.0)
-
-
-@kernel
-def sensor_zero_crossings(p, t, x, u):
-    """The tare input's crossing of 0.5 (a rising edge tares)."""
-    return (u[4][0] - 0.5,)
-
-
-@kernel
-def sensor_event_action(p, t, x, u, fired):
-    """A tare: the reading now (before taring) is stored, so the reading becomes zero."""
-    f = _spring(p, x, u)
-    c = p.m if p.compensate else 0.0
-    return (x[0], x[1], x[2], x[3], x[4], x[5], f[0] + c * p.g[0], f[1] + c * p.g[1], f[2] + c * p.g[2])
-
-
-#: the sensor's kernels with a tare input (its event) and without
-SENSOR = Kernels(output=sensor_output, derivatives=sensor_derivatives, zero_crossings=sensor_zero_crossings,
-                 event_action=sensor_event_action)
-SENSOR_UNTARED = Kernels(output=sensor_output, derivatives=sensor_derivatives)
-
-
-# -- plane_contact ---------------------------------------------------------------------
-class PlaneParams(NamedTuple):
-    point: tuple
-    n: tuple
-    K: float
-    B: float
-    mu: float
-    v_s: float
-    unilateral: bool
-
-
-@kernel
-def plane_depth(p, pt):
-    """Penetration (m) of the point ``pt`` into the plane: positive inside."""
-    n, c = p.n, p.point
-    return n[0] * (c[0] - pt[0]) + n[1] * (c[1] - pt[1]) + n[2] * (c[2] - pt[2])
-
-
-@kernel
-def plane_output(p, t, x, u):
-    """wrench on the tool, F on the plane, contact, depth (the method's law in floats)."""
-    n, c, pt, tw = p.n, p.point, u[0], u[1]
-    d = n[0] * (c[0] - pt[0]) + n[1] * (c[1] - pt[1]) + n[2] * (c[2] - pt[2])  # as plane_depth
-    vn = tw[0] * n[0] + tw[1] * n[1] + tw[2] * n[2]
-    fn = p.K * d - p.B * vn
-    inside = d > 0.0 or not p.unilateral
-    fn = (max(fn, 0.0) if p.unilateral else fn) if inside else 0.0
-    vt = (tw[0] - vn * n[0], tw[1] - vn * n[1], tw[2] - vn * n[2])
-    k = -p.mu * abs(fn) / math.sqrt(vt[0] ** 2 + vt[1] ** 2 + vt[2] ** 2 + p.v_s ** 2)
-    w = (fn * n[0] + k * vt[0], fn * n[1] + k * vt[1], fn * n[2] + k * vt[2])
-    return ((w[0], w[1], w[2], 0.0, 0.0, 0.0), (-w[0], -w[1], -w[2], 0.0, 0.0, 0.0),
-            (1.0 if fn > 0.0 else 0.0,), (d,))
-
-
-@kernel
-def plane_zero_crossings(p, t, x, u):
-    """First touch and lift-off: the depth's sign."""
-    return (plane_depth(p, u[0]),)
-
-
-PLANE = Kernels(output=plane_output, zero_crossings=plane_zero_crossings)
