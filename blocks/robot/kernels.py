@@ -36,13 +36,17 @@ _TOOLS = {}
 
 def pinocchio_model(model, key):
     """The number under which ``model`` (with its ``data``) is kept for the fused path; ``key``
-    names what makes it (robot file, its time, gravity): one model per key, however many blocks."""
+    names what makes it (robot file, its time, gravity): one model per key, however many blocks.
+    The number is the key's hash, so params that reach another process find the same model there
+    or none (then the kernels run their twins), never another one."""
     number = _NUMBERS.get(key)
     if number is None:
+        import hashlib
+
         import pinocchio
 
         _PIN[:] = [pinocchio]
-        number = _NUMBERS[key] = len(_MODELS)
+        number = _NUMBERS[key] = int.from_bytes(hashlib.sha256(repr(key).encode()).digest()[:7], "big")
         _MODELS[number] = (model, model.createData())
     return number
 

@@ -147,6 +147,42 @@ def test_the_fused_path_is_taken_and_the_compiled_path_takes_the_ur5():
 
 
 @pytest.mark.slow
+def test_the_rigid_body_kernels_compiled_by_numba_equal_the_methods():
+    """The numba builds of the arm's (every friction model), the kinematics' and gravity's kernels
+    (what a call of them compiles to: their twins) against the methods, panda (a prismatic finger)."""
+    numba = pytest.importorskip("numba")
+    from numba.extending import register_jitable
+
+    from hybridsim.engine.kernels import marked
+
+    for f in marked():
+        if f.__module__.startswith("hybridsim.blocks.robot"):
+            register_jitable(f)
+
+    def jit(kernel):
+        return numba.njit(lambda p, x, u: kernel(p, 0.0, x, u))
+
+    kin = RobotKinematics("kin", robot="panda", frame="panda_hand")
+    grav = GravityTorque("g", robot="panda")
+    arms = [RobotArm("arm", robot="panda", frame="panda_hand", damping=0.3, **kw) for kw in
+            ({}, dict(friction=True, tau_c=0.5, tau_s=0.8), dict(friction=True, tau_c=0.5, tau_s=0.8,
+                                                                 friction_model="stribeck"),
+             dict(friction=True, tau_c=0.5, tau_s=0.8, friction_model="lugre"))]
+    output, gravity = jit(rk.kinematics_output), jit(rk.gravity_output)
+    derivatives = {arm.kernels.derivatives: jit(arm.kernels.derivatives) for arm in arms}
+    for _ in range(3):
+        q, qd = RNG.uniform(-1, 1, 9), RNG.normal(size=9)
+        assert close(output(kin.params, (), (q, qd)), kin.output(0.0, None, [q, qd]))
+        assert close(gravity(grav.params, (), (q,)), grav.output(0.0, None, [q]))
+        for arm in arms:
+            x = RNG.normal(size=arm.n_continuous)
+            x[9:18] *= 1e-4 if RNG.random() < 0.5 else 1.0
+            u = (RNG.normal(size=9), RNG.normal(size=6) * 5.0)
+            got = derivatives[arm.kernels.derivatives](arm.params, tuple(x), u)
+            assert close([got], [arm.derivatives(0.0, x, u)])
+
+
+@pytest.mark.slow
 def test_ur5_press_and_trace_compiled_equals_generic():
     # 0.7 s: the approach, first touch, the press and the trace's start (every phase)
     generic = hs.simulate(UR5, t_end=0.7, fused=False)
