@@ -65,7 +65,7 @@ def tool_frame(model, data, tool, q):
         pin = _PIN[0]
         J = pin.computeFrameJacobian(model, data, np.array(q), tool[1], pin.LOCAL_WORLD_ALIGNED)
         pose = pin.updateFramePlacement(model, data, tool[1])  # the joints' placements are those at q
-        got = _TOOLS[tool] = (q, pose.translation.tolist(), pose.rotation.ravel().tolist(), J, J.ravel(), J.T.copy())
+        got = _TOOLS[tool] = (q, pose.translation.tolist(), pose.rotation.ravel().tolist(), J, J.ravel(), J.T)
     return got
 
 
@@ -215,7 +215,10 @@ def arm_derivatives(p, t, x, u):
     model, data = got
     q, v = x[:p.n], x[p.n:2 * p.n]
     va = np.array(v)
-    return v + tuple(_PIN[0].aba(model, data, np.array(q), va, _applied(p, model, data, q, va, u)).tolist())
+    f = np.array(u[0]) - p.b * va  # as _applied, written out: this runs on every right-hand side
+    if any(u[1]):
+        f += tool_frame(model, data, p.tool, q)[5] @ np.array(u[1])
+    return v + tuple(_PIN[0].aba(model, data, np.array(q), va, f).tolist())
 
 
 def arm_friction_derivatives(p, t, x, u):
