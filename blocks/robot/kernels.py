@@ -7,8 +7,9 @@ The rigid-body kernels have two bodies. Called from Python (the fused path) they
 each algorithm once per right-hand side: the tool frame's placement and Jacobian are computed
 once for given joint positions, by ``robot_kinematics``, and reused by ``robot_arm`` for J^T w;
 the forward dynamics is one call of the articulated-body algorithm. Compiled by numba (the
-compiled path), a call of them is the twin ``*_compiled`` instead (numba's ``overload``), which
-runs :mod:`hybridsim.blocks.robot.rigid` on the arrays of the block's :class:`~.rigid.Tree`.
+compiled path), a call of them is their twin instead (``kernel.compiled``, ``*_compiled``, made
+so by :func:`compiled_as`), which runs :mod:`hybridsim.blocks.robot.rigid` on the arrays of the
+block's :class:`~.rigid.Tree`.
 ``block.params`` holds numbers and arrays only: the Pinocchio model is found by its number
 (:func:`pinocchio_model`); a process without it (params sent to another process) runs the twin.
 """
@@ -21,11 +22,23 @@ from hybridsim.engine.kernels import Kernels, kernel
 from hybridsim.blocks.robot import rigid
 from hybridsim.blocks.robot.rigid import aba_at, crba, gravity, placements, rnea, tool, tool_at
 
-try:
-    from numba.extending import overload
-except ImportError:  # pragma: no cover - numba is optional (the fast extra); then nothing compiles these
-    def overload(fn, **kw):
-        return lambda typer: typer
+
+
+def compiled_as(twin):
+    """Mark a kernel whose Python body calls Pinocchio (the fused path's) as compiling to ``twin``
+    (the same law in numba's subset): numba's ``overload`` makes a call of the kernel in compiled
+    code a call of ``twin``; ``kernel.compiled`` names it."""
+    def mark(fn):
+        try:
+            from numba.extending import overload
+        except ImportError:  # pragma: no cover - numba is optional (the fast extra): nothing compiles then
+            pass
+        else:
+            overload(fn)(lambda p, t, x, u: twin)
+        fn.compiled = twin
+        return fn
+
+    return mark
 
 #: the Pinocchio models of this process by number, (model, data); the numbers by key; Pinocchio
 _MODELS, _NUMBERS, _PIN = {}, {}, []
@@ -75,15 +88,6 @@ class KinematicsParams(NamedTuple):
     tool: tuple   # (robot file number, frame id): the key of the tool frame's pose and Jacobian
 
 
-def kinematics_output(p, t, x, u):
-    """p, R (row by row), twist = J q' and J (row by row) of the tool frame."""
-    got = _MODELS.get(p.tree.model)
-    if got is None:  # no Pinocchio model here: the twin
-        return kinematics_output_compiled(p, t, x, u)
-    _, pos, R, J, flat, _ = tool_frame(got[0], got[1], p.tool, tuple(u[0]))
-    return pos, R, (J @ np.array(u[1])).tolist(), flat
-
-
 @kernel
 def kinematics_output_compiled(p, t, x, u):
     """:func:`kinematics_output` on :mod:`~hybridsim.blocks.robot.rigid`'s arrays."""
@@ -95,9 +99,14 @@ def kinematics_output_compiled(p, t, x, u):
     return pos, R.ravel(), J @ qd, J.ravel()
 
 
-@overload(kinematics_output)
-def _kinematics_output_numba(p, t, x, u):
-    return kinematics_output_compiled
+@compiled_as(kinematics_output_compiled)
+def kinematics_output(p, t, x, u):
+    """p, R (row by row), twist = J q' and J (row by row) of the tool frame."""
+    got = _MODELS.get(p.tree.model)
+    if got is None:  # no Pinocchio model here: the twin
+        return kinematics_output_compiled(p, t, x, u)
+    _, pos, R, J, flat, _ = tool_frame(got[0], got[1], p.tool, tuple(u[0]))
+    return pos, R, (J @ np.array(u[1])).tolist(), flat
 
 
 KINEMATICS = Kernels(output=kinematics_output)
@@ -108,23 +117,19 @@ class GravityParams(NamedTuple):
     tree: rigid.Tree
 
 
-def gravity_output(p, t, x, u):
-    """g(q), N m or N."""
-    got = _MODELS.get(p.tree.model)
-    if got is None:
-        return gravity_output_compiled(p, t, x, u)
-    return (_PIN[0].computeGeneralizedGravity(got[0], got[1], np.array(u[0], float)).copy(),)
-
-
 @kernel
 def gravity_output_compiled(p, t, x, u):
     """:func:`gravity_output` on :mod:`~hybridsim.blocks.robot.rigid`'s arrays."""
     return (gravity(p.tree, np.asarray(u[0])),)
 
 
-@overload(gravity_output)
-def _gravity_output_numba(p, t, x, u):
-    return gravity_output_compiled
+@compiled_as(gravity_output_compiled)
+def gravity_output(p, t, x, u):
+    """g(q), N m or N."""
+    got = _MODELS.get(p.tree.model)
+    if got is None:
+        return gravity_output_compiled(p, t, x, u)
+    return (_PIN[0].computeGeneralizedGravity(got[0], got[1], np.array(u[0], float)).copy(),)
 
 
 GRAVITY = Kernels(output=gravity_output)
@@ -148,13 +153,6 @@ class ArmParams(NamedTuple):
     t_stick: float
 
 
-def arm_output(p, t, x, u):
-    """q and q'."""
-    if p.tree.model not in _MODELS:
-        return arm_output_compiled(p, t, x, u)
-    return (x[:p.n], x[p.n:2 * p.n])
-
-
 @kernel
 def arm_output_compiled(p, t, x, u):
     """:func:`arm_output` as arrays."""
@@ -162,9 +160,12 @@ def arm_output_compiled(p, t, x, u):
     return (xa[:p.n].copy(), xa[p.n:2 * p.n].copy())
 
 
-@overload(arm_output)
-def _arm_output_numba(p, t, x, u):
-    return arm_output_compiled
+@compiled_as(arm_output_compiled)
+def arm_output(p, t, x, u):
+    """q and q'."""
+    if p.tree.model not in _MODELS:
+        return arm_output_compiled(p, t, x, u)
+    return (x[:p.n], x[p.n:2 * p.n])
 
 
 @kernel
@@ -197,56 +198,6 @@ def joint_friction(p, v, f, bias, m):
         else:
             B[i] = min(max(-(f[i] - bias[i]) - m[i] * v[i] / p.t_stick, -p.tau_s[i]), p.tau_s[i])
     return B
-
-
-def _applied(p, model, data, q, v, u):
-    """tau + J^T w - b q' (N m or N) by Pinocchio (``q`` a tuple, ``v`` an array)."""
-    f = np.array(u[0]) - p.b * v
-    if any(u[1]):
-        f += tool_frame(model, data, p.tool, q)[5] @ np.array(u[1])
-    return f
-
-
-def arm_derivatives(p, t, x, u):
-    """(q', q''): ABA under tau + J^T w - b q' (no joint friction)."""
-    got = _MODELS.get(p.tree.model)
-    if got is None:
-        return arm_derivatives_compiled(p, t, x, u)
-    model, data = got
-    q, v = x[:p.n], x[p.n:2 * p.n]
-    va = np.array(v)
-    f = np.array(u[0]) - p.b * va  # as _applied, written out: this runs on every right-hand side
-    if any(u[1]):
-        f += tool_frame(model, data, p.tool, q)[5] @ np.array(u[1])
-    return v + tuple(_PIN[0].aba(model, data, np.array(q), va, f).tolist())
-
-
-def arm_friction_derivatives(p, t, x, u):
-    """(q', q''): ABA under tau + J^T w - b q' + B, B the Karnopp law (eq 11), or Stribeck's, per joint."""
-    got = _MODELS.get(p.tree.model)
-    if got is None:
-        return arm_friction_derivatives_compiled(p, t, x, u)
-    pin, (model, data) = _PIN[0], got
-    q, v = x[:p.n], x[p.n:2 * p.n]
-    qa, va = np.array(q), np.array(v)
-    f = _applied(p, model, data, q, va, u)
-    bias = pin.rnea(model, data, qa, va, np.zeros(p.n))  # C(q, q') q' + g(q)
-    f = f + joint_friction(p, va, f, bias, np.diag(pin.crba(model, data, qa)))
-    return v + tuple(pin.aba(model, data, qa, va, f).tolist())
-
-
-def arm_lugre_derivatives(p, t, x, u):
-    """(q', q'', z'): ABA under tau + J^T w - b q' - (sigma0 z + sigma1 z'), LuGre's bristles per joint."""
-    got = _MODELS.get(p.tree.model)
-    if got is None:
-        return arm_lugre_derivatives_compiled(p, t, x, u)
-    model, data = got
-    n = p.n
-    q, v = x[:n], x[n:2 * n]
-    va, z = np.array(v), np.array(x[2 * n:])
-    zd = bristle_rate(p, va, z)
-    f = _applied(p, model, data, q, va, u) - (p.sigma0 * z + p.sigma1 * zd)
-    return v + tuple(_PIN[0].aba(model, data, np.array(q), va, f).tolist()) + tuple(zd.tolist())
 
 
 @kernel
@@ -307,19 +258,57 @@ def arm_lugre_derivatives_compiled(p, t, x, u):
     return np.concatenate((v, aba_at(p.tree, R, pos, v, f - (p.sigma0 * z + p.sigma1 * zd)), zd))
 
 
-@overload(arm_derivatives)
-def _arm_derivatives_numba(p, t, x, u):
-    return arm_derivatives_compiled
+def _applied(p, model, data, q, v, u):
+    """tau + J^T w - b q' (N m or N) by Pinocchio (``q`` a tuple, ``v`` an array)."""
+    f = np.array(u[0]) - p.b * v
+    if any(u[1]):
+        f += tool_frame(model, data, p.tool, q)[5] @ np.array(u[1])
+    return f
 
 
-@overload(arm_friction_derivatives)
-def _arm_friction_derivatives_numba(p, t, x, u):
-    return arm_friction_derivatives_compiled
+@compiled_as(arm_derivatives_compiled)
+def arm_derivatives(p, t, x, u):
+    """(q', q''): ABA under tau + J^T w - b q' (no joint friction)."""
+    got = _MODELS.get(p.tree.model)
+    if got is None:
+        return arm_derivatives_compiled(p, t, x, u)
+    model, data = got
+    q, v = x[:p.n], x[p.n:2 * p.n]
+    va = np.array(v)
+    f = np.array(u[0]) - p.b * va  # as _applied, written out: this runs on every right-hand side
+    if any(u[1]):
+        f += tool_frame(model, data, p.tool, q)[5] @ np.array(u[1])
+    return v + tuple(_PIN[0].aba(model, data, np.array(q), va, f).tolist())
 
 
-@overload(arm_lugre_derivatives)
-def _arm_lugre_derivatives_numba(p, t, x, u):
-    return arm_lugre_derivatives_compiled
+@compiled_as(arm_friction_derivatives_compiled)
+def arm_friction_derivatives(p, t, x, u):
+    """(q', q''): ABA under tau + J^T w - b q' + B, B the Karnopp law (eq 11), or Stribeck's, per joint."""
+    got = _MODELS.get(p.tree.model)
+    if got is None:
+        return arm_friction_derivatives_compiled(p, t, x, u)
+    pin, (model, data) = _PIN[0], got
+    q, v = x[:p.n], x[p.n:2 * p.n]
+    qa, va = np.array(q), np.array(v)
+    f = _applied(p, model, data, q, va, u)
+    bias = pin.rnea(model, data, qa, va, np.zeros(p.n))  # C(q, q') q' + g(q)
+    f = f + joint_friction(p, va, f, bias, np.diag(pin.crba(model, data, qa)))
+    return v + tuple(pin.aba(model, data, qa, va, f).tolist())
+
+
+@compiled_as(arm_lugre_derivatives_compiled)
+def arm_lugre_derivatives(p, t, x, u):
+    """(q', q'', z'): ABA under tau + J^T w - b q' - (sigma0 z + sigma1 z'), LuGre's bristles per joint."""
+    got = _MODELS.get(p.tree.model)
+    if got is None:
+        return arm_lugre_derivatives_compiled(p, t, x, u)
+    model, data = got
+    n = p.n
+    q, v = x[:n], x[n:2 * n]
+    va, z = np.array(v), np.array(x[2 * n:])
+    zd = bristle_rate(p, va, z)
+    f = _applied(p, model, data, q, va, u) - (p.sigma0 * z + p.sigma1 * zd)
+    return v + tuple(_PIN[0].aba(model, data, np.array(q), va, f).tolist()) + tuple(zd.tolist())
 
 
 #: the arm's kernels without joint friction, with Karnopp's or Stribeck's, and with LuGre's
