@@ -3,23 +3,29 @@
 The same robot (example-robot-data's UR5 URDF), the same wrist sensor and tool (the ft_sensor
 block's states and law), the same table (the plane_contact law: a linear
 unilateral spring-damper with smoothed Coulomb friction) and the same controller (the
-hybrid_control_6d, task_phases and gravity_torque blocks, called at 500 Hz) run twice:
+hybrid_control_6d, task_phases and gravity_torque blocks, called at 500 Hz) run in:
 
-* hybridsim: the diagram on its generic path, RK4 with the diagram's step;
+* hybridsim: the diagram on its generic, fused and compiled paths;
 * Drake: a continuous MultibodyPlant (pydrake, its own rigid-body code) integrated by Drake's
   Simulator with a fixed-step RK2 or the error-controlled RK3; the sensor's tool (continuous
   states) and the table in a LeafSystem whose pull is applied to the flange body, the controller a
   LeafSystem with a 500 Hz periodic update.
 
-Each is timed (median of --repeat runs) and checked against a converged run of itself (hybridsim:
-RK4 at a tenth of the step; Drake: RK3 at accuracy 1e-9): the largest difference of the C-Z force
-over the trace phase, in % of the 10 N command. Run on demand:
+Default: speed. Each run's CPU time (``time.process_time``, median of --repeat; the integration
+only: building the diagram, Drake's system and the compiled loop's first compile are outside it,
+the compile time is printed apart) at the same method and step: Heun's method (Drake's RK2 is the
+same explicit trapezoid) at 0.25 ms, and the diagram's own RK4 at 0.25 ms against real time; with
+the ratios to Drake's RK2 of the same process, the load average and the largest difference of the
+C-Z force between the paths. ``--accuracy``: each run against a converged run of itself (hybridsim:
+RK4 at a tenth of the step; Drake: RK3 at accuracy 1e-9), the force over the trace phase in % of
+the 10 N command. Run on demand:
 
-    python benchmarks/bench_ur5_drake.py [--repeat 3]
+    python benchmarks/bench_ur5_drake.py [--repeat 3] [--accuracy]
 
-Needs the robots extra and pydrake (`pip install -e ".[robots]" drake`).
+Needs the robots extra, numba and pydrake (`pip install -e ".[robots,fast]" drake`).
 """
 import argparse
+import os
 import statistics
 import sys
 import time
@@ -46,6 +52,25 @@ def run_hybridsim(step=None, solver=None, fused=False):
     return wall, r.t, r["hybrid.F_C"][:, 2], r["phases.phase"][:, 0]
 
 
+def hybridsim_runner(path, solver):
+    """A function that runs the diagram once on ``path`` (generic, fused, compiled) with ``solver``
+    and returns (CPU s, result); built (and, compiled, compiled and run once) before it is timed.
+    Also returns the seconds the build took (the compile, for the compiled path)."""
+    flags = {"generic": dict(fused=False), "fused": dict(fused=True), "compiled": dict(compiled=True)}[path]
+    t0 = time.perf_counter()
+    _, sim, _ = hs.build(DIAGRAM, solver=solver, **flags)
+    if path == "compiled":
+        sim.run(0.002)
+    built = time.perf_counter() - t0
+
+    def once():
+        c0 = time.process_time()
+        res = sim.run(T_END)
+        return time.process_time() - c0, res
+
+    return once, built
+
+
 def _blocks():
     """The diagram's controller, table and kinematics blocks, as the diagram builds them."""
     diagram, _ = hs.load(DIAGRAM).build()
@@ -53,7 +78,7 @@ def _blocks():
 
 
 def run_drake(integrator="runge_kutta2", step=2.5e-4, accuracy=None):
-    """(wall s, t, C-Z force, phase) of the same robot, table and controller in Drake."""
+    """(CPU s, t, C-Z force, phase) of the same robot, table and controller in Drake."""
     from pydrake.common.value import AbstractValue
     from pydrake.multibody.math import SpatialForce
     from pydrake.multibody.parsing import Parser
@@ -170,9 +195,9 @@ def run_drake(integrator="runge_kutta2", step=2.5e-4, accuracy=None):
     else:
         sim.get_mutable_integrator().set_fixed_step_mode(True)
     sim.Initialize()
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     sim.AdvanceTo(T_END)
-    wall = time.perf_counter() - t0
+    wall = time.process_time() - t0  # CPU s (Drake's Simulator runs in this thread)
     t, f, ph = (np.array(c) for c in zip(*ctl.log))
     return wall, t, f, ph
 
@@ -185,41 +210,45 @@ def trace_error(run, ref):
     return float(np.max(np.abs(f[m] - np.interp(t[m], tr, fr))) / 10.0 * 100.0)
 
 
-def quick(repeat):
-    """The fused path against the generic path and Drake at the same methods and step, no converged
-    runs: times (median of ``repeat``), ratios to Drake's RK2 of the same run, and the largest
-    difference of the C-Z force between the fused and the generic path (N, every log row)."""
-    rows = {}
-    for label, fn in (("hybridsim generic, RK4 h = 0.25 ms", lambda: run_hybridsim()),
-                      ("hybridsim fused, RK4 h = 0.25 ms", lambda: run_hybridsim(fused=True)),
-                      ("hybridsim generic, Heun (RK2) h = 0.25 ms", lambda: run_hybridsim(solver="heun")),
-                      ("hybridsim fused, Heun (RK2) h = 0.25 ms", lambda: run_hybridsim(solver="heun", fused=True)),
-                      ("Drake MultibodyPlant, RK2 h = 0.25 ms", lambda: run_drake("runge_kutta2", 2.5e-4))):
-        runs = [fn() for _ in range(repeat)]
-        rows[label] = (statistics.median(r[0] for r in runs), runs[0])
-    drake = rows["Drake MultibodyPlant, RK2 h = 0.25 ms"][0]
-    lines = [f"UR5 press and trace, {T_END:g} s simulated, median of {repeat} (bench_ur5_drake.py --quick)", "",
-             "| run | wall (s) | Drake RK2 / this | real time / wall |", "|---|---|---|---|"]
-    for label, (wall, _) in rows.items():
-        lines.append(f"| {label} | {wall:.2f} | {drake / wall:.2f} | {T_END / wall:.2f} |")
-    for method in ("RK4", "Heun (RK2)"):
-        g = rows[f"hybridsim generic, {method} h = 0.25 ms"][1]
-        f = rows[f"hybridsim fused, {method} h = 0.25 ms"][1]
-        lines.append(f"\nfused vs generic, {method}: largest |C-Z force difference| {np.max(np.abs(f[2] - g[2])):.2g} N")
+def speed(repeat):
+    """CPU time of each path at Heun / RK2 and RK4 against Drake's RK2 in this process (see the module
+    docstring); returns the text it printed."""
+    load = os.getloadavg()
+    rows, builds, results = {}, {}, {}
+    for solver, method in (("heun", "Heun (RK2)"), ("rk4", "RK4")):
+        for path in ("generic", "fused", "compiled"):
+            once, built = hybridsim_runner(path, solver)
+            runs = [once() for _ in range(repeat)]
+            label = f"hybridsim {path}, {method} h = 0.25 ms"
+            rows[label] = statistics.median(r[0] for r in runs)
+            builds[label], results[(path, solver)] = built, runs[0][1]
+    drake = [run_drake("runge_kutta2", 2.5e-4) for _ in range(repeat)]
+    rows["Drake MultibodyPlant, RK2 h = 0.25 ms"] = dk = statistics.median(r[0] for r in drake)
+    lines = [f"UR5 press and trace, {T_END:g} s simulated; CPU time of the integration, median of {repeat}; "
+             f"load average {load[0]:.1f} before, {os.getloadavg()[0]:.1f} after (2 cores shared)", "",
+             "| run | CPU (s) | Drake RK2 / this | real time / this |", "|---|---|---|---|"]
+    for label, cpu in rows.items():
+        lines.append(f"| {label} | {cpu:.3f} | {dk / cpu:.2f} | {T_END / cpu:.2f} |")
+    for solver in ("heun", "rk4"):
+        g = results[("generic", solver)]["hybrid.F_C"][:, 2]
+        for path in ("fused", "compiled"):
+            diff = np.max(np.abs(results[(path, solver)]["hybrid.F_C"][:, 2] - g))
+            lines.append(f"\n{path} vs generic, {solver}: largest |C-Z force difference| {diff:.2g} N")
+    comp = {k: v for k, v in builds.items() if "compiled" in k}
+    lines.append("\ncompiled loop: built in " + ", ".join(f"{v:.1f} s ({k.split(', ')[1]})" for k, v in comp.items())
+                 + " (numba's compile, or its cache's load when it holds the loop)")
+    heun = results[("compiled", "heun")]
+    _, t, f, ph = drake[0]
+    m = ph == 2
+    lines.append(f"compiled Heun vs Drake RK2 over the trace: largest |C-Z force difference| "
+                 f"{np.max(np.abs(f[m] - np.interp(t[m], heun.t, heun['hybrid.F_C'][:, 2]))):.2g} N")
     text = "\n".join(lines)
     print(text)
-    from bench_sweep import _write_section
-
-    _write_section("UR5 press-and-trace: fused and generic paths vs Drake", text)
+    return text
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--quick", action="store_true", help="fused vs generic vs Drake, no converged runs")
-    args = ap.parse_args(argv)
-    if args.quick:
-        return quick(args.repeat)
+def accuracy(repeat):
+    """Each run's force over the trace against a converged run of itself (``--accuracy``)."""
     rows = []
     hs_ref = run_hybridsim(step=2.5e-5)
     dk_ref = run_drake("runge_kutta3", 1e-4, accuracy=1e-9)
@@ -229,20 +258,28 @@ def main(argv=None):
             ("hybridsim, generic path, RK4 h = 0.5 ms", lambda: run_hybridsim(step=5e-4), hs_ref),
             ("Drake MultibodyPlant, RK2 h = 0.25 ms", lambda: run_drake("runge_kutta2", 2.5e-4), dk_ref),
             ("Drake MultibodyPlant, RK3 accuracy 1e-4", lambda: run_drake("runge_kutta3", 2.5e-4, 1e-4), dk_ref)):
-        runs = [fn() for _ in range(args.repeat)]
+        runs = [fn() for _ in range(repeat)]
         wall = statistics.median(r[0] for r in runs)
         rows.append((label, wall, trace_error(runs[0], ref), trace_error(runs[0], hs_ref)))
     base = rows[0][1]
-    print(f"UR5 press and trace, {T_END:g} s simulated, median of {args.repeat}")
-    print("| run | wall (s) | / hybridsim | force vs its converged run (% of 10 N) | vs hybridsim's converged run (%) |")
+    print(f"UR5 press and trace, {T_END:g} s simulated, median of {repeat} (hybridsim wall s, Drake CPU s)")
+    print("| run | time (s) | / hybridsim | force vs its converged run (% of 10 N) | vs hybridsim's converged run (%) |")
     print("| --- | --- | --- | --- | --- |")
     for label, wall, err, cross in rows:
         print(f"| {label} | {wall:.2f} | {wall / base:.2f} | {err:.2g} | {cross:.2g} |")
     print(f"converged runs apart: {trace_error(dk_ref, hs_ref):.2g} % of 10 N over the trace")
 
 
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--accuracy", action="store_true", help="each run against a converged run of itself")
+    args = ap.parse_args(argv)
+    return accuracy(args.repeat) if args.accuracy else speed(args.repeat)
+
+
 if __name__ == "__main__":
     from results import recorded  # benchmarks/results.py: the dated section in RESULTS.md
 
-    with recorded("UR5 press and trace: hybridsim beside Drake"):
+    with recorded("UR5 press and trace: hybridsim's paths beside Drake" + (" (accuracy)" if "--accuracy" in sys.argv else "")):
         main()

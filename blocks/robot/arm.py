@@ -17,7 +17,7 @@ from hybridsim.engine.block import Block
 from hybridsim.errors import ParameterError
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks.robot import kernels as rk
+from hybridsim.blocks.robot import kernels as rk, rigid
 from hybridsim.blocks._util import flag, scalar, vector
 
 GROUP = "robot"  # where `hybridsim blocks` lists this module's blocks
@@ -75,7 +75,11 @@ def urdf_path(urdf=None, robot=None):
         folder = robots_folder()
         if folder is None:
             raise ParameterError("robot", "needs the example-robot-data package: pip install \"hybridsim[robots]\"")
-        return folder / ROBOTS[robot]
+        path = folder / ROBOTS[robot]
+        if not path.is_file():
+            raise ParameterError("robot", f"{robot!r}: this example-robot-data has no {ROBOTS[robot]} "
+                                          "(give urdf: path/to/your.urdf)")
+        return path
     path = Path(str(urdf)).expanduser()
     if not path.is_file():
         raise ParameterError("urdf", f"file not found: {str(path)!r} (a relative path is from the working folder)")
@@ -89,18 +93,40 @@ def _load(path, mtime):
         model = pin.buildModelFromUrdf(str(path))
     except Exception as exc:  # noqa: BLE001 - Pinocchio raises plain errors with the reason
         raise ParameterError("urdf", f"{str(path)!r} is not a robot model Pinocchio can read: {exc}") from None
-    if model.nq != model.nv:
-        raise ParameterError("urdf", f"{str(path)!r}: only revolute and prismatic joints are supported "
-                                     f"(nq = {model.nq}, nv = {model.nv}: a free, planar or spherical joint)")
     if model.nv == 0:
         raise ParameterError("urdf", f"{str(path)!r} has no moving joint")
+    odd = [f"{model.names[j]!r} ({_kind(model.joints[j].shortname())})"
+           for j in range(1, model.njoints) if model.joints[j].shortname() not in rigid.JOINTS]
+    if odd:
+        raise ParameterError("urdf", f"{str(path)!r}: only revolute and prismatic joints are supported; "
+                                     f"not {', '.join(odd[:4])}" + (f" and {len(odd) - 4} more" if len(odd) > 4 else ""))
     return model
+
+
+def _kind(joint_type):
+    """What a Pinocchio joint type is, in words, for the message that refuses it."""
+    words = {"JointModelRUB": "continuous: an unbounded revolute joint", "JointModelFreeFlyer": "a floating base",
+             "JointModelPlanar": "planar", "JointModelSpherical": "spherical"}
+    return joint_type + next((f", {w}" for k, w in words.items() if joint_type.startswith(k)), "")
 
 
 def load_model(path):
     """The Pinocchio model of a URDF file (cached per file and modification time; never modify it)."""
     path = Path(path).resolve()
     return _load(path, path.stat().st_mtime)
+
+
+def model_number(path, gravity=None):
+    """The number of the model of URDF ``path`` (with ``gravity``, m/s^2, when given) among the
+    fused path's Pinocchio models (:func:`hybridsim.blocks.robot.kernels.pinocchio_model`): one
+    model per file and gravity, shared by every block that names them."""
+    path = Path(path).resolve()
+    model = load_model(path)
+    key = (str(path), path.stat().st_mtime, None if gravity is None else tuple(float(g) for g in gravity))
+    if gravity is not None:
+        model = model.copy()
+        model.gravity.linear = np.asarray(gravity, float)
+    return rk.pinocchio_model(model, key)
 
 
 def _frame_id(model, frame):
@@ -118,14 +144,17 @@ def _frame_id(model, frame):
 
 
 class _RobotBlock(Block):
-    """Shared set-up: the model, its data, the tool frame."""
+    """Shared set-up: the model, its data, the tool frame, the arrays of the compiled path."""
 
-    def _robot(self, urdf, robot, frame):
+    def _robot(self, urdf, robot, frame, gravity=None):
         self.path = urdf_path(urdf, robot)
-        self.model = load_model(self.path)
+        number = model_number(self.path, gravity)
+        self.model = rk.pinocchio_model_of(number)  # shared: never modified
         self.data = self.model.createData()
         self.frame_id = _frame_id(self.model, frame)
         self.n = self.model.nv
+        self.tree = rigid.tree(self.model, self.frame_id, number)
+        self.tool = (model_number(self.path), self.frame_id)  # the tool frame, whatever the gravity
         return self.n
 
     def _q(self, value, name, default):
@@ -182,7 +211,7 @@ class RobotArm(_RobotBlock):
                  gravity=(0.0, 0.0, -9.81), start_position=None, friction_model="karnopp",
                  stribeck_velocity=1e-3, bristle_stiffness=1e5, bristle_damping=None):
         super().__init__(name)
-        n = self._robot(urdf, robot, frame)
+        n = self._robot(urdf, robot, frame, vector(gravity, "gravity", 3))
         pin = _pinocchio()
         self.q0 = self._q(q0, "q0", pin.neutral(self.model))
         if start_position is not None:
@@ -207,9 +236,7 @@ class RobotArm(_RobotBlock):
             self.sigma1 = 2.0 * np.sqrt(self.sigma0 * np.diag(pin.crba(self.model, self.data, self.q0)))
         self.band = scalar(stick_band, "stick_band", "nonnegative")
         self.t_stick = scalar(stick_time, "stick_time", "positive")
-        self.model = self.model.copy()  # its own gravity; the cached one stays as loaded
-        self.data = self.model.createData()
-        self.model.gravity.linear = vector(gravity, "gravity", 3)
+        _check_inertia(self.model, self.data, self.q0, self.path)
         self.declare_input("tau", n)
         self.declare_input("wrench", 6, default=np.zeros(6), optional=True)
         self.declare_output("q", n, depends_on=())
@@ -220,7 +247,8 @@ class RobotArm(_RobotBlock):
             self.declare_continuous_state(2 * n, atol=[1e-10] * n + [1e-8] * n)
             if self.friction:
                 self.event_directions = [0] * n
-        self.params = rk.ArmParams(self.model, self.data, (str(self.path), self.frame_id), n, self.b,
+        self.kernels = rk.ARM_LUGRE if self.lugre else rk.ARM_FRICTION if self.friction else rk.ARM
+        self.params = rk.ArmParams(self.tree, self.tool, n, self.b,
                                    self.friction, self.stribeck, self.lugre, self.tau_c, self.tau_s, self.v_s,
                                    self.sigma0, getattr(self, "sigma1", np.zeros(n)), self.band, self.t_stick)
 
@@ -326,7 +354,7 @@ class RobotKinematics(_RobotBlock):
         self.declare_output("R", 9, depends_on=("q",))
         self.declare_output("twist", 6)
         self.declare_output("J", 6 * n, depends_on=("q",))
-        self.params = rk.KinematicsParams(self.model, self.data, (str(self.path), self.frame_id))
+        self.params = rk.KinematicsParams(self.tree, self.tool)
 
     def output(self, t, x, u):
         pin = _pinocchio()
@@ -349,18 +377,27 @@ class GravityTorque(_RobotBlock):
 
     def __init__(self, name="gravity", urdf=None, robot=None, gravity=(0.0, 0.0, -9.81)):
         super().__init__(name)
-        n = self._robot(urdf, robot, None)
-        self.model = self.model.copy()
-        self.data = self.model.createData()
-        self.model.gravity.linear = vector(gravity, "gravity", 3)
+        n = self._robot(urdf, robot, None, vector(gravity, "gravity", 3))
         self.declare_input("q", n)
         self.declare_output("tau", n)
+        self.params = rk.GravityParams(self.tree)
 
     def output(self, t, x, u):
         pin = _pinocchio()
         return (pin.computeGeneralizedGravity(self.model, self.data, np.asarray(u[0], float)).copy(),)
 
 
-# the fused path's kernels (robot_kernels); the methods above are the generic path's
-RobotArm.kernels = rk.ARM
+# the kernels of the fused and compiled paths (blocks.robot.kernels); the methods above are the generic path's
+RobotArm.kernels = rk.ARM  # without joint friction (an arm with it takes its own, set in __init__)
 RobotKinematics.kernels = rk.KINEMATICS
+GravityTorque.kernels = rk.GRAVITY
+
+
+def _check_inertia(model, data, q, path):
+    """A ParameterError when a joint moves no mass at ``q`` (a singular mass matrix: no forward dynamics)."""
+    M = _pinocchio().crba(model, data, q)
+    light = [model.names[j + 1] for j in range(model.nv) if not M[j, j] > 0.0]
+    if light:
+        raise ParameterError("urdf", f"{str(path)!r}: joint(s) {', '.join(map(repr, light[:4]))} move no mass "
+                                     "(a singular mass matrix, no forward dynamics): robot_arm needs a "
+                                     "mass on every joint (robot_kinematics takes any model)")

@@ -6,14 +6,15 @@ to its environment (what a wrist sensor reads, as in the paper); a plane's
 ``wrench`` output is what the environment applies to the tool, the arm's input.
 """
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from hybridsim.engine.block import Block
+from hybridsim.engine.kernels import Kernels, kernel
 from hybridsim.errors import ParameterError
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks.robot import kernels as rk
 from hybridsim.blocks._util import flag, scalar, vector
 
 
@@ -62,7 +63,7 @@ class PlaneContact(Block):
         self.declare_output("contact", 1, depends_on=("p",))
         self.declare_output("depth", 1, depends_on=("p",))
         self.event_directions = [0]
-        self.params = rk.PlaneParams(tuple(self.point.tolist()), tuple(self.n.tolist()), self.K, self.B, self.mu,
+        self.params = PlaneParams(tuple(self.point.tolist()), tuple(self.n.tolist()), self.K, self.B, self.mu,
                                      self.v_s, self.unilateral)
 
     def depth(self, p):
@@ -88,5 +89,48 @@ class PlaneContact(Block):
         return np.array([self.depth(u[0])])
 
 
-# the fused path's kernels (blocks.robot.kernels); the methods above are the generic path's
-PlaneContact.kernels = rk.PLANE
+# -- the plane's kernels (the fused and compiled paths): the law of the methods above, in floats
+class PlaneParams(NamedTuple):
+    point: tuple
+    n: tuple
+    K: float
+    B: float
+    mu: float
+    v_s: float
+    unilateral: bool
+
+
+@kernel
+def plane_depth(p, pt):
+    """Penetration (m) of the point ``pt`` into the plane: positive inside."""
+    n, c = p.n, p.point
+    return n[0] * (c[0] - pt[0]) + n[1] * (c[1] - pt[1]) + n[2] * (c[2] - pt[2])
+
+
+@kernel
+def plane_output(p, t, x, u):
+    """wrench on the tool, F on the plane, contact, depth (the method's law in floats)."""
+    n, c, pt, tw = p.n, p.point, u[0], u[1]
+    d = n[0] * (c[0] - pt[0]) + n[1] * (c[1] - pt[1]) + n[2] * (c[2] - pt[2])  # as plane_depth
+    vn = tw[0] * n[0] + tw[1] * n[1] + tw[2] * n[2]
+    fn = p.K * d - p.B * vn
+    inside = d > 0.0 or not p.unilateral
+    fn = (max(fn, 0.0) if p.unilateral else fn) if inside else 0.0
+    vt = (tw[0] - vn * n[0], tw[1] - vn * n[1], tw[2] - vn * n[2])
+    k = -p.mu * abs(fn) / math.sqrt(vt[0] ** 2 + vt[1] ** 2 + vt[2] ** 2 + p.v_s ** 2)
+    w = (fn * n[0] + k * vt[0], fn * n[1] + k * vt[1], fn * n[2] + k * vt[2])
+    return ((w[0], w[1], w[2], 0.0, 0.0, 0.0), (-w[0], -w[1], -w[2], 0.0, 0.0, 0.0),
+            (1.0 if fn > 0.0 else 0.0,), (d,))
+
+
+@kernel
+def plane_zero_crossings(p, t, x, u):
+    """First touch and lift-off: the depth's sign."""
+    return (plane_depth(p, u[0]),)
+
+
+PLANE = Kernels(output=plane_output, zero_crossings=plane_zero_crossings)
+
+
+# the kernels of the fused and compiled paths; the methods are the generic path's
+PlaneContact.kernels = PLANE

@@ -15,6 +15,7 @@ from hybridsim.engine.registry import register
 from hybridsim.blocks._util import count, scalar, vector
 
 from hybridsim.blocks.robot._frames import rotation, rotation_vector, inverse, _rot6
+from hybridsim.blocks.robot import task_kernels as tk
 
 GROUP = "robot"
 
@@ -90,6 +91,9 @@ class HybridControl6D(Block):
         self.declare_output("tau", n)
         self.declare_output("F_C", 6)
         self.declare_discrete_state(2 * n + 6)  # ∫q_e, ∫tau'_e, the S of the last tick
+        g = self.gains
+        self.params = tk.HybridParams(n, self.period_s, np.flatnonzero(self.axes).astype(np.int64), g["Kpp"],
+                                      g["Kpi"], g["Kpd"], g["Kfp"], g["Kfi"], self.tau_max, self.lam)
 
     def initial_state(self, u=None):
         return np.concatenate([np.zeros(2 * self.n), -np.ones(6)])  # -1: no S before the first tick
@@ -147,3 +151,7 @@ class HybridControl6D(Block):
 
     def update(self, t, x, u):
         return self._tick(t, x, u)[1]
+
+
+# the kernels of the fused and compiled paths (blocks.robot.task_kernels); the methods above are the generic path's
+HybridControl6D.kernels = tk.HYBRID

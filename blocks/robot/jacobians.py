@@ -9,6 +9,7 @@ from hybridsim.engine.registry import register
 from hybridsim.blocks._util import count, scalar, vector
 
 from hybridsim.blocks.robot._frames import inverse
+from hybridsim.blocks.robot import task_kernels as tk
 
 GROUP = "robot"
 
@@ -43,6 +44,7 @@ class TaskJacobianTranspose(_JacobianBlock):
         self.declare_input("J", 6 * n)
         self.declare_input("F", 6)
         self.declare_output("tau", n)
+        self.params = tk.JacobianParams(n, np.flatnonzero(self.axes).astype(np.int64), 0.0)
 
     def output(self, t, x, u):
         return (self._rows(u).T @ np.asarray(u[1], float)[self.axes],)
@@ -71,6 +73,12 @@ class TaskJacobianInverse(_JacobianBlock):
         self.declare_input("J", 6 * n)
         self.declare_input("X", 6)
         self.declare_output("q", n)
+        self.params = tk.JacobianParams(n, np.flatnonzero(self.axes).astype(np.int64), self.lam)
 
     def output(self, t, x, u):
         return (inverse(self._rows(u), np.asarray(u[1], float)[self.axes], self.lam, self.name, t),)
+
+
+# the kernels of the fused and compiled paths (blocks.robot.task_kernels); the methods above are the generic path's
+TaskJacobianTranspose.kernels = tk.TRANSPOSE
+TaskJacobianInverse.kernels = tk.INVERSE

@@ -9,6 +9,7 @@ from hybridsim.engine.registry import register
 from hybridsim.blocks._util import count, scalar, vector
 
 from hybridsim.blocks.robot._frames import rotation, rotation_vector
+from hybridsim.blocks.robot import task_kernels as tk
 
 GROUP = "robot"
 
@@ -74,6 +75,8 @@ class TaskPhases(Block):
         self.declare_output("phase", 1)
         # phase, time it began, the start pose in {C} (6), the pose where contact was found (6)
         self.declare_discrete_state(14)
+        self.params = tk.PhasesParams(self.o, np.ascontiguousarray(self.RC, dtype=float), self.k, self.v, self.f0,
+                                      self.f1, self.t_ramp, self.t_settle, self.radius, self.T)
 
     def initial_state(self, u=None):
         x = np.zeros(14)
@@ -123,3 +126,7 @@ class TaskPhases(Block):
 
     def update(self, t, x, u):
         return self._commands(t, x, u)[1]
+
+
+# the kernels of the fused and compiled paths (blocks.robot.task_kernels); the methods above are the generic path's
+TaskPhases.kernels = tk.PHASES

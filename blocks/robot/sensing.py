@@ -6,12 +6,15 @@ to its environment (what a wrist sensor reads, as in the paper); a plane's
 ``wrench`` output is what the environment applies to the tool, the arm's input.
 """
 
+from typing import NamedTuple
+
 import numpy as np
 
 from hybridsim.engine.block import Block
+from hybridsim.engine.kernels import Kernels, kernel
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks.robot import kernels as rk
+from hybridsim.blocks.robot import task_kernels as tk
 from hybridsim.blocks.robot._frames import rotation as rotation_matrix
 from hybridsim.blocks._util import flag, scalar, vector
 
@@ -72,6 +75,8 @@ class ForceTorqueSensor(Block):
     tool's weight) without compensation, and zero with it or after taring; in
     steady contact, compensated, it reads the force on the environment
     exactly. The moments are zero (the tool's centre is the sensor's origin).
+    With ``tare: false`` the block has no ``tare`` input and no event to locate
+    (the stored reading stays zero).
 
     Parameters
     ----------
@@ -82,10 +87,11 @@ class ForceTorqueSensor(Block):
     gravity_compensation : bool    subtract the tool's weight from the reading
     p0 : [m]                  the tool's start position (base frame); default hanging in balance
                               under the flange at t = 0
+    tare : bool               a ``tare`` input (default true)
     """
 
     def __init__(self, name="ft", mass=0.5, stiffness=(1e5, 1e5, 1e5), damping=(100.0, 100.0, 100.0),
-                 gravity=(0.0, 0.0, -9.81), gravity_compensation=False, p0=None):
+                 gravity=(0.0, 0.0, -9.81), gravity_compensation=False, p0=None, tare=True):
         super().__init__(name)
         self.m = scalar(mass, "mass", "positive")
         self.K = vector(stiffness, "stiffness", 3, "positive")
@@ -97,7 +103,11 @@ class ForceTorqueSensor(Block):
         self.declare_input("R", 9)
         self.declare_input("twist", 6)
         self.declare_input("f_env", 6, default=np.zeros(6), optional=True)
-        self.declare_input("tare", 1, default=np.zeros(1), optional=True)
+        self.tare = flag(tare, "tare")
+        if self.tare:
+            self.declare_input("tare", 1, default=np.zeros(1), optional=True)
+            self.event_directions = [1]
+        self.kernels = SENSOR if self.tare else SENSOR_UNTARED
         self.declare_output("wrench", 6, depends_on=("p", "R", "twist"))
         self.declare_output("p", 3, depends_on=())
         self.declare_output("twist", 6, depends_on=("twist",))
@@ -105,8 +115,7 @@ class ForceTorqueSensor(Block):
         # the tool's position and velocity, and the reading stored at the last tare (constant between tares)
         self.declare_continuous_state(9, atol=[1e-12] * 3 + [1e-10] * 3 + [1e-9] * 3)
         self.init_needs_inputs = True
-        self.event_directions = [1]
-        self.params = rk.SensorParams(self.m, tuple(self.K.tolist()), tuple(self.B.tolist()),
+        self.params = SensorParams(self.m, tuple(self.K.tolist()), tuple(self.B.tolist()),
                                       tuple(self.g.tolist()), self.compensate)
 
     def initial_state(self, u=None):
@@ -140,8 +149,18 @@ class ForceTorqueSensor(Block):
         acc = (self._spring(x, u) + self.m * self.g + np.asarray(u[3], float)[:3]) / self.m
         return np.concatenate([np.asarray(x[3:6], float), acc, np.zeros(3)])
 
+    @property
+    def has_zero_crossings(self):
+        """True with a tare input (its rising edge is the sensor's one event)."""
+        return self.tare
+
+    @property
+    def has_event_action(self):
+        """True with a tare input."""
+        return self.tare
+
     def zero_crossings(self, t, x, u):
-        return np.array([float(u[4][0]) - 0.5])
+        return np.array([float(u[4][0]) - 0.5]) if self.tare else None
 
     def event_action(self, t, x, u, fired):
         x = np.array(x, float)
@@ -149,5 +168,67 @@ class ForceTorqueSensor(Block):
         return x
 
 
-# the fused path's kernels (blocks.robot.kernels); the methods above are the generic path's
-ForceTorqueSensor.kernels = rk.SENSOR
+# -- the sensor's kernels (the fused and compiled paths): the law of the methods above, in floats
+class SensorParams(NamedTuple):
+    m: float
+    K: tuple
+    B: tuple
+    g: tuple
+    compensate: bool
+
+
+@kernel
+def spring_force(p, x, u):
+    """The spring-damper's force on the tool (base axes): -R (K R^T d + B R^T d')."""
+    fp, R, tw = u[0], u[1], u[2]
+    K, B = p.K, p.B
+    d0, d1, d2 = x[0] - fp[0], x[1] - fp[1], x[2] - fp[2]
+    e0, e1, e2 = x[3] - tw[0], x[4] - tw[1], x[5] - tw[2]
+    a0 = K[0] * (R[0] * d0 + R[3] * d1 + R[6] * d2) + B[0] * (R[0] * e0 + R[3] * e1 + R[6] * e2)
+    a1 = K[1] * (R[1] * d0 + R[4] * d1 + R[7] * d2) + B[1] * (R[1] * e0 + R[4] * e1 + R[7] * e2)
+    a2 = K[2] * (R[2] * d0 + R[5] * d1 + R[8] * d2) + B[2] * (R[2] * e0 + R[5] * e1 + R[8] * e2)
+    return (-(R[0] * a0 + R[1] * a1 + R[2] * a2), -(R[3] * a0 + R[4] * a1 + R[5] * a2),
+            -(R[6] * a0 + R[7] * a1 + R[8] * a2))
+
+
+@kernel
+def sensor_output(p, t, x, u):
+    """wrench on the flange, the tool's p and twist, the reading F (tare subtracted)."""
+    f = spring_force(p, x, u)
+    tw, g = u[2], p.g
+    c = p.m if p.compensate else 0.0
+    return ((-f[0], -f[1], -f[2], 0.0, 0.0, 0.0), (x[0], x[1], x[2]), (x[3], x[4], x[5], tw[3], tw[4], tw[5]),
+            (f[0] + c * g[0] - x[6], f[1] + c * g[1] - x[7], f[2] + c * g[2] - x[8], 0.0, 0.0, 0.0))
+
+
+@kernel
+def sensor_derivatives(p, t, x, u):
+    """The tool's p' and p'' (m p'' = spring + m g + f_env); the tare is constant."""
+    f, fe = spring_force(p, x, u), u[3]
+    return (x[3], x[4], x[5], (f[0] + p.m * p.g[0] + fe[0]) / p.m, (f[1] + p.m * p.g[1] + fe[1]) / p.m,
+            (f[2] + p.m * p.g[2] + fe[2]) / p.m, 0.0, 0.0, 0.0)
+
+
+@kernel
+def sensor_zero_crossings(p, t, x, u):
+    """The tare input's crossing of 0.5 (a rising edge tares)."""
+    return (u[4][0] - 0.5,)
+
+
+@kernel
+def sensor_event_action(p, t, x, u, fired):
+    """A tare: the reading now (before taring) is stored, so the reading becomes zero."""
+    f = spring_force(p, x, u)
+    c = p.m if p.compensate else 0.0
+    return (x[0], x[1], x[2], x[3], x[4], x[5], f[0] + c * p.g[0], f[1] + c * p.g[1], f[2] + c * p.g[2])
+
+
+#: the sensor's kernels with a tare input (its event) and without
+SENSOR = Kernels(output=sensor_output, derivatives=sensor_derivatives, zero_crossings=sensor_zero_crossings,
+                 event_action=sensor_event_action)
+SENSOR_UNTARED = Kernels(output=sensor_output, derivatives=sensor_derivatives)
+
+
+# the kernels of the fused and compiled paths (the wrench's in blocks.robot.task_kernels); the methods are the generic path's
+ForceTorqueSensor.kernels = SENSOR  # with a tare input (one without takes SENSOR_UNTARED, set in __init__)
+WrenchTransform.kernels = tk.WRENCH
