@@ -5,8 +5,10 @@ contexts of the same system can run side by side (blocks hold no run data).
 
 * ``xc``: every continuous state in one flat vector (block slices in
   ``system.xslices``);
-* ``xd[i]``: discrete state of block ``i``;
-* ``y[i][o]``: a preallocated buffer holding output ``o`` of block ``i``;
+* ``xd[i]``: discrete state of block ``i``, a view of the flat ``z``;
+* ``y[i][o]``: output ``o`` of block ``i``, a view of the flat ``ywire`` (every
+  output element of the diagram, in block order: what the stepping core and
+  the compiled glue read and write);
 * ``u[i]``: the list of buffers that are block ``i``'s inputs. These are the
   very arrays of ``y`` (no copying on the way), built once;
 * ``events``, ``stopped``: the run's events and, when a block ended it early,
@@ -27,10 +29,20 @@ class Context:
         self.params = tuple(b.params for b in self.blocks)
         blocks = self.blocks
         self.t = 0.0
-        self.y = [[np.zeros(p.width) for p in b.outputs] for b in blocks]
+        self.ywire = np.zeros(sum(p.width for b in blocks for p in b.outputs))
+        self.z = np.zeros(sum(b.n_discrete for b in blocks))
+        self.y, k = [], 0
+        for b in blocks:
+            self.y.append([])
+            for p in b.outputs:
+                self.y[-1].append(self.ywire[k:k + p.width])
+                k += p.width
         self.u = [[self.y[a][o] for (a, o) in system.sources[i]] for i in range(len(blocks))]
         self.xc = np.zeros(system.n_x)
-        self.xd = [np.zeros(b.n_discrete) for b in blocks]
+        self.xd, k = [], 0
+        for b in blocks:
+            self.xd.append(self.z[k:k + b.n_discrete])
+            k += b.n_discrete
         self.events = None   # the run's located and time events (hybridsim.engine.events.EventSet)
         self.stopped = None  # a block's StopRequest that ended the run
         self._initialize()
@@ -56,7 +68,19 @@ class Context:
         if s is not None:
             self.xc[s] = x0
         elif self.blocks[i].n_discrete:
-            self.xd[i] = np.array(x0, dtype=float).reshape(self.blocks[i].n_discrete)
+            self.xd[i][:] = np.array(x0, dtype=float).reshape(self.blocks[i].n_discrete)
+
+    def flat(self):
+        """``(ywire, z)``, first putting back into ``z`` a discrete state that was replaced
+        rather than written in place (``ctx.xd[i] = ...``)."""
+        k = 0
+        for i, x in enumerate(self.xd):
+            n = x.size
+            if n and not np.shares_memory(x, self.z):
+                self.z[k:k + n] = x
+                self.xd[i] = self.z[k:k + n]
+            k += n
+        return self.ywire, self.z
 
     def block_state(self, i, xc):
         """The state a block's functions see: a view of ``xc`` or its discrete state."""

@@ -16,6 +16,7 @@ remains the reference. Discontinuities are stepped over.
 """
 import numpy as np
 
+from hybridsim.engine import stepping
 from hybridsim.engine.rk_code import tuple_source, unrolled_lines
 from hybridsim.engine.solvers import ExplicitRK
 
@@ -38,22 +39,11 @@ def has_kernels(block):
 
 
 def build(system, method, located=None):
-    """Return ``((advance, advance_obs), held_ports)`` for ``method`` (an ExplicitRK).
-
-    ``advance(t0, h, ka, kb, X, H, P)`` takes steps ``ka .. kb - 1`` of size
-    ``h`` (step ``k`` starts at ``t0 + k h``) from state tuple ``X`` with held
-    inputs ``H`` (tuple of tuples, one per port in ``held_ports``) and the
-    blocks' params ``P`` (one per block: the run's, so parameters can change
-    between runs); ``advance_obs`` also returns a state inside a step (see
-    :func:`hybridsim.engine.rk_code.unrolled_lines`).
-    """
+    """The generated functions of ``system`` for ``method`` (an ExplicitRK): a :class:`Fused`."""
     source, env, held = rk_source(system, method, params_arg=True, located=located)
     code = compile(source, f"<fused rhs of {system.name}>", "exec")
     exec(code, env)  # noqa: S102 - our own generated source, no user text in it
-    env["advance"].source = source
-    env["advance"].stages = env["step_stages"], env["dense_at"]
-    env["advance"].zc = env.get("zc")  # the located events' functions, when all are kernels
-    return (env["advance"], env["advance_obs"]), held
+    return Fused(system, method, env, held, source)
 
 
 def rk_source(system, method, params_arg=False, located=None):
@@ -168,47 +158,114 @@ def _event_lines(sysm, located, outputs, params, arg, state, env, extra):
     return lines
 
 
-class FusedStepper:
-    """The generated ``advance`` functions behind :class:`hybridsim.engine.solvers.Steps`' interface.
+class Fused:
+    """The generated functions of one system: the stepper and event glue of the fused path.
 
-    :func:`hybridsim.engine.events.integrate` calls ``advance_to_event``, which is the
-    method's own (:meth:`~hybridsim.engine.solvers.ExplicitRK.advance_to_event`) with
-    these steps: the same steps, dense outputs and bisection, the numbers bit for
-    bit those of the generic path. States are tuples of floats here.
+    :meth:`machinery` gives the stepping core, for one context, the
+    :class:`~hybridsim.engine.stepping.Ops` of the generated steps (plain floats in
+    tuples; the core's arrays are read and written at their edges) and the generic
+    glue with the right-hand side's event functions and actions replaced by the
+    generated ones (when every located block gives them as kernels).
     """
 
-    def __init__(self, method, advance, H, P):
-        self.method, (self.advance, self.advance_obs), self.H, self.P = method, advance, H, P
+    def __init__(self, system, method, env, held, source):
+        self.system, self.method, self.env, self.held, self.source = system, method, env, held, source
+        self.advance, self.step_stages, self.dense_at = env["advance"], env["step_stages"], env["dense_at"]
+        self.zc, self.act = env.get("zc"), env.get("act")
 
-    def advance_to_event(self, f, t0, t1, x, t_out, g, directions, check=None):
-        """See :meth:`hybridsim.engine.solvers.ExplicitRK.advance_to_event` (``f`` is not used; ``g``
-        is replaced by the generated event functions when there are some: the same numbers)."""
-        zc = self.advance.zc
-        if g is not None and zc is not None:
-            H, P = self.H, self.P
-            g = lambda t, x: np.array(zc(t, tuple(x.tolist()), H, P))  # noqa: E731
-        return self.method.advance_to_event(f, t0, t1, x, t_out, g, directions, steps_with=self, check=check)
+    def machinery(self, ctx, glue):
+        """``(glue, ops, state)`` for a run of ``ctx``; ``glue`` the generic glue it completes."""
+        s = FusedState(self, ctx)
+        if self.zc is not None:
+            zc, act = self.zc, self.act
 
-    def first(self, x):
-        """The state in this stepper's form (a tuple of floats)."""
-        import numpy as np
+            def zc_glue(t, x, g, y, z, pf, pi):
+                g[:] = zc(t, tuple(x.tolist()), s.H, s.P)
 
-        return tuple(np.asarray(x, float).tolist())
+            def act_glue(t, x, xn, fired, y, z, pf, pi):
+                xn[:] = act(t, tuple(x.tolist()), s.H, tuple(bool(f) for f in fired), s.P)
+                return 0
 
-    def array(self, X):
-        """A state of this stepper's form as a numpy array."""
-        import numpy as np
+            glue = glue._replace(zc=zc_glue, act=act_glue)
+        return glue, FUSED_OPS, s
 
-        return np.array(X)
 
-    def step(self, t0, h, k, X):
-        """Step ``k`` of size ``h`` from ``t0`` with the generated code: ``(X_next, stages)``."""
-        return self.advance.stages[0](t0 + k * h, h, X, self.H, self.P)
+class FusedState:
+    """Where the fused stepper is: the grid (``num`` as :class:`~hybridsim.engine.rk.RKState`'s),
+    the last step's start and stages (tuples), the held inputs ``H`` and params ``P``."""
 
-    def dense(self, t0, h, k, X, stages, theta):
-        """The state at ``theta`` (0..1) inside step ``k``, from its stages (the generated dense output)."""
-        return self.array(self.advance.stages[1](X, stages, h, self.method.dense_weights(theta)))
+    def __init__(self, fused, ctx):
+        from hybridsim.engine import rk
+        from hybridsim.engine.rk import STEP
 
-    def restep(self, t, hh, X):
-        """One step of size ``hh`` from ``t`` (to land on an event)."""
-        return self.advance(t, hh, 0, 1, X, self.H, self.P)
+        self.f, self.ctx = fused, ctx
+        self.c = np.zeros(len(fused.method.c))
+        self.num = np.zeros(8)
+        self.num[STEP] = fused.method.step
+        self.P = ctx.params
+        self.H = ()
+        self.X = self.K = self.cache = self.saved = None
+        self.grid = rk.ops(type(fused.method)).begin
+
+    def held(self):
+        y = self.ctx.y
+        return tuple(tuple(y[a][o].tolist()) for a, o in self.f.held)
+
+
+def _begin(s, t0, t1, x):
+    s.grid(s, t0, t1, x)  # the step grid, as the core's steps cut it
+    s.H = s.held()
+    s.cache = None
+
+
+def _state(s, x):
+    return s.cache if s.cache is not None else tuple(x.tolist())
+
+
+def _step(s, x, xn, w, rhs, y, z, pf, pi):
+    num = s.num
+    k, h, n = int(num[3]), num[1], int(num[2])
+    X = _state(s, x)
+    Xn, K = s.f.step_stages(num[4] + k * h, h, X, s.H, s.P)
+    s.X, s.K, s.cache = X, K, Xn
+    xn[:] = Xn
+    num[3] = k + 1
+    return num[5] if k + 1 >= n else num[4] + (k + 1) * h
+
+
+def _steps(s, t_lim, x, xn, w, rhs, y, z, pf, pi):
+    num = s.num
+    k, h, n, t0 = int(num[3]), num[1], int(num[2]), num[4]
+    kb = k + 1
+    while kb < n and t0 + (kb + 1) * h <= t_lim + 1e-9 * h:
+        kb += 1
+    X = _state(s, x)
+    num[7] = k
+    s.saved = X
+    if kb - k > 1:
+        X = s.f.advance(t0, h, k, kb - 1, X, s.H, s.P)
+        num[3] = kb - 1
+        s.cache = X
+    return _step(s, x, xn, w, rhs, y, z, pf, pi)
+
+
+def _dense(s, t, x, w, xo):
+    num = s.num
+    h = num[1]
+    ta = num[4] + (int(num[3]) - 1) * h
+    xo[:] = s.f.dense_at(s.X, s.K, h, s.f.method.dense_weights((t - ta) / h))
+
+
+def _restep(s, hh, x, w, rhs, y, z, pf, pi, xr):
+    num = s.num
+    ta = num[4] + (int(num[3]) - 1) * num[1]
+    xr[:] = s.f.advance(ta, hh, 0, 1, s.X, s.H, s.P)
+    return True
+
+
+def _rewind(s):
+    s.num[3] = s.num[7]
+    s.cache = s.saved
+
+
+FUSED_OPS = stepping.Ops(_begin, _step, _steps, _dense, _restep, _rewind)

@@ -4,8 +4,8 @@ Every path takes its integration step from here, so a method is written once
 (its tableau in :mod:`hybridsim.engine.solvers`) and every path performs the same
 floating-point operations in the same order:
 
-* :func:`vector_functions` - ``step(f, t, h, X)`` and ``dense(X, K, h, w)`` on
-  numpy vectors, for the generic path;
+* :func:`array_source` - the stepping core's stepper on arrays, element by
+  element (the generic path runs it in Python, the compiled core compiles it);
 * :func:`unrolled_lines` - the same expressions written out element by
   element on tuples of floats (``advance``), for the fused (Python) and
   compiled (numba) paths.
@@ -90,24 +90,102 @@ def _dense_terms(method):
     return [j for j, poly in enumerate(method.dense) if any(p != 0.0 for p in poly)]
 
 
-def vector_functions(method):
-    """``(step, dense)`` for numpy state vectors (the generic path).
+def _arr(expr, k_name="kk"):
+    """An element expression of the tuple forms (``X[e]``, ``k2[e]``) on the arrays of the core: the
+    state ``x[e]``, stage j at ``kk[(j - 1) * n + e]``."""
+    import re
 
-    ``step(f, t, h, X)`` returns ``(X_next, K)`` with ``K`` the stage
-    derivatives; ``dense(X, K, h, w)`` the state inside the step for weights
-    ``w = method.dense_weights(theta)``.
+    expr = expr.replace("X[e]", "x[e]")
+    return re.sub(r"\bk(\d+)\[e\]", lambda m: f"{k_name}[{int(m.group(1)) - 1} * n + e]", expr)
+
+
+def array_source(method):
+    """Source of the core's Runge-Kutta stepper for ``method`` on arrays (:class:`~.stepping.Ops`).
+
+    ``step(s, x, xn, w, rhs, y, z, pf, pi)`` takes step ``k`` of the current grid
+    (``s.num``: step, h, n, k, t0, t1) from ``x`` into ``xn``, its stages in ``w.k``
+    (stage j at ``j n``), and returns its end time; ``steps`` as many as end by
+    ``t_lim``; ``dense`` the state inside the last step; ``restep`` one fresh step of
+    ``hh``; ``begin`` cuts [t0, t1] into equal steps; ``rewind`` goes back to the
+    start of the last ``steps``. The same expressions, element by element, as
+    :func:`unrolled_lines` writes on tuples.
     """
-    lines = ["def step(f, t, h, X):"] + _scaled_lines(method, "    ")
-    for i, (c, row) in enumerate(zip(method.c, method.A)):
-        lines.append(f"    k{i + 1} = f({_time(method, c)}, {_combo(method, _terms(row))})")
-    ks = ", ".join(f"k{i + 1}" for i in range(len(method.c)))
-    lines.append(f"    return {_result(method)}, ({ks},)")
+    s = len(method.c)
+    scaled = _scaled_lines(method, "    ")
+
+    def stage_lines(pad, xvar, kname, tvar):
+        out = []
+        for i, (c, row) in enumerate(zip(method.c, method.A)):
+            terms = _terms(row)
+            tt = _time(method, c).replace("t", tvar, 1)
+            if not terms:
+                out.append(f"{pad}rhs({tt}, {xvar}, {kname}, {i} * n, y, z, pf, pi)")
+                continue
+            out += [f"{pad}for e in range(n):",
+                    f"{pad}    xs[e] = {_arr(_combo(method, terms, '[e]'), kname).replace('x[e]', xvar + '[e]')}",
+                    f"{pad}rhs({tt}, xs, {kname}, {i} * n, y, z, pf, pi)"]
+        return out
+
     used = _dense_terms(method)
-    lines += ["", "def dense(X, K, h, w):",
-              "    return X + h * (" + " + ".join(f"w[{j}] * K[{j}]" for j in used) + ")"]
-    env = {}
-    exec(compile("\n".join(lines), f"<{method.name} step>", "exec"), env)  # noqa: S102 - from a tableau
-    return env["step"], env["dense"]
+    dense = " + ".join(f"wts[{j}] * w.k[{j} * n + e]" for j in used)
+    L = ["def rk_begin(s, t0, t1, x):",
+         "    num = s.num",
+         "    m = max(1, int(math.ceil((t1 - t0) / num[0] - 1e-9)))",
+         "    num[2] = m", "    num[1] = (t1 - t0) / m", "    num[3] = 0", "    num[7] = 0",
+         "    num[4] = t0", "    num[5] = t1", "",
+         "",
+         "def rk_step(s, x, xn, w, rhs, y, z, pf, pi):",
+         "    num = s.num",
+         "    k = int(num[3])",
+         "    h = num[1]",
+         "    t = num[4] + k * h",
+         "    n = x.size",
+         "    kk = w.k",
+         "    xs = w.xs"] + scaled + stage_lines("    ", "x", "kk", "t") + [
+         "    for e in range(n):",
+         f"        xn[e] = {_arr(_result(method, '[e]'))}",
+         "    num[3] = k + 1",
+         "    return num[5] if k + 1 >= int(num[2]) else num[4] + (k + 1) * h", "",
+         "",
+         "def rk_steps(s, t_lim, x, xn, w, rhs, y, z, pf, pi):",
+         "    num = s.num",
+         "    num[7] = num[3]",
+         "    h = num[1]",
+         "    m = int(num[2])",
+         "    tb = rk_step(s, x, xn, w, rhs, y, z, pf, pi)",
+         "    while int(num[3]) < m and num[4] + (num[3] + 1) * h <= t_lim + 1e-9 * h:",
+         "        for e in range(x.size):",
+         "            w.xm[e] = xn[e]",
+         "        tb = rk_step(s, w.xm, xn, w, rhs, y, z, pf, pi)",
+         "    return tb", "",
+         "",
+         "def rk_dense(s, t, x, w, xo):",
+         "    num = s.num",
+         "    h = num[1]",
+         "    theta = (t - (num[4] + (int(num[3]) - 1) * h)) / h",
+         "    wts = w.wts"]
+    for j, poly in enumerate(method.dense):  # as ExplicitRK.dense_weights
+        L += ["    q = theta", f"    wts[{j}] = {poly[0]!r} * theta"]
+        for p_ in poly[1:]:
+            L += ["    q = q * theta", f"    wts[{j}] = wts[{j}] + {p_!r} * q"]
+    L += ["    n = x.size",
+          "    for e in range(n):",
+          f"        xo[e] = x[e] + h * ({dense})", "",
+          "",
+          "def rk_restep(s, hh, x, w, rhs, y, z, pf, pi, xr):",
+          "    num = s.num",
+          "    t = num[4] + (int(num[3]) - 1) * num[1]",
+          "    h = hh",
+          "    n = x.size",
+          "    kk = w.kr",
+          "    xs = w.xr"] + scaled + stage_lines("    ", "x", "kk", "t") + [
+          "    for e in range(n):",
+          f"        xr[e] = {_arr(_result(method, '[e]'))}",
+          "    return True", "",
+          "",
+          "def rk_rewind(s):",
+          "    s.num[3] = s.num[7]", ""]
+    return "import math\n\n\n" + "\n".join(L)
 
 
 def unrolled_lines(method, n, rhs, extra=""):

@@ -1,36 +1,33 @@
-"""Integrators for the continuous states between sample hits.
+"""Integrators for the continuous states between sample hits: each one small class.
 
-Both solvers share one method::
-
-    x1, xs_out = solver.advance(f, t0, t1, x0, t_out, events=None, check=None)
-
-``f(t, x)`` is the diagram's fused right-hand side; ``t_out`` are times in
-``(t0, t1)`` at which states are wanted (logging); ``check(t, x)`` the
-divergence check. ``advance_to_event`` also stops at the first located event
-of given event functions (see docs/events-and-solvers.md).
+A solver says how steps are taken; the stepping core (:mod:`.stepping`) does
+the rest the same way for all of them: event location on the step's dense
+output, log points from it, divergence checks, restarts at hits and events.
+``solver.stepper()`` gives the core its :class:`~.stepping.Ops` and state.
 
 * :class:`RK4` (and :class:`Heun`, any :class:`ExplicitRK` tableau) -
-  fixed-step explicit Runge-Kutta. Each interval between sample hits is cut
-  into equal steps no longer than ``step``; log times inside a step are read
-  from the method's dense output, so logging never changes the answer. RK4 is
-  cheap per step and, with a step well below the ~3.7 ms period of the hand
-  mode, neither damps nor amplifies it noticeably (the default 1e-4 s gives
-  < 1e-4 relative amplitude error per period). Discontinuities are stepped
-  over; their effect is checked by the step-convergence tests.
+  fixed-step explicit Runge-Kutta. Each interval between stops is cut into
+  equal steps no longer than ``step``; log times inside a step are read from
+  the method's dense output, so logging never changes the answer. With a step
+  well below the ~3.7 ms period of the hand mode RK4 neither damps nor
+  amplifies it noticeably (the default 1e-4 s gives < 1e-4 relative amplitude
+  error per period). Runs on every path; the compiled path compiles its steps.
 * :class:`ScipySolver` - scipy's ``OdeSolver`` classes (Radau, BDF, LSODA,
-  RK45, RK23, DOP853) stepped one accepted step at a time, with relative and
-  per-state absolute tolerances; the event functions are compared between
-  accepted steps and bisected on the step's dense output, and the
-  integration restarts at each event, so a stiff method never steps across a
-  friction or contact switch.
+  RK45, RK23, DOP853) one accepted step at a time, with relative and
+  per-state absolute tolerances; each interval starts a fresh solver (a hit
+  or an event restarts the integration: no step straddles it).
+* :class:`~hybridsim.engine.cvode.CVode` - SUNDIALS' BDF, for stiff plants
+  and Model Exchange FMUs.
+
+``solver.advance(f, t0, t1, x, t_out)`` integrates ``x' = f(t, x)`` alone
+with the same core (a system of one block).
 """
 import math
 
 import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
 
-from hybridsim.errors import SimulationError
-
+from hybridsim.engine import rk, stepping
 
 
 def steps(t0, t1, step):
@@ -38,45 +35,61 @@ def steps(t0, t1, step):
     return max(1, math.ceil((t1 - t0) / step - 1e-9))
 
 
-def steps_between(times, step):
-    """:func:`steps` from each of ``times`` to the next (an int64 array, one shorter)."""
-    return np.maximum(1, np.ceil(np.diff(times) / step - 1e-9)).astype(np.int64)
+class Solver:
+    """What every solver shares: the standalone :meth:`advance`."""
+
+    def stepper(self):
+        """``(ops, state)`` for the stepping core (:class:`~.stepping.Ops` of plain functions)."""
+        raise NotImplementedError
+
+    def advance(self, f, t0, t1, x, t_out=()):
+        """Integrate ``x' = f(t, x)`` from ``t0`` to ``t1``; returns ``(x(t1), [x at t_out])``.
+
+        ``f`` returns the derivatives as a sequence; ``t_out`` are times in
+        ``[t0, t1)`` (s). Divergence (a state not finite) raises
+        :class:`~hybridsim.errors.SimulationError`.
+        """
+        from hybridsim.engine.timeline import build
+        from hybridsim.errors import SimulationError
+
+        t_out = sorted(float(t) for t in t_out)
+        tl = build([t0] + t_out, [True] + [False] * len(t_out), np.zeros((1 + len(t_out), 0), bool),
+                   [False] + [True] * len(t_out), t1)
+        x = np.array(x, float)
+        seen = []
+
+        def rhs(t, xx, dx, at, y, z, pf, pi):
+            dx[at:at + xx.size] = f(t, xx)
+
+        def observe(t, xx, y, z, pf, pi):
+            seen.append(np.array(xx, float))
+            return -1
+
+        nothing = lambda *a: -1  # noqa: E731
+        glue = stepping.Glue(nothing, nothing, rhs, None, None, observe, None, None, None)
+        ops, s = self.stepper()
+        w = work(x.size, getattr(s, "c", np.zeros(1)).size, 0)
+        w.x[:] = x
+        out = outputs(0, 0, 0, 0)
+        e = np.zeros(0)
+        lim = limits(np.inf, stepped=False, timed=False, batch=isinstance(self, ExplicitRK), scan=np.inf)
+        code = stepping.run(tl, 0, len(tl.t), glue, ops, s, lim, w, out, e, e, e, np.zeros(0, np.int64))
+        if code == stepping.DIVERGED:
+            raise SimulationError(f"the state is not finite at t={out.tfail[0]:.9g} s")
+        if code != stepping.OK:
+            raise SimulationError(getattr(s, "message", None) or f"integration failed (status {code})")
+        return w.x.copy(), seen
 
 
-def observations(t0, h, n, t):
-    """Where log times ``t`` (array) in ``[t0, t0 + n h)`` lie on the step grid.
-
-    Returns ``(k, theta)``: the step containing each time (int64 array) and
-    the fraction of it in [0, 1). A time within 1e-9 steps of a step point is
-    that point (``theta = 0``), so its logged state is the integrator's own,
-    bit for bit. Every path uses this one function.
-    """
-    t = np.asarray(t, float)
-    r = (t - t0) / h
-    near = np.round(r)
-    at_point = (np.abs(r - near) <= 1e-9) & (near < n)
-    k = np.where(at_point, near, np.minimum(np.floor(r), n - 1)).astype(np.int64)
-    theta = np.where(at_point, 0.0, (t - (t0 + k * h)) / h)
-    return k, theta
-
-
-def observation(t0, h, n, t):
-    """:func:`observations` for one time: ``(k, theta)`` as Python numbers."""
-    k, theta = observations(t0, h, n, [t])
-    return int(k[0]), float(theta[0])
-
-
-class ExplicitRK:
+class ExplicitRK(Solver):
     """A fixed-step explicit Runge-Kutta method given by its Butcher tableau.
 
-    Each interval between stops (sample hits) is cut into equal steps no
-    longer than ``step``; the step grid depends on the stops and ``step``
-    only. States at log times inside a step come from the method's dense
-    output (``dense``: per stage, the coefficients of ``b_j(theta)`` in powers
-    ``theta, theta^2, ...``), so logging never changes the integration.
     A subclass gives ``name``, ``c``, ``A`` (rows of the strictly lower
-    triangle), ``b`` and ``dense``; :mod:`hybridsim.engine.rk_code` turns them into
-    the step every path runs. Discontinuities inside a step are stepped over.
+    triangle), ``b`` and ``dense`` (per stage, the coefficients of
+    ``b_j(theta)`` in powers ``theta, theta^2, ...``); :mod:`hybridsim.engine.rk`
+    takes the steps on arrays and :mod:`hybridsim.engine.rk_code` writes them out
+    for the fused path, the same arithmetic. Discontinuities inside a step are
+    stepped over unless located as events.
     """
 
     name = None
@@ -86,13 +99,10 @@ class ExplicitRK:
         if not step > 0:
             raise ValueError(f"{self.name} step must be positive, got {step!r}")
         self.step = float(step)
-        from hybridsim.engine.rk_code import vector_functions
-
-        self._step, self._dense = vector_functions(self)
 
     def dense_weights(self, theta):
         """Dense-output weights ``(b_1(theta), ..., b_s(theta))``; ``theta`` a number or an array
-        (then one column per stage); the same arithmetic either way."""
+        (then one column per stage); the same arithmetic as the core's."""
         cols = []
         for poly in self.dense:
             power, w = theta, poly[0] * theta
@@ -104,120 +114,12 @@ class ExplicitRK:
             return np.stack(cols, axis=-1)
         return tuple(float(w) for w in cols)
 
-    def advance(self, f, t0, t1, x, t_out=(), events=None, check=None):
-        """Integrate ``x`` from ``t0`` to ``t1``; also return the states at ``t_out``
-        (``events``, zero crossings without resets, are stepped over)."""
-        _, x, _, outs = self.advance_to_event(f, t0, t1, x, t_out, None, None, check=check)
-        return x, outs
-
-    def advance_to_event(self, f, t0, t1, x, t_out, g, directions, steps_with=None, check=None, step=None):
-        """Like :meth:`advance`, stopping at the first located event of ``g``.
-
-        Returns ``(t_stop, x_stop, fired, outs)``: ``fired`` (a mask over the
-        functions of ``g``) is None when no event occurred and ``t_stop`` is
-        ``t1``. Without an event the steps are exactly those of :meth:`advance`.
-        An event is located by bisecting the step's dense output, and its state
-        comes from re-stepping to it (one step of ``theta h``: the method's order)
-        when that state is past the surface too. ``steps_with``: what takes the
-        steps (:class:`Steps` by default; the fused path gives its generated ones).
-        ``check(t, x)``: the divergence check (it raises); its ``ok(x)`` is asked about the
-        last state of the stretch, and when that fails the steps are taken again (the same
-        numbers) and ``check`` called after each, so it raises at the first bad step.
-        ``step(t, x)``: called after every step (checked first) and at a located event; when it
-        returns True the stretch ends there with ``fired`` a mask of no functions (a step event).
-        """
-        from hybridsim.engine.events import bisect, crossed
-
-        st = steps_with or Steps(self, f)
-        n = steps(t0, t1, self.step)
-        h = (t1 - t0) / n
-        ks, thetas = observations(t0, h, n, t_out)
-        obs = list(zip(ks.tolist(), thetas.tolist()))
-        outs, j, X = [], 0, st.first(x)
-        g_k = g(t0, st.array(X)) if g is not None else None
-        for k in range(n):
-            t = t0 + k * h
-            while j < len(obs) and obs[j] == (k, 0.0):
-                outs.append(st.array(X))
-                j += 1
-            X_next, token = st.step(t0, h, k, X)
-            event = None
-            if g is not None:
-                g_next = g(t0 + (k + 1) * h, st.array(X_next))
-                if crossed(g_k, g_next, directions).any():
-                    event = bisect(g, directions, t, h, lambda th: st.dense(t0, h, k, X, token, th),
-                                   g_k, st.array(X_next), g_next,
-                                   restep=lambda hh: st.array(st.restep(t, hh, X)))
-                g_k = g_next
-            theta_stop = event[0] if event else 1.0
-            while j < len(obs) and obs[j][0] == k and obs[j][1] < theta_stop:
-                outs.append(st.dense(t0, h, k, X, token, obs[j][1]))
-                j += 1
-            if event:
-                theta, x_ev, fired = event
-                t_ev = t + theta * h if theta < 1.0 else t0 + (k + 1) * h
-                if check is not None:
-                    self._check_steps(st, t0, h, k, x, X, check)
-                    check(t_ev, x_ev)
-                if step is not None:
-                    step(t_ev, x_ev)  # its request joins the event's actions
-                return t_ev, x_ev, fired, outs
-            X = X_next
-            if step is not None:
-                t_k, x_k = t0 + (k + 1) * h, st.array(X)
-                if check is not None:
-                    check(t_k, x_k)
-                if step(t_k, x_k):
-                    return (t_k, x_k, np.zeros(len(directions) if directions is not None else 0, bool),
-                            outs)
-        if check is not None:
-            self._check_steps(st, t0, h, n, x, X, check)
-        return t1, st.array(X), None, outs
-
-    @staticmethod
-    def _check_steps(st, t0, h, n, x, X, check):
-        """``check`` the state after each of the first ``n`` steps from ``x`` at ``t0`` (``X``
-        after the last): when ``X`` fails ``check.ok``, the steps are taken again (the same
-        numbers) so that ``check`` raises at the first bad one."""
-        ok = getattr(check, "ok", lambda x: bool(np.all(np.isfinite(x))))
-        if n and not ok(st.array(X)):
-            X = st.first(x)
-            for k in range(n):
-                X = st.step(t0, h, k, X)[0]
-                check(t0 + (k + 1) * h, st.array(X))
+    def stepper(self):
+        """The Runge-Kutta steps on arrays (:mod:`hybridsim.engine.rk`), as plain functions."""
+        return rk.ops(type(self)), rk.rk_state(self)
 
     def __repr__(self):
         return f"{type(self).__name__}(step={self.step:g})"
-
-
-class Steps:
-    """The steps of an :class:`ExplicitRK` on numpy vectors (the generic path), as
-    :meth:`ExplicitRK.advance_to_event` takes them; the fused path gives the same
-    interface over its generated functions (:class:`hybridsim.engine.fused.FusedStepper`)."""
-
-    def __init__(self, method, f):
-        self.method, self.f = method, f
-
-    def first(self, x):
-        """The state in the form the steps take (here: itself)."""
-        return x
-
-    def array(self, x):
-        """A state as a numpy array (here: itself)."""
-        return x
-
-    def step(self, t0, h, k, x):
-        """Step ``k`` of size ``h`` from ``t0``: ``(x_next, stages)``."""
-        return self.method._step(self.f, t0 + k * h, h, x)
-
-    def dense(self, t0, h, k, x, stages, theta):
-        """The state at ``theta`` inside step ``k`` (from its stages)."""
-        m = self.method
-        return m._dense(x, stages, h, m.dense_weights(theta))
-
-    def restep(self, t, hh, x):
-        """One step of size ``hh`` from ``(t, x)``."""
-        return self.method._step(self.f, t, hh, x)[0]
 
 
 class RK4(ExplicitRK):
@@ -244,17 +146,8 @@ class Heun(ExplicitRK):
 FIXED_STEP = {cls.name: cls for cls in (RK4, Heun)}
 
 
-class ScipySolver:
-    """A scipy ``OdeSolver`` (Radau, BDF, LSODA, RK45, RK23, DOP853) stepped one accepted step at
-    a time, with the event functions checked between steps.
-
-    Each interval between stops starts a fresh solver (a sample hit or an
-    event restarts the integration cleanly: no step straddles it). After each
-    accepted step the event functions are compared, by
-    :func:`~hybridsim.engine.events.crossed`, at the step's ends and at points of its
-    dense output no more than ``scan`` s apart; the first sign change is
-    bisected on the dense output to :data:`~hybridsim.engine.events.TIME_TOL`. A
-    change and change back between two such points is not seen.
+class ScipySolver(Solver):
+    """A scipy ``OdeSolver`` (Radau, BDF, LSODA, RK45, RK23, DOP853), one accepted step at a time.
 
     Parameters
     ----------
@@ -268,6 +161,9 @@ class ScipySolver:
         Longest stretch, s, between two checks of the event functions inside
         one step (default 1 ms): event functions driven by time rather than by
         the states (a relay on a sine source) do not shorten the solver's steps.
+        Each integration's first step is at most this long too: scipy's
+        starting-step heuristic reads f at the start only, and where f is zero
+        there (a held state) it could step over a whole half-period.
     """
 
     def __init__(self, method="Radau", rtol=1e-8, atol=1e-10, max_step=np.inf, scan=1e-3):
@@ -279,98 +175,9 @@ class ScipySolver:
         self.atol, self.scan = atol, float(scan)
         self.name = method.lower()
 
-    def advance(self, f, t0, t1, x, t_out=(), events=None, check=None):
-        """Integrate from ``t0`` to ``t1``; returns ``(x, states at t_out)``. (``events``: not
-        used; the simulator locates every zero crossing on these solvers.)"""
-        return self.advance_to_event(f, t0, t1, x, t_out, None, None, check=check)[1::2]
-
-    def advance_to_event(self, f, t0, t1, x, t_out, g, directions, check=None, step=None):
-        """Like :meth:`ExplicitRK.advance_to_event`: ``(t_stop, x_stop, fired, outs)``.
-
-        ``check(t, x)``: called with the state after every accepted step (it
-        raises on divergence); then ``step(t, x)``, when given (True: a step event
-        there, ``fired`` a mask of no functions), also at a located event.
-        """
-        from hybridsim.engine.events import bisect, crossed
-
-        pending = sorted(t_out)
-        outs = []
-        x = np.array(x, float)
-        while pending and pending[0] <= t0:  # a log time at the start (after an event): its state
-            pending.pop(0)
-            outs.append(x.copy())
-        if t1 <= t0:
-            return t1, x, None, outs
-        seen = []  # the first (t, x) where the right-hand side was not finite
-
-        def fun(t, y):
-            dx = f(t, y)
-            if not seen and not np.isfinite(dx).all():
-                seen.append((t, np.array(y, float)))
-            return dx
-
-        # the first step at most ``scan``: scipy's starting-step heuristic reads f at t0 only, and
-        # where f is zero there (a held state, an input crossing zero) it can take one step over a
-        # whole half-period that its error estimate, zero at both ends, then accepts
-        solver = METHODS[self.method](fun, t0, x, t1, rtol=self.rtol, atol=self.atol, max_step=self.max_step,
-                                      first_step=min(self.scan, self.max_step, t1 - t0))
-        g_a = np.asarray(g(t0, x), float) if g is not None else None
-        while solver.status == "running":
-            try:
-                message = solver.step()
-            except (ValueError, np.linalg.LinAlgError) as exc:  # scipy's linear algebra on NaN
-                if not seen:
-                    raise
-                solver.status, message = "failed", str(exc)
-            if solver.status == "failed":
-                if seen and hasattr(check, "blame"):
-                    check.blame(*seen[0])  # the block whose output was not finite, when one was
-                why = f" (the right-hand side is not finite at t={seen[0][0]:.9g} s)" if seen else ""
-                raise SimulationError(f"solver {self.method} failed at t={solver.t:.9g} s: {message}{why}")
-            ta, tb, xb = solver.t_old, solver.t, solver.y.copy()
-            dense = solver.dense_output() if (pending and pending[0] <= tb) or g is not None else None
-            if g is not None:
-                m = max(1, math.ceil((tb - ta) / self.scan - 1e-9))
-                ts = [ta + j * (tb - ta) / m for j in range(1, m)] + [tb]
-                xs = np.column_stack([dense(np.array(ts[:-1])), xb]) if m > 1 else xb[:, None]
-                sa = ta
-                for j, sb in enumerate(ts):
-                    g_b = np.asarray(g(sb, xs[:, j]), float)
-                    if crossed(g_a, g_b, directions).any():
-                        h = sb - sa
-                        theta, x_ev, fired = bisect(g, directions, sa, h, lambda th: dense(sa + th * h),
-                                                    g_a, xs[:, j], g_b)
-                        t_ev = float(sb if theta >= 1.0 else sa + theta * h)
-                        self._observe(pending, outs, dense, t_ev, None, inclusive=False)
-                        if check is not None:
-                            check(t_ev, x_ev)
-                        if step is not None:
-                            step(t_ev, np.array(x_ev, float))  # its request joins the event's actions
-                        return t_ev, np.array(x_ev, float), fired, outs
-                    g_a, sa = g_b, sb
-            if check is not None:
-                check(tb, xb)
-            self._observe(pending, outs, dense, tb, xb)
-            if step is not None and step(tb, xb):
-                return tb, xb, np.zeros(len(directions) if directions is not None else 0, bool), outs
-        return t1, solver.y.copy(), None, outs
-
-    @staticmethod
-    def _observe(pending, outs, dense, t, x, inclusive=True):
-        """Move the log times up to ``t`` (and at ``t`` when ``inclusive``: the state ``x``) from
-        ``pending`` to ``outs``, their states from one call of the step's dense output."""
-        k = 0
-        while k < len(pending) and (pending[k] < t or inclusive and pending[k] == t):
-            k += 1
-        if not k:
-            return
-        times, pending[:k] = pending[:k], []
-        at_end = inclusive and times[-1] == t
-        inner = times[:-1] if at_end else times
-        if inner:
-            outs += list(dense(np.array(inner)).T)
-        if at_end:
-            outs.append(x.copy())
+    def stepper(self):
+        """A fresh scipy solver per integration, stepped by the core."""
+        return scipy_ops(), ScipyStepper(self)
 
     def __repr__(self):
         return f"ScipySolver({self.method}, rtol={self.rtol:g})"
@@ -378,3 +185,103 @@ class ScipySolver:
 
 #: scipy's solvers by the name ``solve_ivp`` gives them
 METHODS = {"Radau": Radau, "BDF": BDF, "LSODA": LSODA, "RK45": RK45, "RK23": RK23, "DOP853": DOP853}
+
+
+class ScipyStepper:
+    """Where a :class:`ScipySolver` is: its ``OdeSolver`` of the current integration."""
+
+    def __init__(self, solver):
+        self.solver, self.num = solver, np.zeros(8)
+        self.ode = self.interp = None
+        self.message = self.seen = None
+
+    def start(self, rhs, y, z, pf, pi):
+        s = self.solver
+        n = self.x0.size
+        seen = []
+
+        def fun(t, xx):
+            dx = np.empty(n)
+            rhs(t, xx, dx, 0, y, z, pf, pi)
+            if not seen and not np.isfinite(dx).all():
+                seen.append((t, np.array(xx, float)))
+            return dx
+
+        self.seen = seen
+        self.ode = METHODS[s.method](fun, self.t0, self.x0, self.t1, rtol=s.rtol, atol=s.atol,
+                                     max_step=s.max_step, first_step=min(s.scan, s.max_step, self.t1 - self.t0))
+
+
+def scipy_ops():
+    """The :class:`~.stepping.Ops` of :class:`ScipyStepper`."""
+
+    def begin(s, t0, t1, x):
+        s.t0, s.t1, s.x0, s.ode = t0, t1, np.array(x, float), None
+
+    def step(s, x, xn, w, rhs, y, z, pf, pi):
+        if s.ode is None:
+            s.start(rhs, y, z, pf, pi)
+        ode = s.ode
+        try:
+            message = ode.step()
+        except (ValueError, np.linalg.LinAlgError) as exc:  # scipy's linear algebra on NaN
+            if not s.seen:
+                raise
+            ode.status, message = "failed", str(exc)
+        if ode.status == "failed":
+            why = f" (the right-hand side is not finite at t={s.seen[0][0]:.9g} s)" if s.seen else ""
+            s.message = f"solver {s.solver.method} failed at t={ode.t:.9g} s: {message}{why}"
+            return np.nan
+        xn[:] = ode.y
+        s.num[1] = ode.t - ode.t_old
+        s.interp = None
+        return ode.t
+
+    def steps(s, t_lim, x, xn, w, rhs, y, z, pf, pi):
+        return step(s, x, xn, w, rhs, y, z, pf, pi)
+
+    def dense(s, t, x, w, xo):
+        if s.interp is None:
+            s.interp = s.ode.dense_output()
+        xo[:] = s.interp(t)
+
+    def restep(s, hh, x, w, rhs, y, z, pf, pi, xr):
+        return False
+
+    def rewind(s):
+        pass
+
+    return stepping.Ops(begin, step, steps, dense, restep, rewind)
+
+
+# -- the core's buffers ---------------------------------------------------------------------
+def work(n, s, e, dirs=None, switch=None, owner=None):
+    """The :class:`~.stepping.Work` buffers of a run: ``n`` states, ``s`` stages, ``e`` located
+    event functions (their directions, which are switches, which located block owns each)."""
+    f = lambda *shape: np.zeros(shape)  # noqa: E731
+    s = max(s, 1)
+    return stepping.Work(
+        f(n), f(n), f(n), f(n), f(n), f(n), f(s * n), f(s * n), f(n), f(s), f(e), f(e), f(e), f(e), f(e),
+        np.zeros(e, np.bool_),
+        np.zeros(e, np.int64) if dirs is None else np.asarray(dirs, np.int64),
+        np.zeros(e, np.bool_) if switch is None else np.asarray(switch, np.bool_),
+        np.zeros(e, np.bool_), np.zeros(e, np.int64),
+        np.zeros(e, np.int64) if owner is None else np.asarray(owner, np.int64))
+
+
+def outputs(rows, cols, cap, blocks, columns=None):
+    """The :class:`~.stepping.Out` of a run: ``rows`` x ``cols`` log (``columns``: the elements of
+    the wire vector each copies), room for ``cap`` events over ``blocks`` located blocks."""
+    return stepping.Out(np.zeros((rows, cols)),
+                        np.zeros(cols, np.int64) if columns is None else np.asarray(columns, np.int64),
+                        np.zeros(1, np.int64), np.zeros(cap), np.zeros((cap, max(blocks, 1)), np.bool_),
+                        np.zeros(1, np.int64), np.zeros(3, np.int64), np.zeros(1))
+
+
+def limits(max_state, time_tol=None, scan=1e-3, stepped=False, timed=False, batch=False, max_repeats=0):
+    """The :class:`~.stepping.Limits` of a run (the event policies from :mod:`.events`)."""
+    from hybridsim.engine import events as ev
+
+    return stepping.Limits(float(max_state), float(ev.TIME_TOL if time_tol is None else time_tol), float(scan),
+                           int(ev.MAX_EVENTS), int(ev.MAX_STALLS), int(ev.MAX_ITERATIONS), int(max_repeats),
+                           bool(timed), bool(stepped), bool(batch))

@@ -1,0 +1,140 @@
+"""The stepping core compiled by numba, once per machine.
+
+:func:`core` returns the numba versions of :func:`hybridsim.engine.stepping.run`
+and of the Runge-Kutta stepper (:mod:`hybridsim.engine.rk`), compiled with
+explicit signatures in which a diagram's glue is a set of first-class
+functions (:data:`GLUE`): every diagram's glue has these types, so the core is
+compiled once and cached on disk (``HYBRIDSIM_CACHE``), and a new diagram
+compiles only its glue (:mod:`hybridsim.engine.compiled`).
+"""
+import functools
+import os
+import warnings
+
+import numpy as np
+
+from hybridsim.engine import rk, stepping
+
+
+def cache_dir():
+    """Where generated modules and numba's cache live (``HYBRIDSIM_CACHE``, default
+    ``~/.cache/hybridsim``)."""
+    from pathlib import Path
+
+    root = os.environ.get("HYBRIDSIM_CACHE") or Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "hybridsim"
+    return Path(root) / "compiled"
+
+
+def use_cache_dir():
+    """Point numba's cache at :func:`cache_dir` (unless the user set ``NUMBA_CACHE_DIR``)."""
+    import numba
+
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return
+    folder = cache_dir() / "numba"
+    folder.mkdir(parents=True, exist_ok=True)
+    numba.config.CACHE_DIR = str(folder)
+
+
+def example_records(n=1, s=1, e=1, d=1, b=1):
+    """Records of the core's argument types (their numba types are the signatures')."""
+    f = lambda *shape: np.zeros(shape)  # noqa: E731
+    tl = stepping.Timeline(f(2), np.zeros(2, np.int64), np.zeros((2, d), np.bool_), np.zeros(2, np.int64),
+                           np.zeros(2, np.int64))
+    lim = stepping.Limits(1e6, 1e-12, 1e-3, 10, 10, 10, 0, False, False, False)
+    w = stepping.Work(f(n), f(n), f(n), f(n), f(n), f(n), f(s * n), f(s * n), f(n), f(s), f(e), f(e), f(e), f(e),
+                      f(e), np.zeros(e, np.bool_), np.zeros(e, np.int64), np.zeros(e, np.bool_),
+                      np.zeros(e, np.bool_), np.zeros(e, np.int64), np.zeros(e, np.int64))
+    out = stepping.Out(f(1, 1), np.zeros(1, np.int64), np.zeros(1, np.int64), f(1), np.zeros((1, b), np.bool_),
+                       np.zeros(1, np.int64), np.zeros(3, np.int64), f(1))
+    rks = rk.RKState(f(s), f(8))
+    return tl, lim, w, out, rks
+
+
+@functools.lru_cache(maxsize=None)
+def types():
+    """The numba types of the glue, the stepper and the core: a dict."""
+    from numba import typeof, types as nt
+    from numba.core.types import FunctionType
+
+    A, I, B, B2 = nt.float64[::1], nt.int64[::1], nt.boolean[::1], nt.boolean[:, ::1]
+    f64, i64 = nt.float64, nt.int64
+    glue = {
+        "outputs": FunctionType(i64(f64, A, A, A, A, I, B2, i64)),
+        "update": FunctionType(i64(f64, A, A, A, A, I, B2, i64)),
+        "rhs": FunctionType(nt.void(f64, A, A, i64, A, A, A, I)),
+        "zc": FunctionType(nt.void(f64, A, A, A, A, A, I)),
+        "act": FunctionType(i64(f64, A, A, B, A, A, A, I)),
+        "observe": FunctionType(i64(f64, A, A, A, A, I)),
+        "next_time": FunctionType(f64(f64, A, A, A, A, I)),
+        "timed": FunctionType(i64(f64, A, A, A, A, A, I)),
+        "stepped": FunctionType(i64(f64, A, A, A, A, I)),
+    }
+    tl, lim, w, out, rks = (typeof(r) for r in example_records())
+    GLUE = nt.NamedTuple([glue[k] for k in stepping.Glue._fields], stepping.Glue)
+    run = i64(tl, i64, i64, GLUE, rks, lim, w, out, A, A, A, I)
+    return {"glue": glue, "run": run, "array": A, "ints": I, "bools": B}
+
+
+#: the core's functions that numba inlines where they are called (the others are called): those
+#: called at every step, and those that take the run's records (a call passing a record of arrays
+#: costs more than the work of a step)
+INLINED = ("crossed_any", "first_bad", "copy_into", "mute", "record", "fail", "log_event", "observe",
+           "restep_to_failure", "locate", "settle")
+
+CORE_TAIL = """
+
+
+# -- compiled with numba (this file is generated: stepping.py and {method}'s steps, then this) -------
+from numba import njit as _njit  # noqa: E402
+
+for _name in ("rk_begin", "rk_step", "rk_steps", "rk_dense", "rk_restep", "rk_rewind") + {inlined!r}:
+    globals()[_name] = _njit(globals()[_name], inline="always", cache=True)
+interval = _njit(interval, cache=True, nogil=True)
+stepping_run = _njit(run, cache=True, nogil=True)
+
+
+def run_rk(tl, k0, k1, gl, s, lim, w, out, y, z, pf, pi):
+    return stepping_run(tl, k0, k1, gl, 0, s, lim, w, out, y, z, pf, pi)
+"""
+
+
+@functools.lru_cache(maxsize=None)
+def core(method_class):
+    """The compiled core for one Runge-Kutta method (compiled or loaded from the cache):
+    ``run(tl, k0, k1, glue, rk_state, limits, work, out, y, z, pf, pi)``, which is
+    :func:`hybridsim.engine.stepping.run` with the method's steps compiled in."""
+    import hashlib
+    import importlib.util
+    import inspect
+    import re
+    import sys
+
+    from numba import njit
+    from numba.core.errors import NumbaExperimentalFeatureWarning
+
+    from hybridsim.engine import rk_code
+
+    use_cache_dir()
+    # the stepper's calls name its functions (calls through a record of functions would make the
+    # compiled code hold Python objects, which numba's cache cannot store)
+    core_text = re.sub(r"\bops\.(\w+)\(", r"rk_\1(", inspect.getsource(stepping))
+    source = (f"# generated by hybridsim.engine.native from stepping.py and rk_code.array_source({method_class.name})\n"
+              + core_text + "\n\n# -- the Runge-Kutta steps " + "-" * 60 + "\n"
+              + rk_code.array_source(method_class).replace("import math\n", "")
+              + CORE_TAIL.format(method=method_class.name, inlined=INLINED))
+    stamp = hashlib.sha256(source.encode()).hexdigest()[:16]
+    folder = cache_dir()
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"core_{method_class.name}_{stamp}.py"
+    if not path.exists():
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(source)
+        os.replace(tmp, path)
+    spec = importlib.util.spec_from_file_location(f"hybridsim_core_{stamp}", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # numba's cache finds the module by name
+    spec.loader.exec_module(module)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)
+        return njit(types()["run"], cache=True, nogil=True)(module.run_rk)

@@ -1,0 +1,472 @@
+"""The stepping core: how every path advances a system, written once.
+
+A run walks the stops of a :class:`Timeline` (sample hits, log points
+between hits, the end). At a hit the diagram's glue (:class:`Glue`) computes
+the outputs of every block that is not discrete and of the discrete blocks
+due (the others hold theirs: zero-order hold), the log row is recorded, and
+the due blocks update. Between two hits the continuous states are
+integrated by a stepper (:class:`Ops`) one accepted step at a time; after
+each step
+
+1. the state is checked: not finite or beyond ``max_state`` is DIVERGED;
+2. the located event functions are compared with the step's start (and at
+   scan points no more than ``scan`` s apart inside a long step); the first
+   sign change is bisected on the step's dense output to ``time_tol``;
+3. log points inside the step are observed from the dense output, in time
+   order, before an event's actions;
+4. at an event the actions run, again while they make another function
+   cross (at most ``max_iterations``), and the integration restarts there.
+
+Time events (a block's ``next_event_time``) are stops hit exactly; blocks
+told of every accepted step (``after_step``) may ask for a step event or
+stop the run. Too many events before the next hit, or events piling up at
+one instant, is Zeno behaviour.
+
+Everything here keeps to the subset of Python that numba compiles. The
+compiled path compiles these very functions once per machine
+(:mod:`hybridsim.engine.compiled`), the diagram's glue and the Runge-Kutta
+stepper passed in as first-class functions; the generic and fused paths run
+them as plain Python with their own glue and steppers. Failures are status
+codes in ``Out.status`` (``code, index, row``) and ``Out.tfail``, turned into
+messages by :mod:`hybridsim.engine.simulator`.
+"""
+import math
+from typing import Callable, NamedTuple
+
+import numpy as np
+
+# -- stop kinds (Timeline.kind) ------------------------------------------------
+HIT, LOG, END, END_LOG = 0, 1, 2, 3
+
+# -- status codes (Out.status[0]); status[1] says which state, block or count --
+OK = 0
+DIVERGED = 1    # a continuous state not finite or beyond max_state: status[1] = state index
+BAD_OUTPUT = 2  # a block output not finite: status[1] = block index
+BAD_UPDATE = 3  # a discrete state not finite: status[1] = block index
+ZENO = 4        # more than max_events events before the next hit
+STALLED = 5     # max_stalls events in a row within 10 time_tol of each other
+CHATTER = 6     # an event iteration that does not settle
+STOPPED = 7     # a block asked to end the run (its request is kept by the glue)
+FAILED = 8      # the solver failed (its message is kept by the stepper)
+
+# -- what glue.stepped / glue.timed / glue.act answer --------------------------
+GO, STEP_EVENT, STOP = 0, 1, 2
+
+
+class Timeline(NamedTuple):
+    """The stops of a run, in order, as arrays (:func:`hybridsim.engine.timeline.timeline`)."""
+
+    t: np.ndarray     # float64[m]: stop times, s; the last row is the end of the run
+    kind: np.ndarray  # int64[m]: HIT, LOG (a log point between hits), END, END_LOG (the end, logged)
+    due: np.ndarray   # bool[m, d]: discrete block j (in system.discrete order) due at stop k
+    rec: np.ndarray   # int64[m]: log row written at stop k, or -1
+    next: np.ndarray  # int64[m]: at a hit, the row of the next hit or of the end
+
+
+class Limits(NamedTuple):
+    """The policies of a run (numbers the core compares with)."""
+
+    max_state: float      # a larger |state| is divergence
+    time_tol: float       # events are located to this many seconds
+    scan: float           # longest stretch, s, between two checks of the event functions in a step
+    max_events: int       # events between two hits before the run counts as Zeno
+    max_stalls: int       # events in a row, each within 10 time_tol of the one before
+    max_iterations: int   # actions at one instant before the iteration counts as chattering
+    max_repeats: int      # a switch without an action located more often is stepped over (0: never)
+    timed: bool           # the glue has time events (next_time / timed)
+    stepped: bool         # the glue wants to hear of every accepted step
+    batch: bool           # steps may be taken several at a time (no located events, no step hooks)
+
+
+class Work(NamedTuple):
+    """Buffers of one run: states (n), stages (s x n), event functions (e)."""
+
+    x: np.ndarray       # float64[n]: the state
+    xn: np.ndarray      # float64[n]: the state at the end of the step being taken
+    xo: np.ndarray      # float64[n]: a state observed inside a step
+    xe: np.ndarray      # float64[n]: the state at an event
+    xm: np.ndarray      # float64[n]: a trial state of the bisection
+    xs: np.ndarray      # float64[n]: a stage's state (Runge-Kutta)
+    k: np.ndarray       # float64[s * n]: the stages of the step just taken, one after the other
+    kr: np.ndarray      # float64[s * n]: the stages of a fresh step to an event
+    xr: np.ndarray      # float64[n]: a stage's state in that step
+    wts: np.ndarray     # float64[s]: dense-output weights
+    g: np.ndarray       # float64[e]: event functions at the step's start
+    gn: np.ndarray      # float64[e]: at its end
+    glo: np.ndarray     # float64[e]: the bisection's bracket, low side
+    ghi: np.ndarray     # float64[e]: high side
+    gm: np.ndarray      # float64[e]: at a trial point
+    fired: np.ndarray   # bool[e]: the functions that crossed
+    dirs: np.ndarray    # int64[e]: +1 fires rising, -1 falling, 0 both
+    switch: np.ndarray  # bool[e]: a function of a block without an action (only restarts)
+    muted: np.ndarray   # bool[e]: a switch stepped over for the rest of the interval
+    repeats: np.ndarray  # int64[e]: how often each switch was located in this interval
+    owner: np.ndarray   # int64[e]: the located block (column of Out.evb) of each function
+
+
+class Out(NamedTuple):
+    """What a run writes: log rows, events, status."""
+
+    log: np.ndarray     # float64[rows, cols]: the log
+    cols: np.ndarray    # int64[cols]: the elements of y each log column copies
+    nrow: np.ndarray    # int64[1]: rows written so far
+    evt: np.ndarray     # float64[cap]: event times, s
+    evb: np.ndarray     # bool[cap, b]: which located blocks fired at each event
+    nev: np.ndarray     # int64[1]: events so far (may exceed cap: only the first cap are kept)
+    status: np.ndarray  # int64[3]: code, which state / block / count, stop row
+    tfail: np.ndarray   # float64[1]: when it failed, s
+
+
+class Glue(NamedTuple):
+    """A diagram's equations as the core calls them (generated per diagram, or closures).
+
+    Every function takes ``(t, x, ...)`` then the run's arrays ``y`` (every output
+    element), ``z`` (every discrete state), ``pf`` / ``pi`` (the blocks' numbers,
+    floats and integers) and writes in place. ``due[k]`` is the row of the stop: the
+    discrete blocks due. (Whole arrays and offsets are passed, never views: a view
+    passed to a first-class function costs more than the call.)
+    """
+
+    outputs: Callable   # (t, x, y, z, pf, pi, due, k) -> block with a non-finite output, or -1
+    update: Callable    # (t, x, y, z, pf, pi, due, k) -> block with a non-finite new state, or -1
+    rhs: Callable       # (t, x, dx, at, y, z, pf, pi): derivatives into dx[at:at + n]
+    zc: Callable        # (t, x, g, y, z, pf, pi): located event functions
+    act: Callable       # (t, x, xn, fired, y, z, pf, pi) -> GO or STOP: the state after the actions
+    observe: Callable   # (t, x, y, z, pf, pi) -> block with a non-finite logged output, or -1
+    next_time: Callable  # (t, x, y, z, pf, pi) -> the next time event after t (inf: none)
+    timed: Callable     # (t, x, xn, y, z, pf, pi) -> GO or STOP: the state after the time events at t
+    stepped: Callable   # (t, x, y, z, pf, pi) -> GO, STEP_EVENT or STOP, after every accepted step
+
+
+class Ops(NamedTuple):
+    """A stepper: how the core takes steps (Runge-Kutta here; scipy's solvers in Python).
+
+    ``s`` is the stepper's own record (``s.num`` a float64 array of its numbers);
+    ``begin`` starts an integration at (t0, x) that must stop at t1; ``step`` takes one
+    accepted step from ``x`` into ``xn`` and returns its end time (NaN: the solver
+    failed); ``steps`` takes as many steps as end at or before ``t_lim`` (at least
+    one) and returns the end time; ``dense`` the state at ``t`` inside the last step;
+    ``restep`` one fresh step of ``hh`` s from the last step's start, False where the
+    stepper cannot; ``rewind`` puts the stepper back to the start of the last ``steps``.
+    """
+
+    begin: Callable    # (s, t0, t1, x)
+    step: Callable     # (s, x, xn, w, rhs, y, z, pf, pi) -> t_end of the step
+    steps: Callable    # (s, t_lim, x, xn, w, rhs, y, z, pf, pi) -> t_end
+    dense: Callable    # (s, t, x, w, xo)
+    restep: Callable   # (s, hh, x, w, rhs, y, z, pf, pi, xr) -> bool
+    rewind: Callable   # (s)
+
+
+# -- small helpers -----------------------------------------------------------------
+def crossed_any(a, b, dirs, fired):
+    """Mark in ``fired`` the functions that crossed zero from ``a`` to ``b`` in their
+    direction (rising: from <= 0 to > 0, falling: from >= 0 to < 0); True when any did."""
+    hit = False
+    for i in range(a.size):
+        d = dirs[i]
+        f = (d >= 0 and a[i] <= 0.0 and b[i] > 0.0) or (d <= 0 and a[i] >= 0.0 and b[i] < 0.0)
+        fired[i] = f
+        hit = hit or f
+    return hit
+
+
+def first_bad(x, max_state):
+    """The index of the first element of ``x`` not finite or beyond ``max_state``; -1 if none."""
+    for i in range(x.size):
+        if not abs(x[i]) <= max_state:
+            return i
+    return -1
+
+
+def copy_into(dst, src):
+    for i in range(src.size):
+        dst[i] = src[i]
+
+
+def mute(g, muted):
+    for i in range(g.size):
+        if muted[i]:
+            g[i] = 1.0  # a muted switch reads +1: it never fires
+
+
+def fail(out, code, index, row, t):
+    out.status[0] = code
+    out.status[1] = index
+    out.status[2] = row
+    out.tfail[0] = t
+
+
+def record(out, y, row):
+    """Copy the logged elements of ``y`` into log row ``row``."""
+    if row < 0:
+        return
+    for c in range(out.cols.size):
+        out.log[row, c] = y[out.cols[c]]
+    if row + 1 > out.nrow[0]:
+        out.nrow[0] = row + 1
+
+
+def log_event(out, t, fired, owner):
+    """Append an event at ``t``: the located blocks whose functions ``fired``."""
+    n = out.nev[0]
+    if n < out.evt.size:
+        out.evt[n] = t
+        for b in range(out.evb.shape[1]):
+            out.evb[n, b] = False
+        for i in range(fired.size):
+            if fired[i]:
+                out.evb[n, owner[i]] = True
+    out.nev[0] = n + 1
+
+
+def observe(gl, out, t, x, y, z, pf, pi, row, k):
+    """Evaluate the log path at (t, x) and record row ``row``; False (status set) on a bad output."""
+    bad = gl.observe(t, x, y, z, pf, pi)
+    if bad >= 0:
+        fail(out, BAD_OUTPUT, bad, k, t)
+        return False
+    record(out, y, row)
+    return True
+
+
+# -- the run ------------------------------------------------------------------
+def run(tl, k0, k1, gl, ops, s, lim, w, out, y, z, pf, pi):
+    """Walk the stops ``k0 .. k1 - 1`` of ``tl`` (``k0`` a hit or the end); ``w.x`` holds the state
+    and is left holding the state at the last stop. Returns the status code (0: done)."""
+    k = k0
+    n_x = w.x.size
+    while k < k1:
+        kind = tl.kind[k]
+        t = tl.t[k]
+        if kind == HIT:
+            bad = gl.outputs(t, w.x, y, z, pf, pi, tl.due, k)
+            if bad >= 0:
+                fail(out, BAD_OUTPUT, bad, k, t)
+                return BAD_OUTPUT
+            record(out, y, tl.rec[k])
+            bad = gl.update(t, w.x, y, z, pf, pi, tl.due, k)
+            if bad >= 0:
+                fail(out, BAD_UPDATE, bad, k, t)
+                return BAD_UPDATE
+            nxt = tl.next[k]
+            if n_x > 0:
+                code = interval(t, tl.t[nxt], k + 1, nxt, tl, gl, ops, s, lim, w, out, y, z, pf, pi)
+                if code != OK:
+                    return code
+            else:
+                for j in range(k + 1, nxt):
+                    if not observe(gl, out, tl.t[j], w.x, y, z, pf, pi, tl.rec[j], j):
+                        return BAD_OUTPUT
+            k = nxt
+        else:  # the end (a row of its own after the last hit)
+            if kind == END_LOG:
+                if not observe(gl, out, t, w.x, y, z, pf, pi, tl.rec[k], k):
+                    return BAD_OUTPUT
+            k += 1
+    return OK
+
+
+def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
+    """Integrate ``w.x`` from the hit at ``t0`` to the next stop ``t1`` (rows ``j .. j1 - 1`` of ``tl``
+    are the log points between), locating events and acting on them. Returns the status code."""
+    x, xn = w.x, w.xn
+    located = w.g.size > 0
+    for i in range(w.muted.size):
+        w.muted[i] = False
+        w.repeats[i] = 0
+    count = 0
+    stalls = 0
+    tol = lim.time_tol
+    while True:
+        # -- one integration from t0 to the next stop (a time event or t1) ----------------------
+        stop = t1
+        if lim.timed:
+            te = gl.next_time(t0, x, y, z, pf, pi)
+            if te > t0 + tol and te < t1:
+                stop = te
+        ops.begin(s, t0, stop, x)
+        if located:
+            gl.zc(t0, x, w.g, y, z, pf, pi)
+            mute(w.g, w.muted)
+        ta = t0
+        event = False
+        asked = GO
+        t_ev = t0
+        while True:
+            # log points at the step's start: the state itself
+            while j < j1 and tl.t[j] <= ta + 1e-9 * (s.num[1] if s.num[1] > 0.0 else tol):
+                if not observe(gl, out, tl.t[j], x, y, z, pf, pi, tl.rec[j], j):
+                    return BAD_OUTPUT
+                j += 1
+            t_lim = tl.t[j] if j < j1 else stop
+            if lim.batch:
+                tb = ops.steps(s, t_lim, x, xn, w, gl.rhs, y, z, pf, pi)
+                if tb == tb and first_bad(xn, lim.max_state) >= 0:
+                    tb = restep_to_failure(ta, tb, ops, s, w, gl, y, z, pf, pi, lim)
+            else:
+                tb = ops.step(s, x, xn, w, gl.rhs, y, z, pf, pi)
+            if tb != tb:
+                fail(out, FAILED, 0, j, ta)
+                return FAILED
+            bad = first_bad(xn, lim.max_state)
+            if bad >= 0:
+                copy_into(x, xn)
+                fail(out, DIVERGED, bad, j, tb)
+                return DIVERGED
+            # -- events: the first sign change inside the step --------------------------------
+            if located:
+                gl.zc(tb, xn, w.gn, y, z, pf, pi)
+                mute(w.gn, w.muted)
+                event, t_ev = locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi)
+            # -- log points inside the step, before the event ---------------------------------
+            t_in = t_ev if event else tb
+            h = tb - ta
+            while j < j1 and tl.t[j] < t_in and tl.t[j] < tb - 1e-9 * h:
+                ops.dense(s, tl.t[j], x, w, w.xo)
+                if not observe(gl, out, tl.t[j], w.xo, y, z, pf, pi, tl.rec[j], j):
+                    return BAD_OUTPUT
+                j += 1
+            if event:
+                break
+            copy_into(x, xn)
+            ta = tb
+            if lim.stepped:
+                asked = gl.stepped(tb, x, y, z, pf, pi)
+                if asked == STOP:
+                    fail(out, STOPPED, 0, j, tb)
+                    return STOPPED
+                if asked == STEP_EVENT:
+                    for i in range(w.fired.size):
+                        w.fired[i] = False
+                    event = True
+                    t_ev = tb
+                    copy_into(w.xe, x)
+                    break
+            if tb >= stop:
+                break
+        if event:
+            count += 1
+            stalls = stalls + 1 if t_ev - t0 <= 10.0 * tol else 0
+            log_event(out, t_ev, w.fired, w.owner)
+            if count > lim.max_events:
+                fail(out, ZENO, count, j, t_ev)
+                return ZENO
+            if stalls > lim.max_stalls:
+                fail(out, STALLED, stalls, j, t_ev)
+                return STALLED
+            if lim.stepped and asked != STEP_EVENT:  # a located event ends a step too: its request joins
+                if gl.stepped(t_ev, w.xe, y, z, pf, pi) == STOP:
+                    copy_into(x, w.xe)
+                    fail(out, STOPPED, 0, j, t_ev)
+                    return STOPPED
+            if lim.max_repeats > 0:  # a switch located too often slides along its surface: muted
+                for i in range(w.fired.size):
+                    if w.switch[i] and w.fired[i]:
+                        w.repeats[i] += 1
+                        if w.repeats[i] > lim.max_repeats:
+                            w.muted[i] = True
+            code = settle(t_ev, gl, lim, w, y, z, pf, pi)
+            if code != OK:
+                fail(out, code, 0, j, t_ev)
+                return code
+            t0 = t_ev
+        elif stop < t1:  # a time event
+            count += 1
+            for i in range(w.fired.size):
+                w.fired[i] = False
+            log_event(out, stop, w.fired, w.owner)
+            if gl.timed(stop, x, w.xe, y, z, pf, pi) == STOP:
+                fail(out, STOPPED, 0, j, stop)
+                return STOPPED
+            copy_into(x, w.xe)
+            t0 = stop
+        else:
+            break
+        if t1 - t0 <= tol:  # an event at the next stop itself
+            break
+    # log points left (within round-off of the stop, or after an event at it): the state there
+    while j < j1:
+        if not observe(gl, out, tl.t[j], x, y, z, pf, pi, tl.rec[j], j):
+            return BAD_OUTPUT
+        j += 1
+    return OK
+
+
+def restep_to_failure(ta, tb_batch, ops, s, w, gl, y, z, pf, pi, lim):
+    """After a batch of steps from ``w.x`` whose last state failed the check: the same steps again,
+    one at a time, up to the first state that fails (left in ``w.xn``); returns its end time."""
+    ops.rewind(s)
+    tb = ta
+    while tb < tb_batch:
+        tb = ops.step(s, w.x, w.xn, w, gl.rhs, y, z, pf, pi)
+        if first_bad(w.xn, lim.max_state) >= 0:
+            return tb
+        copy_into(w.x, w.xn)
+    return tb
+
+
+def locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi):
+    """The first crossing of the event functions inside the step [ta, tb] (``w.g`` at ta, ``w.gn``
+    at tb): checked at scan points of the dense output, bisected to ``time_tol``. Returns
+    ``(found, t_event)``; when found, ``w.xe`` holds the state there and ``w.fired`` the functions
+    that crossed; else ``w.g`` takes ``w.gn``."""
+    h = tb - ta
+    m = max(1, int(math.ceil(h / lim.scan - 1e-9)))
+    copy_into(w.glo, w.g)
+    lo = 0.0
+    for p in range(1, m + 1):
+        if p < m:
+            hi = p / m
+            ops.dense(s, ta + hi * h, w.x, w, w.xm)
+            gl.zc(ta + hi * h, w.xm, w.ghi, y, z, pf, pi)
+            mute(w.ghi, w.muted)
+        else:
+            hi = 1.0
+            copy_into(w.ghi, w.gn)
+            copy_into(w.xm, w.xn)
+        if crossed_any(w.glo, w.ghi, w.dirs, w.fired):
+            copy_into(w.xe, w.xm)
+            # bisection on the dense output: [lo, hi] in fractions of the step
+            while (hi - lo) * h > lim.time_tol:
+                mid = 0.5 * (lo + hi)
+                ops.dense(s, ta + mid * h, w.x, w, w.xm)
+                gl.zc(ta + mid * h, w.xm, w.gm, y, z, pf, pi)
+                mute(w.gm, w.muted)
+                if crossed_any(w.glo, w.gm, w.dirs, w.fired):
+                    hi = mid
+                    copy_into(w.xe, w.xm)
+                    copy_into(w.ghi, w.gm)
+                else:
+                    lo = mid
+                    copy_into(w.glo, w.gm)
+            # a fresh step to the crossing (the method's own order) when it is past the surface too
+            if hi < 1.0 and ops.restep(s, hi * h, w.x, w, gl.rhs, y, z, pf, pi, w.xm):
+                gl.zc(ta + hi * h, w.xm, w.gm, y, z, pf, pi)
+                mute(w.gm, w.muted)
+                if crossed_any(w.glo, w.gm, w.dirs, w.fired):
+                    copy_into(w.xe, w.xm)
+            crossed_any(w.glo, w.ghi, w.dirs, w.fired)
+            return True, (ta + hi * h if hi < 1.0 else tb)
+        copy_into(w.glo, w.ghi)
+        lo = hi
+    copy_into(w.g, w.gn)
+    return False, tb
+
+
+def settle(t, gl, lim, w, y, z, pf, pi):
+    """Apply the actions of ``w.fired`` to ``w.xe`` at ``t``, again while they make another function
+    cross; the state after, in ``w.x``. Returns the status code (CHATTER, STOPPED or OK)."""
+    gl.zc(t, w.xe, w.gm, y, z, pf, pi)  # the functions just before the actions
+    mute(w.gm, w.muted)
+    for _ in range(lim.max_iterations):
+        if gl.act(t, w.xe, w.x, w.fired, y, z, pf, pi) == STOP:
+            copy_into(w.x, w.xe)
+            return STOPPED
+        copy_into(w.xe, w.x)
+        gl.zc(t, w.x, w.ghi, y, z, pf, pi)
+        mute(w.ghi, w.muted)
+        if not crossed_any(w.gm, w.ghi, w.dirs, w.fired):
+            return OK
+        copy_into(w.gm, w.ghi)
+    return CHATTER
