@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import hybridsim as hs
-from hybridsim.engine.solvers import Heun, RK4, observation
+from hybridsim.engine.solvers import Heun, RK4
 
 from conftest import DIAGRAMS
 
@@ -69,6 +69,3 @@ def test_dense_output_is_accurate_between_steps():
     x, outs = RK4(0.01).advance(lambda t, x: np.array([np.cos(t)]), 0.0, 1.0, np.zeros(1),
                                 [0.25, 0.253, 0.5, 0.5071])
     assert [o[0] for o in outs] == pytest.approx(np.sin([0.25, 0.253, 0.5, 0.5071]), abs=1e-9)
-    assert observation(0.0, 0.01, 100, 0.25) == (25, 0.0)
-    k, theta = observation(0.0, 0.01, 100, 0.253)
-    assert k == 25 and theta == pytest.approx(0.3)

@@ -123,11 +123,9 @@ class Linearization:
 
     # -- continuous part ----------------------------------------------------------
     def _rhs(self):
-        from hybridsim.engine.simulator import Simulator
+        from hybridsim.engine.glue import right_hand_side
 
-        sim = Simulator(self.system)
-        rhs, _ = sim._bind(self.ctx)
-        return rhs
+        return right_hand_side(self.system, self.ctx)
 
     def continuous(self):
         """(A, B): xc' = A dxc + B dh about the operating point; h = held inputs."""

@@ -29,8 +29,6 @@ import re
 import sys
 import warnings
 
-import numpy as np
-
 from hybridsim.engine import native, rk
 from hybridsim.engine.fused import event_kernels, event_sizes, has_kernels
 from hybridsim.engine.kernels import marked
@@ -206,7 +204,6 @@ def glue_source(system, log_path, located, layout):
     sysm = system
     env = {}
     wr = _Writer(sysm, layout, env)
-    kind = sysm.kind
     due_col = {i: c for c, i in enumerate(sysm.discrete)}
     sig = "(t, x, y, z, pf, pi, due, row)"
     fns = []

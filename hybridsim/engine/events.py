@@ -102,7 +102,6 @@ class EventSet:
         ``fired``, and of those that asked for a step event. Returns the names acting."""
         self.outputs(t, x)
         xn[:] = x
-        blocks, u = self.ctx.blocks, self.ctx.u
         done = set()
         for k, (i, s) in enumerate(self.blocks):
             mine = fired[self.cuts[k]:self.cuts[k + 1]]

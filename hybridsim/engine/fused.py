@@ -212,8 +212,8 @@ class FusedState:
         return tuple(tuple(y[a][o].tolist()) for a, o in self.f.held)
 
 
-def _begin(s, t0, t1, x):
-    s.grid(s, t0, t1, x)  # the step grid, as the core's steps cut it
+def _begin(s, t0, t1, x, times, j, j1):
+    s.grid(s, t0, t1, x, times, j, j1)  # the step grid, as the core's steps cut it
     s.H = s.held()
     s.cache = None
 
@@ -222,7 +222,7 @@ def _state(s, x):
     return s.cache if s.cache is not None else tuple(x.tolist())
 
 
-def _step(s, x, xn, w, rhs, y, z, pf, pi):
+def _step(s, x, xn, w, gl, y, z, pf, pi):
     num = s.num
     k, h, n = int(num[3]), num[1], int(num[2])
     X = _state(s, x)
@@ -233,7 +233,7 @@ def _step(s, x, xn, w, rhs, y, z, pf, pi):
     return num[5] if k + 1 >= n else num[4] + (k + 1) * h
 
 
-def _steps(s, t_lim, x, xn, w, rhs, y, z, pf, pi):
+def _steps(s, t_lim, x, xn, w, gl, y, z, pf, pi):
     num = s.num
     k, h, n, t0 = int(num[3]), num[1], int(num[2]), num[4]
     kb = k + 1
@@ -246,7 +246,7 @@ def _steps(s, t_lim, x, xn, w, rhs, y, z, pf, pi):
         X = s.f.advance(t0, h, k, kb - 1, X, s.H, s.P)
         num[3] = kb - 1
         s.cache = X
-    return _step(s, x, xn, w, rhs, y, z, pf, pi)
+    return _step(s, x, xn, w, gl, y, z, pf, pi)
 
 
 def _dense(s, t, x, w, xo):
@@ -256,7 +256,7 @@ def _dense(s, t, x, w, xo):
     xo[:] = s.f.dense_at(s.X, s.K, h, s.f.method.dense_weights((t - ta) / h))
 
 
-def _restep(s, hh, x, w, rhs, y, z, pf, pi, xr):
+def _restep(s, hh, x, w, gl, y, z, pf, pi, xr):
     num = s.num
     ta = num[4] + (int(num[3]) - 1) * num[1]
     xr[:] = s.f.advance(ta, hh, 0, 1, s.X, s.H, s.P)
@@ -266,6 +266,7 @@ def _restep(s, hh, x, w, rhs, y, z, pf, pi, xr):
 def _rewind(s):
     s.num[3] = s.num[7]
     s.cache = s.saved
+    return True
 
 
 FUSED_OPS = stepping.Ops(_begin, _step, _steps, _dense, _restep, _rewind)

@@ -36,6 +36,19 @@ def rhs_closures(system, ctx):
     return outputs, derivatives
 
 
+def right_hand_side(system, ctx):
+    """``f(t, x)``: the derivatives of the continuous states (an array) over ``ctx``, its held
+    outputs as they are; what linearization and standalone solvers differentiate."""
+    _, derivatives = rhs_closures(system, ctx)
+
+    def f(t, x):
+        dx = np.empty(system.n_x)
+        derivatives(t, np.asarray(x, float), dx)
+        return dx
+
+    return f
+
+
 def first_bad_block(ctx, checked):
     """The first block of ``checked`` with an output that is not finite, or -1."""
     y = ctx.y

@@ -110,7 +110,6 @@ def array_source(method):
     start of the last ``steps``. The same expressions, element by element, as
     :func:`unrolled_lines` writes on tuples.
     """
-    s = len(method.c)
     scaled = _scaled_lines(method, "    ")
 
     def stage_lines(pad, xvar, kname, tvar):
@@ -119,22 +118,22 @@ def array_source(method):
             terms = _terms(row)
             tt = _time(method, c).replace("t", tvar, 1)
             if not terms:
-                out.append(f"{pad}rhs({tt}, {xvar}, {kname}, {i} * n, y, z, pf, pi)")
+                out.append(f"{pad}gl.rhs({tt}, {xvar}, {kname}, {i} * n, y, z, pf, pi)")
                 continue
             out += [f"{pad}for e in range(n):",
                     f"{pad}    xs[e] = {_arr(_combo(method, terms, '[e]'), kname).replace('x[e]', xvar + '[e]')}",
-                    f"{pad}rhs({tt}, xs, {kname}, {i} * n, y, z, pf, pi)"]
+                    f"{pad}gl.rhs({tt}, xs, {kname}, {i} * n, y, z, pf, pi)"]
         return out
 
     used = _dense_terms(method)
     dense = " + ".join(f"wts[{j}] * w.k[{j} * n + e]" for j in used)
-    L = ["def rk_begin(s, t0, t1, x):",
+    L = ["def rk_begin(s, t0, t1, x, times, j, j1):",
          "    num = s.num",
          "    m = max(1, int(math.ceil((t1 - t0) / num[0] - 1e-9)))",
          "    num[2] = m", "    num[1] = (t1 - t0) / m", "    num[3] = 0", "    num[7] = 0",
          "    num[4] = t0", "    num[5] = t1", "",
          "",
-         "def rk_step(s, x, xn, w, rhs, y, z, pf, pi):",
+         "def rk_step(s, x, xn, w, gl, y, z, pf, pi):",
          "    num = s.num",
          "    k = int(num[3])",
          "    h = num[1]",
@@ -147,16 +146,16 @@ def array_source(method):
          "    num[3] = k + 1",
          "    return num[5] if k + 1 >= int(num[2]) else num[4] + (k + 1) * h", "",
          "",
-         "def rk_steps(s, t_lim, x, xn, w, rhs, y, z, pf, pi):",
+         "def rk_steps(s, t_lim, x, xn, w, gl, y, z, pf, pi):",
          "    num = s.num",
          "    num[7] = num[3]",
          "    h = num[1]",
          "    m = int(num[2])",
-         "    tb = rk_step(s, x, xn, w, rhs, y, z, pf, pi)",
+         "    tb = rk_step(s, x, xn, w, gl, y, z, pf, pi)",
          "    while int(num[3]) < m and num[4] + (num[3] + 1) * h <= t_lim + 1e-9 * h:",
          "        for e in range(x.size):",
          "            w.xm[e] = xn[e]",
-         "        tb = rk_step(s, w.xm, xn, w, rhs, y, z, pf, pi)",
+         "        tb = rk_step(s, w.xm, xn, w, gl, y, z, pf, pi)",
          "    return tb", "",
          "",
          "def rk_dense(s, t, x, w, xo):",
@@ -172,7 +171,7 @@ def array_source(method):
           "    for e in range(n):",
           f"        xo[e] = x[e] + h * ({dense})", "",
           "",
-          "def rk_restep(s, hh, x, w, rhs, y, z, pf, pi, xr):",
+          "def rk_restep(s, hh, x, w, gl, y, z, pf, pi, xr):",
           "    num = s.num",
           "    t = num[4] + (int(num[3]) - 1) * num[1]",
           "    h = hh",
@@ -184,7 +183,8 @@ def array_source(method):
           "    return True", "",
           "",
           "def rk_rewind(s):",
-          "    s.num[3] = s.num[7]", ""]
+          "    s.num[3] = s.num[7]",
+          "    return True", ""]
     return "import math\n\n\n" + "\n".join(L)
 
 

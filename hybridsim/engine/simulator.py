@@ -23,7 +23,7 @@ import numpy as np
 
 from hybridsim.engine import events as _events
 from hybridsim.engine import stepping
-from hybridsim.engine.glue import GenericGlue, rhs_closures
+from hybridsim.engine.glue import GenericGlue, right_hand_side
 from hybridsim.engine.result import Result, parse_signal
 from hybridsim.engine.solvers import RK4, ExplicitRK, limits, outputs, work
 from hybridsim.engine.timeline import rows, timeline
@@ -119,14 +119,7 @@ class Simulator:
     def rhs(self, ctx):
         """``f(t, x)``: the derivatives of the continuous states over ``ctx`` (its held outputs as
         they are), evaluating the blocks the right-hand side needs (the generic path's)."""
-        _, derivatives = rhs_closures(self.system, ctx)
-
-        def f(t, x):
-            dx = np.empty(self.system.n_x)
-            derivatives(t, np.asarray(x, float), dx)
-            return dx
-
-        return f
+        return right_hand_side(self.system, ctx)
 
     # -- runs ------------------------------------------------------------------------------
     def run(self, t_end, context=None, params=None):
@@ -341,6 +334,10 @@ class Session:
                 raise _events.chatter_error(t, names)
             raise _events.zeno_error(t, names, code == stepping.ZENO, index)
         elif code == stepping.FAILED:
+            seen = getattr(self.s, "seen", None)
+            if seen:  # the block whose output was not finite, when one was
+                with np.errstate(all="ignore"):
+                    plan.blame(ctx, *seen[0])
             raise SimulationError(getattr(self.s, "message", None) or f"the solver failed at t={t:.9g} s")
         raise SimulationError(f"simulation failed at t={t:.6g} s (status {code})")
 

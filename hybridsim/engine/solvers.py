@@ -215,12 +215,12 @@ class ScipyStepper:
 def scipy_ops():
     """The :class:`~.stepping.Ops` of :class:`ScipyStepper`."""
 
-    def begin(s, t0, t1, x):
+    def begin(s, t0, t1, x, times, j, j1):
         s.t0, s.t1, s.x0, s.ode = t0, t1, np.array(x, float), None
 
-    def step(s, x, xn, w, rhs, y, z, pf, pi):
+    def step(s, x, xn, w, gl, y, z, pf, pi):
         if s.ode is None:
-            s.start(rhs, y, z, pf, pi)
+            s.start(gl.rhs, y, z, pf, pi)
         ode = s.ode
         try:
             message = ode.step()
@@ -237,19 +237,19 @@ def scipy_ops():
         s.interp = None
         return ode.t
 
-    def steps(s, t_lim, x, xn, w, rhs, y, z, pf, pi):
-        return step(s, x, xn, w, rhs, y, z, pf, pi)
+    def steps(s, t_lim, x, xn, w, gl, y, z, pf, pi):
+        return step(s, x, xn, w, gl, y, z, pf, pi)
 
     def dense(s, t, x, w, xo):
         if s.interp is None:
             s.interp = s.ode.dense_output()
         xo[:] = s.interp(t)
 
-    def restep(s, hh, x, w, rhs, y, z, pf, pi, xr):
+    def restep(s, hh, x, w, gl, y, z, pf, pi, xr):
         return False
 
     def rewind(s):
-        pass
+        return False
 
     return stepping.Ops(begin, step, steps, dense, restep, rewind)
 

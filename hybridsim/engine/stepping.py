@@ -52,6 +52,10 @@ FAILED = 8      # the solver failed (its message is kept by the stepper)
 # -- what glue.stepped / glue.timed / glue.act answer --------------------------
 GO, STEP_EVENT, STOP = 0, 1, 2
 
+#: where a stepper that locates crossings itself says what it found (``s.num[ROOT]``): +1 the step
+#: ends at a crossing (``w.fired`` set), -1 none in the step, 0 it does not look (then the core bisects)
+ROOT = 6
+
 
 class Timeline(NamedTuple):
     """The stops of a run, in order, as arrays (:func:`hybridsim.engine.timeline.timeline`)."""
@@ -142,20 +146,22 @@ class Ops(NamedTuple):
     """A stepper: how the core takes steps (Runge-Kutta here; scipy's solvers in Python).
 
     ``s`` is the stepper's own record (``s.num`` a float64 array of its numbers);
-    ``begin`` starts an integration at (t0, x) that must stop at t1; ``step`` takes one
+    ``begin`` starts an integration at (t0, x) that must stop at t1 (``times[j:j1]``:
+    the log times ahead, for a stepper that serves them itself); ``step`` takes one
     accepted step from ``x`` into ``xn`` and returns its end time (NaN: the solver
     failed); ``steps`` takes as many steps as end at or before ``t_lim`` (at least
     one) and returns the end time; ``dense`` the state at ``t`` inside the last step;
     ``restep`` one fresh step of ``hh`` s from the last step's start, False where the
-    stepper cannot; ``rewind`` puts the stepper back to the start of the last ``steps``.
+    stepper cannot; ``rewind`` puts the stepper back to the start of the last
+    ``steps`` (False: it cannot). The steppers call ``gl.rhs`` for the derivatives.
     """
 
-    begin: Callable    # (s, t0, t1, x)
-    step: Callable     # (s, x, xn, w, rhs, y, z, pf, pi) -> t_end of the step
-    steps: Callable    # (s, t_lim, x, xn, w, rhs, y, z, pf, pi) -> t_end
+    begin: Callable    # (s, t0, t1, x, times, j, j1)
+    step: Callable     # (s, x, xn, w, gl, y, z, pf, pi) -> t_end of the step
+    steps: Callable    # (s, t_lim, x, xn, w, gl, y, z, pf, pi) -> t_end
     dense: Callable    # (s, t, x, w, xo)
-    restep: Callable   # (s, hh, x, w, rhs, y, z, pf, pi, xr) -> bool
-    rewind: Callable   # (s)
+    restep: Callable   # (s, hh, x, w, gl, y, z, pf, pi, xr) -> bool
+    rewind: Callable   # (s) -> bool
 
 
 # -- small helpers -----------------------------------------------------------------
@@ -285,7 +291,7 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
             te = gl.next_time(t0, x, y, z, pf, pi)
             if te > t0 + tol and te < t1:
                 stop = te
-        ops.begin(s, t0, stop, x)
+        ops.begin(s, t0, stop, x, tl.t, j, j1)
         if located:
             gl.zc(t0, x, w.g, y, z, pf, pi)
             mute(w.g, w.muted)
@@ -301,11 +307,11 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                 j += 1
             t_lim = tl.t[j] if j < j1 else stop
             if lim.batch:
-                tb = ops.steps(s, t_lim, x, xn, w, gl.rhs, y, z, pf, pi)
+                tb = ops.steps(s, t_lim, x, xn, w, gl, y, z, pf, pi)
                 if tb == tb and first_bad(xn, lim.max_state) >= 0:
                     tb = restep_to_failure(ta, tb, ops, s, w, gl, y, z, pf, pi, lim)
             else:
-                tb = ops.step(s, x, xn, w, gl.rhs, y, z, pf, pi)
+                tb = ops.step(s, x, xn, w, gl, y, z, pf, pi)
             if tb != tb:
                 fail(out, FAILED, 0, j, ta)
                 return FAILED
@@ -318,7 +324,13 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
             if located:
                 gl.zc(tb, xn, w.gn, y, z, pf, pi)
                 mute(w.gn, w.muted)
-                event, t_ev = locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi)
+                if s.num[ROOT] > 0.0:  # the stepper found the crossing itself (CVODE): at tb
+                    event, t_ev = True, tb
+                    copy_into(w.xe, xn)
+                elif s.num[ROOT] < 0.0:  # it looked, and none lies in the step
+                    copy_into(w.g, w.gn)
+                else:  # bisected on the step's dense output
+                    event, t_ev = locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi)
             # -- log points inside the step, before the event ---------------------------------
             t_in = t_ev if event else tb
             h = tb - ta
@@ -396,10 +408,11 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
 def restep_to_failure(ta, tb_batch, ops, s, w, gl, y, z, pf, pi, lim):
     """After a batch of steps from ``w.x`` whose last state failed the check: the same steps again,
     one at a time, up to the first state that fails (left in ``w.xn``); returns its end time."""
-    ops.rewind(s)
+    if not ops.rewind(s):  # a stepper that cannot take its steps again: the batch's end it is
+        return tb_batch
     tb = ta
     while tb < tb_batch:
-        tb = ops.step(s, w.x, w.xn, w, gl.rhs, y, z, pf, pi)
+        tb = ops.step(s, w.x, w.xn, w, gl, y, z, pf, pi)
         if first_bad(w.xn, lim.max_state) >= 0:
             return tb
         copy_into(w.x, w.xn)
@@ -441,7 +454,7 @@ def locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi):
                     lo = mid
                     copy_into(w.glo, w.gm)
             # a fresh step to the crossing (the method's own order) when it is past the surface too
-            if hi < 1.0 and ops.restep(s, hi * h, w.x, w, gl.rhs, y, z, pf, pi, w.xm):
+            if hi < 1.0 and ops.restep(s, hi * h, w.x, w, gl, y, z, pf, pi, w.xm):
                 gl.zc(ta + hi * h, w.xm, w.gm, y, z, pf, pi)
                 mute(w.gm, w.muted)
                 if crossed_any(w.glo, w.gm, w.dirs, w.fired):

@@ -19,9 +19,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from hybridsim.engine import events as _events
 from hybridsim.engine.block import Block
-from hybridsim.errors import StopRequest
 from hybridsim.engine.schedule import Schedule
 
 
@@ -69,8 +67,8 @@ class DiagramStepper:
             blocks[i] = self.inputs[name] = ExternalInput(name, start)
         from hybridsim.engine.context import Context
 
-        self.ctx = ctx = Context(system, blocks)
-        self.rhs, self.restarts = sim._bind(ctx)
+        self.ctx = Context(system, blocks)
+        self.session = sim.session(self.ctx)
         self.out_ports = [system.port_ref(r) for r in outputs]
         self.discrete = system.discrete
         self.sched = Schedule([(system.blocks[i].period, system.blocks[i].time_offset) for i in self.discrete])
@@ -85,10 +83,11 @@ class DiagramStepper:
         return int(k) if abs(float(k * base) - t) <= 1e-9 * float(base) else None
 
     def _due(self, t):
+        """The positions (in ``system.discrete``) of the discrete blocks due at ``t``."""
         n = self._tick(t)
         if n is None or not self.discrete:
-            return frozenset()
-        return frozenset(self.discrete[j] for j in self.sched.due(n))
+            return []
+        return self.sched.due(n)
 
     def _next_hit(self, t):
         """The first sample hit after ``t`` (inf without discrete blocks)."""
@@ -110,53 +109,35 @@ class DiagramStepper:
         """The output ports at the present time for the inputs set now, as one flat array."""
         ctx = self.ctx
         if not self._fresh:
-            self.sim.system.plan.outputs(ctx, self.t, ctx.xc, self._due(self.t))
+            due = frozenset(self.discrete[j] for j in self._due(self.t))
+            self.system.plan.outputs(ctx, self.t, ctx.xc, due)
             self._fresh = True
         return np.concatenate([ctx.y[i][o] for i, o in self.out_ports]) if self.out_ports else np.zeros(0)
 
     def step(self, t, h):
-        """Advance from ``t`` (the present time) by ``h`` s.
+        """Advance from ``t`` (the present time) by ``h`` s: a hit at ``t`` and at every sample hit
+        inside, the states integrated between (the simulator's stepping core, as in a run).
 
         Raises :class:`~hybridsim.errors.StopRequest` when a block ends the run
         (the state is then that of the stop) and
         :class:`~hybridsim.errors.SimulationError` when the run diverges.
         """
-        ctx, plan, sysm = self.ctx, self.system.plan, self.system
-        t1 = t + h
-        tc, xc = t, ctx.xc
-        check = self.sim.divergence_check(ctx)
-        with np.errstate(over="ignore", invalid="ignore"):
-            while True:
-                due = self._due(tc)
-                plan.outputs(ctx, tc, xc, due)
-                for i, x in plan.updates(ctx, tc, due):
-                    ctx.xd[i] = x
-                    plan.check_discrete(i, x, tc)
-                t_next = min(self._next_hit(tc), t1)
-                if t1 - t_next <= 1e-9 * h:
-                    t_next = t1
-                if sysm.n_x:
-                    try:
-                        if ctx.events is not None:
-                            xc, _ = _events.integrate(self.sim._stepper(ctx), self.rhs, ctx.events, tc, t_next,
-                                                      xc, (), lambda tb, xb: None, check,
-                                                      mute=not hasattr(self.sim.solver, "dense"))
-                        else:
-                            xc, _ = self.sim.solver.advance(self.rhs, tc, t_next, xc, (), self.restarts,
-                                                            check=check)
-                    except StopRequest as stop:
-                        if stop.x is not None:
-                            ctx.xc = np.asarray(stop.x, float)
-                        self.t = stop.t
-                        self._fresh = False
-                        raise
-                    plan.check_continuous(xc, t_next, self.sim.max_state)
-                ctx.xc = xc
-                tc = t_next
-                if tc >= t1:
-                    break
-        self.t = t1
+        from hybridsim.engine import stepping
+        from hybridsim.engine.timeline import window
+
+        due_at = lambda tt: self._due(tt)  # noqa: E731
+        due_at.next_after = self._next_hit
+        tl = window(self.system, t, t + h, due_at)
+        code = self.session.walk(tl)
         self._fresh = False
+        if code == stepping.STOPPED and self.session.stop is not None:
+            stop = self.session.stop
+            self.session.keeper.stop = None
+            self.t = stop.t
+            raise stop
+        if code != stepping.OK:
+            self.session.fail(code)
+        self.t = t + h
 
     def release(self):
         """Free what the blocks hold (FMU instances inside the diagram)."""
