@@ -63,6 +63,9 @@ class CVode:
         self.rtol, self.atol, self.max_step, self.method = float(rtol), atol, float(max_step), method
         self.name = "cvode"
 
+    #: the core takes the points CVODE returns (log times, crossings, the stop) as its steps
+    returns_points = True
+
     def advance(self, f, t0, t1, x, t_out=(), events=None, check=None):
         """Integrate from ``t0`` to ``t1`` restarting at every zero crossing of ``events``;
         returns ``(x, states at t_out)``."""
@@ -201,6 +204,12 @@ class CVode:
         if res.status < 0:
             raise SimulationError(f"solver cvode failed after t={t:.6g} s: {res.message}"
                                   + (f" (SUNDIALS: {said})" if said else ""))
+
+    def stepper(self):
+        """CVODE for the stepping core (:mod:`hybridsim.engine.cvode_stepper`)."""
+        from hybridsim.engine.cvode_stepper import CVodeStepper, cvode_ops
+
+        return cvode_ops(), CVodeStepper(self)
 
     def __repr__(self):
         return f"CVode({self.method}, rtol={self.rtol:g})"

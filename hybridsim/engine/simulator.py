@@ -282,9 +282,10 @@ class Session:
         self.glue, self.ops, self.s, self.pf, self.pi, self.keeper = sim._machinery(ctx, self.out)
         self.w = work(sysm.n_x, getattr(self.s, "c", np.zeros(1)).size, int(sum(sizes)), dirs, switch, owner)
         variable = not isinstance(sim.solver, ExplicitRK)
+        # steps in batches: a fixed-step method between checks; a solver that returns its own points
+        batch = (not variable and not located and not timed) or getattr(sim.solver, "returns_points", False)
         self.lim = limits(sim.max_state, scan=getattr(sim.solver, "scan", 1e-3), stepped=stepped, timed=timed,
-                          batch=not variable and not located and not stepped and not timed,
-                          max_repeats=_events.MAX_REPEATS if variable else 0)
+                          batch=batch and not stepped, max_repeats=_events.MAX_REPEATS if variable else 0)
         self._run = sim._compiled.run if sim._compiled is not None else stepping.run
 
     @property

@@ -1,0 +1,157 @@
+"""CVODE as the stepping core's stepper (:class:`~hybridsim.engine.stepping.Ops`).
+
+Between two stops one CVODE integration runs (a sample hit or an event
+restarts it, at order 1). Its accepted steps, as the core sees them, are the
+points CVODE returns: the log times ahead (from its own interpolant, so
+logging does not change the steps it takes), a crossing of a located event
+function (found by SUNDIALS' root finding, reported to the core with the
+functions that fired) and the stop. Without blocks that want every step
+(``after_step``) a whole stretch is one scikit-sundae ``solve`` call, with no
+Python between its log times.
+"""
+import numpy as np
+
+from hybridsim.engine import stepping
+from hybridsim.engine.cvode import MAX_STEPS, _Words
+
+
+class CVodeStepper:
+    """Where a :class:`~hybridsim.engine.cvode.CVode` is: the current integration and what it
+    returned that the core has not taken yet. ``message``: why it failed; ``seen``: the first
+    (t, x) where the right-hand side was not finite."""
+
+    def __init__(self, solver):
+        self.solver, self.num = solver, np.zeros(8)
+        self.cv = None
+        self.queue = []
+        self.failed, self.message, self.seen = [], None, None
+
+    def start(self, w, gl, y, z, pf, pi):
+        """A fresh CVODE for (t0, x0) with the glue's right-hand side and event functions."""
+        from sksundae.cvode import CVODE
+
+        s, n, e = self.solver, self.x0.size, w.g.size
+        failed, seen = self.failed, []
+
+        def rhs(t, xx, dx):
+            if failed:
+                dx.fill(np.nan)
+                return
+            try:
+                gl.rhs(t, xx, dx, 0, y, z, pf, pi)
+            except Exception as exc:  # noqa: BLE001 - raised again after CVODE returns
+                failed.append(exc)
+                dx.fill(np.nan)
+                return
+            if not seen and not np.isfinite(dx).all():
+                seen.append((t, np.array(xx, float)))
+
+        def roots(t, xx, out):
+            if failed:
+                out.fill(np.nan)
+                return
+            try:
+                gl.zc(t, xx, out, y, z, pf, pi)
+            except Exception as exc:  # noqa: BLE001 - as in rhs
+                failed.append(exc)
+                out.fill(np.nan)
+                return
+            stepping.mute(out, w.muted)
+
+        opts = dict(method=s.method, rtol=s.rtol, atol=s.atol, max_num_steps=MAX_STEPS,
+                    max_step=0.0 if not np.isfinite(s.max_step) else s.max_step)
+        if e:
+            roots.terminal = [True] * e
+            roots.direction = [int(d) for d in w.dirs]
+            opts.update(eventsfn=roots, num_events=e)
+        self.seen = seen
+        self.cv = CVODE(rhs, **opts)
+
+    def result(self, res, t_start):
+        """Whether ``res`` failed (then ``message`` says why); a callback's exception is raised."""
+        if self.failed:
+            raise self.failed.pop(0)
+        if res.status < 0:
+            self.message = (f"solver cvode failed after t={t_start:.6g} s: {res.message}"
+                            + (f" (SUNDIALS: {self.said})" if self.said else "")
+                            + (f" (the right-hand side is not finite at t={self.seen[0][0]:.9g} s)"
+                               if self.seen else ""))
+            return False
+        return True
+
+
+def cvode_ops():
+    """The :class:`~hybridsim.engine.stepping.Ops` of :class:`CVodeStepper`."""
+
+    def begin(s, t0, t1, x, times, j, j1):
+        s.t0, s.t1, s.x0 = t0, t1, np.array(x, float)
+        s.times = [float(t) for t in times[j:j1] if t0 < t < t1]
+        s.cv, s.queue, s.ta = None, [], t0
+        s.said = ""
+
+    def solve(s, w, gl, y, z, pf, pi):
+        """Every log time to the stop in one call: the returned points, queued."""
+        s.start(w, gl, y, z, pf, pi)
+        with _Words() as words:
+            res = s.cv.solve(np.array([s.t0, *s.times, s.t1]), s.x0)
+        s.said = words.said
+        ts, ys = np.atleast_1d(res.t), np.atleast_2d(res.y)
+        if not s.result(res, s.t0):
+            s.queue = [(np.nan, None, None)]
+            return
+        root = np.asarray(res.i_events, float).reshape(-1, w.g.size)[-1] != 0 if res.status == 2 else None
+        s.queue = [(float(ts[k]), ys[k], None) for k in range(1, len(ts) - 1)]
+        last = float(ts[-1]) if res.status == 2 else s.t1
+        s.queue.append((last, ys[-1], root))
+
+    def one(s, w, gl, y, z, pf, pi):
+        """The next returned point (one ``step`` call): a log time, a crossing or the stop."""
+        if s.cv is None:
+            s.start(w, gl, y, z, pf, pi)
+            with _Words() as words:
+                res = s.cv.init_step(s.t0, s.x0)
+            if not s.result(res, s.t0):
+                return np.nan, None, None
+        target = s.times.pop(0) if s.times else s.t1
+        with _Words() as words:
+            res = s.cv.step(target, tstop=s.t1)
+        s.said = words.said
+        if not s.result(res, s.ta):
+            return np.nan, None, None
+        t = float(np.atleast_1d(res.t)[-1])
+        if res.status == 2:
+            if target != s.t1 and t < target:
+                s.times.insert(0, target)
+            return t, res.y, np.asarray(res.i_events, float).reshape(-1, w.g.size)[-1] != 0
+        return (s.t1 if target == s.t1 else t), res.y, None
+
+    def take(s, point, xn, w):
+        t, yy, root = point
+        if yy is None:
+            return np.nan
+        xn[:] = np.asarray(yy, float).reshape(-1)
+        s.num[1] = t - s.ta
+        s.ta = t
+        s.num[stepping.ROOT] = 1.0 if root is not None else -1.0
+        if root is not None:
+            w.fired[:] = root
+        return t
+
+    def step(s, x, xn, w, gl, y, z, pf, pi):
+        return take(s, one(s, w, gl, y, z, pf, pi), xn, w)
+
+    def steps(s, t_lim, x, xn, w, gl, y, z, pf, pi):
+        if s.cv is None and not s.queue:
+            solve(s, w, gl, y, z, pf, pi)
+        return take(s, s.queue.pop(0), xn, w)
+
+    def dense(s, t, x, w, xo):  # the core asks only inside a step; CVODE's points end at log times
+        xo[:] = x
+
+    def restep(s, hh, x, w, gl, y, z, pf, pi, xr):
+        return False
+
+    def rewind(s):
+        return False
+
+    return stepping.Ops(begin, step, steps, dense, restep, rewind)
