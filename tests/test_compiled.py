@@ -43,8 +43,8 @@ def test_one_compiled_module_serves_other_parameter_values():
 
     a = hs.build(SMOOTH, compiled=True)[1]._compiled
     b = hs.build(SMOOTH, compiled=True, **{"ctrl.fpi.Kp": [0.2, 0.1], "Kr": 1.0e6})[1]._compiled
-    assert a.run_fn is b.run_fn  # params are arguments, not compiled-in constants
-    assert a.source == b.source
+    assert a.glue is b.glue  # params are arguments, not compiled-in constants
+    assert a.source == b.source and a.run_fn is b.run_fn  # and the core is every diagram's
     assert compiled.cache_dir().is_dir()
     res = hs.simulate(SMOOTH, compiled=True, **{"ctrl.fpi.Kp": [0.2, 0.1]})
     ref = hs.simulate(SMOOTH, **{"ctrl.fpi.Kp": [0.2, 0.1]})
@@ -122,7 +122,8 @@ def test_same_wiring_with_other_block_types_is_another_module():
 
     gain = hs.Simulator(diagram("gain", K=3.0), log=["f.y"], compiled=True)
     sel = hs.Simulator(diagram("selection", S=[1]), log=["f.y"], compiled=True)
-    assert gain._compiled.run_fn is not sel._compiled.run_fn
+    assert gain._compiled.glue is not sel._compiled.glue
+    assert gain._compiled.run_fn is sel._compiled.run_fn  # one core for every diagram
     assert gain.run(0.5)["f.y"][-1, 0] == pytest.approx(3.0, abs=1e-6)  # unity-gain filter of 3 u
     assert sel.run(0.5)["f.y"][-1, 0] == pytest.approx(1.0, abs=1e-6)   # of S u = u
 
@@ -131,12 +132,21 @@ def test_first_compile_is_announced_once(tmp_path, monkeypatch, caplog):
     from hybridsim.engine import compiled
 
     monkeypatch.setenv("HYBRIDSIM_CACHE", str(tmp_path))
-    source = f"# {tmp_path}\nfrom numba import njit\n\n\n@njit(cache=True)\ndef run(a):\n    return a + 1\n"
+    source = (f"# {tmp_path}\nimport math\n\n\n"
+              "def outputs(t, x, y, z, pf, pi, due, row):\n    return -1\n\n\n"
+              "def update(t, x, y, z, pf, pi, due, row):\n    return -1\n\n\n"
+              "def rhs(t, x, dx, at, y, z, pf, pi):\n    dx[at] = -x[0]\n\n\n"
+              "def zc(t, x, g, y, z, pf, pi):\n    pass\n\n\n"
+              "def act(t, x, xn, fired, y, z, pf, pi):\n    return 0\n\n\n"
+              "def observe(t, x, y, z, pf, pi):\n    return -1\n\n\n"
+              "def next_time(t, x, y, z, pf, pi):\n    return math.inf\n\n\n"
+              "def timed(t, x, xn, y, z, pf, pi):\n    return 0\n\n\n"
+              "def stepped(t, x, y, z, pf, pi):\n    return 0\n")
     with caplog.at_level("INFO", logger="hybridsim"):
-        run = compiled._load(source, {}, "tiny")
-    assert run(1) == 2
+        glue = compiled._load(source, {}, "tiny")
+    assert glue.next_time.address  # a compiled first-class function
     assert "compiling 'tiny' with numba" in caplog.text
-    assert len(list((tmp_path / "compiled").glob("loop_*.py"))) == 1
+    assert len(list((tmp_path / "compiled").glob("glue_*.py"))) == 1
     caplog.clear()
     with caplog.at_level("INFO", logger="hybridsim"):
         compiled._loaded.clear()

@@ -167,19 +167,23 @@ def test_me_fmu_ball_bounces_at_the_closed_form_times_under_cvode(tmp_path):
 
 
 def test_a_segment_in_one_call_gives_the_states_of_the_step_by_step_path():
-    # without a step callback CVODE runs every log time of a segment in one scikit-sundae call;
-    # with one it returns to Python at each: the same CVODE steps, so the same numbers to the bit
-    f = lambda t, x: A @ x  # noqa: E731
-    g = lambda t, x: np.array([x[0] - 1.5])  # noqa: E731 - x1 = 2 e^-t - ... falls through 1.5
-    t_out = np.linspace(0.001, 1.9, 400)
-    fast = CVode(rtol=1e-8, atol=1e-10).advance_to_event(f, 0.0, 2.0, np.array([1.0, 0.0]), t_out, g,
-                                                          np.array([-1.0]))
-    slow = CVode(rtol=1e-8, atol=1e-10).advance_to_event(f, 0.0, 2.0, np.array([1.0, 0.0]), t_out, g,
-                                                          np.array([-1.0]), step=lambda t, x: False)
-    assert fast[0] == slow[0] == pytest.approx(math.log(2 / 1.5), abs=1e-7)  # the crossing
-    assert list(fast[2]) == list(slow[2]) == [True]
-    assert np.array_equal(fast[1], slow[1]) and len(fast[3]) == len(slow[3]) == 61  # log times before it
-    assert all(np.array_equal(a, b) for a, b in zip(fast[3], slow[3]))
+    # without blocks told of every step CVODE runs a stretch's log times in one scikit-sundae call;
+    # with one it returns to Python at each point: the same CVODE steps, the same numbers to the bit
+    from hybridsim.blocks.continuous.bouncing import BouncingBall
+
+    class ToldBall(BouncingBall):
+        def after_step(self, t, x, u):
+            return False  # told of every step, asks for nothing
+
+    res = {}
+    for cls in (BouncingBall, ToldBall):
+        d = hs.Diagram("ball")
+        d.add(cls("ball"))
+        res[cls] = hs.Simulator(d.build(), CVode(rtol=1e-8, atol=1e-10), log=["ball.h"], log_period=0.002).run(2.0)
+    fast, slow = res[BouncingBall], res[ToldBall]
+    assert len(fast.meta["events"]) >= 3
+    assert fast.meta["events"] == slow.meta["events"]
+    assert np.array_equal(fast["ball.h"], slow["ball.h"])
 
 
 def test_more_log_times_in_one_interval_than_restarts():
@@ -191,28 +195,41 @@ def test_more_log_times_in_one_interval_than_restarts():
 
 @pytest.mark.parametrize("where", ["rhs", "events"])
 def test_a_callback_error_comes_after_the_checks_of_the_points_before_it(where):
-    # x = 10 t; the callback fails past t = 0.6, the divergence check at x > 5 (the log time 0.55)
-    def f(t, x):
-        if where == "rhs" and t > 0.6:
-            raise ValueError(f"rhs failed at t={t:g}")
-        return np.array([10.0])
+    # x = 10 t; the block fails past t = 0.6, the divergence check at x > 5 (the log time 0.55):
+    # CVODE runs the stretch in one call, and the points before the failure are checked first
+    from hybridsim.engine.block import Block
 
-    def g(t, x):
-        if where == "events" and t > 0.6:
-            raise ValueError(f"event function failed at t={t:g}")
-        return np.array([x[0] + 1.0])  # never crosses
+    class Ramp(Block):
+        def __init__(self, name="r"):
+            super().__init__(name)
+            self.declare_continuous_state(1)
+            self.declare_output("y", 1, depends_on=())
 
-    def check(t, x):
-        if x[0] > 5.0 + 1e-6:
-            raise SimulationError(f"diverged at t={t:g}")
+        def output(self, t, x, u):
+            return (x,)
 
-    t_out = np.arange(1, 20) * 0.05
-    run = lambda **kw: CVode(rtol=1e-8).advance_to_event(f, 0.0, 1.0, np.zeros(1), t_out, g,  # noqa: E731
-                                                          np.array([0.0]), **kw)
+        def derivatives(self, t, x, u):
+            if where == "rhs" and t > 0.6:
+                raise ValueError(f"rhs failed at t={t:g}")
+            return [10.0]
+
+        def zero_crossings(self, t, x, u):
+            if where == "events" and t > 0.6:
+                raise ValueError(f"event function failed at t={t:g}")
+            return [x[0] + 1.0]  # never crosses
+
+        def event_action(self, t, x, u, fired):
+            return x
+
+    def run(**kw):
+        d = hs.Diagram("ramp")
+        d.add(Ramp())
+        return hs.Simulator(d.build(), CVode(rtol=1e-8), log=["r.y"], log_period=0.05, **kw).run(1.0)
+
     with pytest.raises(SimulationError, match="diverged at t=0.55"):
-        run(check=check)
+        run(max_state=5.0)
     with pytest.raises(ValueError, match=f"{where.replace('events', 'event function')} failed"):
-        run()  # no check: the callback's own error, not CVODE's failure after it
+        run()  # no divergence: the block's own error, not CVODE's failure after it
 
 
 def test_me_fmu_diagram_checks_and_runs_from_the_cli_on_cvode_and_on_a_scipy_solver(plant, tmp_path, capsys):

@@ -37,18 +37,9 @@ EQUATION = re.compile(r"\beqs?\.?\s*\(?\d+", re.I)
 PHRASES = re.compile(r"\b(?:right|left)-hand\b|--force\b", re.I)  # "the right-hand side" is mathematics;
 #: a command's --force option (start afresh) is English, not force control
 
-#: hits in files another branch owns at the time of writing (the engine is being rewritten by the
-#: lead, hybridsim/runs/ by the "runs" engineer): (file, line text stripped) -> why it is here.
-#: Delete an entry when its line is gone (the test then says so). A sweep's ``force`` (start afresh)
-#: is English, not force control: rename it (e.g. ``restart``) rather than list it.
-PENDING = {
-    ("hybridsim/engine/solvers.py", "cheap per step and, with a step well below the ~3.7 ms period of the hand"):
-        "the engine's docstring: a step size argued from the paper's plant",
-    ("hybridsim/engine/context.py", "# block's start depends on another's (a sensor filter on a pre-loaded wrist), "
-                                    "in any order"): "the engine's comment: an example from the paper's plant",
-    ("hybridsim/engine/compiled.py", '"                if hi < 1.0:  # re-stepped if past the surface too, as '
-                                     'ExplicitRK._locate does",'): "generated code's comment (an event's surface)",
-}
+#: hits known and being removed: (file, line text stripped) -> why it is here. An entry whose line is
+#: gone fails the test, so the list only shrinks.
+PENDING = {}
 
 
 def words(text):

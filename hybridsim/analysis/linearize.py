@@ -123,9 +123,9 @@ class Linearization:
 
     # -- continuous part ----------------------------------------------------------
     def _rhs(self):
-        from hybridsim.engine.glue import right_hand_side
+        from hybridsim.engine.glue import state_derivatives
 
-        return right_hand_side(self.system, self.ctx)
+        return state_derivatives(self.system, self.ctx)
 
     def continuous(self):
         """(A, B): xc' = A dxc + B dh about the operating point; h = held inputs."""

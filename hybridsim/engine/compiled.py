@@ -402,7 +402,7 @@ def _load(source, env, name):
             tmp.write_text(source)
             os.replace(tmp, path)
     except OSError as exc:
-        raise CompiledPathError(f"cannot write the compiled glue to {folder}: {exc} "
+        raise CompiledPathError(f"cannot write the compiled module to {folder}: {exc} "
                                 "(set HYBRIDSIM_CACHE to a writable folder)") from None
     spec = importlib.util.spec_from_file_location(f"hybridsim_glue_{key}", path)
     module = importlib.util.module_from_spec(spec)

@@ -55,7 +55,7 @@ class Context:
                 continue
             self._set_initial(i, b.initial_state(None))
         # provisional outputs at t = 0, then the blocks that need inputs; again while one such
-        # block's start depends on another's (a sensor filter on a pre-loaded wrist), in any order
+        # block's start depends on another's (a filter on a pre-loaded spring), in any order
         for _ in range(len(late)):
             self.evaluate(range(len(self.blocks)), 0.0, self.xc)
             for i in late:

@@ -9,10 +9,17 @@ functions that fired) and the stop. Without blocks that want every step
 (``after_step``) a whole stretch is one scikit-sundae ``solve`` call, with no
 Python between its log times.
 """
+import contextlib
+import io
+import re
+import sys
+
 import numpy as np
 
 from hybridsim.engine import stepping
-from hybridsim.engine.cvode import MAX_STEPS, _Words
+
+#: internal steps CVODE may take between two returned points
+MAX_STEPS = 1_000_000
 
 
 class CVodeStepper:
@@ -30,7 +37,7 @@ class CVodeStepper:
         """A fresh CVODE for (t0, x0) with the glue's right-hand side and event functions."""
         from sksundae.cvode import CVODE
 
-        s, n, e = self.solver, self.x0.size, w.g.size
+        s, e = self.solver, w.g.size
         failed, seen = self.failed, []
 
         def rhs(t, xx, dx):
@@ -86,28 +93,34 @@ def cvode_ops():
     def begin(s, t0, t1, x, times, j, j1):
         s.t0, s.t1, s.x0 = t0, t1, np.array(x, float)
         s.times = [float(t) for t in times[j:j1] if t0 < t < t1]
-        s.cv, s.queue, s.ta = None, [], t0
+        s.cv, s.queue, s.ta, s.started = None, [], t0, False
         s.said = ""
 
     def solve(s, w, gl, y, z, pf, pi):
-        """Every log time to the stop in one call: the returned points, queued."""
+        """Every log time to the stop in one call: the returned points, queued (a failure after
+        the points before it, which the core checks first)."""
         s.start(w, gl, y, z, pf, pi)
+        times = np.array([s.t0, *s.times, s.t1])
+        if np.any(np.diff(times) <= 0):  # repeated log times: one point at a time
+            return False
         with _Words() as words:
-            res = s.cv.solve(np.array([s.t0, *s.times, s.t1]), s.x0)
+            res = s.cv.solve(times, s.x0)
         s.said = words.said
         ts, ys = np.atleast_1d(res.t), np.atleast_2d(res.y)
-        if not s.result(res, s.t0):
-            s.queue = [(np.nan, None, None)]
-            return
+        last = len(ts) - 1
+        if res.status < 0 or s.failed:
+            s.queue = [(float(ts[k]), ys[k], None) for k in range(1, last)] + [("failed", res, None)]
+            return True
         root = np.asarray(res.i_events, float).reshape(-1, w.g.size)[-1] != 0 if res.status == 2 else None
-        s.queue = [(float(ts[k]), ys[k], None) for k in range(1, len(ts) - 1)]
-        last = float(ts[-1]) if res.status == 2 else s.t1
-        s.queue.append((last, ys[-1], root))
+        s.queue = [(float(ts[k]), ys[k], None) for k in range(1, last)]
+        s.queue.append((float(ts[last]) if res.status == 2 else s.t1, ys[last], root))
+        return True
 
     def one(s, w, gl, y, z, pf, pi):
         """The next returned point (one ``step`` call): a log time, a crossing or the stop."""
-        if s.cv is None:
+        if not s.started:
             s.start(w, gl, y, z, pf, pi)
+            s.started = True
             with _Words() as words:
                 res = s.cv.init_step(s.t0, s.x0)
             if not s.result(res, s.t0):
@@ -127,6 +140,9 @@ def cvode_ops():
 
     def take(s, point, xn, w):
         t, yy, root = point
+        if t == "failed":
+            s.result(yy, s.ta)  # a callback's exception is raised here
+            return np.nan
         if yy is None:
             return np.nan
         xn[:] = np.asarray(yy, float).reshape(-1)
@@ -141,8 +157,10 @@ def cvode_ops():
         return take(s, one(s, w, gl, y, z, pf, pi), xn, w)
 
     def steps(s, t_lim, x, xn, w, gl, y, z, pf, pi):
-        if s.cv is None and not s.queue:
-            solve(s, w, gl, y, z, pf, pi)
+        if s.cv is None and not s.queue and not solve(s, w, gl, y, z, pf, pi):
+            s.cv = None
+        if not s.queue:
+            return step(s, x, xn, w, gl, y, z, pf, pi)
         return take(s, s.queue.pop(0), xn, w)
 
     def dense(s, t, x, w, xo):  # the core asks only inside a step; CVODE's points end at log times
@@ -155,3 +173,29 @@ def cvode_ops():
         return False
 
     return stepping.Ops(begin, step, steps, dense, restep, rewind)
+
+
+_SAYS = re.compile(r"\n\[(\w+), Error: (-?\d+)\] (.*?)\n\n", re.S)
+
+
+class _Words(contextlib.redirect_stdout):
+    """Around a scikit-sundae call: SUNDIALS' error messages (which it prints) go into
+    ``said`` instead of the standard output; anything else printed there is passed on."""
+
+    def __init__(self):
+        super().__init__(io.StringIO())
+        self.said = ""
+
+    def __enter__(self):
+        super().__enter__()
+        return self
+
+    def __exit__(self, *exc):
+        super().__exit__(*exc)
+        text = self._new_target.getvalue()
+        if text:
+            self.said = "; ".join(m.group(3).strip() for m in _SAYS.finditer(text))
+            rest = _SAYS.sub("", text)
+            if rest:
+                sys.stdout.write(rest)
+        return False

@@ -39,10 +39,8 @@ MAX_REPEATS = 20
 def located_events(system, solver, locate_switches=False):
     """The blocks whose events ``solver`` locates: those with resets, and on the variable-step
     solvers (or with ``locate_switches``) every block with zero crossings."""
-    from hybridsim.engine.solvers import ExplicitRK
-
     located = list(system.action_events)
-    if locate_switches or not isinstance(solver, ExplicitRK):
+    if locate_switches or not getattr(solver, "fixed_step", False):
         located += [i for i in system.events if i not in located]
     return located
 

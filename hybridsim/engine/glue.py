@@ -36,7 +36,7 @@ def rhs_closures(system, ctx):
     return outputs, derivatives
 
 
-def right_hand_side(system, ctx):
+def state_derivatives(system, ctx):
     """``f(t, x)``: the derivatives of the continuous states (an array) over ``ctx``, its held
     outputs as they are; what linearization and standalone solvers differentiate."""
     _, derivatives = rhs_closures(system, ctx)

@@ -23,11 +23,11 @@ import numpy as np
 
 from hybridsim.engine import events as _events
 from hybridsim.engine import stepping
-from hybridsim.engine.glue import GenericGlue, right_hand_side
+from hybridsim.engine.glue import GenericGlue, state_derivatives
 from hybridsim.engine.result import Result, parse_signal
 from hybridsim.engine.solvers import RK4, ExplicitRK, limits, outputs, work
 from hybridsim.engine.timeline import rows, timeline
-from hybridsim.errors import DiagramError, InputError, SimulationError
+from hybridsim.errors import DiagramError, InputError, SimulationError, StopRequest
 
 #: events whose times and blocks a run keeps for ``meta["events"]``
 MAX_EVENT_LOG = 200_000
@@ -119,7 +119,7 @@ class Simulator:
     def rhs(self, ctx):
         """``f(t, x)``: the derivatives of the continuous states over ``ctx`` (its held outputs as
         they are), evaluating the blocks the right-hand side needs (the generic path's)."""
-        return right_hand_side(self.system, ctx)
+        return state_derivatives(self.system, ctx)
 
     # -- runs ------------------------------------------------------------------------------
     def run(self, t_end, context=None, params=None):
@@ -298,9 +298,13 @@ class Session:
         context's state is updated (on a stop request: the state where it stopped)."""
         k1 = len(tl.t) if k1 is None else k1
         self.w.x[:] = self.ctx.xc
-        with np.errstate(all="ignore"):
-            code = self._run(tl, k0, k1, self.glue, self.ops, self.s, self.lim, self.w, self.out,
-                             self.y, self.z, self.pf, self.pi)
+        try:
+            with np.errstate(all="ignore"):
+                code = self._run(tl, k0, k1, self.glue, self.ops, self.s, self.lim, self.w, self.out,
+                                 self.y, self.z, self.pf, self.pi)
+        except StopRequest as stop:  # a block ended the run from its outputs or updates (a CS FMU)
+            self.keeper.stop = stop
+            code = stepping.STOPPED
         self.ctx.xc = self.w.x.copy()
         if code == stepping.STOPPED and self.stop is not None and self.stop.x is not None:
             self.ctx.xc = np.asarray(self.stop.x, float)
