@@ -91,7 +91,7 @@ class CompiledGlue:
         self.system, self.solver = system, solver
         self.layout = ParamLayout(system.blocks)
         self.source, env = glue_source(system, log_path, self.located, self.layout)
-        self.glue = _load(self.source, env, system.name)
+        self.glue = _load(self.source, env, system.name, system)
         try:
             self.run_fn = native.core(type(solver))
         except OSError as exc:
@@ -297,7 +297,7 @@ def glue_source(system, log_path, located, layout):
     fns.append(["def timed(t, x, xn, y, z, pf, pi):", "    return 0"])
     fns.append(["def stepped(t, x, y, z, pf, pi):", "    return 0"])
 
-    body = "\n\n\n".join("\n".join(f) for f in fns)
+    body = "\n\n\n".join("\n".join(f if len(f) > 1 else f + ["    pass"]) for f in fns)
     kernels = [f[1] if isinstance(f, tuple) else f for f in env.values() if callable(f) or isinstance(f, tuple)]
     stamp = _stamp(reachable(k for k in kernels if callable(k)))
     names = "".join(f"#   {n} = {_describe(f)}\n" for n, f in sorted(env.items()))
@@ -375,7 +375,7 @@ def _dispatcher(f):
     return _jitted[f]
 
 
-def _load(source, env, name):
+def _load(source, env, name, system=None):
     """Compile (or load from the cache) the glue in ``source``: a :class:`~.stepping.Glue` of cfuncs."""
     from numba import cfunc
     from numba.core.errors import NumbaError, NumbaExperimentalFeatureWarning, NumbaIRAssumptionWarning
@@ -418,20 +418,21 @@ def _load(source, env, name):
             warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)
             glue = Glue(*(cfunc(types[k].signature, cache=True)(getattr(module, k)) for k in Glue._fields))
     except NumbaError as exc:
-        raise CompiledPathError(_compile_failure(exc, name, env)) from None
+        raise CompiledPathError(_compile_failure(exc, name, system)) from None
     _loaded[key] = glue
     return glue
 
 
-def _compile_failure(exc, name, env):
-    """What to tell a user whose kernels numba cannot compile."""
+def _compile_failure(exc, name, system):
+    """What to tell a user whose kernels numba cannot compile: the blocks the message names."""
     text = re.sub(r"\x1b\[[0-9;]*m", "", str(exc))  # numba colours its messages
-    culprits = sorted({_describe(f) for f in env.values() if not inspect.isclass(f)
-                       and getattr(f[1] if isinstance(f, tuple) else f, "__name__", "?") in text})
+    blocks = system.blocks if system is not None else []
+    culprits = sorted({f"{b.name} ({type(b).__name__})" for b in blocks if b.kernels is not None
+                       for f in b.kernels if callable(f) and f.__name__ in text})
     lines = [line.strip() for line in text.splitlines() if line.strip()]
     why = ("Untyped global", "Unknown attribute", "Cannot", "not supported", "unsupported", "Invalid use")
     first = next((line for line in lines if any(w in line for w in why)), lines[0] if lines else "")
     return (f"numba cannot compile the kernels of diagram {name!r}"
-            + (f"; the message names {', '.join(culprits)}" if culprits else "")
+            + (f"; the message names block(s) {', '.join(culprits)}" if culprits else "")
             + f": {first} (kernels must keep to numba's nopython subset, see hybridsim.engine.kernels; "
               "or run without compiled)")

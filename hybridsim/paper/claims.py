@@ -5,7 +5,7 @@ Each experiment of Raibert & Craig (1981) - Figs 7-10 and eq 18 - is a shipped d
 (docs/model.md's table) against explicit criteria on the runs' metrics and traces
 (:class:`Claim`: the verdict and a margin). :func:`judge` runs many (experiment,
 overrides) items through :func:`~hybridsim.runs.many.run_many` and judges each;
-:mod:`.reproduce`, :mod:`.hinges` and :mod:`.joint_search` ask it.
+:mod:`hybridsim.paper.reproduce`, :mod:`hybridsim.paper.hinges` and :mod:`hybridsim.paper.joint_search` ask it.
 """
 import math
 

@@ -140,7 +140,7 @@ def joint_search(trials, executor=None, extra=None, seed=0, outdir=None, progres
         files = sorted({str(p) for name in JUDGED for p in run_files(load(file_of(name)))})
         store = Store(make_output_dir(outdir), identity(files, {"space": SPACE_TEXT, "extra": extra}),
                       "evaluations.jsonl", "search-manifest.json", "search", "another search space or hybridsim",
-                      force=True)
+                      restart=True)
     # the two starts are the only trials not drawn by TPE, whatever the budget: a larger budget then asks
     # for the same first models, and a rerun with more trials reads them back from the store
     sampler = optuna.samplers.TPESampler(seed=seed, n_startup_trials=len(STARTS), multivariate=True)
