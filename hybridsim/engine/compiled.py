@@ -53,10 +53,6 @@ def problems(system, solver, located=None):
                if (b.outputs or b.n_continuous or b.n_discrete) and not has_kernels(b)]
     if missing:
         out.append("these blocks have no kernels (hybridsim.engine.kernels) to compile: " + ", ".join(missing))
-    python = [b.name for b in system.blocks if b.kernels is not None and b.kernels.python_only]
-    if python:
-        out.append("these blocks' kernels call Pinocchio, which numba cannot compile (they run on the "
-                   "fused path): " + ", ".join(python))
     timed = [system.blocks[i].name for i in system.time_events]
     if timed:
         out.append("time events (next_event_time) are not on the compiled path: " + ", ".join(timed))
@@ -165,6 +161,9 @@ class _Writer:
 
     def kernel(self, i, what, inline):
         """The name of block ``i``'s kernel ``what`` in the source (inlined or a compiled call)."""
+        import os as _os
+        if _os.environ.get("HS_NOINLINE"):
+            inline = False
         f = getattr(self.sysm.blocks[i].kernels, what)
         name = f"{what[:3]}{i}" + ("" if inline else "_c")
         self.env[name] = f if inline else ("njit", f)
@@ -368,10 +367,12 @@ _jitted = {}  # kernel -> its numba dispatcher (compiled once per signature, cac
 
 
 def _dispatcher(f):
+    """``f`` compiled on its own (numba caches it on disk across diagrams); a kernel that calls a
+    Python library compiles its numba twin (``f.compiled``) instead."""
     from numba import njit
 
     if f not in _jitted:
-        _jitted[f] = njit(cache=True)(f)
+        _jitted[f] = njit(cache=True)(getattr(f, "compiled", f))
     return _jitted[f]
 
 
@@ -387,7 +388,7 @@ def _load(source, env, name, system=None):
     if key in _loaded:
         return _loaded[key]
     for f in set(marked()) | {v for v in env.values() if callable(v) and not inspect.isclass(v)}:
-        if f not in _registered:
+        if f not in _registered and not hasattr(f, "compiled"):  # a twin is registered by its kernel
             register_jitable(inline=_inline(f))(f)
             _registered.add(f)
     resolved = {n: (_dispatcher(v[1]) if isinstance(v, tuple) else v) for n, v in env.items()}

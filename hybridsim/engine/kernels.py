@@ -34,9 +34,9 @@ class Kernels(NamedTuple):
 
     ``zero_crossings(p, t, x, u)`` returns the block's event functions (a
     sequence of floats); ``event_action(p, t, x, u, fired)`` the state after
-    the events ``fired`` (a tuple of bools, one per event function).
-    ``python_only``: the kernels call a Python library (Pinocchio's rigid-body
-    algorithms): the fused path runs them, the compiled path refuses the block.
+    the events ``fired`` (a tuple of bools, one per event function). A kernel
+    whose Python body calls a library numba cannot compile (Pinocchio) names
+    the numba twin compiled in its place as its ``compiled`` attribute.
     """
 
     output: Optional[Callable] = None
@@ -44,7 +44,6 @@ class Kernels(NamedTuple):
     update: Optional[Callable] = None
     zero_crossings: Optional[Callable] = None
     event_action: Optional[Callable] = None
-    python_only: bool = False
 
 
 def kernel(fn):
