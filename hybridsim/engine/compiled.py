@@ -161,9 +161,6 @@ class _Writer:
 
     def kernel(self, i, what, inline):
         """The name of block ``i``'s kernel ``what`` in the source (inlined or a compiled call)."""
-        import os as _os
-        if _os.environ.get("HS_NOINLINE"):
-            inline = False
         f = getattr(self.sysm.blocks[i].kernels, what)
         name = f"{what[:3]}{i}" + ("" if inline else "_c")
         self.env[name] = f if inline else ("njit", f)
@@ -261,7 +258,7 @@ def glue_source(system, log_path, located, layout):
     L = ["def zc(t, x, g, y, z, pf, pi):"] + wr.param_lines(path + list(located)) + lines
     c = 0
     for i, m in zip(located, sizes):
-        f = wr.kernel(i, "zero_crossings", True)
+        f = wr.kernel(i, "zero_crossings", False)
         L.append(f"    e{i} = {f}(P{i}, t, {wr.state(i)}, {wr.inputs(i, local)})")
         L += [f"    g[{c + j}] = e{i}[{j}]" for j in range(m)]
         c += m
@@ -276,7 +273,7 @@ def glue_source(system, log_path, located, layout):
         if sysm.blocks[i].kernels.event_action is None or s is None:  # a switch: it only restarts
             c += m
             continue
-        f = wr.kernel(i, "event_action", True)
+        f = wr.kernel(i, "event_action", False)
         fired = _tuple(f"fired[{c + j}]" for j in range(m))
         L += [f"    if {' or '.join(f'fired[{c + j}]' for j in range(m))}:",
               f"        a{i} = {f}(P{i}, t, {wr.state(i)}, {wr.inputs(i, local)}, {fired})"]
