@@ -77,6 +77,82 @@ def bare_run(rate, t_end, step):
     return np.array(forces)
 
 
+def lean_rhs(q1, q2, v1, v2, w1, w2, wd1, wd2, tau1, tau2, cos=math.cos, sin=math.sin):
+    """bare_rhs written as lean as plain Python goes: scalars in, a tuple out, no containers."""
+    c, s = cos(q1), sin(q1)
+    pen = q2 * c + L * s + w1 * c - w2 * s - XS
+    fx = KR * pen if pen > 0 else 0.0
+    f1 = KW * w1
+    i1 = 3.98 - 5.25 * q2 + 6.47 * q2 * q2
+    F1 = tau1 + q2 * KW * w2 + L * f1
+    F2 = tau2 + f1
+    if v1 >= EPS or v1 <= -EPS:
+        fr1 = -TC[0] if v1 > 0 else TC[0]
+    else:
+        fr1 = min(TS[0], max(-TS[0], -F1 - i1 * v1 / TSTICK))
+    if v2 >= EPS or v2 <= -EPS:
+        fr2 = -TC[1] if v2 > 0 else TC[1]
+    else:
+        fr2 = min(TS[1], max(-TS[1], -F2 - (M2 + M3) * v2 / TSTICK))
+    return (v1, v2, (F1 + fr1) / i1, (F2 + fr2) / (M2 + M3), wd1, wd2,
+            (-KW * w1 - fx * c) / M3, (-KW * w2 + fx * s) / M3)
+
+
+def lean_controller(t, q1, q2, v1, v2, w1, w2, z, T):
+    """The controller of fig9_loop.c on floats (S = diag(1, 0)); updates ``z``, returns (tau1, tau2, C-X force)."""
+    c, s = math.cos(q1), math.sin(q1)
+    j11, j12, j21, j22 = -q2 * s + L * c, c, q2 * c + L * s, s
+    det = j11 * j22 - j12 * j21
+    wt = 0.75 * math.pi
+    ey = 0.30 - 0.30 * math.cos(wt * t) - (q2 * s - L * c)
+    eyd = 0.30 * wt * math.sin(wt * t) - (j21 * v1 + j22 * v2)
+    qe1, qe2, qde1, qde2 = -j12 * ey / det, j11 * ey / det, -j12 * eyd / det, j11 * eyd / det
+    cfx = c * (-KW * w1) - s * (-KW * w2)
+    fd = F0 + (F0 if t >= 1.0 else 0.0)
+    df = fd - cfx
+    te1, te2 = j11 * df, j12 * df
+    z[0] += qe1 * T
+    z[1] += qe2 * T
+    z[2] += min(TMAX[0], max(-TMAX[0], te1)) * T
+    z[3] += min(TMAX[1], max(-TMAX[1], te2)) * T
+    tau1 = KPP[0] * qe1 + KPI[0] * z[0] + KPD[0] * qde1 + j11 * fd + KFP[0] * te1 + KFI[0] * z[2]
+    tau2 = KPP[1] * qe2 + KPI[1] * z[1] + KPD[1] * qde2 + j12 * fd + KFP[1] * te2 + KFI[1] * z[3]
+    return float(tau1), float(tau2), cfx
+
+
+def lean_run(rate, t_end, step):
+    """The leanest plain-Python loop of the same equations: RK4 on eight scalar locals, the stages
+    written out, the controller once per tick (the engine's fused path is judged against this)."""
+    T = 1.0 / rate
+    q1, q2, v1, v2, w1, w2, a1, a2 = (float(v) for v in plain_x0())
+    z = [0.0, 0.0, 0.0, 0.0]
+    forces = []
+    m = math.ceil(T / step - 1e-9)
+    h = T / m
+    h2, h6 = h / 2, h / 6
+    f = lean_rhs
+    for k in range(int(round(t_end * rate))):
+        u1, u2, cfx = lean_controller(k * T, q1, q2, v1, v2, w1, w2, z, T)
+        forces.append(cfx)
+        for _ in range(m):
+            b1, b2, b3, b4, b5, b6, b7, b8 = f(q1, q2, v1, v2, w1, w2, a1, a2, u1, u2)
+            c1, c2, c3, c4, c5, c6, c7, c8 = f(q1 + h2 * b1, q2 + h2 * b2, v1 + h2 * b3, v2 + h2 * b4,
+                                               w1 + h2 * b5, w2 + h2 * b6, a1 + h2 * b7, a2 + h2 * b8, u1, u2)
+            d1, d2, d3, d4, d5, d6, d7, d8 = f(q1 + h2 * c1, q2 + h2 * c2, v1 + h2 * c3, v2 + h2 * c4,
+                                               w1 + h2 * c5, w2 + h2 * c6, a1 + h2 * c7, a2 + h2 * c8, u1, u2)
+            e1, e2, e3, e4, e5, e6, e7, e8 = f(q1 + h * d1, q2 + h * d2, v1 + h * d3, v2 + h * d4,
+                                               w1 + h * d5, w2 + h * d6, a1 + h * d7, a2 + h * d8, u1, u2)
+            q1 += h6 * (b1 + 2 * (c1 + d1) + e1)
+            q2 += h6 * (b2 + 2 * (c2 + d2) + e2)
+            v1 += h6 * (b3 + 2 * (c3 + d3) + e3)
+            v2 += h6 * (b4 + 2 * (c4 + d4) + e4)
+            w1 += h6 * (b5 + 2 * (c5 + d5) + e5)
+            w2 += h6 * (b6 + 2 * (c6 + d6) + e6)
+            a1 += h6 * (b7 + 2 * (c7 + d7) + e7)
+            a2 += h6 * (b8 + 2 * (c8 + d8) + e8)
+    return np.array(forces)
+
+
 def plain_rhs(t, x, tau):
     """The same right-hand side as a numpy array (for the numpy and scipy loops)."""
     return np.array(bare_rhs(t, x, tau))
@@ -173,11 +249,12 @@ def fmu_sim(rate, t_end, fmu):
 
 
 def timed(fn, repeat):
+    """(median CPU time s, the last result) of ``repeat`` calls (CPU time: steadier on a shared machine)."""
     times, out = [], None
     for _ in range(repeat):
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         out = fn()
-        times.append(time.perf_counter() - t0)
+        times.append(time.process_time() - t0)
     return statistics.median(times), out
 
 
@@ -198,13 +275,13 @@ def main():
                  step=h)[1].run(0.01)
         cold = time.perf_counter() - t0
         c_run = c_loop(tmp)
-        print(f"RK4 h = {h * 1e3:.3f} ms, times in ms. C: fig9_loop.c -O2; bare: a Python float loop; "
-              "engine paths: compiled (numba), fused (Python), generic")
-        print(f"{'rate':>5} {'C':>7} {'bare':>7} {'compiled':>9} {'fused':>7} {'generic':>8} "
-              f"{'compiled/C':>11} {'fused/bare':>11}   compiled vs C, force 0-0.25 s")
+        print(f"RK4 h = {h * 1e3:.3f} ms, times in ms (CPU time, median). C: fig9_loop.c -O2; lean: the leanest "
+              "plain-Python float loop (lean_run); engine paths: compiled (numba), fused (Python), generic")
+        print(f"{'rate':>5} {'C':>7} {'lean':>7} {'compiled':>9} {'fused':>7} {'generic':>8} "
+              f"{'compiled/C':>11} {'fused/lean':>11}   compiled vs C, lean vs C: force 0-0.25 s")
         for rate in (60, 120):
             tc, fc = c_run(rate, args.t_end, h, args.repeat) if c_run else (float("nan"), None)
-            tb, _ = timed(lambda: bare_run(rate, args.t_end, h), args.repeat)
+            tb, fl = timed(lambda: lean_run(rate, args.t_end, h), args.repeat)
             sims = [engine(rate, args.t_end, "rk4", step=h, compiled=True), engine(rate, args.t_end, "rk4", step=h),
                     engine(rate, args.t_end, "rk4", step=h, fused=False)]
             tx, res = timed(lambda: sims[0].run(args.t_end), args.repeat)
@@ -212,8 +289,9 @@ def main():
             tg, _ = timed(lambda: sims[2].run(args.t_end), args.repeat)
             n = int(0.25 * rate)
             diff = np.max(np.abs(res["ctrl.ft.CF[0]"][:n] - fc[:n])) if fc is not None else float("nan")
+            dlean = np.max(np.abs(fl[:n] - fc[:n])) if fc is not None else float("nan")
             print(f"{rate:>5} {tc * 1e3:7.2f} {tb * 1e3:7.1f} {tx * 1e3:9.2f} {tf * 1e3:7.1f} {tg * 1e3:8.1f} "
-                  f"{tx / tc:11.2f} {tf / tb:11.2f}   {diff:.1e} N")
+                  f"{tx / tc:11.2f} {tf / tb:11.2f}   {diff:.1e} N, {dlean:.1e} N")
         print(f"compiled path, first run of the diagram (numba compiles, cold cache): {cold:.1f} s")
         for name, kw in (("compiled", dict(compiled=True)), ("fused", {}), ("generic", dict(fused=False))):
             tb, _ = timed(lambda: engine(120, args.t_end, "rk4", step=h, **kw), args.repeat)

@@ -31,14 +31,13 @@ import warnings
 
 from hybridsim.engine import native, rk
 from hybridsim.engine.fused import event_kernels, event_sizes, has_kernels
-from hybridsim.engine.kernels import marked
+from hybridsim.engine.kernels import make_jitable, marked
 from hybridsim.engine.params import ParamLayout, ParamStructureError
 from hybridsim.engine.solvers import ExplicitRK
 from hybridsim.errors import CompiledPathError, ParameterError
 
 log = logging.getLogger(__name__)
 _loaded = {}         # source hash -> the compiled glue (this process)
-_registered = set()  # kernels registered with numba
 cache_dir = native.cache_dir
 
 
@@ -349,17 +348,6 @@ def _stamp(functions):
     return hashlib.sha256("".join(text(f) for f in sorted(functions, key=key)).encode()).hexdigest()[:16]
 
 
-def _inline(f):
-    """How the right-hand side takes kernel ``f``: inlined when it works on floats and tuples (the
-    plant's kernels, called at every stage: inlined they run several times faster), called when
-    it works on numpy arrays (their inlining dominates the compile time)."""
-    try:
-        text = inspect.getsource(f)
-    except (OSError, TypeError):
-        return "always"
-    return "never" if re.search(r"\bnp\.", text) else "always"
-
-
 _jitted = {}  # kernel -> its numba dispatcher (compiled once per signature, cached on disk)
 
 
@@ -377,17 +365,12 @@ def _load(source, env, name, system=None):
     """Compile (or load from the cache) the glue in ``source``: a :class:`~.stepping.Glue` of cfuncs."""
     from numba import cfunc
     from numba.core.errors import NumbaError, NumbaExperimentalFeatureWarning, NumbaIRAssumptionWarning
-    from numba.extending import register_jitable
-
     from hybridsim.engine.stepping import Glue
 
     key = hashlib.sha256(source.encode()).hexdigest()[:24]
     if key in _loaded:
         return _loaded[key]
-    for f in set(marked()) | {v for v in env.values() if callable(v) and not inspect.isclass(v)}:
-        if f not in _registered and not hasattr(f, "compiled"):  # a twin is registered by its kernel
-            register_jitable(inline=_inline(f))(f)
-            _registered.add(f)
+    make_jitable(set(marked()) | {v for v in env.values() if callable(v) and not inspect.isclass(v)})
     resolved = {n: (_dispatcher(v[1]) if isinstance(v, tuple) else v) for n, v in env.items()}
     folder = cache_dir()
     path = folder / f"glue_{key}.py"

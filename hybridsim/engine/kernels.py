@@ -59,3 +59,28 @@ def kernel(fn):
 def marked():
     """The functions marked with :func:`kernel` so far."""
     return list(_MARKED)
+
+
+_JITABLE = set()  # functions registered with numba (once each: a second registration is ambiguous)
+
+
+def make_jitable(functions=None):
+    """Register ``functions`` (default: every :func:`kernel` so far) with numba, so compiled code
+    may call them; each once. A kernel that works on floats and tuples is inlined where it is
+    called (the plant's, called at every stage: inlined they run several times faster); one that
+    uses numpy arrays is called (its inlining would dominate the compile time). A kernel with a
+    numba twin (``f.compiled``) is skipped: calls of it compile to the twin."""
+    import inspect
+    import re
+
+    from numba.extending import register_jitable
+
+    for f in marked() if functions is None else functions:
+        if f in _JITABLE or hasattr(f, "compiled"):
+            continue
+        try:
+            text = inspect.getsource(f)
+        except (OSError, TypeError):
+            text = ""
+        register_jitable(inline="never" if re.search(r"\bnp\.", text) else "always")(f)
+        _JITABLE.add(f)

@@ -106,13 +106,9 @@ def test_a_tree_of_prismatic_and_unaligned_joints_with_armature():
 @pytest.fixture(scope="module")
 def compiled_algorithms():
     numba = pytest.importorskip("numba")
-    from numba.extending import register_jitable
+    from hybridsim.engine.kernels import make_jitable
 
-    from hybridsim.engine.kernels import marked
-
-    for f in marked():
-        if f.__module__ == rigid.__name__:
-            register_jitable(f)
+    make_jitable()  # the algorithms and the spatial helpers they call
     return (numba.njit(lambda tr, q, v, tau: rigid.aba(tr, q, v, tau)),
             numba.njit(lambda tr, q, v, a: rigid.rnea(tr, q, v, a)),
             numba.njit(lambda tr, q: rigid.crba(tr, q)), numba.njit(lambda tr, q: rigid.tool(tr, q)))
