@@ -186,8 +186,7 @@ def first_bad(x, max_state):
 
 
 def copy_into(dst, src):
-    for i in range(src.size):
-        dst[i] = src[i]
+    dst[:] = src
 
 
 def mute(g, muted):
