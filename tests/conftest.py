@@ -42,6 +42,15 @@ def write(tmp_path, text, name="d.yaml"):
     return p
 
 
+def pytest_collection_modifyitems(config, items):
+    """Every test of the compiled path is slow (the quick loop, ``-m "not slow"``, compiles
+    nothing): numba compiles the stepping core once per worker and method, then each diagram's
+    glue. A test runs the compiled path when its id names it (``[compiled]``, ``rk4-compiled``)."""
+    for item in items:
+        if "compiled" in item.name.lower() and "slow" not in item.keywords:
+            item.add_marker(pytest.mark.slow)
+
+
 @pytest.fixture(autouse=True, scope="session")
 def _compiled_cache(tmp_path_factory):
     """Compiled-path modules go to a fresh folder: the suite compiles what it runs."""

@@ -100,6 +100,7 @@ def test_analyze_prints_poles_margins_and_sweeps(tmp_path, capsys):
     assert 0.99 < doc["hand_mode_hz"] / 272.48 < 1.0
 
 
+@pytest.mark.slow
 def test_report_writes_html_and_figures(tmp_path, capsys):
     code, out, _ = run(capsys, "report", DIAGRAMS / "fig9_force_and_position.yaml", "-o", tmp_path / "r")
     assert code == 0

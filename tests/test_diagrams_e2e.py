@@ -70,6 +70,7 @@ def test_fig9_cli_writes_everything(tmp_path, capsys):
     assert header.startswith("time,") and "ctrl.ft.CF[0]" in header
 
 
+@pytest.mark.slow
 def test_fig7_metrics_reported_for_every_force_and_rate():
     f, runs, _ = hs.run_experiment(DIAGRAMS / "fig7_force_steps.yaml", t_end=1.2)
     assert [r["label"] for r in runs][:2] == ["force=1.0, rate=60", "force=1.0, rate=80"]

@@ -135,6 +135,7 @@ def plant_fmu(tmp_path_factory):
     return build_plant_fmu(tmp_path_factory.mktemp("fmu") / "plant.fmu")
 
 
+@pytest.mark.slow
 def test_implicit_solvers_run_an_me_fmu_next_to_sampled_blocks(plant_fmu):
     # Fig 9 with the plant as an ME FMU and the 120 Hz controller: a hit restarts the solver
     # (it failed with "required step size is less than spacing between numbers" at rtol 1e-10)

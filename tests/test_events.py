@@ -48,6 +48,7 @@ def test_a_zeno_ball_stops_with_a_clear_message(name):
         ball(make(), **kw).run(5.0)
 
 
+@pytest.mark.slow
 def test_the_fixed_step_paths_agree_bit_for_bit_with_events():
     runs = [ball(hs.RK4(1e-3), **kw).run(3.9) for kw in ({"fused": False}, {}, {"compiled": True})]
     for r in runs[1:]:
@@ -141,6 +142,7 @@ def test_the_shipped_ball_diagram_runs():
     assert [t for t, _ in res.meta["events"]] == pytest.approx(BOUNCES[:9], abs=1e-9)
 
 
+@pytest.mark.slow
 def test_located_switches_run_bit_for_bit_on_every_path():
     from conftest import DIAGRAMS
 

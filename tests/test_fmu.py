@@ -379,6 +379,7 @@ def test_no_instance_or_folder_is_left_after_a_failure(plant, case, monkeypatch,
     assert _fmu_folders() <= before
 
 
+@pytest.mark.slow
 def test_fmpy_keeps_its_own_logger_after_an_fmu_block_is_freed(plant):
     """fmpy's message formatter forwards to one global logger; a freed FMU block must not own it.
 

@@ -50,6 +50,7 @@ def test_the_log_period_does_not_change_the_answer(settings):
         assert np.array_equal(x, y)
 
 
+@pytest.mark.slow
 def test_the_added_method_runs_bit_for_bit_on_every_path():
     runs = [hs.simulate(FIG9, rate=120, t_end=0.3, solver="heun", step=5e-5, **kw)
             for kw in ({"fused": False}, {}, {"compiled": True})]

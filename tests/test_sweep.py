@@ -33,6 +33,7 @@ def sweep_file(tmp_path):
     return p
 
 
+@pytest.mark.slow
 def test_serial_pool_and_dask_give_the_same_table(sweep_file, tmp_path):
     distributed = pytest.importorskip("distributed")
     sw.run_sweep(sweep_file, tmp_path / "serial", jobs=1, progress=False)
@@ -122,6 +123,7 @@ def counted_rebuilds(monkeypatch):
     return calls
 
 
+@pytest.mark.slow
 def test_chunked_sweep_gives_the_point_by_point_table(runtime_file, tmp_path, monkeypatch):
     # every point changes block numbers only (Kp, and Kr through the diagram's params): one built diagram
     calls = counted_rebuilds(monkeypatch)
@@ -139,6 +141,7 @@ def test_chunked_sweep_gives_the_point_by_point_table(runtime_file, tmp_path, mo
     assert len((tmp_path / "chunks" / "points.jsonl").read_text().splitlines()) == 10
 
 
+@pytest.mark.slow
 def test_chunks_on_dask_give_the_same_table(runtime_file, tmp_path):
     distributed = pytest.importorskip("distributed")
     sw.run_sweep(runtime_file, tmp_path / "points", jobs=1, progress=False, batch=False)

@@ -164,6 +164,7 @@ def test_bad_tune_files_exit_2_with_file_and_line(tmp_path, capsys, body, line, 
 
 
 # -- optimisers, outputs, resuming -------------------------------------------------------------
+@pytest.mark.slow
 def test_nelder_mead_improves_and_resumes(tmp_path):
     p = tune_file(tmp_path, PARAMS + "objectives:\n" + SETTLE + OVER5 + "method: {name: nelder_mead, maxiter: 12}\n")
     res = run_tune(p, tmp_path / "out", jobs=1, progress=False)
@@ -197,6 +198,7 @@ def test_two_objectives_give_a_pareto_front(tmp_path):
         assert not any(e[0] <= f[0] and e[1] <= f[1] and e != f for e in every)
 
 
+@pytest.mark.slow
 def test_tpe_on_a_dask_cluster(tmp_path):
     from distributed import Client, LocalCluster
 
