@@ -3,7 +3,7 @@
 Run on demand:  python benchmarks/bench_batch.py [--points 400]
 
 Fig 9 at 120 Hz, 4 s simulated, RK4 h = 0.278 ms (the step whose accuracy
-tests/test_solver_agreement.py checks), ``arm.stick_band`` drawn at random per
+tests/engine/test_solver_agreement.py checks), ``arm.stick_band`` drawn at random per
 point, metrics included, all in one process run after one warm-up that
 compiles. Two log grids: at the ticks (1/120 s, as benchmarks/bench_fig9.py
 logs) and the diagrams' default 0.5 ms. Rows:

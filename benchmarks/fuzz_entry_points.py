@@ -2,7 +2,7 @@
 
     python benchmarks/fuzz_entry_points.py --examples 2000 [--seed 1]
 
-Same generator and invariants as tests/test_fuzz.py (tests/fuzz_diagrams.py),
+Same generator and invariants as tests/format/test_fuzz.py (tests/fuzz_diagrams.py),
 more examples and a random seed; prints how many cases ended in each exit code
 and the first case that breaks an invariant (hypothesis shrinks it).
 """

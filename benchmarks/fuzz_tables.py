@@ -2,7 +2,7 @@
 
     python benchmarks/fuzz_tables.py --examples 1000 [--seed 1]
 
-Same strategies and invariants as tests/test_fuzz_tables.py (tests/fuzz_tables.py):
+Same strategies and invariants as tests/format/test_fuzz_tables.py (tests/fuzz_tables.py):
 each of the four families (sections, --set options, sweep files, subsystem trees)
 gets ``--examples`` cases; prints how many ended in each exit status, the slowest
 case's time, and the first case that breaks an invariant (hypothesis shrinks it).

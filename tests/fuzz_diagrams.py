@@ -1,6 +1,6 @@
 """Mutated YAML diagrams and the invariants every entry point keeps on them.
 
-Shared by the bounded fuzz test (``tests/test_fuzz.py``) and the longer run
+Shared by the bounded fuzz test (``tests/format/test_fuzz.py``) and the longer run
 (``benchmarks/fuzz_entry_points.py``). A case is a valid diagram with one to
 three mutations (a number scaled; a value replaced by a wrong type, width,
 reference or number; a key removed or added; a value wrapped in a list; a

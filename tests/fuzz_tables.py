@@ -1,6 +1,6 @@
 """Fuzz cases generated from the format's tables, and the invariants every entry point keeps.
 
-Shared by the bounded test (``tests/test_fuzz_tables.py``) and the long run
+Shared by the bounded test (``tests/format/test_fuzz_tables.py``) and the long run
 (``benchmarks/fuzz_tables.py``). Strategies are derived from each section's
 table (:mod:`hybridsim.format.tables`): for every key of every section a good
 value of its kind, a value of another kind or out of range, or a misspelt key;

@@ -28,7 +28,7 @@ def test_definitions_are_told_from_calls_declarations_and_comments():
 def test_a_model_with_only_some_functions_loads_in_fmpy(tmp_path):
     from pathlib import Path
 
-    d = Path(__file__).parent / "data" / "ball3"
+    d = Path(__file__).parents[1] / "data" / "ball3"
     fmu = build_fmu(tmp_path / "ball3.fmu", "ball3", sorted(d.glob("*.c")),
                     (d / "modelDescription.xml").read_text(), {})
     with zipfile.ZipFile(fmu) as z:

@@ -25,7 +25,7 @@ import re
 import tokenize
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 #: the generic layers: the engine, the file format, the FMU bridge, analysis, reports, runs, output files
 SCANNED = ["hybridsim/engine", "hybridsim/format", "hybridsim/fmi", "hybridsim/analysis", "hybridsim/report",
            "hybridsim/runs", "hybridsim/files", "hybridsim/errors.py", "hybridsim/limits.py"]

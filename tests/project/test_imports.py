@@ -10,7 +10,7 @@ on the parents ``a`` and ``a.b``, which Python imports on the way.
 import ast
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 #: the package's folders and the names they install under (pyproject.toml's package-dir)
 FOLDERS = {"hybridsim": ROOT / "hybridsim", "hybridsim.blocks": ROOT / "blocks", "hybridsim.fmus": ROOT / "fmus"}
 

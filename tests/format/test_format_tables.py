@@ -13,7 +13,7 @@ from hybridsim.format.schema import diagram_schema, sweep_schema
 from conftest import DIAGRAMS, write
 from conftest import GOOD
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 HC = DIAGRAMS / "hybrid_controller.yaml"
 
 

@@ -5,7 +5,7 @@ import pytest
 
 from hybridsim.engine.registry import types
 
-DOCS = Path(__file__).resolve().parents[1] / "docs"
+DOCS = Path(__file__).resolve().parents[2] / "docs"
 
 
 @pytest.mark.slow
