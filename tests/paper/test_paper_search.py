@@ -80,19 +80,28 @@ def test_summary_names_the_closest_value_and_the_claim_it_trades_against():
     assert fail["trades_against"].startswith("Fig 7: B") and fail["spearman_rho"] == pytest.approx(-0.9)
 
 
+@pytest.fixture(scope="module")
+def printed_search(tmp_path_factory):
+    """One trial of the search (the printed model) and the folder of its store."""
+    from hybridsim.paper.joint_search import joint_search
+
+    folder = tmp_path_factory.mktemp("js")
+    return joint_search(1, 2, outdir=folder), folder
+
+
 @pytest.mark.slow
-def test_the_search_judges_the_printed_model_as_hinges_does(tmp_path):
+def test_the_search_judges_the_printed_model_as_hinges_does(printed_search):
     """The first trial is the printed model, judged as :func:`hinges.judge_model` judges it; a
     rerun reads it back from the store. (The second seeded trial, joint damping s = 64, is judged
     the same way; one model keeps the suite short.)"""
     from hybridsim.paper.hinges import judge_model
     from hybridsim.paper.joint_search import joint_search
 
-    res = joint_search(1, 2, outdir=tmp_path / "js")
+    res, folder = printed_search
     assert res["trials"][0]["model"] == PRINTED
     counts = judge_model((), 2)
     assert {int(r): k for r, k in res["trials"][0]["held"].items()} == {r: k for r, (k, _) in counts.items()}
-    again = joint_search(1, 2, outdir=tmp_path / "js")
+    again = joint_search(1, 2, outdir=folder)
     assert again["wall_time_s"] < 5.0 and again["trials"] == res["trials"]
 
 
@@ -109,7 +118,10 @@ def test_the_report_section_states_the_best_model_and_each_failing_claim():
 
 
 @pytest.mark.slow
-def test_reproduce_adds_the_joint_search_to_its_report(tmp_path):
+def test_reproduce_adds_the_joint_search_to_its_report(tmp_path, printed_search):
+    import shutil
+
+    shutil.copytree(printed_search[1], tmp_path / "r" / "joint_search")  # the model judged: read back
     report = rp.reproduce(tmp_path / "r", jobs=2, experiments=["eq 18"], grid=[16.0], bisections=1,
                           sensitivities=[], hinges=False, joint=1)
     js = report["joint_search"]
