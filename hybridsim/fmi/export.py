@@ -162,7 +162,6 @@ def export_fmu(diagram, out, fmi=2, name=None):
     from hybridsim import __version__
     from hybridsim.format import build as api
     from hybridsim.files import check_output_file
-    from hybridsim.format.diagram_file import DiagramFile
 
     check_output_file(out, ["fmu"])  # a path that cannot be written is refused before anything is built
     if fmi not in (2, 3):

@@ -1,0 +1,245 @@
+"""The compiled glue's source: a diagram's equations written out for numba from its blocks' kernels.
+
+:func:`glue_source` writes one function per field of :class:`~hybridsim.engine.records.Glue`
+(the hit's output pass, the updates, the right-hand side, the event functions and actions,
+the log path) over the run's flat arrays; :mod:`hybridsim.engine.compiled` compiles and caches
+them. Inside the right-hand side every signal element is a local float and the plant's kernels
+are inlined; elsewhere each kernel is a call of its own compiled version (cached across
+diagrams). The blocks' numbers are rebuilt from the flat ``pf`` / ``pi`` arrays
+(:class:`~hybridsim.engine.params.ParamLayout`).
+"""
+import functools
+import hashlib
+import inspect
+
+from hybridsim.engine.fused import event_sizes
+from hybridsim.engine.kernels import marked
+
+
+class _Writer:
+    """Builds the glue's source: per block, its params, inputs and state as expressions."""
+
+    def __init__(self, system, layout, env):
+        self.sysm, self.layout, self.env = system, layout, env
+        b = system.blocks
+        self.yoff, k = [], 0
+        for blk in b:
+            self.yoff.append([])
+            for p in blk.outputs:
+                self.yoff[-1].append(k)
+                k += p.width
+        self.zoff, k = [], 0
+        for blk in b:
+            self.zoff.append(k)
+            k += blk.n_discrete
+
+    def params(self, i):
+        return f"P{i}"
+
+    def param_lines(self, blocks, pad="    "):
+        return [f"{pad}P{i} = {self.layout.expression(i, self.env)}" for i in sorted(set(blocks))]
+
+    def state(self, i, xname="x"):
+        s = self.sysm.xslices[i]
+        if s is not None:
+            return _tuple(f"{xname}[{j}]" for j in range(s.start, s.stop))
+        n, a = self.sysm.blocks[i].n_discrete, self.zoff[i]
+        return _tuple(f"z[{a + j}]" for j in range(n)) if n else "()"
+
+    def port(self, a, o, local=None):
+        """An output port's elements: the locals of a block computed in this function, else y."""
+        w = self.sysm.blocks[a].outputs[o].width
+        if local is not None and a in local:
+            return _tuple(f"y{a}_{o}_{j}" for j in range(w))
+        return _tuple(f"y[{self.yoff[a][o] + j}]" for j in range(w))
+
+    def inputs(self, i, local=None):
+        return _tuple(self.port(a, o, local) for a, o in self.sysm.sources[i])
+
+    def kernel(self, i, what, inline):
+        """The name of block ``i``'s kernel ``what`` in the source (inlined or a compiled call)."""
+        f = getattr(self.sysm.blocks[i].kernels, what)
+        name = f"{what[:3]}{i}" + ("" if inline else "_c")
+        self.env[name] = f if inline else ("njit", f)
+        return name
+
+    def evaluate(self, i, pad, local, inline, xname="x", store=False):
+        """Lines computing block ``i``'s outputs into locals (and into y when ``store``)."""
+        b = self.sysm.blocks[i]
+        if not b.outputs:
+            return []
+        f = self.kernel(i, "output", inline)
+        lines = [f"{pad}r{i} = {f}(P{i}, t, {self.state(i, xname)}, {self.inputs(i, local)})"]
+        for o, port in enumerate(b.outputs):
+            for j in range(port.width):
+                lines.append(f"{pad}y{i}_{o}_{j} = r{i}[{o}][{j}]")
+                if store:
+                    lines.append(f"{pad}y[{self.yoff[i][o] + j}] = y{i}_{o}_{j}")
+        local.add(i)
+        return lines
+
+    def check(self, i, pad):
+        """``return i`` when one of block ``i``'s outputs is not finite (unless it may be)."""
+        b = self.sysm.blocks[i]
+        if not b.outputs or b.may_be_nonfinite:
+            return []
+        names = [f"y{i}_{o}_{j}" for o, p in enumerate(b.outputs) for j in range(p.width)]
+        return [f"{pad}if not ({' and '.join(f'math.isfinite({n})' for n in names)}):", f"{pad}    return {i}"]
+
+
+def _tuple(items):
+    items = list(items)
+    return "(" + "".join(f"{x}, " for x in items) + ")" if items else "()"
+
+
+def glue_source(system, log_path, located, layout):
+    """The generated module's source and the names it needs: ``(source, env)``."""
+    sysm = system
+    env = {}
+    wr = _Writer(sysm, layout, env)
+    due_col = {i: c for c, i in enumerate(sysm.discrete)}
+    sig = "(t, x, y, z, pf, pi, due, row)"
+    fns = []
+
+    # the hit: outputs of every block not discrete and of the due discrete ones
+    hit = [i for i, _ in sysm.plan.hit_sequence()]
+    L = [f"def outputs{sig}:"] + wr.param_lines(hit)
+    local = set()
+    for i, disc in sysm.plan.hit_sequence():
+        if disc:
+            body = wr.evaluate(i, "        ", local, False, store=True) + wr.check(i, "        ")
+            local.discard(i)  # held when not due: later blocks read it from y
+            if body:
+                L += [f"    if due[row, {due_col[i]}]:"] + body
+        else:
+            L += wr.evaluate(i, "    ", local, False, store=True) + wr.check(i, "    ")
+    L.append("    return -1")
+    fns.append(L)
+
+    # updates of the due discrete blocks, after every output of the hit
+    upd = [i for i in sysm.plan.update_order(sysm.discrete) if sysm.blocks[i].n_discrete]
+    L = [f"def update{sig}:"] + wr.param_lines(upd)
+    for i in upd:
+        n, a = sysm.blocks[i].n_discrete, wr.zoff[i]
+        f = wr.kernel(i, "update", False)
+        L += [f"    if due[row, {due_col[i]}]:",
+              f"        s{i} = {f}(P{i}, t, {wr.state(i)}, {wr.inputs(i)})"]
+        L += [f"        z[{a + j}] = s{i}[{j}]" for j in range(n)]
+        L += [f"        if not ({' and '.join(f'math.isfinite(z[{a + j}])' for j in range(n))}):",
+              f"            return {i}"]
+    L.append("    return -1")
+    fns.append(L)
+
+    # the right-hand side: the plant's kernels inlined, every signal a local
+    path = sorted(set(sysm.rhs_path))
+
+    def rhs_outputs(pad="    "):
+        local = set()
+        lines = []
+        for i in path:
+            lines += wr.evaluate(i, pad, local, True)
+        return lines, local
+
+    lines, local = rhs_outputs()
+    L = ["def rhs(t, x, dx, at, y, z, pf, pi):"] + wr.param_lines(path + list(sysm.stateful)) + lines
+    for i in sysm.stateful:
+        s = sysm.xslices[i]
+        f = wr.kernel(i, "derivatives", True)
+        L.append(f"    d{i} = {f}(P{i}, t, {wr.state(i)}, {wr.inputs(i, local)})")
+        L += [f"    dx[at + {s.start + j}] = d{i}[{j}]" for j in range(s.stop - s.start)]
+    fns.append(L)
+
+    # located events: their functions and actions
+    sizes = event_sizes(sysm, located) if located else []
+    lines, local = rhs_outputs()
+    L = ["def zc(t, x, g, y, z, pf, pi):"] + wr.param_lines(path + list(located)) + lines
+    c = 0
+    for i, m in zip(located, sizes):
+        f = wr.kernel(i, "zero_crossings", False)
+        L.append(f"    e{i} = {f}(P{i}, t, {wr.state(i)}, {wr.inputs(i, local)})")
+        L += [f"    g[{c + j}] = e{i}[{j}]" for j in range(m)]
+        c += m
+    if not located:
+        L.append("    pass")
+    fns.append(L)
+    L = ["def act(t, x, xn, fired, y, z, pf, pi):"] + wr.param_lines(path + list(located)) + lines
+    L += [f"    for k in range({sysm.n_x}):", "        xn[k] = x[k]"]
+    c = 0
+    for i, m in zip(located, sizes):
+        s = sysm.xslices[i]
+        if sysm.blocks[i].kernels.event_action is None or s is None:  # a switch: it only restarts
+            c += m
+            continue
+        f = wr.kernel(i, "event_action", False)
+        fired = _tuple(f"fired[{c + j}]" for j in range(m))
+        L += [f"    if {' or '.join(f'fired[{c + j}]' for j in range(m))}:",
+              f"        a{i} = {f}(P{i}, t, {wr.state(i)}, {wr.inputs(i, local)}, {fired})"]
+        L += [f"        xn[{s.start + j}] = a{i}[{j}]" for j in range(s.stop - s.start)]
+        c += m
+    L.append("    return 0")
+    fns.append(L)
+
+    # the log path, at a log point between hits (its outputs stored for the log's columns)
+    L = ["def observe(t, x, y, z, pf, pi):"] + wr.param_lines(log_path)
+    local = set()
+    for i in log_path:
+        L += wr.evaluate(i, "    ", local, False, store=True) + wr.check(i, "    ")
+    L.append("    return -1")
+    fns.append(L)
+    fns.append(["def next_time(t, x, y, z, pf, pi):", "    return np.inf"])
+    fns.append(["def timed(t, x, xn, y, z, pf, pi):", "    return 0"])
+    fns.append(["def stepped(t, x, y, z, pf, pi):", "    return 0"])
+
+    body = "\n\n\n".join("\n".join(f if len(f) > 1 else f + ["    pass"]) for f in fns)
+    kernels = [f[1] if isinstance(f, tuple) else f for f in env.values() if callable(f) or isinstance(f, tuple)]
+    stamp = _stamp(reachable(k for k in kernels if callable(k)))
+    names = "".join(f"#   {n} = {_describe(f)}\n" for n, f in sorted(env.items()))
+    head = (f"# generated by hybridsim.engine.compiled for diagram {sysm.name!r}; kernels {stamp}\n{names}"
+            "import math\n\nimport numpy as np\n\n\n")
+    return head + body + "\n", env
+
+
+def _describe(f):
+    if isinstance(f, tuple):
+        f = f[1]
+    if inspect.isclass(f):
+        return f"{f.__module__}.{f.__qualname__} (params)"
+    return f"{f.__module__}.{f.__qualname__}"
+
+
+def reachable(functions):
+    """``functions`` and every :func:`~hybridsim.engine.kernels.kernel` they call, directly or not.
+
+    What generated glue's machine code depends on: its cache key, so defining or
+    editing an unrelated kernel recompiles nothing.
+    """
+    kernels = {id(f): f for f in marked()}
+    seen, todo = {}, list(functions)
+    while todo:
+        f = todo.pop()
+        if id(f) in seen:
+            continue
+        seen[id(f)] = f
+        code = getattr(f, "__code__", None)
+        if code is None:
+            continue
+        names = set(code.co_names)
+        for const in code.co_consts:  # nested functions' names too
+            if hasattr(const, "co_names"):
+                names |= set(const.co_names)
+        glb = getattr(f, "__globals__", {})
+        todo += [glb[n] for n in names if n in glb and id(glb[n]) in kernels]
+    return frozenset(seen.values())
+
+
+@functools.lru_cache(maxsize=None)
+def _stamp(functions):
+    """A hash of the kernels' source text (a kernel edited means a new module)."""
+    def text(f):
+        try:
+            return inspect.getsource(f)
+        except (OSError, TypeError):  # defined at a prompt: its byte code then
+            return f.__code__.co_code.hex() + repr(f.__code__.co_consts)
+
+    key = lambda f: (f.__module__, f.__qualname__)  # noqa: E731
+    return hashlib.sha256("".join(text(f) for f in sorted(functions, key=key)).encode()).hexdigest()[:16]
