@@ -224,9 +224,9 @@ def _state(s, x):
 
 def _step(s, x, xn, w, gl, y, z, pf, pi):
     num = s.num
-    k, h, n = int(num[3]), num[1], int(num[2])
+    k, h, n = int(num[3]), float(num[1]), int(num[2])   # Python floats: numpy scalars are slow
     X = _state(s, x)
-    Xn, K = s.f.step_stages(num[4] + k * h, h, X, s.H, s.P)
+    Xn, K = s.f.step_stages(float(num[4]) + k * h, h, X, s.H, s.P)
     s.X, s.K, s.cache = X, K, Xn
     xn[:] = Xn
     num[3] = k + 1
@@ -235,7 +235,7 @@ def _step(s, x, xn, w, gl, y, z, pf, pi):
 
 def _steps(s, t_lim, x, xn, w, gl, y, z, pf, pi):
     num = s.num
-    k, h, n, t0 = int(num[3]), num[1], int(num[2]), num[4]
+    k, h, n, t0 = int(num[3]), float(num[1]), int(num[2]), float(num[4])
     kb = k + 1
     while kb < n and t0 + (kb + 1) * h <= t_lim + 1e-9 * h:
         kb += 1
@@ -258,8 +258,8 @@ def _dense(s, t, x, w, xo):
 
 def _restep(s, hh, x, w, gl, y, z, pf, pi, xr):
     num = s.num
-    ta = num[4] + (int(num[3]) - 1) * num[1]
-    xr[:] = s.f.advance(ta, hh, 0, 1, s.X, s.H, s.P)
+    ta = float(num[4]) + (int(num[3]) - 1) * float(num[1])
+    xr[:] = s.f.advance(ta, float(hh), 0, 1, s.X, s.H, s.P)
     return True
 
 
