@@ -90,7 +90,7 @@ def main():
 def breakdown(spec, n):
     """CPU seconds per point of each part of a sweep's point, run here (see the module doc)."""
     from hybridsim.analysis import metrics
-    from hybridsim.engine import compiled, simulator, system
+    from hybridsim.engine import simulator, system
     from hybridsim.runs import many, store, sweep
 
     spent = defaultdict(float)
@@ -109,23 +109,22 @@ def breakdown(spec, n):
         setattr(owner, name, timed)
         patched.append((owner, name, real))
 
-    def wrap_loop(self, *a, **k):  # the numba function itself, inside CompiledLoop.run
-        fn = self.run_fn
-        if not getattr(fn, "_timed", False):
-            def timed(*a2, **k2):
-                t0 = time.process_time()
-                try:
-                    return fn(*a2, **k2)
-                finally:
-                    spent["compiled loop (numba)"] += time.process_time() - t0
-            timed._timed = True
-            self.run_fn = timed
-        return real_loop(self, *a, **k)
+    def wrap_session(self, *a, **k):  # the numba core itself, which Session.walk calls
+        real_init(self, *a, **k)
+        fn = self._run
 
-    real_loop = compiled.CompiledLoop.run
-    compiled.CompiledLoop.run = wrap_loop
-    patched.append((compiled.CompiledLoop, "run", real_loop))
-    wrap(compiled.CompiledLoop, "run", "engine: compiled run, all")
+        def timed(*a2, **k2):
+            t0 = time.process_time()
+            try:
+                return fn(*a2, **k2)
+            finally:
+                spent["compiled loop (numba)"] += time.process_time() - t0
+        self._run = timed
+
+    real_init = simulator.Session.__init__
+    simulator.Session.__init__ = wrap_session
+    patched.append((simulator.Session, "__init__", real_init))
+    wrap(simulator.Session, "walk", "engine: compiled run, all")
     wrap(system.System, "create_context", "engine: contexts (with_params, initial outputs)")
     wrap(simulator.Simulator, "_run", "engine: one run, all")
     wrap(metrics, "compute", "metrics")

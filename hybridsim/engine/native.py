@@ -89,12 +89,19 @@ CORE_TAIL = """
 # -- compiled with numba (this file is generated: stepping.py and {method}'s steps, then this) -------
 from numba import njit as _njit  # noqa: E402
 
+def copy_into(dst, src):  # element by element: a slice assignment may allocate (no NRT here)
+    for i in range(dst.size):
+        dst[i] = src[i]
+
+
+# no reference counting (_nrt=False): the core allocates nothing, and counting the arrays of the records
+# it passes around (atomic operations, 21 arrays in Work) cost more than the steps between log points
 for _name in {inlined!r}:
-    globals()[_name] = _njit(globals()[_name], inline="always", cache=True)
+    globals()[_name] = _njit(globals()[_name], inline="always", cache=True, _nrt=False)
 for _name in {called!r}:
-    globals()[_name] = _njit(globals()[_name], cache=True)
-interval = _njit(interval, cache=True, nogil=True)
-stepping_run = _njit(run, cache=True, nogil=True)
+    globals()[_name] = _njit(globals()[_name], cache=True, _nrt=False)
+interval = _njit(interval, cache=True, nogil=True, _nrt=False)
+stepping_run = _njit(run, cache=True, nogil=True, _nrt=False)
 
 
 def run_rk(tl, k0, k1, gl, s, lim, w, out, y, z, pf, pi):
@@ -140,4 +147,4 @@ def core(method_class):
     spec.loader.exec_module(module)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)
-        return njit(types()["run"], cache=True, nogil=True)(module.run_rk)
+        return njit(types()["run"], cache=True, nogil=True, _nrt=False)(module.run_rk)

@@ -126,7 +126,7 @@ def array_source(method):
         return out
 
     used = _dense_terms(method)
-    dense = " + ".join(f"wts[{j}] * w.k[{j} * n + e]" for j in used)
+    dense = " + ".join(f"wts[{j}] * kk[{j} * n + e]" for j in used)
     L = ["def rk_begin(s, t0, t1, x, times, j, j1):",
          "    num = s.num",
          "    m = max(1, int(math.ceil((t1 - t0) / num[0] - 1e-9)))",
@@ -157,6 +157,7 @@ def array_source(method):
          "    n = x.size",
          "    kk = w.k",
          "    xs = w.xs",
+         "    xm = w.xm",
          "    src = x"] + scaled + [
          "    while True:",
          "        t = t0 + k * h"] + stage_lines("        ", "src", "kk", "t") + [
@@ -166,8 +167,8 @@ def array_source(method):
          "        if not (k < m and t0 + (k + 1) * h <= t_lim + 1e-9 * h):",
          "            break",
          "        for e in range(n):",
-         "            w.xm[e] = xn[e]",
-         "        src = w.xm",
+         "            xm[e] = xn[e]",
+         "        src = xm",
          "    num[3] = k",
          "    return num[5] if k >= m else t0 + k * h", "",
          "",
@@ -181,6 +182,7 @@ def array_source(method):
         for p_ in poly[1:]:
             L += ["    q = q * theta", f"    wts[{j}] = wts[{j}] + {p_!r} * q"]
     L += ["    n = x.size",
+          "    kk = w.k  # a record's array read once: each read costs a reference count",
           "    for e in range(n):",
           f"        xo[e] = x[e] + h * ({dense})", "",
           "",
