@@ -8,7 +8,7 @@ from hybridsim.engine.registry import register
 
 from hybridsim.blocks._util import count, scalar, vector
 
-from hybridsim.blocks.robot._frames import rotation, rotation_vector
+from hybridsim.blocks.robot._frames import rotation
 from hybridsim.blocks.robot import task_kernels as tk
 
 GROUP = "robot"
@@ -83,50 +83,6 @@ class TaskPhases(Block):
         x[0] = -1.0  # the start pose is read at the first tick
         return x
 
-    def _start(self, u):
-        p, R = np.asarray(u[0], float), np.asarray(u[1], float).reshape(3, 3)
-        return np.concatenate([self.RC.T @ (p - self.o), rotation_vector(self.RC.T @ R)])
 
-    def _commands(self, t, x, u):
-        x = np.asarray(x, float).copy()
-        if x[0] < 0:
-            x[0], x[1], x[2:8] = 0.0, t, self._start(u)
-        k = self.k
-        F = np.asarray(u[2], float)
-        FC = np.concatenate([self.RC.T @ F[:3], self.RC.T @ F[3:]])
-        S, Xd, Xdd, Fd = np.zeros(6), x[2:8].copy(), np.zeros(6), np.zeros(6)
-        if x[0] == 0.0:
-            if FC[k] >= self.f0:  # contact: hold where it was found, press from here on
-                x[8:14] = x[2:8]
-                x[8 + k] += self.v * (t - x[1])
-                x[0], x[1] = 1.0, t
-            else:
-                Xd[k] += self.v * (t - x[1])
-                Xdd[k] = self.v
-        if x[0] >= 1.0:
-            S[k] = 1.0
-            Xd = x[8:14].copy()
-            s = t - x[1]
-            ramp = min(1.0, s / self.t_ramp) if self.t_ramp > 0 and x[0] == 1.0 else 1.0
-            Fd[k] = self.f0 + (self.f1 - self.f0) * ramp
-            if x[0] == 1.0 and s >= self.t_ramp + self.t_settle - 1e-9:  # a tick that lands on it, in floats
-                x[0], x[1] = 2.0, t
-            if x[0] == 2.0:
-                a, b = [i for i in range(3) if i != k]
-                s = min(t - x[1], self.T)  # one turn, from rest to rest: th = pi (1 - cos(pi s / T))
-                th = np.pi * (1.0 - np.cos(np.pi * s / self.T))
-                w = np.pi ** 2 / self.T * np.sin(np.pi * s / self.T)
-                Xd[a] += self.radius * (np.cos(th) - 1.0)
-                Xd[b] += self.radius * np.sin(th)
-                Xdd[a], Xdd[b] = -self.radius * w * np.sin(th), self.radius * w * np.cos(th)
-        return (S, Xd, Xdd, Fd, np.array([x[0]])), x
-
-    def output(self, t, x, u):
-        return self._commands(t, x, u)[0]
-
-    def update(self, t, x, u):
-        return self._commands(t, x, u)[1]
-
-
-# the kernels of the fused and compiled paths (blocks.robot.task_kernels); the methods above are the generic path's
+# every path runs the kernels (blocks.robot.task_kernels): the block's methods are the defaults that call them
 TaskPhases.kernels = tk.PHASES
