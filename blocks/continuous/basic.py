@@ -15,6 +15,7 @@ from hybridsim.engine.kernels import Kernels, kernel
 from hybridsim.engine.registry import register
 
 from hybridsim.blocks._util import count, flag, scalar, vector
+from hybridsim.blocks.continuous.linear import abcd_output, abcd_step
 
 GROUP = "control"  # where `hybridsim blocks` lists this module's blocks
 
@@ -213,18 +214,6 @@ class TransferFunction(Block):
         return np.zeros(self.params[0].shape[0])
 
 
-@kernel
-def lti_output(p, t, x, u):
-    A, B, C, D = p
-    return (np.dot(C, np.asarray(x)) + np.dot(D, np.asarray(u[0])),)
-
-
-@kernel
-def lti_derivatives(p, t, x, u):
-    A, B, C, D = p
-    return np.dot(A, np.asarray(x)) + np.dot(B, np.asarray(u[0]))
-
-
 @register("first_order")
 class FirstOrder(Block):
     """y' = (u - y) / tau: a first-order low-pass (a force-sensor filter, an actuator lag).
@@ -352,7 +341,7 @@ def relay_event(p, t, x, u, fired):
 Integrator.kernels = Kernels(output=integrator_output, derivatives=integrator_derivatives,
                              zero_crossings=integrator_crossings, event_action=integrator_event)
 FilteredDerivative.kernels = Kernels(output=derivative_output, derivatives=derivative_derivatives)
-TransferFunction.kernels = Kernels(output=lti_output, derivatives=lti_derivatives)
+TransferFunction.kernels = Kernels(output=abcd_output, derivatives=abcd_step)
 FirstOrder.kernels = Kernels(output=first_order_output, derivatives=first_order_derivatives)
 Relay.kernels = Kernels(output=relay_output, derivatives=relay_derivatives,
                         zero_crossings=relay_crossings, event_action=relay_event)

@@ -79,16 +79,17 @@ class StateSpace(Block):
 
 
 @kernel
-def state_space_output(p, t, x, u):
+def abcd_output(p, t, x, u):
+    """y = C x + D u of a state-space model ``p = (A, B, C, D)``."""
     A, B, C, D = p
     return (np.dot(C, np.asarray(x)) + np.dot(D, np.asarray(u[0])),)
 
 
 @kernel
-def state_space_derivatives(p, t, x, u):
+def abcd_step(p, t, x, u):
+    """A x + B u: a continuous model's derivatives, a discrete one's next state."""
     A, B, C, D = p
     return np.dot(A, np.asarray(x)) + np.dot(B, np.asarray(u[0]))
 
 
-LowPass.kernels = Kernels(output=lowpass_output, derivatives=lowpass_derivatives)
-StateSpace.kernels = Kernels(output=state_space_output, derivatives=state_space_derivatives)
+StateSpace.kernels = Kernels(output=abcd_output, derivatives=abcd_step)

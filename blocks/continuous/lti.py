@@ -7,7 +7,7 @@ from hybridsim.engine.kernels import Kernels
 from hybridsim.engine.registry import register
 
 from hybridsim.blocks._util import scalar, vector
-from hybridsim.blocks.continuous.linear import state_space_derivatives, state_space_output
+from hybridsim.blocks.continuous.linear import abcd_output, abcd_step
 from hybridsim.blocks.continuous.basic import tf_to_ss
 
 GROUP = "control"  # where `hybridsim blocks` lists this module's blocks
@@ -110,5 +110,5 @@ class TransferFunctionMIMO(Block):
         return self.x0.copy()
 
 
-ZeroPoleGain.kernels = Kernels(output=state_space_output, derivatives=state_space_derivatives)
-TransferFunctionMIMO.kernels = Kernels(output=state_space_output, derivatives=state_space_derivatives)
+ZeroPoleGain.kernels = Kernels(output=abcd_output, derivatives=abcd_step)
+TransferFunctionMIMO.kernels = Kernels(output=abcd_output, derivatives=abcd_step)

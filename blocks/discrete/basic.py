@@ -18,6 +18,7 @@ from hybridsim.engine.registry import register
 
 from hybridsim.blocks._util import count, finite_matrix, vector
 from hybridsim.blocks.continuous.basic import tf_to_ss
+from hybridsim.blocks.continuous.linear import abcd_output, abcd_step
 
 
 GROUP = "control"  # where `hybridsim blocks` lists this module's blocks
@@ -131,18 +132,6 @@ def _setup_dss(block, A, B, C, D, x0=None):
     block.declare_discrete_state(n)
     block.declare_input("u", m)
     block.declare_output("y", q, depends_on=None if np.any(D) else ())
-
-
-@kernel
-def dss_output(p, t, x, u):
-    A, B, C, D = p
-    return (np.dot(C, np.asarray(x)) + np.dot(D, np.asarray(u[0])),)
-
-
-@kernel
-def dss_update(p, t, x, u):
-    A, B, C, D = p
-    return np.dot(A, np.asarray(x)) + np.dot(B, np.asarray(u[0]))
 
 
 @register("discrete_transfer_function")
@@ -364,8 +353,8 @@ def rate_limiter_update(p, t, x, u):
 
 
 DiscreteIntegrator.kernels = Kernels(output=dintegrator_output, update=dintegrator_update)
-DiscreteStateSpace.kernels = Kernels(output=dss_output, update=dss_update)
-DiscreteTransferFunction.kernels = Kernels(output=dss_output, update=dss_update)
+DiscreteStateSpace.kernels = Kernels(output=abcd_output, update=abcd_step)
+DiscreteTransferFunction.kernels = Kernels(output=abcd_output, update=abcd_step)
 DelayN.kernels = Kernels(output=delay_n_output, update=delay_n_update)
 DiscretePID.kernels = Kernels(output=discrete_pid_output, update=discrete_pid_update)
 RateLimiter.kernels = Kernels(output=rate_limiter_output, update=rate_limiter_update)
