@@ -106,3 +106,17 @@ def finite_matrix(value, name):
     _check_values(arr.ravel(), name, False, None)
     return arr
 
+
+
+def pid_gains(Kp, Ki, Kd, lower, upper, Kb, n):
+    """``(Kp, Ki, Kd, lower, upper, Kb)`` of a PID with ``n`` channels, checked; the back-calculation
+    gain ``Kb`` defaults to Ki / Kp (1 where Kp is 0)."""
+    Kp_, Ki_, Kd_ = vector(Kp, "Kp", n), vector(Ki, "Ki", n), vector(Kd, "Kd", n)
+    lo, hi = vector(lower, "lower", n, inf_ok=True), vector(upper, "upper", n, inf_ok=True)
+    if np.any(lo > hi):
+        raise ParameterError("lower", f"must not exceed upper ({lower!r} > {upper!r})")
+    if Kb is None:
+        Kb_ = np.where(Kp_ != 0.0, Ki_ / np.where(Kp_ != 0.0, Kp_, 1.0), 1.0)
+    else:
+        Kb_ = vector(Kb, "Kb", n, "nonnegative")
+    return Kp_, Ki_, Kd_, lo, hi, Kb_

@@ -92,4 +92,5 @@ def abcd_step(p, t, x, u):
     return np.dot(A, np.asarray(x)) + np.dot(B, np.asarray(u[0]))
 
 
+LowPass.kernels = Kernels(output=lowpass_output, derivatives=lowpass_derivatives)
 StateSpace.kernels = Kernels(output=abcd_output, derivatives=abcd_step)

@@ -9,7 +9,7 @@ from hybridsim.errors import ParameterError
 from hybridsim.engine.kernels import Kernels, kernel
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks._util import count, vector
+from hybridsim.blocks._util import count, pid_gains, vector
 
 GROUP = "control"  # where `hybridsim blocks` lists this module's blocks
 
@@ -42,14 +42,7 @@ class PID(Block):
         n = count(width, "width")
         if anti_windup not in _ANTI_WINDUP:
             raise ParameterError("anti_windup", f"must be one of {', '.join(_ANTI_WINDUP)}; got {anti_windup!r}")
-        Kp_, Ki_, Kd_ = vector(Kp, "Kp", n), vector(Ki, "Ki", n), vector(Kd, "Kd", n)
-        lo, hi = vector(lower, "lower", n, inf_ok=True), vector(upper, "upper", n, inf_ok=True)
-        if np.any(lo > hi):
-            raise ParameterError("lower", f"must not exceed upper ({lower!r} > {upper!r})")
-        if Kb is None:
-            Kb_ = np.where(Kp_ != 0.0, Ki_ / np.where(Kp_ != 0.0, Kp_, 1.0), 1.0)
-        else:
-            Kb_ = vector(Kb, "Kb", n, "nonnegative")
+        Kp_, Ki_, Kd_, lo, hi, Kb_ = pid_gains(Kp, Ki, Kd, lower, upper, Kb, n)
         big = 1e300  # an infinite limit kept finite: the event functions stay numbers
         self.params = ContinuousPIDParams(Kp_, Ki_, Kd_, vector(N, "N", n, "positive"), vector(b, "b", n),
                                           vector(c, "c", n), np.clip(lo, -big, big), np.clip(hi, -big, big),

@@ -16,7 +16,7 @@ from hybridsim.errors import ParameterError
 from hybridsim.engine.kernels import Kernels, kernel
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks._util import count, finite_matrix, vector
+from hybridsim.blocks._util import count, finite_matrix, pid_gains, vector
 from hybridsim.blocks.continuous.basic import tf_to_ss
 from hybridsim.blocks.continuous.linear import abcd_output, abcd_step
 
@@ -236,15 +236,8 @@ class DiscretePID(_Sampled):
         for key, m in (("integrator_method", integrator_method), ("filter_method", filter_method)):
             if m not in _METHODS:
                 raise ParameterError(key, f"must be one of {', '.join(_METHODS)}; got {m!r}")
-        Kp_, Ki_, Kd_ = vector(Kp, "Kp", n), vector(Ki, "Ki", n), vector(Kd, "Kd", n)
+        Kp_, Ki_, Kd_, lo, hi, Kb_ = pid_gains(Kp, Ki, Kd, lower, upper, Kb, n)
         Nf = vector(N, "N", n, "positive", inf_ok=True)
-        lo, hi = vector(lower, "lower", n, inf_ok=True), vector(upper, "upper", n, inf_ok=True)
-        if np.any(lo > hi):
-            raise ParameterError("lower", f"must not exceed upper ({lower!r} > {upper!r})")
-        if Kb is None:
-            Kb_ = np.where(Kp_ != 0.0, Ki_ / np.where(Kp_ != 0.0, Kp_, 1.0), 1.0)
-        else:
-            Kb_ = vector(Kb, "Kb", n, "nonnegative")
         a = {"forward": 0.0, "backward": 1.0, "trapezoidal": 0.5}[integrator_method]
         nt = np.where(np.isfinite(Nf), Nf, 0.0) * self.T
         one = np.ones(n)

@@ -10,24 +10,14 @@ from typing import NamedTuple
 
 import numpy as np
 
-from hybridsim.engine.block import Block
 from hybridsim.errors import ParameterError
 from hybridsim.engine.kernels import Kernels, kernel
 from hybridsim.engine.registry import register
 
 from hybridsim.blocks._util import scalar, vector
-from hybridsim.blocks.sources.basic import _widths
+from hybridsim.blocks.sources.basic import _Source, _widths
 
 GROUP = "sources"  # where `hybridsim blocks` lists this module's blocks
-
-
-class _Source(Block):
-    time_varying = True
-
-    def __init__(self, name, width):
-        super().__init__(name)
-        self.declare_output("y", width)
-        self.declare_output("dy", width)
 
 
 class WaveParams(NamedTuple):
