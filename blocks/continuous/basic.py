@@ -39,7 +39,8 @@ class Integrator(Block):
     explicit enter and leave conditions, each a located event: a free
     integrator enters a limit when x reaches it (x set to the limit, then
     x' = 0); a held one leaves when K u changes sign to point back inside
-    (one event, whatever the step). Only the functions of the current mode
+    (one event, whatever the step). An integrator that starts at a limit
+    starts held there unless K u(0) points inside. Only the functions of the current mode
     are armed (the others read a constant that never fires). Ports: in ``u``, ``reset`` (optional: unwired it is 0;
     x resets when it rises through 0.5); out ``y``. Example: K = 2, u = 1
     from x(0) = 0 gives y(1 s) = 2; with upper = 1.5 it stops at 1.5 at
@@ -63,9 +64,16 @@ class Integrator(Block):
         self.declare_input("reset", n, default=[0.0] * n, optional=True)
         self.declare_output("y", n, depends_on=())
         self.declare_continuous_state(2 * n)  # x, then the mode m
+        # starting at a limit, it starts held there unless its input points inside (read at t = 0)
+        self.init_needs_inputs = bool(np.any((x0 <= lo) | (x0 >= hi)))
 
     def initial_state(self, u=None):
-        return np.concatenate((self.params.x0, np.zeros(self.params.n)))
+        p = self.params
+        m = np.zeros(p.n)
+        if u is not None:
+            du = p.K * np.asarray(u[0], float)
+            m = np.where((p.x0 >= p.upper) & (du >= 0), 1.0, np.where((p.x0 <= p.lower) & (du <= 0), -1.0, 0.0))
+        return np.concatenate((p.x0, m))
 
 
 class IntegratorParams(NamedTuple):

@@ -17,6 +17,7 @@ import sys
 import numpy as np
 
 from hybridsim.engine import stepping
+from hybridsim.engine.solvers import NotFinite
 
 #: internal steps CVODE may take between two returned points
 MAX_STEPS = 1_000_000
@@ -50,8 +51,9 @@ class CVodeStepper:
                 failed.append(exc)
                 dx.fill(np.nan)
                 return
-            if not seen and not np.isfinite(dx).all():
+            if not np.isfinite(dx).all():  # ends the run, as on scipy's solvers (NotFinite)
                 seen.append((t, np.array(xx, float)))
+                failed.append(NotFinite(t))
 
         def roots(t, xx, out):
             if failed:
@@ -76,6 +78,9 @@ class CVodeStepper:
 
     def result(self, res, t_start):
         """Whether ``res`` failed (then ``message`` says why); a callback's exception is raised."""
+        if self.failed and isinstance(self.failed[0], NotFinite):
+            self.message = f"solver cvode failed at t={self.seen[0][0]:.9g} s: {self.failed.pop(0)}"
+            return False
         if self.failed:
             raise self.failed.pop(0)
         if res.status < 0:

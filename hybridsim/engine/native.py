@@ -78,7 +78,7 @@ def types():
 
 #: the core's small helpers that numba inlines where they are called (the others are called: inlining
 #: them all would multiply the core's compile time for little)
-INLINED = ("crossed_any", "first_bad", "copy_into", "mute", "record")
+INLINED = ("crossed_any", "first_sign_change", "first_bad", "copy_into", "mute", "record")
 #: the core's other functions, called
 CALLED = ("rk_begin", "rk_step", "rk_steps", "rk_dense", "rk_restep", "rk_rewind", "fail", "log_event",
           "observe", "restep_to_failure", "locate", "settle")

@@ -338,6 +338,12 @@ class Session:
             if code == stepping.CHATTER:
                 raise _events.chatter_error(t, names)
             raise _events.zeno_error(t, names, code == stepping.ZENO, index)
+        elif code == stepping.MISSED:
+            owner = self.sim.system.blocks[self.sim.located[int(self.w.owner[index])]].name
+            raise SimulationError(
+                f"solver {sim.solver!r} stepped over a crossing of block {owner!r}'s event function "
+                f"before t={t:.9g} s without reporting it (events piling up, or two crossings in one "
+                "step); a fixed-step RK solver (rk4, heun) or scipy's locate every crossing")
         elif code == stepping.FAILED:
             seen = getattr(self.s, "seen", None)
             if seen:  # the block whose output was not finite, when one was

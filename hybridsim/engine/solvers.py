@@ -204,6 +204,13 @@ class ScipySolver(Solver):
 METHODS = {"Radau": Radau, "BDF": BDF, "LSODA": LSODA, "RK45": RK45, "RK23": RK23, "DOP853": DOP853}
 
 
+class NotFinite(ArithmeticError):
+    """A right-hand side that is not finite: it ends the integration (a solver's step fails)."""
+
+    def __init__(self, t):
+        super().__init__(f"the right-hand side is not finite at t={t:.9g} s")
+
+
 class ScipyStepper:
     """Where a :class:`ScipySolver` is: its ``OdeSolver`` of the current integration."""
 
@@ -220,8 +227,9 @@ class ScipyStepper:
         def fun(t, xx):
             dx = np.empty(n)
             rhs(t, xx, dx, 0, y, z, pf, pi)
-            if not seen and not np.isfinite(dx).all():
-                seen.append((t, np.array(xx, float)))
+            if not np.isfinite(dx).all():  # ends the run: the solvers shrink their steps to nothing
+                seen.append((t, np.array(xx, float)))  # on it, or integrate infinities, or hang (LSODA)
+                raise NotFinite(t)
             return dx
 
         self.seen = seen
@@ -236,18 +244,21 @@ def scipy_ops():
         s.t0, s.t1, s.x0, s.ode = t0, t1, np.array(x, float), None
 
     def step(s, x, xn, w, gl, y, z, pf, pi):
-        if s.ode is None:
-            s.start(gl.rhs, y, z, pf, pi)
-        ode = s.ode
         try:
+            if s.ode is None:
+                s.start(gl.rhs, y, z, pf, pi)
+            ode = s.ode
             message = ode.step()
+            failed = ode.status == "failed"
+        except NotFinite as exc:
+            failed, message = True, str(exc)
         except (ValueError, np.linalg.LinAlgError) as exc:  # scipy's linear algebra on NaN
             if not s.seen:
                 raise
-            ode.status, message = "failed", str(exc)
-        if ode.status == "failed":
-            why = f" (the right-hand side is not finite at t={s.seen[0][0]:.9g} s)" if s.seen else ""
-            s.message = f"solver {s.solver.method} failed at t={ode.t:.9g} s: {message}{why}"
+            failed, message = True, str(exc)
+        if failed:
+            t_at = s.seen[0][0] if s.seen else s.ode.t
+            s.message = f"solver {s.solver.method} failed at t={t_at:.9g} s: {message}"
             return np.nan
         xn[:] = ode.y
         s.num[1] = ode.t - ode.t_old

@@ -47,6 +47,7 @@ STALLED = 5     # max_stalls events in a row within 10 time_tol of each other
 CHATTER = 6     # an event iteration that does not settle
 STOPPED = 7     # a block asked to end the run (its request is kept by the glue)
 FAILED = 8      # the solver failed (its message is kept by the stepper)
+MISSED = 9      # a stepper that locates crossings itself stepped over one: status[1] = function index
 
 # -- what glue.stepped / glue.timed / glue.act answer --------------------------
 GO, STEP_EVENT, STOP = 0, 1, 2
@@ -67,6 +68,19 @@ def crossed_any(a, b, dirs, fired):
         fired[i] = f
         hit = hit or f
     return hit
+
+
+def first_sign_change(a, b, dirs):
+    """The first function that crossed zero from ``a`` to ``b``; -1 if none. A directed function
+    counts as :func:`crossed_any` counts it; a function without a direction (an FMU's indicator)
+    only from a start clearly off zero (it sits at zero just after its own event)."""
+    for i in range(a.size):
+        d = dirs[i]
+        if d > 0 and a[i] <= 0.0 and b[i] > 0.0 or d < 0 and a[i] >= 0.0 and b[i] < 0.0:
+            return i
+        if d == 0 and a[i] * b[i] < 0.0 and abs(a[i]) > 1e-9 * abs(b[i]):
+            return i
+    return -1
 
 
 def first_bad(x, max_state):
@@ -219,6 +233,11 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                     event, t_ev = True, tb
                     copy_into(w.xe, xn)
                 elif s.num[ROOT] < 0.0:  # it looked, and none lies in the step
+                    miss = first_sign_change(w.g, w.gn, w.dirs)
+                    if miss >= 0:  # yet one changed sign: without dense output it cannot be located
+                        copy_into(x, xn)
+                        fail(out, MISSED, miss, j, tb)
+                        return MISSED
                     copy_into(w.g, w.gn)
                 else:  # bisected on the step's dense output
                     event, t_ev = locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi)

@@ -1,0 +1,78 @@
+"""Edges of the variable-step solvers found by trying new diagrams: a right-hand side that turns
+infinite, a crossing CVODE does not report, an integrator that starts at its limit."""
+import math
+import signal
+
+import numpy as np
+import pytest
+
+import hybridsim as hs
+from hybridsim.errors import SimulationError
+
+VARIABLE = ["radau", "bdf", "lsoda", "rk45", "dop853", "cvode"]
+
+DIVISION = """blocks:
+  one: {type: constant, value: 1.0}
+  den: {type: step, initial: 1.0, final: 0.0, time: 0.3}
+  div: {type: product, ops: "*/"}
+  int: {type: integrator}
+wires: [one.y -> div.u1, den.y -> div.u2, div.y -> int.u]
+simulation: {t_end: 1.0, step: 1.0e-3, log_period: 0.01}
+"""
+
+BALL = """blocks:
+  ball: {type: bouncing_ball, g: 3.7, e: 0.6, h0: 2.0, v0: 0.0}
+simulation: {t_end: 6.0, step: 1.0e-3, log_period: 0.01}
+log: [ball.h, ball.v]
+"""
+
+AT_LIMIT = """blocks:
+  src: {type: sine, amplitude: 1.0, frequency: 1.0}
+  int: {type: integrator, initial: 0.2, upper: 0.2}
+wires: [src.y -> int.u]
+simulation: {t_end: 1.2, step: 1.0e-3, log_period: 0.01}
+log: [int.y]
+"""
+
+
+def _file(tmp_path, text):
+    path = tmp_path / "d.yaml"
+    path.write_text(text)
+    return path
+
+
+def _hang(signum, frame):
+    raise TimeoutError("the run hangs")
+
+
+@pytest.mark.parametrize("solver", VARIABLE)
+def test_a_right_hand_side_that_turns_infinite_names_the_block_within_a_step(tmp_path, solver):
+    # 1/0 from t = 0.3 s on: every solver stops (LSODA used to hang) and names the block
+    old = signal.signal(signal.SIGALRM, _hang)
+    signal.alarm(60)
+    try:
+        with pytest.raises(SimulationError, match="'div'") as err:
+            hs.simulate(_file(tmp_path, DIVISION), solver=solver)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    t = float(err.value.args[0].split("t=")[1].split(" ")[0])
+    assert 0.3 <= t <= 1.0
+
+
+def test_cvode_refuses_to_step_over_a_crossing_it_did_not_report(tmp_path):
+    # bounces pile up at t1 + 2 e v1 / (g (1 - e)) = 4.159 s; CVODE stops reporting them before:
+    # an error, never the ball below the floor with exit 0
+    with pytest.raises(SimulationError, match="stepped over a crossing of block 'ball'"):
+        hs.simulate(_file(tmp_path, BALL), solver="cvode")
+
+
+@pytest.mark.parametrize("solver", ["rk4", "heun"] + VARIABLE)
+def test_an_integrator_that_starts_at_its_limit_is_held_there_and_leaves_once(tmp_path, solver):
+    # held at 0.2 until sin turns negative at 0.5 s, then y = 0.2 - (1 + cos 2 pi t) / (2 pi)
+    res = hs.simulate(_file(tmp_path, AT_LIMIT), solver=solver)
+    assert [round(t, 6) for t, _ in res.meta["events"]] == [0.5]
+    t = res.t
+    exact = np.where(t < 0.5, 0.2, 0.2 - (1 + np.cos(2 * math.pi * t)) / (2 * math.pi))
+    tol = 1e-5 if solver == "heun" else 1e-6
+    assert np.abs(np.ravel(res["int.y"]) - exact).max() < tol
