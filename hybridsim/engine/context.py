@@ -57,7 +57,8 @@ class Context:
         # provisional outputs at t = 0, then the blocks that need inputs; again while one such
         # block's start depends on another's (a filter on a pre-loaded spring), in any order
         for _ in range(len(late)):
-            self.evaluate(range(len(self.blocks)), 0.0, self.xc)
+            with np.errstate(all="ignore"):  # a non-finite output is reported by the run, naming its block
+                self.evaluate(range(len(self.blocks)), 0.0, self.xc)
             for i in late:
                 self._set_initial(i, self.blocks[i].initial_state(self.u[i]))
             if len(late) == 1:
