@@ -98,6 +98,8 @@ def cvode_ops():
     def begin(s, t0, t1, x, times, j, j1):
         s.t0, s.t1, s.x0 = t0, t1, np.array(x, float)
         s.times = [float(t) for t in times[j:j1] if t0 < t < t1]
+        s.fresh = True  # the first point from here is not checked for crossings: a function may
+        # sit on its surface at the start (after its own event), and CVODE skips roots there
         s.cv, s.queue, s.ta, s.started = None, [], t0, False
         s.said = ""
 
@@ -153,7 +155,8 @@ def cvode_ops():
         xn[:] = np.asarray(yy, float).reshape(-1)
         s.num[1] = t - s.ta
         s.ta = t
-        s.num[stepping.ROOT] = 1.0 if root is not None else -1.0
+        s.num[stepping.ROOT] = 1.0 if root is not None else (-2.0 if s.fresh else -1.0)
+        s.fresh = False
         if root is not None:
             w.fired[:] = root
         return t

@@ -53,7 +53,9 @@ MISSED = 9      # a stepper that locates crossings itself stepped over one: stat
 GO, STEP_EVENT, STOP = 0, 1, 2
 
 #: where a stepper that locates crossings itself says what it found (``s.num[ROOT]``): +1 the step
-#: ends at a crossing (``w.fired`` set), -1 none in the step, 0 it does not look (then the core bisects)
+#: ends at a crossing (``w.fired`` set), -1 none in the step (the core checks that none changed sign),
+#: -2 none in a first short step from a start where a function may sit on its surface (not checked),
+#: 0 it does not look (then the core bisects)
 ROOT = 6
 
 
@@ -71,14 +73,15 @@ def crossed_any(a, b, dirs, fired):
 
 
 def first_sign_change(a, b, dirs):
-    """The first function that crossed zero from ``a`` to ``b``; -1 if none. A directed function
-    counts as :func:`crossed_any` counts it; a function without a direction (an FMU's indicator)
-    only from a start clearly off zero (it sits at zero just after its own event)."""
+    """The first function that went from ``a`` to ``b`` across zero; -1 if none. A directed
+    function counts when it ends on its firing side from the other side or from (numerically)
+    zero, where piled-up events leave it; one without a direction (an FMU's indicator) only from
+    a start clearly off zero (it sits at zero just after its own event)."""
     for i in range(a.size):
-        d = dirs[i]
-        if d > 0 and a[i] <= 0.0 and b[i] > 0.0 or d < 0 and a[i] >= 0.0 and b[i] < 0.0:
+        d, near = dirs[i], abs(a[i]) <= 1e-9 * abs(b[i])
+        if d > 0 and b[i] > 0.0 and (a[i] <= 0.0 or near) or d < 0 and b[i] < 0.0 and (a[i] >= 0.0 or near):
             return i
-        if d == 0 and a[i] * b[i] < 0.0 and abs(a[i]) > 1e-9 * abs(b[i]):
+        if d == 0 and a[i] * b[i] < 0.0 and not near:
             return i
     return -1
 
@@ -233,7 +236,7 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                     event, t_ev = True, tb
                     copy_into(w.xe, xn)
                 elif s.num[ROOT] < 0.0:  # it looked, and none lies in the step
-                    miss = first_sign_change(w.g, w.gn, w.dirs)
+                    miss = first_sign_change(w.g, w.gn, w.dirs) if s.num[ROOT] > -1.5 else -1
                     if miss >= 0:  # yet one changed sign: without dense output it cannot be located
                         copy_into(x, xn)
                         fail(out, MISSED, miss, j, tb)
