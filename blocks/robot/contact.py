@@ -66,30 +66,14 @@ class PlaneContact(Block):
         self.params = PlaneParams(tuple(self.point.tolist()), tuple(self.n.tolist()), self.K, self.B, self.mu,
                                      self.v_s, self.unilateral)
 
-    def depth(self, p):
-        """Penetration (m) of point ``p`` into the plane: positive inside."""
-        n, c = self.n, self.point
-        return float(n[0] * (c[0] - p[0]) + n[1] * (c[1] - p[1]) + n[2] * (c[2] - p[2]))
-
-    def output(self, t, x, u):
-        # plain floats: this runs at every right-hand side, where numpy's per-call cost dominates
-        n, tw = self.n, u[1]
-        d = self.depth(u[0])
-        v = (float(tw[0]), float(tw[1]), float(tw[2]))
-        vn = v[0] * n[0] + v[1] * n[1] + v[2] * n[2]
-        fn = self.K * d - self.B * vn
-        inside = d > 0.0 or not self.unilateral
-        fn = (max(fn, 0.0) if self.unilateral else fn) if inside else 0.0
-        vt = (v[0] - vn * n[0], v[1] - vn * n[1], v[2] - vn * n[2])
-        k = -self.mu * abs(fn) / math.sqrt(vt[0] ** 2 + vt[1] ** 2 + vt[2] ** 2 + self.v_s ** 2)
-        w = np.array([fn * n[0] + k * vt[0], fn * n[1] + k * vt[1], fn * n[2] + k * vt[2], 0.0, 0.0, 0.0])
-        return (w, -w, np.array([1.0 if fn > 0.0 else 0.0]), np.array([d]))
+    def output(self, t, x, u):  # the kernel's law, as arrays
+        return tuple(np.array(v) for v in plane_output(self.params, t, x, u))
 
     def zero_crossings(self, t, x, u):
-        return np.array([self.depth(u[0])])
+        return np.array(plane_zero_crossings(self.params, t, x, u))
 
 
-# -- the plane's kernels (the fused and compiled paths): the law of the methods above, in floats
+# -- the plane's kernels (every path): its law in floats
 class PlaneParams(NamedTuple):
     point: tuple
     n: tuple
@@ -110,8 +94,8 @@ def plane_depth(p, pt):
 @kernel
 def plane_output(p, t, x, u):
     """wrench on the tool, F on the plane, contact, depth (the method's law in floats)."""
-    n, c, pt, tw = p.n, p.point, u[0], u[1]
-    d = n[0] * (c[0] - pt[0]) + n[1] * (c[1] - pt[1]) + n[2] * (c[2] - pt[2])  # as plane_depth
+    n, pt, tw = p.n, u[0], u[1]
+    d = plane_depth(p, pt)
     vn = tw[0] * n[0] + tw[1] * n[1] + tw[2] * n[2]
     fn = p.K * d - p.B * vn
     inside = d > 0.0 or not p.unilateral
@@ -132,5 +116,4 @@ def plane_zero_crossings(p, t, x, u):
 PLANE = Kernels(output=plane_output, zero_crossings=plane_zero_crossings)
 
 
-# the kernels of the fused and compiled paths; the methods are the generic path's
 PlaneContact.kernels = PLANE

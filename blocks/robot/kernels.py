@@ -275,9 +275,7 @@ def arm_derivatives(p, t, x, u):
     model, data = got
     q, v = x[:p.n], x[p.n:2 * p.n]
     va = np.array(v)
-    f = np.array(u[0]) - p.b * va  # as _applied, written out: this runs on every right-hand side
-    if any(u[1]):
-        f += tool_frame(model, data, p.tool, q)[5] @ np.array(u[1])
+    f = _applied(p, model, data, q, va, u)
     return v + tuple(_PIN[0].aba(model, data, np.array(q), va, f).tolist())
 
 
