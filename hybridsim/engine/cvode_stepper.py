@@ -33,6 +33,7 @@ class CVodeStepper:
         self.cv = None
         self.queue = []
         self.failed, self.message, self.seen = [], None, None
+        self.event_at = self.event_x = None  # the last crossing CVODE returned, and the state there
 
     def start(self, w, gl, y, z, pf, pi):
         """A fresh CVODE for (t0, x0) with the glue's right-hand side and event functions."""
@@ -92,14 +93,62 @@ class CVodeStepper:
         return True
 
 
+def leaving_sides(s, xn, w, gl, y, z, pf, pi):
+    """Before the core checks the first point from a start: each event function that sits on its
+    surface at the start (CVODE skips its roots there) gets, in ``w.g``, the side it leaves to,
+    from its rate at the start.
+
+    A function that leaves to one side and is on the other at the point crossed back inside the
+    step, unreported, so the core stops. So does one that heads to its firing side just after an
+    event whose action turned it there (a bouncing ball whose bounces pile up: the bounce left it
+    falling through the floor); one that crossed and goes on (a ``hit_crossing``) does not. One
+    that leaves along its surface (zero rate) is not checked."""
+    g0, gn = w.g, np.empty_like(w.g)
+    on = np.flatnonzero(np.abs(g0) <= 1e-9 * np.abs(_zc(s.ta, xn, gn, w, gl, y, z, pf, pi)))
+    if not on.size:
+        return
+    after = np.sign(_rates(s.t0, s.x0, g0, w, gl, y, z, pf, pi))
+    before = np.sign(_rates(s.t0, s.before, None, w, gl, y, z, pf, pi)) if s.before is not None else after
+    for i in on:
+        if after[i] == 0.0 or gn[i] == 0.0:
+            g0[i] = gn[i]  # along its surface: not checked
+        elif after[i] * w.dirs[i] > 0 and before[i] * w.dirs[i] <= 0:
+            g0[i] = 0.0  # turned to its firing side by the event's action: crossing again
+        else:
+            g0[i] = after[i] * abs(gn[i])
+
+
+def _rates(t, x, g, w, gl, y, z, pf, pi):
+    """The event functions' rates at (t, x), from one right-hand side and a step of Euler over
+    ``LEAVE_STEP`` (``g``: their values there, when known); NaN read as 0."""
+    if g is None:
+        g = _zc(t, x, np.empty(w.g.size), w, gl, y, z, pf, pi)
+    dx = np.empty(x.size)
+    gl.rhs(t, x, dx, 0, y, z, pf, pi)
+    dt = LEAVE_STEP * max(1.0, abs(t))
+    return np.nan_to_num(_zc(t + dt, x + dt * dx, np.empty_like(g), w, gl, y, z, pf, pi) - g)
+
+
+def _zc(t, x, g, w, gl, y, z, pf, pi):
+    gl.zc(t, x, g, y, z, pf, pi)
+    stepping.mute(g, w.muted)
+    return g
+
+
+#: the time step (s, relative past t = 1 s) over which a function's rate at a start is taken
+LEAVE_STEP = 1e-9
+
+
 def cvode_ops():
     """The :class:`~hybridsim.engine.stepping.Ops` of :class:`CVodeStepper`."""
 
     def begin(s, t0, t1, x, times, j, j1):
         s.t0, s.t1, s.x0 = t0, t1, np.array(x, float)
         s.times = [float(t) for t in times[j:j1] if t0 < t < t1]
-        s.fresh = True  # the first point from here is not checked for crossings: a function may
-        # sit on its surface at the start (after its own event), and CVODE skips roots there
+        s.fresh = True  # at the first point from here, leaving_sides stands in for functions on
+        # their surface at the start (after their own event): CVODE skips roots there
+        s.before = s.event_x if s.event_at == t0 else None  # from an event: the state before its action
+        s.event_at, s.event_x = None, None
         s.cv, s.queue, s.ta, s.started = None, [], t0, False
         s.said = ""
 
@@ -145,7 +194,7 @@ def cvode_ops():
             return t, res.y, np.asarray(res.i_events, float).reshape(-1, w.g.size)[-1] != 0
         return (s.t1 if target == s.t1 else t), res.y, None
 
-    def take(s, point, xn, w):
+    def take(s, point, xn, w, gl, y, z, pf, pi):
         t, yy, root = point
         if t == "failed":
             s.result(yy, s.ta)  # a callback's exception is raised here
@@ -155,21 +204,24 @@ def cvode_ops():
         xn[:] = np.asarray(yy, float).reshape(-1)
         s.num[1] = t - s.ta
         s.ta = t
-        s.num[stepping.ROOT] = 1.0 if root is not None else (-2.0 if s.fresh else -1.0)
+        s.num[stepping.ROOT] = 1.0 if root is not None else -1.0
+        if s.fresh and root is None and w.g.size:
+            leaving_sides(s, xn, w, gl, y, z, pf, pi)
         s.fresh = False
         if root is not None:
             w.fired[:] = root
+            s.event_at, s.event_x = t, xn.copy()
         return t
 
     def step(s, x, xn, w, gl, y, z, pf, pi):
-        return take(s, one(s, w, gl, y, z, pf, pi), xn, w)
+        return take(s, one(s, w, gl, y, z, pf, pi), xn, w, gl, y, z, pf, pi)
 
     def steps(s, t_lim, x, xn, w, gl, y, z, pf, pi):
         if s.cv is None and not s.queue and not solve(s, w, gl, y, z, pf, pi):
             s.cv = None
         if not s.queue:
             return step(s, x, xn, w, gl, y, z, pf, pi)
-        return take(s, s.queue.pop(0), xn, w)
+        return take(s, s.queue.pop(0), xn, w, gl, y, z, pf, pi)
 
     def dense(s, t, x, w, xo):  # the core asks only inside a step; CVODE's points end at log times
         xo[:] = x

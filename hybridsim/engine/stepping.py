@@ -53,9 +53,9 @@ MISSED = 9      # a stepper that locates crossings itself stepped over one: stat
 GO, STEP_EVENT, STOP = 0, 1, 2
 
 #: where a stepper that locates crossings itself says what it found (``s.num[ROOT]``): +1 the step
-#: ends at a crossing (``w.fired`` set), -1 none in the step (the core checks that none changed sign),
-#: -2 none in a first short step from a start where a function may sit on its surface (not checked),
-#: 0 it does not look (then the core bisects)
+#: ends at a crossing (``w.fired`` set), -1 none in the step (the core checks that none changed sign
+#: from ``w.g``, which such a stepper may set to the side a function leaves its surface to), 0 it
+#: does not look (then the core bisects)
 ROOT = 6
 
 
@@ -236,7 +236,7 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                     event, t_ev = True, tb
                     copy_into(w.xe, xn)
                 elif s.num[ROOT] < 0.0:  # it looked, and none lies in the step
-                    miss = first_sign_change(w.g, w.gn, w.dirs) if s.num[ROOT] > -1.5 else -1
+                    miss = first_sign_change(w.g, w.gn, w.dirs)
                     if miss >= 0:  # yet one changed sign: without dense output it cannot be located
                         copy_into(x, xn)
                         fail(out, MISSED, miss, j, tb)

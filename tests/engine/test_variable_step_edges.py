@@ -60,14 +60,27 @@ def test_a_right_hand_side_that_turns_infinite_names_the_block_within_a_step(tmp
     assert 0.3 <= t <= 1.0
 
 
-@pytest.mark.xfail(strict=True, reason="known gap: after its last reported bounce CVODE starts on the floor, "
-                   "and the first point it returns is not checked (a function on its surface there is not "
-                   "a crossing); the ball is then below the floor with exit 0")
 def test_cvode_refuses_to_step_over_a_crossing_it_did_not_report(tmp_path):
     # bounces pile up at t1 + 2 e v1 / (g (1 - e)) = 4.159 s; CVODE stops reporting them before:
     # an error should say so, never the ball below the floor with exit 0
     with pytest.raises(SimulationError, match="stepped over a crossing of block 'ball'"):
         hs.simulate(_file(tmp_path, BALL), solver="cvode")
+
+
+TOSSED = """blocks:
+  ball: {type: bouncing_ball, g: 9.81, e: 0.5, h0: 0.0, v0: 1.0e-6}
+simulation: {t_end: 1.0, step: 1.0e-3, log_period: 0.01}
+log: [ball.h]
+"""
+
+
+@pytest.mark.parametrize("solver", ["rk4", "radau", "cvode"])
+def test_a_function_that_leaves_its_surface_and_crosses_back_in_one_step_is_never_lost(tmp_path, solver):
+    # tossed up from the floor at 1 um/s: back at 2 v0 / g = 2.04e-7 s, then bounces piling up at
+    # 4.08e-7 s; CVODE's first step spans the flight (it skips a root where it starts), and the
+    # ball used to end 4.9 m below the floor with exit 0
+    with pytest.raises(SimulationError, match=r"block\(s\) ball|block 'ball'"):
+        hs.simulate(_file(tmp_path, TOSSED), solver=solver)
 
 
 @pytest.mark.parametrize("solver", ["rk4", "heun"] + VARIABLE)
