@@ -53,10 +53,14 @@ def pytest_collection_modifyitems(config, items):
 
 @pytest.fixture(autouse=True, scope="session")
 def _compiled_cache(tmp_path_factory):
-    """Compiled-path modules go to a fresh folder: the suite compiles what it runs."""
+    """Compiled-path modules go to a fresh folder: the suite compiles what it runs, once for all its
+    workers (pytest-xdist's workers share the parent of their temporary folders)."""
     import os
 
-    os.environ["HYBRIDSIM_CACHE"] = str(tmp_path_factory.mktemp("hybridsim_cache"))
+    root = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        root = root.parent
+    os.environ["HYBRIDSIM_CACHE"] = str(root / "hybridsim_cache")
 
 
 #: a small valid diagram (step -> gain -> zoh) that tests mutate one line at a time

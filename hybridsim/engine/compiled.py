@@ -162,7 +162,7 @@ def _load(source, env, name, system=None):
     vars(module).update(resolved)  # the kernels, by the names the source uses
     types = native.types()["glue"]
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), native.compiling(f"glue_{key}"):
             # numba's inliner trips an internal "pedantic" SSA check on some kernels;
             # the results are checked bit for bit against the generic path (tests)
             warnings.simplefilter("ignore", NumbaIRAssumptionWarning)

@@ -7,6 +7,7 @@ functions (:data:`GLUE`): every diagram's glue has these types, so the core is
 compiled once and cached on disk (``HYBRIDSIM_CACHE``), and a new diagram
 compiles only its glue (:mod:`hybridsim.engine.compiled`).
 """
+import contextlib
 import functools
 import os
 import warnings
@@ -34,6 +35,26 @@ def use_cache_dir():
     folder = cache_dir() / "numba"
     folder.mkdir(parents=True, exist_ok=True)
     numba.config.CACHE_DIR = str(folder)
+
+
+@contextlib.contextmanager
+def compiling(key):
+    """Held while this process compiles (or loads) the machine code named ``key``: another process
+    that wants the same code waits, then loads what this one wrote to the cache, instead of
+    compiling it again at the same time (a sweep's workers, a test run's workers on a cold cache)."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX: each process compiles for itself
+        yield
+        return
+    folder = cache_dir() / "locks"
+    folder.mkdir(parents=True, exist_ok=True)
+    with open(folder / f"{key}.lock", "a") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)  # released when the file closes, or the process ends
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
 
 
 def example_records(n=1, s=1, e=1, d=1, b=1):
@@ -145,6 +166,6 @@ def core(method_class):
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module  # numba's cache finds the module by name
     spec.loader.exec_module(module)
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), compiling(f"core_{method_class.name}_{stamp}"):
         warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)
         return njit(types()["run"], cache=True, nogil=True, _nrt=False)(module.run_rk)

@@ -1,0 +1,23 @@
+"""The compiled core's cache: one process compiles a piece of machine code, the others wait for it."""
+import subprocess
+import sys
+import time
+
+from hybridsim.engine import native
+
+
+def test_a_second_process_waits_for_the_one_compiling_the_same_code(tmp_path, monkeypatch):
+    monkeypatch.setenv("HYBRIDSIM_CACHE", str(tmp_path))
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import sys, time; from hybridsim.engine import native\n"
+         "with native.compiling('core_x'):\n    print('held', flush=True); time.sleep(1.0)"],
+        stdout=subprocess.PIPE, text=True)
+    assert holder.stdout.readline().strip() == "held"
+    t0 = time.perf_counter()
+    with native.compiling("core_x"):
+        waited = time.perf_counter() - t0
+    holder.wait(timeout=30)
+    assert waited > 0.5  # s: it waited for the holder's second
+    t0 = time.perf_counter()
+    with native.compiling("core_y"):  # another piece of code: no wait
+        assert time.perf_counter() - t0 < 0.5
