@@ -17,6 +17,7 @@ import sys
 import numpy as np
 
 from hybridsim.engine import stepping
+from hybridsim.engine.finite import all_finite
 from hybridsim.engine.solvers import NotFinite
 
 #: internal steps CVODE may take between two returned points
@@ -52,7 +53,7 @@ class CVodeStepper:
                 failed.append(exc)
                 dx.fill(np.nan)
                 return
-            if not np.isfinite(dx).all():  # ends the run, as on scipy's solvers (NotFinite)
+            if not all_finite(dx):  # ends the run, as on scipy's solvers (NotFinite)
                 seen.append((t, np.array(xx, float)))
                 failed.append(NotFinite(t))
 

@@ -77,15 +77,17 @@ class EventSet:
         self.timed = [(i, system.xslices[i]) for i in system.time_events]
         self.stepped = [(i, system.xslices[i]) for i in system.after_step]
         sizes, self.directions, self.switches = layout(system, ctx, located)
-        self.cuts = np.cumsum([0] + sizes)
+        self.cuts = np.cumsum([0] + sizes).tolist()
         self.requested, self.due, self.stop = [], [], None
+        # per located block: its functions' method, x slice, inputs, index and place in g
+        self._g = [(ctx.blocks[i].zero_crossings, s, ctx.u[i], i, slice(a, b))
+                   for (i, s), a, b in zip(self.blocks, self.cuts[:-1], self.cuts[1:])]
 
     def g(self, t, x, out):
         """Every located block's event functions at (t, x), into ``out``."""
         self.outputs(t, x)
-        blocks, u, xd = self.ctx.blocks, self.ctx.u, self.ctx.xd
-        for k, (i, s) in enumerate(self.blocks):
-            out[self.cuts[k]:self.cuts[k + 1]] = blocks[i].zero_crossings(t, x[s] if s is not None else xd[i], u[i])
+        for zc, s, ui, i, where in self._g:
+            out[where] = zc(t, x[s] if s is not None else self.ctx.xd[i], ui)
 
     def next_time(self, t, x):
         """The earliest time event after ``t`` (inf: none); remembers which blocks ask for it."""

@@ -11,6 +11,7 @@ with methods only).
 import numpy as np
 
 from hybridsim.engine.events import EventSet
+from hybridsim.engine.finite import all_finite
 from hybridsim.engine.stepping import GO, STEP_EVENT, STOP, Glue
 from hybridsim.errors import StopRequest
 
@@ -51,7 +52,7 @@ def state_derivatives(system, ctx):
 
 def first_bad_block(ctx, checked):
     """The first block of ``checked`` with an output that is not finite, or -1."""
-    if np.isfinite(ctx.ywire).all():  # every output finite (the usual case): one check
+    if all_finite(ctx.ywire):  # every output finite (the usual case): one check
         return -1
     y = ctx.y
     for i in checked:

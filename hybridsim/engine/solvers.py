@@ -29,6 +29,7 @@ import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
 
 from hybridsim.engine import rk, stepping
+from hybridsim.engine.finite import all_finite
 
 
 def steps(t0, t1, step):
@@ -227,7 +228,7 @@ class ScipyStepper:
         def fun(t, xx):
             dx = np.empty(n)
             rhs(t, xx, dx, 0, y, z, pf, pi)
-            if not np.isfinite(dx).all():  # ends the run: the solvers shrink their steps to nothing
+            if not all_finite(dx):  # ends the run: the solvers shrink their steps to nothing
                 seen.append((t, np.array(xx, float)))  # on it, or integrate infinities, or hang (LSODA)
                 raise NotFinite(t)
             return dx

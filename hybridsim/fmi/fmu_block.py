@@ -19,6 +19,7 @@ each run re-instantiates it at t = 0.
 """
 import contextlib
 import ctypes
+import functools
 import shutil
 import tempfile
 import zipfile
@@ -39,6 +40,24 @@ from hybridsim.engine.registry import register
 GROUP = "FMU"  # where `hybridsim blocks` lists this module's blocks
 
 
+@functools.lru_cache(maxsize=32)
+def _read(path, resolved, size, mtime_ns):
+    """``(model description, platforms with a binary)`` of the FMU at ``path``, read once per
+    process for each version of the file (``resolved``, ``size``, ``mtime_ns``): a sweep or a
+    search builds the same FMU block again and again. The description is only read, never changed."""
+    import fmpy
+    from fmpy.model_description import read_model_description
+
+    if not Path(path).is_file() or not zipfile.is_zipfile(path):
+        raise FMUError(f"FMU {path!r}: not an FMU (not a zip archive)")
+    _check_members(Path(path))
+    try:
+        md = read_model_description(path)
+    except Exception as exc:  # noqa: BLE001 - fmpy raises many kinds
+        raise FMUError(f"FMU {path!r}: cannot read modelDescription.xml: {exc}") from None
+    return md, frozenset(fmpy.supported_platforms(path))
+
+
 @register("fmu")
 class FMUBlock(ModelExchange, Block):
     """Any FMI 2.0 or 3.0 FMU as a block (numeric and Boolean inputs and outputs).
@@ -56,19 +75,13 @@ class FMUBlock(ModelExchange, Block):
         if not path:
             raise ValueError("an fmu block needs 'path'")
         import fmpy
-        from fmpy.model_description import read_model_description
 
         self.path = Path(path)
         if not self.path.exists():
             raise FMUError(f"FMU {str(self.path)!r}: file not found (the plant FMU is built with "
                            "'hybridsim fmu build -o plant.fmu')")
-        if not self.path.is_file() or not zipfile.is_zipfile(self.path):
-            raise FMUError(f"FMU {str(self.path)!r}: not an FMU (not a zip archive)")
-        _check_members(self.path)
-        try:
-            md = read_model_description(str(self.path))
-        except Exception as exc:  # noqa: BLE001 - fmpy raises many kinds
-            raise FMUError(f"FMU {str(self.path)!r}: cannot read modelDescription.xml: {exc}") from None
+        stat = self.path.stat()
+        md, binaries = _read(str(self.path), str(self.path.resolve()), stat.st_size, stat.st_mtime_ns)
         if md.fmiVersion not in ("2.0", "3.0"):
             raise FMUError(f"FMU {str(self.path)!r}: FMI version {md.fmiVersion} is not supported "
                            "(FMI 2.0 or 3.0)")
@@ -85,7 +98,6 @@ class FMUBlock(ModelExchange, Block):
         self.hidden_state = self.mode == "cs"  # its states live inside the FMU: no linearization reads them
         if kind is None:
             raise FMUError(f"FMU {str(self.path)!r} offers no {'Co-Simulation' if self.mode == 'cs' else 'Model Exchange'}")
-        binaries = {p for p in fmpy.supported_platforms(str(self.path))}
         here = fmpy.platform  # fmpy names FMI 3 platform tuples the same way
         if here not in binaries:
             raise FMUError(f"FMU {str(self.path)!r} has no binary for this platform ({here}); "

@@ -532,3 +532,13 @@ def test_plant_fmi2_model_exchange_needs_no_completed_integrator_step(plant):
     with zipfile.ZipFile(plant) as z:
         me = ET.fromstring(z.read("modelDescription.xml")).find("ModelExchange")
     assert me.get("completedIntegratorStepNotNeeded") == "true"
+
+
+def test_an_fmu_file_replaced_on_disk_is_read_again(plant, vdp, tmp_path):
+    # the model description is read once per process for each version of the file (a sweep builds
+    # the same block again and again); a new file at the same path is a new version
+    path = tmp_path / "model.fmu"
+    shutil.copy(plant, path)
+    assert "tau" in [p.name for p in FMUBlock("a", path=str(path), mode="me").inputs]
+    shutil.copy(vdp, path)
+    assert [p.name for p in FMUBlock("b", path=str(path), mode="me").outputs] == ["y"]
