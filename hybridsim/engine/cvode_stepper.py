@@ -94,40 +94,50 @@ class CVodeStepper:
         return True
 
 
+def start_crossing(s, w, gl, y, z, pf, pi):
+    """A function exactly on its surface where an integration starts that leaves to its firing
+    side crosses there: the core's rule (leaving zero fires), which the RK and scipy paths
+    locate about 1e-12 s on. CVODE skips such a root (a relay whose input starts at its
+    threshold would never switch), so it is reported here: ``(t, x, fired)`` of the point one
+    ``START_STEP`` on, or None. A function that crossed just now and goes on the same way
+    (a ``hit_crossing`` after its own event) is not crossing again."""
+    on = w.g == 0.0
+    if not on.any():
+        return None
+    rate, t1, x1 = _rates(s.t0, s.x0, w.g, w, gl, y, z, pf, pi, START_STEP)
+    after = np.sign(rate)
+    before = np.sign(_rates(s.t0, s.before, None, w, gl, y, z, pf, pi)[0]) if s.before is not None else 0 * after
+    dirs = w.dirs
+    fired = on & (after != 0.0) & ((dirs == 0) | (dirs * after > 0)) & (before != after)
+    return (t1, x1, fired) if fired.any() else None
+
+
 def leaving_sides(s, xn, w, gl, y, z, pf, pi):
     """Before the core checks the first point from a start: each event function that sits on its
-    surface at the start (CVODE skips its roots there) gets, in ``w.g``, the side it leaves to,
-    from its rate at the start.
-
-    A function that leaves to one side and is on the other at the point crossed back inside the
-    step, unreported, so the core stops. So does one that heads to its firing side just after an
-    event whose action turned it there (a bouncing ball whose bounces pile up: the bounce left it
-    falling through the floor); one that crossed and goes on (a ``hit_crossing``) does not. One
-    that leaves along its surface (zero rate) is not checked."""
+    surface at the start gets, in ``w.g``, the side it leaves to, from its rate there. One that
+    leaves to one side and is on the other at the point crossed back inside the step,
+    unreported (CVODE skips roots where a function starts on zero), so the core stops. One that
+    leaves along its surface (zero rate) is not checked."""
     g0, gn = w.g, np.empty_like(w.g)
     on = np.flatnonzero(np.abs(g0) <= 1e-9 * np.abs(_zc(s.ta, xn, gn, w, gl, y, z, pf, pi)))
     if not on.size:
         return
-    after = np.sign(_rates(s.t0, s.x0, g0, w, gl, y, z, pf, pi))
-    before = np.sign(_rates(s.t0, s.before, None, w, gl, y, z, pf, pi)) if s.before is not None else after
+    after = np.sign(_rates(s.t0, s.x0, g0, w, gl, y, z, pf, pi)[0])
     for i in on:
-        if after[i] == 0.0 or gn[i] == 0.0:
-            g0[i] = gn[i]  # along its surface: not checked
-        elif after[i] * w.dirs[i] > 0 and before[i] * w.dirs[i] <= 0:
-            g0[i] = 0.0  # turned to its firing side by the event's action: crossing again
-        else:
-            g0[i] = after[i] * abs(gn[i])
+        g0[i] = gn[i] if after[i] == 0.0 or gn[i] == 0.0 else after[i] * abs(gn[i])
 
 
-def _rates(t, x, g, w, gl, y, z, pf, pi):
-    """The event functions' rates at (t, x), from one right-hand side and a step of Euler over
-    ``LEAVE_STEP`` (``g``: their values there, when known); NaN read as 0."""
+def _rates(t, x, g, w, gl, y, z, pf, pi, step=None):
+    """``(rates, t + dt, x + dt f)``: the event functions' rates at (t, x) from one right-hand side
+    and a step of Euler over ``dt`` (``step``, default ``LEAVE_STEP``, relative past t = 1 s);
+    ``g``: their values at (t, x) when known. NaN rates read as 0."""
     if g is None:
         g = _zc(t, x, np.empty(w.g.size), w, gl, y, z, pf, pi)
     dx = np.empty(x.size)
     gl.rhs(t, x, dx, 0, y, z, pf, pi)
-    dt = LEAVE_STEP * max(1.0, abs(t))
-    return np.nan_to_num(_zc(t + dt, x + dt * dx, np.empty_like(g), w, gl, y, z, pf, pi) - g)
+    dt = (LEAVE_STEP if step is None else step) * max(1.0, abs(t))
+    x1 = x + dt * dx
+    return np.nan_to_num(_zc(t + dt, x1, np.empty_like(g), w, gl, y, z, pf, pi) - g), t + dt, x1
 
 
 def _zc(t, x, g, w, gl, y, z, pf, pi):
@@ -138,6 +148,9 @@ def _zc(t, x, g, w, gl, y, z, pf, pi):
 
 #: the time step (s, relative past t = 1 s) over which a function's rate at a start is taken
 LEAVE_STEP = 1e-9
+#: where a crossing at a start is reported (s after it, relative past t = 1 s): the RK and scipy
+#: paths bisect such a crossing to within 1e-12 s of the start
+START_STEP = 1e-12
 
 
 def cvode_ops():
@@ -150,7 +163,7 @@ def cvode_ops():
         # their surface at the start (after their own event): CVODE skips roots there
         s.before = s.event_x if s.event_at == t0 else None  # from an event: the state before its action
         s.event_at, s.event_x = None, None
-        s.cv, s.queue, s.ta, s.started = None, [], t0, False
+        s.cv, s.queue, s.ta, s.started, s.looked = None, [], t0, False, False
         s.said = ""
 
     def solve(s, w, gl, y, z, pf, pi):
@@ -214,10 +227,22 @@ def cvode_ops():
             s.event_at, s.event_x = t, xn.copy()
         return t
 
+    def at_start(s, xn, w, gl, y, z, pf, pi):
+        """The crossing at the start (:func:`start_crossing`), taken, once per start; else None."""
+        if s.looked or not w.g.size:
+            return None
+        s.looked = True
+        point = start_crossing(s, w, gl, y, z, pf, pi)
+        return None if point is None else take(s, point, xn, w, gl, y, z, pf, pi)
+
     def step(s, x, xn, w, gl, y, z, pf, pi):
-        return take(s, one(s, w, gl, y, z, pf, pi), xn, w, gl, y, z, pf, pi)
+        t = at_start(s, xn, w, gl, y, z, pf, pi)
+        return t if t is not None else take(s, one(s, w, gl, y, z, pf, pi), xn, w, gl, y, z, pf, pi)
 
     def steps(s, t_lim, x, xn, w, gl, y, z, pf, pi):
+        t = at_start(s, xn, w, gl, y, z, pf, pi)
+        if t is not None:
+            return t
         if s.cv is None and not s.queue and not solve(s, w, gl, y, z, pf, pi):
             s.cv = None
         if not s.queue:

@@ -60,11 +60,15 @@ def test_a_right_hand_side_that_turns_infinite_names_the_block_within_a_step(tmp
     assert 0.3 <= t <= 1.0
 
 
-def test_cvode_refuses_to_step_over_a_crossing_it_did_not_report(tmp_path):
-    # bounces pile up at t1 + 2 e v1 / (g (1 - e)) = 4.159 s; CVODE stops reporting them before:
-    # an error should say so, never the ball below the floor with exit 0
-    with pytest.raises(SimulationError, match="stepped over a crossing of block 'ball'"):
-        hs.simulate(_file(tmp_path, BALL), solver="cvode")
+@pytest.mark.parametrize("solver", ["rk4", "radau", "cvode"])
+def test_bounces_that_pile_up_end_in_the_zeno_error_on_every_solver(tmp_path, solver):
+    # bounces pile up at t1 (1 + e) / (1 - e) = 4.159 s (t1 = sqrt(2 h0 / g)); CVODE used to stop
+    # reporting them and leave the ball below the floor with exit 0
+    t_zeno = math.sqrt(2 * 2.0 / 3.7) * 1.6 / 0.4
+    with pytest.raises(SimulationError, match=r"events accumulate at t=(\S+) s in block\(s\) ball") as err:
+        hs.simulate(_file(tmp_path, BALL), solver=solver)
+    t = float(err.value.args[0].split("t=")[1].split(" ")[0])
+    assert abs(t - t_zeno) < 1e-3
 
 
 TOSSED = """blocks:
@@ -81,6 +85,29 @@ def test_a_function_that_leaves_its_surface_and_crosses_back_in_one_step_is_neve
     # ball used to end 4.9 m below the floor with exit 0
     with pytest.raises(SimulationError, match=r"block\(s\) ball|block 'ball'"):
         hs.simulate(_file(tmp_path, TOSSED), solver=solver)
+
+
+AT_THRESHOLD = """blocks:
+  s: {type: sine, amplitude: 1.0, frequency: 1.0}
+  r: {type: relay, switch_on: 0.0, switch_off: -0.5}
+  hc: {type: hit_crossing, offset: 0.0}
+wires: [s.y -> r.u, s.y -> hc.u]
+simulation: {t_end: 1.0, step: 1.0e-3, log_period: 0.05}
+log: [r.y, hc.count]
+"""
+
+
+@pytest.mark.parametrize("solver", ["rk4"] + VARIABLE)
+def test_a_function_that_leaves_its_surface_at_the_start_fires_on_every_solver(tmp_path, solver):
+    # sin(2 pi t) starts on both thresholds and rises: the relay switches on at once, the
+    # hit_crossing counts its leaving 0 and the crossing at 0.5 s; on CVODE, which skips roots
+    # where a function starts on zero, the relay used to stay off for the whole run (exit 0)
+    res = hs.simulate(_file(tmp_path, AT_THRESHOLD), solver=solver)
+    on = (res.t > 0) & (res.t < 7 / 12)
+    assert np.all(np.ravel(res["r.y"])[on] == 1.0) and np.all(np.ravel(res["r.y"])[res.t > 7 / 12] == 0.0)
+    assert np.ravel(res["hc.count"])[-1] == 2.0
+    times = [t for t, _ in res.meta["events"]]
+    assert np.allclose(times, [0.0, 0.5, 7 / 12], atol=1e-9, rtol=0)  # 7/12: sin = -0.5, the relay off
 
 
 @pytest.mark.parametrize("solver", ["rk4", "heun"] + VARIABLE)
