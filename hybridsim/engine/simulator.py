@@ -311,14 +311,21 @@ class Session:
         return code
 
     def event_log(self):
-        """``[(t, block names)]`` of the events so far, in order."""
+        """``[(t, block names)]`` of the events so far, in order: one entry per instant (events
+        within ``10 time_tol`` of each other, the core's measure of one instant, are one entry
+        naming every block that acted)."""
         names = [self.sim.system.blocks[i].name for i in self.sim.located]
         out, log = self.out, []
+        same = 10.0 * self.lim.time_tol
         for k in range(min(int(out.nev[0]), out.evt.size)):
             acting = {names[b] for b in np.flatnonzero(out.evb[k])} if names else set()
             if self.keeper is not None:
                 acting |= self.keeper.names.get(k, set())
-            log.append((float(out.evt[k]), tuple(sorted(acting))))
+            t = float(out.evt[k])
+            if log and t - log[-1][0] <= same:
+                log[-1] = (log[-1][0], tuple(sorted(acting | set(log[-1][1]))))
+            else:
+                log.append((t, tuple(sorted(acting))))
         return log
 
     def fail(self, code):

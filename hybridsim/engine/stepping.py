@@ -245,7 +245,7 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                 else:  # bisected on the step's dense output
                     event, t_ev = locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi)
             # -- log points inside the step, before the event ---------------------------------
-            t_in = t_ev if event else tb
+            t_in = t_ev - tol if event else tb  # one within tol of the event: logged after it
             h = tb - ta
             while j < j1 and tl.t[j] < t_in and tl.t[j] < tb - 1e-9 * h:
                 ops.dense(s, tl.t[j], x, w, w.xo)

@@ -150,3 +150,29 @@ def test_a_sign_change_without_a_report_is_counted_by_the_functions_rules():
     assert first_sign_change(np.array([1.0, 1.0, 0.5]), np.array([2.0, 2.0, -1.0]), dirs) == 2
     assert first_sign_change(np.array([-1e-17, 1.0, 1.0]), np.array([-6.0, 2.0, 1.0]), dirs) == 0  # from
     # (numerically) zero onto the firing side: piled-up events leave a function there
+
+
+PULSED = """blocks:
+  one: {type: constant, value: 1.0}
+  pul: {type: pulse, period: 0.3, duty: 0.5, delay: 0.1}
+  x: {type: integrator, K: 2.0}
+wires: [one.y -> x.u, pul.y -> x.reset]
+simulation: {t_end: 1.0, step: 1.0e-3, log_period: 0.001}
+log: [x.y]
+"""
+
+
+@pytest.mark.parametrize("solver", ["rk4"] + VARIABLE)
+def test_a_reset_by_a_pulse_logs_the_reset_value_and_one_entry_per_instant(tmp_path, solver):
+    # the pulse rises at 0.1, 0.4, 0.7 and 1.0 s and resets x = 2 t; the scipy solvers locate an
+    # edge up to 1e-12 s late and used to log the value before the reset at its instant, and
+    # LSODA and CVODE listed the edge and the reset as two entries
+    res = hs.simulate(_file(tmp_path, PULSED), solver=solver)
+    y, t = np.ravel(res["x.y"]), res.t
+    for tr in (0.1, 0.4, 0.7):
+        assert y[np.argmin(abs(t - tr))] == 0.0
+    times = [round(te, 9) for te, _ in res.meta["events"]]
+    resets = [te for te, names in res.meta["events"] if "x" in names]
+    assert np.allclose(resets, [0.1, 0.4, 0.7, 1.0], atol=2e-12, rtol=0)
+    if solver != "rk4":  # the falling edges are switches, located by the variable-step solvers
+        assert times == [0.1, 0.25, 0.4, 0.55, 0.7, 0.85, 1.0]
