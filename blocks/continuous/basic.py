@@ -40,7 +40,7 @@ class Integrator(Block):
     integrator enters a limit when x reaches it (x set to the limit, then
     x' = 0); a held one leaves when K u changes sign to point back inside
     (one event, whatever the step). An integrator that starts at a limit
-    starts held there unless K u(0) points inside. Only the functions of the current mode
+    starts held there unless K u(0) points inside, and so does one reset to a limit. Only the functions of the current mode
     are armed (the others read a constant that never fires). Ports: in ``u``, ``reset`` (optional: unwired it is 0;
     x resets when it rises through 0.5); out ``y``. Example: K = 2, u = 1
     from x(0) = 0 gives y(1 s) = 2; with upper = 1.5 it stops at 1.5 at
@@ -130,8 +130,10 @@ def integrator_event(p, t, x, u, fired):
             out[i], out[n + i] = p.upper[i], 1.0
         if fired[2 * n + i]:  # reached the lower limit
             out[i], out[n + i] = p.lower[i], -1.0
-        if fired[i]:  # reset
-            out[i], out[n + i] = p.x0[i], 0.0
+        if fired[i]:  # reset: held at once when the initial value is a limit the input pushes against
+            du = p.K[i] * u[0][i]
+            held = 1.0 if p.x0[i] >= p.upper[i] and du >= 0 else -1.0 if p.x0[i] <= p.lower[i] and du <= 0 else 0.0
+            out[i], out[n + i] = p.x0[i], held
     return out
 
 

@@ -90,3 +90,15 @@ def test_a_transfer_function_of_degree_zero_is_a_pure_gain():
     assert tf.n_continuous == 0
     (y,) = tf.kernels.output(tf.params, 0.0, np.zeros(0), (np.array([3.0]),))
     assert y[0] == 1.5
+
+
+@pytest.mark.parametrize("u, mode", [(1.0, 1.0), (0.0, 1.0), (-1.0, 0.0)])
+def test_a_reset_to_a_limit_is_held_there_unless_the_input_points_inside(u, mode):
+    # initial = upper = 0.5: a reset while K u >= 0 holds it at once (no second event a moment
+    # later to enter the limit); one while K u < 0 leaves it free to integrate down
+    from hybridsim.blocks.continuous.basic import integrator_event
+
+    b = Integrator("i", K=2.0, initial=0.5, upper=0.5)
+    fired = (True, False, False, False, False)  # reset; enter upper, lower; leave upper, lower
+    out = integrator_event(b.params, 0.3, (0.2, 0.0), ((u,), (1.0,)), fired)
+    assert list(out) == [0.5, mode]
