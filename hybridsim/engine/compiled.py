@@ -141,12 +141,11 @@ def _load(source, env, name, system=None):
     if key in _loaded:
         return _loaded[key]
     make_jitable(set(marked()) | {v for v in env.values() if callable(v) and not inspect.isclass(v)})
-    resolved = {n: (_dispatcher(v[1]) if isinstance(v, tuple) else v) for n, v in env.items()}
     folder = cache_dir()
     path = folder / f"glue_{key}.py"
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        native.use_cache_dir()
+        native.use_cache_dir()  # before any kernel's dispatcher: numba picks its cache folder then
         if not path.exists():
             log.info("compiling %r with numba (once: later runs load it from %s)", name, folder)
             tmp = path.with_suffix(f".{os.getpid()}.tmp")
@@ -155,6 +154,7 @@ def _load(source, env, name, system=None):
     except OSError as exc:
         raise CompiledPathError(f"cannot write the compiled module to {folder}: {exc} "
                                 "(set HYBRIDSIM_CACHE to a writable folder)") from None
+    resolved = {n: (_dispatcher(v[1]) if isinstance(v, tuple) else v) for n, v in env.items()}
     spec = importlib.util.spec_from_file_location(f"hybridsim_glue_{key}", path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module  # numba's cache finds the module by name

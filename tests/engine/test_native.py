@@ -21,3 +21,19 @@ def test_a_second_process_waits_for_the_one_compiling_the_same_code(tmp_path, mo
     t0 = time.perf_counter()
     with native.compiling("core_y"):  # another piece of code: no wait
         assert time.perf_counter() - t0 < 0.5
+
+
+def test_kernels_compiled_for_the_compiled_path_are_cached_in_hybridsims_folder(tmp_path):
+    # numba picks a function's cache folder when its dispatcher is made: before the fix the first
+    # diagram of a process cached its kernels beside their source (the package's __pycache__)
+    import hybridsim as hs
+    from hybridsim.engine import compiled
+
+    path = tmp_path / "d.yaml"
+    path.write_text("blocks:\n  s: {type: sine, frequency: 2.0}\n  g: {type: gain, K: 3.0}\n"
+                    "  i: {type: integrator}\nwires: [s.y -> g.u, g.y -> i.u]\n"
+                    "simulation: {t_end: 0.1, compiled: true}\n")
+    hs.simulate(path)
+    assert compiled._jitted
+    for dispatcher in compiled._jitted.values():
+        assert str(native.cache_dir()) in str(dispatcher._cache._cache_path)
