@@ -52,6 +52,7 @@ class Work(NamedTuple):
     glo: np.ndarray     # float64[e]: the bisection's bracket, low side
     ghi: np.ndarray     # float64[e]: high side
     gm: np.ndarray      # float64[e]: at a trial point
+    gp: np.ndarray      # float64[e]: at the last stop, before its hit changed the held outputs (NaN: none yet)
     fired: np.ndarray   # bool[e]: the functions that crossed
     dirs: np.ndarray    # int64[e]: +1 fires rising, -1 falling, 0 both
     switch: np.ndarray  # bool[e]: a function of a block without an action (only restarts)

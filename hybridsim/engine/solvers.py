@@ -291,7 +291,7 @@ def work(n, s, e, dirs=None, switch=None, owner=None):
     s = max(s, 1)
     return stepping.Work(
         f(n), f(n), f(n), f(n), f(n), f(n), f(s * n), f(s * n), f(n), f(s), f(e), f(e), f(e), f(e), f(e),
-        np.zeros(e, np.bool_),
+        np.full(e, np.nan), np.zeros(e, np.bool_),
         np.zeros(e, np.int64) if dirs is None else np.asarray(dirs, np.int64),
         np.zeros(e, np.bool_) if switch is None else np.asarray(switch, np.bool_),
         np.zeros(e, np.bool_), np.zeros(e, np.int64),

@@ -192,6 +192,7 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
     count = 0
     stalls = 0
     tol = lim.time_tol
+    at_hit = located
     while True:
         # -- one integration from t0 to the next stop (a time event or t1) ----------------------
         stop = t1
@@ -203,6 +204,17 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
         if located:
             gl.zc(t0, x, w.g, y, z, pf, pi)
             mute(w.g, w.muted)
+            if at_hit:  # the hit changed held outputs: a function they carried across its surface fires now
+                at_hit = False
+                if crossed_any(w.gp, w.g, w.dirs, w.fired):
+                    count += 1
+                    log_event(out, t0, w.fired, w.owner)
+                    copy_into(w.xe, x)
+                    code = settle(t0, gl, lim, w, y, z, pf, pi)
+                    if code != OK:
+                        fail(out, code, 0, j, t0)
+                        return code
+                    continue  # integrate from the state after the actions
         ta = t0
         event = False
         asked = GO
@@ -315,6 +327,8 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
         if not observe(gl, out, tl.t[j], x, y, z, pf, pi, tl.rec[j], j):
             return BAD_OUTPUT
         j += 1
+    if located:  # the functions at the stop, before its hit: compared after it
+        gl.zc(t1, x, w.gp, y, z, pf, pi)
     return OK
 
 

@@ -176,3 +176,29 @@ def test_a_reset_by_a_pulse_logs_the_reset_value_and_one_entry_per_instant(tmp_p
     assert np.allclose(resets, [0.1, 0.4, 0.7, 1.0], atol=2e-12, rtol=0)
     if solver != "rk4":  # the falling edges are switches, located by the variable-step solvers
         assert times == [0.1, 0.25, 0.4, 0.55, 0.7, 0.85, 1.0]
+
+
+SAMPLED = """blocks:
+  st: {type: step, time: 0.3}
+  z: {type: zoh, rate: 4}
+  r: {type: relay, switch_on: 0.5, switch_off: 0.1}
+  hc: {type: hit_crossing, offset: 0.5}
+  c: {type: constant, value: 1.0}
+  i: {type: integrator}
+wires: [st.y -> z.u, z.y -> r.u, z.y -> hc.u, c.y -> i.u, z.y -> i.reset]
+simulation: {t_end: 1.2, step: 1.0e-3, log_period: 0.05}
+log: [r.y, hc.count, hc.time, i.y]
+"""
+
+
+@pytest.mark.parametrize("solver, path", [(s, {}) for s in ["rk4", "heun"] + VARIABLE]
+                         + [("rk4", {"fused": False}), ("rk4", {"compiled": True})],
+                         ids=lambda v: v if isinstance(v, str) else "-".join(v) or "default")
+def test_a_held_output_that_jumps_across_a_threshold_at_a_hit_fires_there(tmp_path, solver, path):
+    # the zoh (4 Hz) takes the step's 1 at its hit at 0.5 s: the relay switches on, the
+    # hit_crossing counts 0.5 s, the integrator resets there (y(1.2) = 0.7); before, no path saw it
+    res = hs.simulate(_file(tmp_path, SAMPLED), solver=solver, **path)
+    assert res.meta["events"] == [(0.5, ("hc", "i", "r"))]
+    assert np.ravel(res["r.y"])[-1] == 1.0 and np.ravel(res["hc.count"])[-1] == 1.0
+    assert np.ravel(res["hc.time"])[-1] == 0.5
+    assert abs(np.ravel(res["i.y"])[-1] - 0.7) < 1e-12
