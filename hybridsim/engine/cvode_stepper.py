@@ -99,16 +99,20 @@ def start_crossing(s, w, gl, y, z, pf, pi):
     side crosses there: the core's rule (leaving zero fires), which the RK and scipy paths
     locate about 1e-12 s on. CVODE skips such a root (a relay whose input starts at its
     threshold would never switch), so it is reported here: ``(t, x, fired)`` of the point one
-    ``START_STEP`` on, or None. A function that crossed just now and goes on the same way
-    (a ``hit_crossing`` after its own event) is not crossing again."""
+    ``START_STEP`` on, or None. A function that crossed just now and goes on as it did, untouched
+    by the event's action (a ``hit_crossing`` after its own event), is not crossing again; one
+    whose motion the action changed (a ball that the bounce left at rest on the floor, gravity
+    pulling it through) is."""
     on = w.g == 0.0
     if not on.any():
         return None
-    rate, t1, x1 = _rates(s.t0, s.x0, w.g, w, gl, y, z, pf, pi, START_STEP)
-    after = np.sign(rate)
-    before = np.sign(_rates(s.t0, s.before, None, w, gl, y, z, pf, pi)[0]) if s.before is not None else 0 * after
+    change, t1, x1 = _rates(s.t0, s.x0, w.g, w, gl, y, z, pf, pi, START_STEP)
+    after = np.sign(change)
     dirs = w.dirs
-    fired = on & (after != 0.0) & ((dirs == 0) | (dirs * after > 0)) & (before != after)
+    fired = on & (after != 0.0) & ((dirs == 0) | (dirs * after > 0))
+    if s.before is not None and fired.any():
+        before = _rates(s.t0, s.before, None, w, gl, y, z, pf, pi, START_STEP)[0]
+        fired &= ~np.isclose(before, change, rtol=1e-9, atol=0.0)
     return (t1, x1, fired) if fired.any() else None
 
 
@@ -128,14 +132,17 @@ def leaving_sides(s, xn, w, gl, y, z, pf, pi):
 
 
 def _rates(t, x, g, w, gl, y, z, pf, pi, step=None):
-    """``(rates, t + dt, x + dt f)``: the event functions' rates at (t, x) from one right-hand side
-    and a step of Euler over ``dt`` (``step``, default ``LEAVE_STEP``, relative past t = 1 s);
-    ``g``: their values at (t, x) when known. NaN rates read as 0."""
+    """``(changes, t + dt, x(t + dt))``: how the event functions change over a step ``dt``
+    (``step``, default ``LEAVE_STEP``, relative past t = 1 s) from (t, x), by the midpoint rule
+    (second order: a function with zero rate still shows where its curvature takes it, as a ball
+    at rest on the floor with gravity pulling it through); ``g``: their values at (t, x) when
+    known. NaN changes read as 0."""
     if g is None:
         g = _zc(t, x, np.empty(w.g.size), w, gl, y, z, pf, pi)
+    dt = (LEAVE_STEP if step is None else step) * max(1.0, abs(t))
     dx = np.empty(x.size)
     gl.rhs(t, x, dx, 0, y, z, pf, pi)
-    dt = (LEAVE_STEP if step is None else step) * max(1.0, abs(t))
+    gl.rhs(t + 0.5 * dt, x + 0.5 * dt * dx, dx, 0, y, z, pf, pi)
     x1 = x + dt * dx
     return np.nan_to_num(_zc(t + dt, x1, np.empty_like(g), w, gl, y, z, pf, pi) - g), t + dt, x1
 

@@ -202,3 +202,20 @@ def test_a_held_output_that_jumps_across_a_threshold_at_a_hit_fires_there(tmp_pa
     assert np.ravel(res["r.y"])[-1] == 1.0 and np.ravel(res["hc.count"])[-1] == 1.0
     assert np.ravel(res["hc.time"])[-1] == 0.5
     assert abs(np.ravel(res["i.y"])[-1] - 0.7) < 1e-12
+
+
+DEAD = """blocks:
+  ball: {type: bouncing_ball, e: 0.0, h0: 1.0}
+simulation: {t_end: 1.0, step: 1.0e-3, log_period: 0.01}
+log: [ball.h]
+"""
+
+
+@pytest.mark.parametrize("solver", ["rk4", "radau", "cvode"])
+def test_a_ball_that_its_bounce_leaves_at_rest_on_the_floor_ends_in_the_zeno_error(tmp_path, solver):
+    # e = 0: at t1 = sqrt(2 / 9.81) = 0.4515 s the bounce leaves h = 0, v = 0 and gravity pulls it
+    # through at once (zero rate, negative curvature); CVODE used to let it fall to -1.48 m, exit 0
+    with pytest.raises(SimulationError, match="events accumulate") as err:
+        hs.simulate(_file(tmp_path, DEAD), solver=solver)
+    t = float(err.value.args[0].split("t=")[1].split(" ")[0])
+    assert abs(t - math.sqrt(2 / 9.81)) < 1e-8
