@@ -11,6 +11,7 @@ Python between its log times.
 """
 import contextlib
 import io
+import os
 import re
 import sys
 
@@ -225,6 +226,13 @@ def cvode_ops():
         xn[:] = np.asarray(yy, float).reshape(-1)
         s.num[1] = t - s.ta
         s.ta = t
+        reached = False
+        if root is not None:  # the core's rule: a function fires once on its firing side, not on reaching 0
+            g = _zc(t, xn, np.empty(w.g.size), w, gl, y, z, pf, pi)
+            d = w.dirs
+            root = root & (((d > 0) & (g > 0)) | ((d < 0) & (g < 0)) | ((d == 0) & (g != 0)))
+            reached = not root.any()
+            root = None if reached else root
         s.num[stepping.ROOT] = 1.0 if root is not None else -1.0
         if s.fresh and root is None and w.g.size:
             leaving_sides(s, xn, w, gl, y, z, pf, pi)
@@ -232,6 +240,10 @@ def cvode_ops():
         if root is not None:
             w.fired[:] = root
             s.event_at, s.event_x = t, xn.copy()
+        if reached:  # no event here: CVODE starts afresh, and leaving the surface is judged at that start
+            s.t0, s.x0, s.before = t, xn.copy(), None
+            s.times = [tt for tt in s.times if tt > t]
+            s.cv, s.queue, s.started, s.fresh, s.looked = None, [], False, True, False
         return t
 
     def at_start(s, xn, w, gl, y, z, pf, pi):
@@ -273,17 +285,29 @@ _SAYS = re.compile(r"\n\[(\w+), Error: (-?\d+)\] (.*?)\n\n", re.S)
 
 class _Words(contextlib.redirect_stdout):
     """Around a scikit-sundae call: SUNDIALS' error messages (which it prints) go into
-    ``said`` instead of the standard output; anything else printed there is passed on."""
+    ``said`` instead of the standard output; anything else printed there is passed on.
+    SUNDIALS' warnings (its logger prints them on stderr; it reads where to from the environment
+    when a call makes its context) go nowhere, unless the user chose a place: what they report
+    (a root function that stays 0, a step too small) the core judges itself, and says in its
+    errors."""
+
+    WARNINGS = "SUNLOGGER_WARNING_FILENAME"
 
     def __init__(self):
         super().__init__(io.StringIO())
         self.said = ""
+        self._quiet = False
 
     def __enter__(self):
         super().__enter__()
+        if self.WARNINGS not in os.environ:
+            os.environ[self.WARNINGS] = os.devnull
+            self._quiet = True
         return self
 
     def __exit__(self, *exc):
+        if self._quiet:
+            os.environ.pop(self.WARNINGS, None)
         super().__exit__(*exc)
         text = self._new_target.getvalue()
         if text:

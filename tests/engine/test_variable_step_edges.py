@@ -219,3 +219,48 @@ def test_a_ball_that_its_bounce_leaves_at_rest_on_the_floor_ends_in_the_zeno_err
         hs.simulate(_file(tmp_path, DEAD), solver=solver)
     t = float(err.value.args[0].split("t=")[1].split(" ")[0])
     assert abs(t - math.sqrt(2 / 9.81)) < 1e-8
+
+
+CLIPPED = """blocks:
+  c: {type: constant, value: 1.0}
+  i: {type: integrator, upper: 1.0}
+  r: {type: relay, switch_on: 1.0, switch_off: 0.5}
+wires: [c.y -> i.u, i.y -> r.u, r.y -> i.reset]
+simulation: {t_end: 3.5, step: 3.0e-3}
+log: [i.y, r.y]
+"""
+
+
+@pytest.mark.parametrize("solver", ["rk4"] + VARIABLE)
+def test_a_function_that_reaches_its_surface_and_stays_does_not_fire(tmp_path, solver, capfd):
+    # the relay switches on when u rises *through* 1.0; the integrator's output stops at its limit
+    # 1.0 and stays: never through. CVODE reported the root of a function reaching 0 and switched
+    # the relay (a sawtooth instead of 1.0), and SUNDIALS printed a warning on stderr
+    res = hs.simulate(_file(tmp_path, CLIPPED), solver=solver)
+    assert [names for _, names in res.meta["events"]] == [("i",)]
+    assert np.ravel(res["i.y"])[-1] == pytest.approx(1.0, abs=1e-12)
+    assert np.ravel(res["r.y"]).max() == 0.0
+    assert "WARNING" not in capfd.readouterr().err
+
+
+AT_SAMPLES = """blocks:
+  k: {type: clock}
+  r: {type: relay, switch_on: 0.375, switch_off: 0.0}
+  z2: {type: zoh, rate: 8}
+  hc: {type: hit_crossing, offset: 0.625}
+  z3: {type: zoh, rate: 8}
+wires: [k.y -> r.u, r.y -> z2.u, k.y -> hc.u, hc.count -> z3.u]
+simulation: {t_end: 1.0, step: 1.0e-3, log_period: 0.05}
+log: [z2.y, z3.y]
+"""
+
+
+@pytest.mark.parametrize("solver", ["rk4"] + VARIABLE)
+def test_a_sample_at_the_instant_a_function_reaches_its_surface_takes_the_value_before(tmp_path, solver):
+    # the clock reaches 0.375 and 0.625 at hits of the 8 Hz zoh; the crossings fire as the
+    # functions leave 0, just after the hits, so the zoh takes them at the next hit (CVODE fired on
+    # reaching 0 and its zoh took them at once)
+    res = hs.simulate(_file(tmp_path, AT_SAMPLES), solver=solver)
+    t, z2, z3 = res.t, np.ravel(res["z2.y"]), np.ravel(res["z3.y"])
+    assert np.all(z2[(t > 0.37) & (t < 0.5)] == 0.0) and np.all(z2[t >= 0.5] == 1.0)
+    assert np.all(z3[(t > 0.62) & (t < 0.75)] == 0.0) and np.all(z3[t >= 0.75] == 1.0)
