@@ -210,10 +210,14 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                     count += 1
                     log_event(out, t0, w.fired, w.owner)
                     copy_into(w.xe, x)
-                    code = settle(t0, gl, lim, w, y, z, pf, pi)
+                    code = settle(t0, gl, lim, w, out, y, z, pf, pi)
                     if code != OK:
                         fail(out, code, 0, j, t0)
                         return code
+                    # the hit's log row (rule: a log point at an event is logged after it)
+                    if j > 0 and tl.kind[j - 1] == HIT and tl.t[j - 1] == t0:
+                        if not observe(gl, out, t0, x, y, z, pf, pi, tl.rec[j - 1], j - 1):
+                            return BAD_OUTPUT
                     continue  # integrate from the state after the actions
         ta = t0
         event = False
@@ -303,7 +307,7 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                         w.repeats[i] += 1
                         if w.repeats[i] > lim.max_repeats:
                             w.muted[i] = True
-            code = settle(t_ev, gl, lim, w, y, z, pf, pi)
+            code = settle(t_ev, gl, lim, w, out, y, z, pf, pi)
             if code != OK:
                 fail(out, code, 0, j, t_ev)
                 return code
@@ -394,9 +398,10 @@ def locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi):
     return False, tb
 
 
-def settle(t, gl, lim, w, y, z, pf, pi):
+def settle(t, gl, lim, w, out, y, z, pf, pi):
     """Apply the actions of ``w.fired`` to ``w.xe`` at ``t``, again while they make another function
-    cross; the state after, in ``w.x``. Returns the status code (CHATTER, STOPPED or OK)."""
+    cross (each such block joins the event's entry); the state after, in ``w.x``. Returns the status
+    code (CHATTER, STOPPED or OK)."""
     gl.zc(t, w.xe, w.gm, y, z, pf, pi)  # the functions just before the actions
     mute(w.gm, w.muted)
     for _ in range(lim.max_iterations):
@@ -408,5 +413,10 @@ def settle(t, gl, lim, w, y, z, pf, pi):
         mute(w.ghi, w.muted)
         if not crossed_any(w.gm, w.ghi, w.dirs, w.fired):
             return OK
+        n = out.nev[0] - 1
+        if 0 <= n < out.evt.size:
+            for i in range(w.fired.size):
+                if w.fired[i]:
+                    out.evb[n, w.owner[i]] = True
         copy_into(w.gm, w.ghi)
     return CHATTER

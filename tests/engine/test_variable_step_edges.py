@@ -264,3 +264,54 @@ def test_a_sample_at_the_instant_a_function_reaches_its_surface_takes_the_value_
     t, z2, z3 = res.t, np.ravel(res["z2.y"]), np.ravel(res["z3.y"])
     assert np.all(z2[(t > 0.37) & (t < 0.5)] == 0.0) and np.all(z2[t >= 0.5] == 1.0)
     assert np.all(z3[(t > 0.62) & (t < 0.75)] == 0.0) and np.all(z3[t >= 0.75] == 1.0)
+
+
+TWO_AT_ONCE = """blocks:
+  ck: {type: clock}
+  r: {type: relay, switch_on: 0.5, switch_off: 0.2}
+  c: {type: constant, value: 1.0}
+  i: {type: integrator}
+  hc: {type: hit_crossing, offset: 0.5, direction: rising}
+  ri: {type: relay, switch_on: 0.5, switch_off: 0.2}
+  j: {type: integrator, initial: 1.0}
+wires: [ck.y -> r.u, c.y -> i.u, i.y -> hc.u, i.y -> ri.u, c.y -> j.u, ri.y -> j.reset]
+simulation: {t_end: 1.0, step: 1.0e-3, log_period: 0.05}
+log: [ri.y, hc.count, j.y]
+"""
+
+
+@pytest.mark.parametrize("solver", ["rk4"] + VARIABLE)
+def test_two_functions_that_cross_at_one_instant_both_fire(tmp_path, solver):
+    # the clock's relay and the timer i = t cross 0.5 together; CVODE's timer sat 3e-16 short of
+    # 0.5 when the clock's relay fired 1e-12 s on, was past it at the next start, and never fired
+    # (j then ran to 2.0 instead of 1.5, exit 0)
+    res = hs.simulate(_file(tmp_path, TWO_AT_ONCE), solver=solver)
+    assert res.meta["events"] == [(pytest.approx(0.5, abs=2e-12), ("hc", "j", "r", "ri"))]
+    assert np.ravel(res["ri.y"])[-1] == 1.0 and np.ravel(res["hc.count"])[-1] == 1.0
+    assert np.ravel(res["j.y"])[-1] == pytest.approx(1.5, abs=1e-9)
+
+
+CHAIN = """blocks:
+  c: {type: constant, value: 1.0}
+  di: {type: discrete_integrator, K: 0.5, rate: 8}
+  r: {type: relay, switch_on: 0.3, switch_off: 0.05}
+  i: {type: integrator, initial: -0.5}
+  hc: {type: hit_crossing, offset: 0.0, direction: falling}
+  r3: {type: relay, switch_on: 0.1, switch_off: -0.1}
+wires: [c.y -> di.u, di.y -> r.u, c.y -> i.u, r.y -> i.reset, i.y -> hc.u, i.y -> r3.u]
+simulation: {t_end: 0.7, step: 1.0e-3, log_period: 0.025}
+log: [r.y, i.y, hc.count, r3.y]
+"""
+
+
+@pytest.mark.parametrize("solver, path", [("rk4", {}), ("rk4", {"fused": False}), ("radau", {}), ("cvode", {})])
+def test_a_chain_of_actions_at_a_hit_is_one_entry_naming_each_block_and_logged_after(tmp_path, solver, path):
+    # the discrete integrator reaches 0.3125 at the hit at 0.625 s: the relay switches on, resets
+    # i from 0.125 to -0.5, which makes hc fire (falling through 0) and r3 switch off; the entry
+    # named only r, and the hit's log row showed the values before the events
+    res = hs.simulate(_file(tmp_path, CHAIN), solver=solver, **path)
+    assert (0.625, ("hc", "i", "r", "r3")) in res.meta["events"]
+    k = int(np.argmin(abs(res.t - 0.625)))
+    assert res.t[k] == 0.625
+    assert np.ravel(res["r.y"])[k] == 1.0 and np.ravel(res["i.y"])[k] == -0.5
+    assert np.ravel(res["hc.count"])[k] == 1.0 and np.ravel(res["r3.y"])[k] == 0.0
