@@ -27,6 +27,14 @@ def scalar(value, name, sign=None, inf_ok=False):
     return v
 
 
+def choice(value, name, options):
+    """A parameter that names one of ``options`` (strings); returns it."""
+    if isinstance(value, str) and value in options:
+        return value
+    listed = ", ".join(options[:-1]) + " or " + options[-1] if len(options) > 1 else options[0]
+    raise ParameterError(name, f"must be {listed}, got {value!r}")
+
+
 def flag(value, name):
     """A parameter that is true or false (YAML ``true``/``false``, not a string)."""
     if isinstance(value, (bool, np.bool_)):

@@ -13,7 +13,7 @@ from hybridsim.errors import ParameterError
 from hybridsim.engine.kernels import Kernels, kernel, unroll
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks._util import count, vector
+from hybridsim.blocks._util import choice, count, vector
 
 GROUP = "math"  # where `hybridsim blocks` lists this module's blocks
 
@@ -115,8 +115,7 @@ class MinMax(Block):
 
     def __init__(self, name="minmax", function="min", inputs=2, width=1):
         super().__init__(name)
-        if function not in ("min", "max"):
-            raise ParameterError("function", f"must be min or max, got {function!r}")
+        function = choice(function, "function", ("min", "max"))
         m, n = count(inputs, "inputs"), count(width, "width")
         self.params = (1.0 if function == "max" else -1.0, m)
         for k in range(m):
@@ -150,8 +149,7 @@ class HitCrossing(Block):
     def __init__(self, name="hit", offset=0.0, direction="either", width=1):
         super().__init__(name)
         dirs = {"rising": 1, "falling": -1, "either": 0}
-        if direction not in dirs:
-            raise ParameterError("direction", f"must be rising, falling or either; got {direction!r}")
+        direction = choice(direction, "direction", tuple(dirs))
         n = count(width, "width")
         self.params = HitParams(vector(offset, "offset", n), n)
         self.event_directions = (dirs[direction],) * n

@@ -13,7 +13,7 @@ from hybridsim.errors import ParameterError
 from hybridsim.engine.kernels import Kernels, kernel, unroll
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks._util import count, vector
+from hybridsim.blocks._util import choice, count, vector
 from hybridsim.blocks.math.lookup import lookup_1d_output, table_params
 
 
@@ -205,8 +205,7 @@ class Quantizer(Block):
 
     def __init__(self, name="quantizer", q=0.01, width=1, rounding="even"):
         super().__init__(name)
-        if rounding not in ("even", "away"):
-            raise ParameterError("rounding", f"must be even or away, got {rounding!r}")
+        rounding = choice(rounding, "rounding", ("even", "away"))
         n = count(width, "width")
         self.params = (vector(q, "q", n, "positive"), float(rounding == "away"))
         self.declare_input("u", n)

@@ -9,7 +9,7 @@ from hybridsim.errors import ParameterError
 from hybridsim.engine.kernels import Kernels, kernel
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks._util import flag, floats, scalar, vector
+from hybridsim.blocks._util import choice, flag, floats, scalar, vector
 from hybridsim.blocks.paper.kinematics import L_OFFSET, inverse_kinematics
 
 
@@ -98,9 +98,7 @@ class Manipulator(Block):
                  l=L_OFFSET, stick_band=1e-4, stick_time=1e-3, friction_model="karnopp",
                  stribeck_velocity=(1e-3, 1e-3), bristle_stiffness=(1e5, 1e5), bristle_damping=None):
         super().__init__(name)
-        if friction_model not in FRICTION_MODELS:
-            raise ParameterError("friction_model", f"must be one of {', '.join(FRICTION_MODELS)}; "
-                                                   f"got {friction_model!r}")
+        friction_model = choice(friction_model, "friction_model", FRICTION_MODELS)
         zero = (0.0, 0.0)
         friction = flag(friction, "friction")
         m2 = scalar(M2, "M2", "nonnegative") + scalar(M3, "M3", "positive")

@@ -18,7 +18,7 @@ from hybridsim.errors import ParameterError
 from hybridsim.engine.registry import register
 
 from hybridsim.blocks.robot import kernels as rk, rigid
-from hybridsim.blocks._util import flag, scalar, vector
+from hybridsim.blocks._util import choice, flag, scalar, vector
 
 GROUP = "robot"  # where `hybridsim blocks` lists this module's blocks
 
@@ -224,8 +224,7 @@ class RobotArm(_RobotBlock):
         self.tau_s = vector(tau_s, "tau_s", n, "nonnegative")
         if self.friction and (self.tau_c > self.tau_s).any():
             raise ParameterError("tau_s", "must be at least tau_c (static >= Coulomb) at every joint")
-        if friction_model not in ("karnopp", "stribeck", "lugre"):
-            raise ParameterError("friction_model", f"must be karnopp, stribeck or lugre; got {friction_model!r}")
+        friction_model = choice(friction_model, "friction_model", ("karnopp", "stribeck", "lugre"))
         self.stribeck = friction_model == "stribeck"
         self.lugre = friction_model == "lugre" and self.friction
         self.v_s = vector(stribeck_velocity, "stribeck_velocity", n, "positive")

@@ -14,7 +14,7 @@ from hybridsim.errors import ParameterError
 from hybridsim.engine.kernels import Kernels, kernel
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks._util import scalar, vector
+from hybridsim.blocks._util import choice, scalar, vector
 from hybridsim.blocks.sources.basic import _Source, _widths
 
 GROUP = "sources"  # where `hybridsim blocks` lists this module's blocks
@@ -180,8 +180,7 @@ class Chirp(_Source):
     def __init__(self, name="chirp", f0=1.0, f1=10.0, t1=1.0, method="linear", amplitude=1.0, phase=0.0):
         amp = vector(amplitude, "amplitude")
         super().__init__(name, amp.size)
-        if method not in ("linear", "logarithmic"):
-            raise ParameterError("method", f"must be linear or logarithmic, got {method!r}")
+        method = choice(method, "method", ("linear", "logarithmic"))
         f0, f1 = scalar(f0, "f0", "positive"), scalar(f1, "f1", "positive")
         if method == "logarithmic" and f0 == f1:
             raise ParameterError("f1", "must differ from f0 for a logarithmic sweep")

@@ -196,10 +196,25 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
     while True:
         # -- one integration from t0 to the next stop (a time event or t1) ----------------------
         stop = t1
+        timed = False
         if lim.timed:
             te = gl.next_time(t0, x, y, z, pf, pi)
-            if te > t0 + tol and te < t1:
-                stop = te
+            if te <= t0 + tol:  # due now (an event just before it brought the run to it): act at once
+                count += 1
+                stalls += 1
+                for i in range(w.fired.size):
+                    w.fired[i] = False
+                log_event(out, t0, w.fired, w.owner)
+                if count > lim.max_events or stalls > lim.max_stalls:
+                    fail(out, ZENO if count > lim.max_events else STALLED, count, j, t0)
+                    return ZENO if count > lim.max_events else STALLED
+                if gl.timed(t0, x, w.xe, y, z, pf, pi) == STOP:
+                    fail(out, STOPPED, 0, j, t0)
+                    return STOPPED
+                copy_into(x, w.xe)
+                continue
+            if te <= t1 + tol:  # before the next stop, or at it: acted on there, before its hit
+                stop, timed = min(te, t1), True
         ops.begin(s, t0, stop, x, tl.t, j, j1)
         if located:
             gl.zc(t0, x, w.g, y, z, pf, pi)
@@ -312,7 +327,7 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                 fail(out, code, 0, j, t_ev)
                 return code
             t0 = t_ev
-        elif stop < t1:  # a time event
+        elif timed:  # a time event
             count += 1
             for i in range(w.fired.size):
                 w.fired[i] = False

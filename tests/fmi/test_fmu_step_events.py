@@ -192,3 +192,24 @@ def test_an_fmi3_fmu_that_needs_it_is_called_through_fmi3CompletedIntegratorStep
     # every grid step and each located event's end: a bounce is two, the bounce and its leaving
     # the floor 1e-12 s later (one instant: one entry in meta["events"])
     assert len(calls) == 1000 + 2 * len(bounces)
+
+
+@pytest.mark.parametrize("solver", ["rk4", "bdf", "cvode"])
+@pytest.mark.parametrize("before", [1e-12, 0.0])
+def test_an_fmus_time_event_is_taken_when_another_event_comes_just_before_it(tmp_path_factory, tmp_path,
+                                                                          solver, before):
+    # tests/data/ball counts up at t = 1 through nextEventTime; a relay on u = t fires 1e-12 s
+    # before it (or at the same instant); the time event was then taken as already passed and
+    # never acted on: count stayed 0 until the ball's next bounce, or for good
+    fmu = _build(tmp_path_factory, "ball_te", (ROOT / "tests" / "data" / "ball" / "modelDescription.xml").read_text(),
+                 "ball")
+    path = tmp_path / "d.yaml"
+    path.write_text(f"blocks:\n  b: {{type: fmu, path: {fmu}, mode: me}}\n"
+                    "  tab: {type: table, times: [0.0, 2.0], values: [0.0, 2.0]}\n"
+                    f"  r: {{type: relay, switch_on: {1.0 - before!r}, switch_off: 0.5}}\n"
+                    "wires: [tab.y -> r.u]\n"
+                    "simulation: {t_end: 1.06, step: 1.0e-3, log_period: 0.01}\nlog: [b.count, r.y]\n")
+    res = hs.simulate(path, solver=solver)
+    t, count = res.t, np.ravel(res["b.count"])
+    assert np.all(count[t > 1.0] == 1.0) and np.all(count[t < 1.0 - 1e-9] == 0.0)
+    assert np.ravel(res["r.y"])[-1] == 1.0

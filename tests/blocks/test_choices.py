@@ -1,0 +1,29 @@
+"""Parameters that name one of a few choices: a wrong value of any type is a ParameterError naming
+the parameter and the choices (a list used to leak Python's "unhashable type: 'list'")."""
+import pytest
+
+import hybridsim as hs
+from hybridsim.errors import ParameterError
+from hybridsim.engine.registry import lookup
+
+
+@pytest.mark.parametrize("block, param, choices", [
+    ("hit_crossing", "direction", "rising, falling or either"),
+    ("minmax", "function", "min or max"),
+    ("quantizer", "rounding", "even or away"),
+    ("chirp", "method", "linear or logarithmic"),
+    ("manipulator", "friction_model", "karnopp, stribeck or lugre"),
+])
+@pytest.mark.parametrize("value", [["rising", "falling"], 3, None, "sideways"])
+def test_a_choice_given_anything_else_names_the_parameter_and_its_choices(block, param, choices, value):
+    with pytest.raises(ParameterError, match=f"must be {choices}, got") as err:
+        lookup(block)(**{param: value})
+    assert err.value.param == param
+
+
+def test_a_list_for_a_choice_in_a_file_is_bad_input_on_its_line(tmp_path):
+    path = tmp_path / "d.yaml"
+    path.write_text("blocks:\n  s: {type: sine}\n  hc:\n    type: hit_crossing\n    direction: [rising, falling]\n"
+                    "wires: [s.y -> hc.u]\n")
+    with pytest.raises(hs.errors.DiagramError, match=r"d\.yaml:5: .*'direction' must be rising, falling or either"):
+        hs.build(path)
