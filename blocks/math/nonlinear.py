@@ -64,15 +64,18 @@ def dead_zone_output(p, t, x, u):
 class Switch(Block):
     """y = u1 where ``control`` >= threshold, else u2 (element-wise).
 
-    Ports: in ``u1``, ``control``, ``u2``; out ``y``. The switch acts at the
-    times the solver evaluates it (it is not a located event: put a relay or
-    a sampled block in front of it when the switching instant matters).
+    Ports: in ``u1``, ``control``, ``u2``; out ``y``. ``control`` = threshold
+    is a zero crossing (direction either), as in Simulink's Switch: the
+    variable-step solvers locate it and restart there, and so do the
+    fixed-step methods with ``simulation.locate_switches: true`` (otherwise
+    they step over it, with an error of the order of one step).
     """
 
     def __init__(self, name="switch", threshold=0.0, width=1):
         super().__init__(name)
         n = count(width, "width")
         self.params = (vector(threshold, "threshold", n),)
+        self.event_directions = (0,) * n
         self.declare_input("u1", n)
         self.declare_input("control", n)
         self.declare_input("u2", n)
@@ -82,6 +85,11 @@ class Switch(Block):
 @kernel
 def switch_output(p, t, x, u):
     return (np.where(np.asarray(u[1]) >= p[0], np.asarray(u[0]), np.asarray(u[2])),)
+
+
+@kernel
+def switch_crossings(p, t, x, u):
+    return np.asarray(u[1]) - p[0]
 
 
 @register("product")
@@ -288,7 +296,7 @@ def lookup_2d_output(p, t, x, u):
 
 Saturation.kernels = Kernels(output=saturation_output)
 DeadZone.kernels = Kernels(output=dead_zone_output)
-Switch.kernels = Kernels(output=switch_output)
+Switch.kernels = Kernels(output=switch_output, zero_crossings=switch_crossings)
 Product.kernels = Kernels(output=product_output)
 MathFunction.kernels = Kernels(output=math_function_output)
 Quantizer.kernels = Kernels(output=quantizer_output)

@@ -315,3 +315,29 @@ def test_a_chain_of_actions_at_a_hit_is_one_entry_naming_each_block_and_logged_a
     assert res.t[k] == 0.625
     assert np.ravel(res["r.y"])[k] == 1.0 and np.ravel(res["i.y"])[k] == -0.5
     assert np.ravel(res["hc.count"])[k] == 1.0 and np.ravel(res["r3.y"])[k] == 0.0
+
+
+SWITCHED = """blocks:
+  s: {type: sine, amplitude: 2.0, frequency: 1.0}
+  one: {type: constant, value: 1.0}
+  mone: {type: constant, value: -1.0}
+  sw: {type: switch, threshold: 0.3}
+  it: {type: integrator}
+wires: [one.y -> sw.u1, s.y -> sw.control, mone.y -> sw.u2, sw.y -> it.u]
+simulation: {t_end: 0.8, step: 1.0e-3, log_period: 0.01, locate_switches: true}
+log: [it.y]
+"""
+
+
+@pytest.mark.parametrize("solver, path", [("rk4", {}), ("heun", {}), ("rk4", {"fused": False}),
+                                          ("rk4", {"compiled": True}), ("radau", {}), ("cvode", {})],
+                         ids=lambda v: v if isinstance(v, str) else "-".join(v) or "default")
+def test_a_switch_driven_by_time_is_located_and_integrated_to_full_order(tmp_path, solver, path):
+    # y = 1 while 2 sin(2 pi t) >= 0.3, else -1: it switches at a = asin(0.15) / (2 pi) and 0.5 - a.
+    # The switch had no event function (the integral was off by 5e-4 on rk4), and a located
+    # time-driven switch restarted from a step whose last stage was past it (off by 1e-4)
+    a = math.asin(0.15) / (2 * math.pi)
+    res = hs.simulate(_file(tmp_path, SWITCHED), solver=solver, **path)
+    assert np.allclose([t for t, _ in res.meta["events"]], [a, 0.5 - a], atol=1e-9, rtol=0)
+    exact = (0.5 - 2 * a) - a - (0.8 - (0.5 - a))
+    assert abs(np.ravel(res["it.y"])[-1] - exact) < (1e-11 if solver in ("rk4", "heun") else 1e-7)
