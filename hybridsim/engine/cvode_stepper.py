@@ -109,11 +109,11 @@ def start_crossing(s, w, gl, y, z, pf, pi):
     if not on.any():
         return None
     change, t1, x1 = _rates(s.t0, s.x0, g0, w, gl, y, z, pf, pi, START_STEP)
-    g1, d = g0 + change, w.dirs
     # the core's rule over the step, for every function: one just short of its surface that crosses
     # within it (a timer at 0.5 - 3e-16 when a clock's relay fires at 0.5) would be past it at the
     # next start, where CVODE would not see it
-    fired = (d >= 0) & (g0 <= 0.0) & (g1 > 0.0) | (d <= 0) & (g0 >= 0.0) & (g1 < 0.0)
+    fired = np.zeros(g0.size, np.bool_)
+    stepping.crossed_any(g0, g0 + change, w.dirs, fired)
     if not (fired & on).any():
         return None
     if s.before is not None:  # on its surface, crossed just now, going on as it did: not again
@@ -233,9 +233,10 @@ def cvode_ops():
         s.ta = t
         reached = False
         if root is not None:  # the core's rule: a function fires once on its firing side, not on reaching 0
-            g = _zc(t, xn, np.empty(w.g.size), w, gl, y, z, pf, pi)
-            d = w.dirs
-            root = root & (((d > 0) & (g > 0)) | ((d < 0) & (g < 0)) | ((d == 0) & (g != 0)))
+            past = np.zeros(root.size, np.bool_)
+            stepping.crossed_any(np.zeros(root.size), _zc(t, xn, np.empty(root.size), w, gl, y, z, pf, pi),
+                                 w.dirs, past)
+            root = root & past
             reached = not root.any()
             root = None if reached else root
         s.num[stepping.ROOT] = 1.0 if root is not None else -1.0

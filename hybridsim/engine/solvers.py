@@ -274,7 +274,8 @@ def scipy_ops():
     def dense(s, t, x, w, xo):
         if s.interp is None:
             s.interp = s.ode.dense_output()
-            ts = s.times[(s.times > s.ode.t_old) & (s.times < s.ode.t)]
+            a, b = np.searchsorted(s.times, (s.ode.t_old, s.ode.t), side="right")
+            ts = s.times[a:b][s.times[a:b] < s.ode.t]  # inside the step (a search: the run's may be long)
             # the step's log points in one call (one call per point cost a third of a run)
             s.logged = dict(zip(ts.tolist(), s.interp(ts).T)) if ts.size > 1 else {}
         got = s.logged.get(t)

@@ -202,16 +202,11 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
             if te <= t0 + tol:  # due now (an event just before it brought the run to it): act at once
                 count += 1
                 stalls += 1
-                for i in range(w.fired.size):
-                    w.fired[i] = False
-                log_event(out, t0, w.fired, w.owner)
                 if count > lim.max_events or stalls > lim.max_stalls:
                     fail(out, ZENO if count > lim.max_events else STALLED, count, j, t0)
                     return ZENO if count > lim.max_events else STALLED
-                if gl.timed(t0, x, w.xe, y, z, pf, pi) == STOP:
-                    fail(out, STOPPED, 0, j, t0)
+                if time_event(t0, gl, w, out, y, z, pf, pi, j) != OK:
                     return STOPPED
-                copy_into(x, w.xe)
                 continue
             if te <= t1 + tol:  # before the next stop, or at it: acted on there, before its hit
                 stop, timed = min(te, t1), True
@@ -229,10 +224,9 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                     if code != OK:
                         fail(out, code, 0, j, t0)
                         return code
-                    # the hit's log row (rule: a log point at an event is logged after it)
-                    if j > 0 and tl.kind[j - 1] == HIT and tl.t[j - 1] == t0:
-                        if not observe(gl, out, t0, x, y, z, pf, pi, tl.rec[j - 1], j - 1):
-                            return BAD_OUTPUT
+                    # the hit's log row, row j - 1 (a log point at an event is logged after it)
+                    if not observe(gl, out, t0, x, y, z, pf, pi, tl.rec[j - 1], j - 1):
+                        return BAD_OUTPUT
                     continue  # integrate from the state after the actions
         ta = t0
         event = False
@@ -329,13 +323,8 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
             t0 = t_ev
         elif timed:  # a time event
             count += 1
-            for i in range(w.fired.size):
-                w.fired[i] = False
-            log_event(out, stop, w.fired, w.owner)
-            if gl.timed(stop, x, w.xe, y, z, pf, pi) == STOP:
-                fail(out, STOPPED, 0, j, stop)
+            if time_event(stop, gl, w, out, y, z, pf, pi, j) != OK:
                 return STOPPED
-            copy_into(x, w.xe)
             t0 = stop
         else:
             break
@@ -348,6 +337,19 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
         j += 1
     if located:  # the functions at the stop, before its hit: compared after it
         gl.zc(t1, x, w.gp, y, z, pf, pi)
+    return OK
+
+
+def time_event(t, gl, w, out, y, z, pf, pi, j):
+    """The time event at ``t`` on ``w.x`` (logged, acted on, ``w.x`` the state after); STOPPED
+    (status set) when a block asked to end the run, else OK."""
+    for i in range(w.fired.size):
+        w.fired[i] = False
+    log_event(out, t, w.fired, w.owner)
+    if gl.timed(t, w.x, w.xe, y, z, pf, pi) == STOP:
+        fail(out, STOPPED, 0, j, t)
+        return STOPPED
+    copy_into(w.x, w.xe)
     return OK
 
 
