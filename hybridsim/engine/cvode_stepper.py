@@ -43,6 +43,7 @@ class CVodeStepper:
 
         s, e = self.solver, w.g.size
         failed, seen = self.failed, []
+        muting = bool(w.muted.any())  # switches are muted at events, and each event starts a new CVODE
 
         def rhs(t, xx, dx):
             if failed:
@@ -68,7 +69,8 @@ class CVodeStepper:
                 failed.append(exc)
                 out.fill(np.nan)
                 return
-            stepping.mute(out, w.muted)
+            if muting:
+                stepping.mute(out, w.muted)
 
         opts = dict(method=s.method, rtol=s.rtol, atol=s.atol, max_num_steps=MAX_STEPS,
                     max_step=0.0 if not np.isfinite(s.max_step) else s.max_step)

@@ -85,7 +85,8 @@ class EventSet:
 
     def g(self, t, x, out):
         """Every located block's event functions at (t, x), into ``out``."""
-        self.outputs(t, x)
+        if self.system.rhs_path:
+            self.outputs(t, x)
         for zc, s, ui, i, where in self._g:
             out[where] = zc(t, x[s] if s is not None else self.ctx.xd[i], ui)
 

@@ -34,6 +34,12 @@ def rhs_closures(system, ctx):
         for der, s, ui in ders:
             dx[s] = der(t, x[s], ui)
 
+    if not steps and len(ders) == 1 and ders[0][1] == slice(0, system.n_x):
+        der, _, ui = ders[0]
+
+        def derivatives(t, x, dx):  # one block holds every state, nothing on the path (an FMU alone)
+            dx[:] = der(t, x, ui)
+
     return outputs, derivatives
 
 
@@ -101,8 +107,10 @@ class GenericGlue:
                     return i
             return -1
 
+        derivatives = self.derivatives
+
         def rhs(t, x, dx, at, y, z, pf, pi):
-            self.derivatives(t, x, dx[at:at + x.size])
+            derivatives(t, x, dx if at == 0 and dx.size == x.size else dx[at:at + x.size])
 
         def zc(t, x, g, y, z, pf, pi):
             ev.g(t, x, g)

@@ -103,7 +103,7 @@ class BoundCalls:
         if status > 1:
             return self.names["set_time"], status
         if self.nx:
-            np.copyto(self.x, x)
+            self.x[:] = x
             status = self._set_x(*self._ax)
             if status > 1:
                 return self.names["set_x"], status
