@@ -151,8 +151,8 @@ def glue_source(system, log_path, located, layout):
 
     # located events: their functions and actions
     sizes = event_sizes(sysm, located) if located else []
-    lines, local = rhs_outputs()
-    L = ["def zc(t, x, g, y, z, pf, pi):"] + wr.param_lines(path + list(located)) + lines
+    lines, local = rhs_outputs() if located else ([], set())  # no located events: nothing to compute
+    L = ["def zc(t, x, g, y, z, pf, pi):"] + (wr.param_lines(path + list(located)) + lines if located else [])
     c = 0
     for i, m in zip(located, sizes):
         f = wr.kernel(i, "zero_crossings", False)
@@ -162,7 +162,7 @@ def glue_source(system, log_path, located, layout):
     if not located:
         L.append("    pass")
     fns.append(L)
-    L = ["def act(t, x, xn, fired, y, z, pf, pi):"] + wr.param_lines(path + list(located)) + lines
+    L = ["def act(t, x, xn, fired, y, z, pf, pi):"] + (wr.param_lines(path + list(located)) + lines if located else [])
     L += [f"    for k in range({sysm.n_x}):", "        xn[k] = x[k]"]
     c = 0
     for i, m in zip(located, sizes):
