@@ -4,10 +4,13 @@ from hybridsim.app import options
 
 def add(sub):
     """The argparse spec of this module\'s command(s), added to ``sub`` (the subcommands)."""
-    p = sub.add_parser("check", help="validate a diagram without running it",
+    p = sub.add_parser("check", help="validate a diagram (or a sweep or tune file) without running it",
                        description="Build every variant of a diagram as a run would (blocks, wires, rates, "
                                    "settings, the sizes of the run) without running it: a diagram that passes "
-                                   "cannot fail 'run' for a reason this could have seen.")
+                                   "cannot fail 'run' for a reason this could have seen. Given a sweep or tune "
+                                   "file, check it as 'hybridsim sweep' / 'hybridsim tune' would before their "
+                                   "first run: the file, its diagram with 'set', and every swept value (both ends "
+                                   "of each tuned parameter).")
     options.add_diagram(p)
     p.set_defaults(func=run)
 
@@ -16,9 +19,13 @@ def run(args):
     """Do the command: one call of the Python API, its result printed; returns the exit status."""
     from hybridsim import api
 
-    f = options.diagram(args)
-    info = api.check(f)
-    print(f"{f.path}: OK - {info['blocks']} blocks, {info['states']} continuous states, "
-          f"rates {', '.join(f'{r:g} Hz' for r in info['rates']) or 'none'}, "
-          f"{info['runs']} run(s)")
+    info = api.check_file(options.path(args.diagram), **options.overrides(args.set or []))
+    if info["kind"] == "sweep":
+        print(f"{args.diagram}: OK - a sweep of {info['diagram']}, {info['points']} point(s)")
+    elif info["kind"] == "tune":
+        print(f"{args.diagram}: OK - a tune file for {info['diagram']}, {info['parameters']} parameter(s), "
+              f"method {info['method']}")
+    else:
+        print(f"{args.diagram}: OK - {info['blocks']} blocks, {info['states']} continuous states, "
+              f"rates {', '.join(f'{r:g} Hz' for r in info['rates']) or 'none'}, {info['runs']} run(s)")
     return 0

@@ -168,3 +168,20 @@ def test_a_shipped_diagram_runs_from_any_folder(tmp_path, capsys, monkeypatch):
     assert main(["check", "diagrams/fig10_force_ramp.yaml"]) == 0
     assert "using the shipped" in capsys.readouterr().err
     assert main(["check", "diagrams/not_there.yaml"]) == 2
+
+
+def test_check_takes_sweep_and_tune_files(tmp_path, capsys):
+    d = write(tmp_path, GOOD)
+    sweep = write(tmp_path, f"diagram: {d.name}\ngrid: {{k: [1.0, 2.0, 3.0]}}\n", "s.yaml")
+    code, out, _ = run(capsys, "check", sweep)
+    assert code == 0 and "a sweep of" in out and "3 point(s)" in out
+    tune = write(tmp_path, f"diagram: {d.name}\nparameters: {{g.K: {{low: 0.5, high: 4.0}}}}\n"
+                           "objectives: [{metric: overshoot_pct, of: zoh.y, goal: min}]\n", "t.yaml")
+    code, out, err = run(capsys, "check", tune)
+    assert code == 0 and "a tune file for" in out and "1 parameter(s)" in out, err
+    # a swept parameter the diagram lacks: named with the sweep file, exit 2 (not "unknown section")
+    bad = write(tmp_path, f"diagram: {d.name}\ngrid: {{g.gain: [1.0]}}\n", "b.yaml")
+    code, _, err = run(capsys, "check", bad)
+    assert code == 2 and "b.yaml" in err and "gain" in err and "unknown section" not in err
+    code, _, err = run(capsys, "check", sweep, "--set", "k=2")
+    assert code == 2 and "--set applies to a diagram" in err
