@@ -150,8 +150,13 @@ class MathFunction(Block):
 
 @kernel
 def apply_function(code, v):
-    """FUNCTIONS[code] of the float v (the C library's, so every path gives the same bits)."""
+    """FUNCTIONS[code] of the float v (the C library's, so every path gives the same bits). NaN gives
+    NaN (never a number a later block passes on as if it were one: the run stops at this block)."""
     c = int(code)
+    if v != v:
+        return v
+    if math.isinf(v) and (c <= 2 or c >= 17):  # sin, cos, tan of +-inf: NaN; floor, ceil, round: itself
+        return math.nan if c <= 2 else v
     if c == 0:
         return math.sin(v)
     if c == 1:
@@ -275,7 +280,9 @@ class Lookup2D(Block):
 
 @kernel
 def cell(bp, v):
-    """(index i, weight w) with v = (1 - w) bp[i] + w bp[i + 1], clamped to the table."""
+    """(index i, weight w) with v = (1 - w) bp[i] + w bp[i + 1], clamped to the table (NaN: weight NaN)."""
+    if v != v:
+        return 0, v
     if v <= bp[0]:
         return 0, 0.0
     if v >= bp[-1]:

@@ -219,7 +219,7 @@ class ScipyStepper:
         self.solver, self.num = solver, np.zeros(8)
         self.ode = self.interp = self.logged = None
         self.times = np.zeros(0)
-        self.message = self.seen = None
+        self.message = self.seen = self.raised = None
 
     def start(self, rhs, y, z, pf, pi):
         s = self.solver
@@ -228,7 +228,11 @@ class ScipyStepper:
 
         def fun(t, xx):
             dx = np.empty(n)
-            rhs(t, xx, dx, 0, y, z, pf, pi)
+            try:
+                rhs(t, xx, dx, 0, y, z, pf, pi)
+            except Exception as exc:  # a block's own error: raised as it is, not taken for the solver's
+                self.raised = exc
+                raise
             if not all_finite(dx):  # ends the run: the solvers shrink their steps to nothing
                 seen.append((t, np.array(xx, float)))  # on it, or integrate infinities, or hang (LSODA)
                 raise NotFinite(t)
@@ -255,8 +259,8 @@ def scipy_ops():
             failed = ode.status == "failed"
         except NotFinite as exc:
             failed, message = True, str(exc)
-        except (ValueError, np.linalg.LinAlgError) as exc:  # scipy's linear algebra on NaN
-            if not s.seen:
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:  # scipy's linear algebra on
+            if exc is s.raised:  # NaN or on numbers that overflow in its Jacobian (a huge but finite rhs)
                 raise
             failed, message = True, str(exc)
         if failed:

@@ -205,8 +205,9 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                 if count > lim.max_events or stalls > lim.max_stalls:
                     fail(out, ZENO if count > lim.max_events else STALLED, count, j, t0)
                     return ZENO if count > lim.max_events else STALLED
-                if time_event(t0, gl, w, out, y, z, pf, pi, j) != OK:
-                    return STOPPED
+                code = time_event(t0, gl, lim, w, out, y, z, pf, pi, j)
+                if code != OK:
+                    return code
                 continue
             if te <= t1 + tol:  # before the next stop, or at it: acted on there, before its hit
                 stop, timed = min(te, t1), True
@@ -222,7 +223,7 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                     copy_into(w.xe, x)
                     code = settle(t0, gl, lim, w, out, y, z, pf, pi)
                     if code != OK:
-                        fail(out, code, 0, j, t0)
+                        fail(out, code, out.status[1] if code == DIVERGED else 0, j, t0)
                         return code
                     # the hit's log row, row j - 1 (a log point at an event is logged after it)
                     if not observe(gl, out, t0, x, y, z, pf, pi, tl.rec[j - 1], j - 1):
@@ -318,13 +319,14 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                             w.muted[i] = True
             code = settle(t_ev, gl, lim, w, out, y, z, pf, pi)
             if code != OK:
-                fail(out, code, 0, j, t_ev)
+                fail(out, code, out.status[1] if code == DIVERGED else 0, j, t_ev)
                 return code
             t0 = t_ev
         elif timed:  # a time event
             count += 1
-            if time_event(stop, gl, w, out, y, z, pf, pi, j) != OK:
-                return STOPPED
+            code = time_event(stop, gl, lim, w, out, y, z, pf, pi, j)
+            if code != OK:
+                return code
             t0 = stop
         else:
             break
@@ -340,9 +342,10 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
     return OK
 
 
-def time_event(t, gl, w, out, y, z, pf, pi, j):
+def time_event(t, gl, lim, w, out, y, z, pf, pi, j):
     """The time event at ``t`` on ``w.x`` (logged, acted on, ``w.x`` the state after); STOPPED
-    (status set) when a block asked to end the run, else OK."""
+    when a block asked to end the run, DIVERGED when the actions left a state not finite (status
+    set), else OK."""
     for i in range(w.fired.size):
         w.fired[i] = False
     log_event(out, t, w.fired, w.owner)
@@ -350,6 +353,10 @@ def time_event(t, gl, w, out, y, z, pf, pi, j):
         fail(out, STOPPED, 0, j, t)
         return STOPPED
     copy_into(w.x, w.xe)
+    bad = first_bad(w.x, lim.max_state)
+    if bad >= 0:
+        fail(out, DIVERGED, bad, j, t)
+        return DIVERGED
     return OK
 
 
@@ -428,7 +435,8 @@ def locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi):
 def settle(t, gl, lim, w, out, y, z, pf, pi):
     """Apply the actions of ``w.fired`` to ``w.xe`` at ``t``, again while they make another function
     cross (each such block joins the event's entry); the state after, in ``w.x``. Returns the status
-    code (CHATTER, STOPPED or OK)."""
+    code (CHATTER, STOPPED, DIVERGED: an action left a state not finite or beyond max_state, its
+    index in ``out.status[1]``; or OK)."""
     gl.zc(t, w.xe, w.gm, y, z, pf, pi)  # the functions just before the actions
     mute(w.gm, w.muted)
     for _ in range(lim.max_iterations):
@@ -439,6 +447,10 @@ def settle(t, gl, lim, w, out, y, z, pf, pi):
         gl.zc(t, w.x, w.ghi, y, z, pf, pi)
         mute(w.ghi, w.muted)
         if not crossed_any(w.gm, w.ghi, w.dirs, w.fired):
+            bad = first_bad(w.x, lim.max_state)
+            if bad >= 0:
+                out.status[1] = bad
+                return DIVERGED
             return OK
         n = out.nev[0] - 1
         if 0 <= n < out.evt.size:

@@ -58,6 +58,84 @@ def test_a_non_finite_block_output_names_the_block_and_time(tmp_path, solver, kw
     assert 0.5 < t <= 0.502
 
 
+#: sqrt of cos(2 pi t): NaN on (0.25, 0.75); ``fn`` of it into an integrator
+ABSORBED = """
+name: absorbed
+blocks:
+  c: {type: cosine, amplitude: 1.0, frequency: 1.0}
+  sq: {type: math_function, function: sqrt}
+  fn: {type: math_function, function: FN}
+  x: {type: integrator}
+wires: [c.y -> sq.u, sq.y -> fn.u, fn.y -> x.u]
+simulation: {t_end: 1.0, step: 1.0e-3, log_period: 0.1}
+log: [x.y]
+"""
+
+
+@pytest.mark.parametrize("fn", ["sign", "round", "floor", "ceil", "sin"])
+@pytest.mark.parametrize("solver, kw", [("rk4", {"fused": False}), ("rk4", {}), ("radau", {}), ("rk45", {})])
+def test_a_function_of_nan_is_nan_so_the_run_stops_at_its_source(tmp_path, fn, solver, kw):
+    # sign(NaN) read 0 and round(NaN) raised ValueError (exit 70): now NaN, caught at sq
+    p = write(tmp_path, ABSORBED.replace("FN", fn))
+    with pytest.raises(SimulationError, match=r"block 'sq' \(MathFunction\) gave a non-finite output at t=(\S+) s") as err:
+        hs.simulate(p, solver=solver, **kw)
+    t = float(str(err.value).split("t=")[1].split(" ")[0])
+    assert 0.25 <= t <= (0.251 if solver == "rk4" else 0.75)  # a variable-step solver: in the step it took
+
+
+def test_math_functions_of_non_finite_numbers():
+    from hybridsim.blocks.math.nonlinear import FUNCTIONS, apply_function
+
+    for code, name in enumerate(FUNCTIONS):
+        assert math.isnan(apply_function(code, math.nan)), name
+        for v in (math.inf, -math.inf):  # a number or inf/NaN, never an exception
+            got = apply_function(code, v)
+            assert isinstance(got, float), name
+    assert apply_function(FUNCTIONS.index("floor"), -math.inf) == -math.inf
+    assert math.isnan(apply_function(FUNCTIONS.index("sin"), math.inf))
+
+
+def test_lookup_2d_of_nan_is_nan():
+    from hybridsim.blocks.math.nonlinear import cell
+
+    i, w = cell(np.array([0.0, 1.0]), math.nan)
+    assert i == 0 and math.isnan(w)  # the index stays in the table; the weight carries the NaN
+
+
+@pytest.mark.parametrize("solver", ["rk4", "rk45", "radau", "bdf", "cvode"])
+def test_an_action_that_leaves_a_state_not_finite_stops_the_run(tmp_path, solver):
+    # a memory samples sqrt(cos(2 pi t)) at a pulse's rising edge, t = 0.3, where it is NaN: the
+    # action's NaN state ended scipy's solvers in a ValueError (exit 70) when they restarted from it
+    p = write(tmp_path, """
+name: event_memory
+blocks:
+  c: {type: cosine, amplitude: 1.0, frequency: 1.0}
+  sq: {type: math_function, function: sqrt}
+  p: {type: pulse, amplitude: 1.0, period: 1.0, duty: 0.5, delay: 0.3}
+  m: {type: memory}
+  x: {type: integrator}
+wires: [c.y -> sq.u, sq.y -> m.u, p.y -> m.trigger, m.y -> x.u]
+simulation: {t_end: 1.0, step: 1.0e-3, log_period: 0.25}
+log: [x.y]
+""")
+    with pytest.raises(SimulationError, match=r"block 'sq' .* at t=0.30?1? s") as err:
+        hs.simulate(p, solver=solver)
+    assert "Traceback" not in str(err.value)
+
+
+def test_radau_on_a_huge_finite_derivative_fails_cleanly(tmp_path):
+    # 5e307: finite, but Radau's Jacobian overflows in its LU (scipy: ValueError, was exit 70)
+    p = write(tmp_path, """
+name: huge
+blocks: {c: {type: constant, value: 5.0e307}, x: {type: integrator}}
+wires: [c.y -> x.u]
+simulation: {t_end: 1.0}
+log: [x.y]
+""")
+    with pytest.raises(SimulationError, match="Radau failed at t=0 s|diverged"):
+        hs.simulate(p, solver="radau")
+
+
 def test_the_cli_exits_3_on_divergence(tmp_path, capsys):
     code = main(["run", str(write(tmp_path, UNSTABLE)), "-q", "-o", str(tmp_path / "out")])
     _, err = capsys.readouterr()
