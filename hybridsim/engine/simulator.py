@@ -22,7 +22,7 @@ import time as _time
 import numpy as np
 
 from hybridsim.engine import events as _events
-from hybridsim.engine import stepping
+from hybridsim.engine import rk, stepping
 from hybridsim.engine.glue import GenericGlue, state_derivatives
 from hybridsim.engine.result import Result, parse_signal
 from hybridsim.engine.solvers import RK4, ExplicitRK, limits, outputs, work
@@ -328,12 +328,29 @@ class Session:
                 log.append((t, tuple(sorted(acting))))
         return log
 
+    def _blame_stages(self, t):
+        """A fixed step whose state came out not finite: the block whose output went non-finite, with
+        its inputs finite, at one of the step's stages (raises its SimulationError), if one did."""
+        sim, ctx = self.sim, self.ctx
+        h = float(self.s.num[rk.H])
+        x0 = np.array(self.w.xo, float)
+        if not (h > 0 and np.isfinite(x0).all()):
+            return
+        with np.errstate(all="ignore"):
+            f0 = state_derivatives(sim.system, ctx)(t - h, x0)
+            if not np.isfinite(f0).all():
+                return
+            for ts, xs in _stage_points(x0, f0, t - h, h):
+                sim.system.plan.blame(ctx, ts, xs)
+
     def fail(self, code):
         """Raise the :class:`SimulationError` of a failed walk, naming the state, block or events."""
         ctx, out, sim = self.ctx, self.out, self.sim
         plan = sim.system.plan
         index, t = int(out.status[1]), float(out.tfail[0])
         if code == stepping.DIVERGED:
+            if isinstance(sim.solver, ExplicitRK) and not np.isfinite(ctx.xc).all():
+                self._blame_stages(t)
             plan.check_continuous(ctx.xc, t, sim.max_state, ctx)
         elif code == stepping.BAD_OUTPUT:
             plan.check_outputs(ctx, [index], t)
@@ -358,8 +375,10 @@ class Session:
                     plan.blame(ctx, *seen[0])
             raise SimulationError(getattr(self.s, "message", None) or f"the solver failed at t={t:.9g} s")
         raise SimulationError(f"simulation failed at t={t:.6g} s (status {code})")
-
-
+def _stage_points(x0, f0, t0, h):
+    """Where a fixed step from (t0, x0) evaluates its later stages, to first order: x0 + theta h f0
+    at theta 1/2 and 1 (RK4's second stage exactly)."""
+    return [(t0 + th * h, x0 + th * h * f0) for th in (0.5, 1.0)]
 def _chunks(tl, pieces):
     """``(k0, k1)`` ranges of the timeline's rows, cut at hits into about ``pieces`` parts."""
     m = len(tl.t)
@@ -371,8 +390,6 @@ def _chunks(tl, pieces):
     cuts = sorted({int(hits[int(q)]) for q in np.linspace(0, len(hits) - 1, pieces + 1)[1:-1]} - {0})
     bounds = [0] + cuts + [m]
     return list(zip(bounds[:-1], bounds[1:]))
-
-
 def _progress(total):
     try:
         from tqdm import tqdm
@@ -380,14 +397,10 @@ def _progress(total):
         return None
     return tqdm(total=total, unit="s sim", delay=1.0, leave=False, disable=not on_terminal(),
                 bar_format="{l_bar}{bar}| {n:.2f}/{total:.2f} s [{elapsed}<{remaining}]")
-
-
 def on_terminal():
     """True when stderr is a terminal: progress bars only there (a log file gets no
     carriage-return frames)."""
     import sys
 
     return bool(getattr(sys.stderr, "isatty", lambda: False)())
-
-
 located_events = _events.located_events  # where api.check finds it

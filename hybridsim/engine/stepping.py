@@ -251,6 +251,7 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                 return FAILED
             bad = first_bad(xn, lim.max_state)
             if bad >= 0:
+                copy_into(w.xo, x)  # the step's start: where its stages can be looked at again
                 copy_into(x, xn)
                 fail(out, DIVERGED, bad, j, tb)
                 return DIVERGED
