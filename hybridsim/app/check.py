@@ -17,9 +17,9 @@ def add(sub):
 
 def run(args):
     """Do the command: one call of the Python API, its result printed; returns the exit status."""
-    from hybridsim import api
+    from hybridsim.checking import check_file
 
-    info = api.check_file(options.path(args.diagram), **options.overrides(args.set or []))
+    info = check_file(options.path(args.diagram), **options.overrides(args.set or []))
     if info["kind"] == "sweep":
         print(f"{args.diagram}: OK - a sweep of {info['diagram']}, {info['points']} point(s)")
     elif info["kind"] == "tune":

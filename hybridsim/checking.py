@@ -1,0 +1,44 @@
+"""``check`` of any file a command reads: a diagram, a sweep file or a tune file.
+
+Not in :mod:`hybridsim.api` (which ``import hybridsim`` loads): the sweep and tune layers sit
+above the format layer that the API is made of.
+"""
+from hybridsim.format.build import check, load
+
+
+def check_file(path, **overrides):
+    """Validate a diagram, sweep or tune file without running it; ``hybridsim check``.
+
+    A file with a ``diagram`` key and no ``blocks`` or ``extends`` is a sweep file (its
+    points as :meth:`hybridsim.runs.sweep.Sweep.validate` checks them), or a tune file when it
+    has ``parameters`` or ``objectives`` (:func:`hybridsim.tune.spec.load_tune`).
+
+    Returns
+    -------
+    dict
+        ``kind`` ("diagram", "sweep" or "tune"); for a diagram what :func:`check` gives
+        (``blocks``, ``states``, ``rates``, ``runs``); for a sweep ``diagram`` and ``points``;
+        for a tune file ``diagram``, ``parameters`` and ``method``.
+    """
+    from hybridsim.errors import InputError
+    from hybridsim.format import parse_file
+
+    data, _ = parse_file(path)
+    if "diagram" not in data or "blocks" in data or "extends" in data:
+        return {"kind": "diagram", **check(load(path, **overrides))}
+    kind = "tune" if "parameters" in data or "objectives" in data else "sweep"
+    if overrides:
+        raise InputError(f"{path}: --set applies to a diagram; a {kind} file gives its diagram's values "
+                         "in its own 'set' section")
+    if kind == "tune":
+        from hybridsim.tune.spec import load_tune
+
+        spec = load_tune(path)
+        return {"kind": kind, "diagram": str(spec.diagram), "parameters": len(spec.parameters),
+                "method": spec.method}
+    from hybridsim.runs.sweep import Sweep
+
+    sw = Sweep(path)
+    points = len(sw.points())
+    sw.validate()
+    return {"kind": kind, "diagram": str(sw.diagram), "points": points}
