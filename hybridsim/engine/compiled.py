@@ -62,11 +62,29 @@ def problems(system, solver, located=None):
     if no_events:
         out.append("these blocks give their events as methods, not kernels (zero_crossings, "
                    "event_action): " + ", ".join(no_events))
+    big = [b for b in system.blocks if _widest(b)[0] >= MAX_TUPLE]
+    if big:
+        out.append(f"numba takes tuples of fewer than {MAX_TUPLE} items, and the glue hands a block its state "
+                   "and each port as one: " + ", ".join(f"{b.name} ({type(b).__name__}: {_widest(b)[1]})"
+                                                       for b in big))
     try:
         ParamLayout(system.blocks)
     except ParamStructureError as exc:
         out.append(str(exc))
     return out
+
+
+#: numba's limit on a tuple's length (its message: "Tuple length must be smaller than 1000")
+MAX_TUPLE = 1000
+
+
+def _widest(block):
+    """(items, what) of the block's largest tuple in the glue: its state, or its widest port."""
+    sizes = [(block.n_continuous, f"{block.n_continuous} continuous states"),
+             (block.n_discrete, f"{block.n_discrete} discrete states")]
+    sizes += [(p.width, f"input {p.name!r} {p.width} wide") for p in block.inputs]
+    sizes += [(p.width, f"output {p.name!r} {p.width} wide") for p in block.outputs]
+    return max(sizes, key=lambda s: s[0])
 
 
 class CompiledGlue:

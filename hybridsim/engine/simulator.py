@@ -17,12 +17,16 @@ equations:
 Ticks run at ``0 <= n * base < t_end``; the run ends with the state at
 ``t_end``.
 """
+import contextlib
+import sys
+import threading
 import time as _time
 
 import numpy as np
 
 from hybridsim.engine import events as _events
 from hybridsim.engine import rk, stepping
+from hybridsim.engine.context import Context
 from hybridsim.engine.glue import GenericGlue, state_derivatives
 from hybridsim.engine.result import Result, parse_signal
 from hybridsim.engine.solvers import RK4, ExplicitRK, limits, outputs, work
@@ -73,6 +77,7 @@ class Simulator:
                  max_state=1e6, progress=False, fused=True, compiled=False, locate_switches=False):
         from hybridsim.engine.block import to_period
 
+        self._made = dict(log=log, log_period=log_period, max_state=max_state, locate_switches=locate_switches)
         self.system = system
         self.solver = solver or RK4()
         self.log_period = to_period(log_period, "log period")
@@ -100,6 +105,7 @@ class Simulator:
         self.located = _events.located_events(system, self.solver, locate_switches)
         self._timelines = {}
         self._compiled = self._fused = None
+        system.create_context().verify_outputs()  # the outputs' widths against the ports, before any path
         if compiled:
             from hybridsim.engine.compiled import CompiledGlue
 
@@ -185,6 +191,26 @@ class Simulator:
         return Session(self, ctx, rows)
 
     def _run(self, ctx, tl, t_end, progress=None):
+        if self._compiled is None:
+            return self._walk(ctx, tl, t_end, progress)
+        # a kernel that raises inside compiled code: numba prints it as "ignored" and the run goes on
+        blocks, raised = list(ctx.blocks), []
+        with _caught(raised):
+            try:
+                res = self._walk(ctx, tl, t_end, progress)
+            except SimulationError:
+                if not raised:
+                    raise
+        if not raised:
+            return res
+        # the same run on the Python path says which block raised what (or names its non-finite output)
+        twin = Simulator(self.system, self.solver, fused=False, **self._made)
+        twin._walk(Context(self.system, blocks), tl, t_end, False)
+        exc = raised[0].exc_value
+        raise SimulationError(f"a block's compiled kernel raised {type(exc).__name__}: {exc} (on the Python "
+                              "path the same run went through)")
+
+    def _walk(self, ctx, tl, t_end, progress=None):
         sysm = self.system
         progress = self.progress if progress is None else progress
         run = self.session(ctx, rows(tl))
@@ -379,6 +405,30 @@ def _stage_points(x0, f0, t0, h):
     """Where a fixed step from (t0, x0) evaluates its later stages, to first order: x0 + theta h f0
     at theta 1/2 and 1 (RK4's second stage exactly)."""
     return [(t0 + th * h, x0 + th * h * f0) for th in (0.5, 1.0)]
+_catching = threading.local()
+
+
+def _unraisable(info, previous=sys.unraisablehook):
+    """``sys.unraisablehook`` while this module is loaded: what a thread's compiled run catches goes
+    to its list (:func:`_caught`); the rest as before."""
+    box = getattr(_catching, "box", None)
+    if box is None:
+        return previous(info)
+    box.append(info)
+
+
+@contextlib.contextmanager
+def _caught(box):
+    """The exceptions compiled code reports as unraisable in this thread, into ``box``."""
+    if sys.unraisablehook is not _unraisable:
+        sys.unraisablehook = _unraisable
+    _catching.box = box
+    try:
+        yield box
+    finally:
+        _catching.box = None
+
+
 def _chunks(tl, pieces):
     """``(k0, k1)`` ranges of the timeline's rows, cut at hits into about ``pieces`` parts."""
     m = len(tl.t)

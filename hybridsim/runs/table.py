@@ -12,8 +12,20 @@ def write_table(rows, outdir):
     with atomic_file(Path(outdir) / "sweep.csv") as fh:
         df.to_csv(fh, index=False)
     with atomic_file(Path(outdir) / "sweep.parquet", "wb") as fh:
-        df.to_parquet(fh, index=False)
+        _parquet_ready(df).to_parquet(fh, index=False)
     return df
+
+
+def _parquet_ready(df):
+    """``df`` with each column Parquet cannot type (a swept value that is a number in one row and a
+    list in another) as its JSON text, as the CSV writes it too."""
+    import json
+
+    out = df.copy()
+    for col in out.columns:
+        if out[col].dtype == object and any(isinstance(v, (list, tuple, dict)) for v in out[col]):
+            out[col] = [v if v is None else json.dumps(v) for v in out[col]]
+    return out
 
 
 def heatmaps(rows, axes, outdir):

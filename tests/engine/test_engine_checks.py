@@ -278,3 +278,97 @@ def test_a_variable_step_solver_does_not_step_over_the_input_after_leaving_a_lim
     t_lower = 2.0 - math.acos(0.7 * math.pi / 2 - 1.0) / math.pi
     assert len(times) == 3 and abs(times[1] - 1.0) < 1e-9 and abs(times[2] - t_lower) < 1e-6, times
     assert abs(r.context.xc[0] + 0.2) < 1e-12
+
+
+def test_check_refuses_a_block_too_large_for_the_compiled_glue(tmp_path, capsys):
+    # a transport delay of 1000 buffer points holds 1003 states: numba takes tuples of < 1000 items.
+    # check said OK and the run failed with "numba cannot compile the kernels"
+    p = write(tmp_path, """
+name: big
+blocks:
+  s: {type: sine}
+  td: {type: transport_delay, delay: 0.1, buffer: 1000}
+wires: [s.y -> td.u]
+simulation: {t_end: 0.2, step: 1.0e-3, log_period: 0.01}
+log: [td.y]
+""")
+    code = main(["check", str(p), "--set", "simulation.compiled=true"])
+    _, err = capsys.readouterr()
+    assert code == 2 and "fewer than 1000 items" in err and "td (TransportDelay: 1003 continuous states)" in err
+    assert main(["check", str(p)]) == 0  # the other paths take it
+
+
+WRONG = '''
+import numpy as np
+from hybridsim.engine.block import Block
+from hybridsim.engine.kernels import Kernels, kernel
+from hybridsim.engine.registry import register
+
+
+@register("wrong_width")
+class WrongWidth(Block):
+    def __init__(self, name="w"):
+        super().__init__(name)
+        self.params = (1.0,)
+        self.declare_input("u", 1)
+        self.declare_output("y", 2)
+
+
+@kernel
+def wrong_output(p, t, x, u):
+    return ((u[0][0],),)  # one element for a port of two
+
+
+WrongWidth.kernels = Kernels(output=wrong_output)
+
+
+@register("raising")
+class Raising(Block):
+    def __init__(self, name="r", limit=0.2):
+        super().__init__(name)
+        self.params = (float(limit),)
+        self.declare_input("u", 1)
+        self.declare_output("y", 1)
+
+
+@kernel
+def raising_output(p, t, x, u):
+    if u[0][0] > p[0]:
+        raise ValueError("input beyond the limit")
+    return ((u[0][0],),)
+
+
+Raising.kernels = Kernels(output=raising_output)
+'''
+
+
+@pytest.fixture
+def odd_plugin(tmp_path, monkeypatch):
+    (tmp_path / "oddblocks.py").write_text(WRONG)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    return tmp_path
+
+
+@pytest.mark.parametrize("path", ["generic", "fused", "compiled"])
+def test_an_output_of_the_wrong_width_breaks_the_block_contract(odd_plugin, capsys, path):
+    # the generic path spread one element over the port's two (exit 0), the fused one ended in an
+    # IndexError (exit 70), the compiled one in numba's own words without the block
+    p = write(odd_plugin, "blocks:\n  s: {type: ramp}\n  b: {type: wrong_width}\n"
+                          "  d: {type: demux, widths: [1, 1]}\nwires: [s.y -> b.u, b.y -> d.u]\n"
+                          "simulation: {t_end: 0.1}\nlog: [b.y]\n")
+    sets = {"generic": ["--set", "simulation.fused=false"], "fused": [],
+            "compiled": ["--set", "simulation.compiled=true"]}[path]
+    code = main(["run", str(p), "--plugin", "oddblocks", "-q", "-o", str(odd_plugin / "out")] + sets)
+    _, err = capsys.readouterr()
+    assert code == 6 and "block 'b' (WrongWidth) broke the block contract: output 'y' has 1 element(s)" in err
+
+
+def test_a_kernel_that_raises_on_the_compiled_path_is_named_as_on_the_python_path(odd_plugin, capsys):
+    # numba printed the exception as "ignored" (once per call: 53 tracebacks) and the run ended in
+    # "simulation failed (status 2)"
+    p = write(odd_plugin, "blocks:\n  s: {type: ramp}\n  b: {type: raising, limit: 0.2}\n"
+                          "wires: [s.y -> b.u]\nsimulation: {t_end: 0.5, compiled: true}\nlog: [b.y]\n")
+    code = main(["run", str(p), "--plugin", "oddblocks", "-q", "-o", str(odd_plugin / "out")])
+    _, err = capsys.readouterr()
+    assert code == 6 and "raised ValueError: input beyond the limit" in err
+    assert "Traceback" not in err and "Exception ignored" not in err

@@ -191,3 +191,14 @@ def test_chunked_traces_equal_the_point_by_point_traces(tmp_path):
     assert [x.name for x in a] == [x.name for x in b] and len(a) == 2
     for x, y in zip(a, b):
         pd.testing.assert_frame_equal(pd.read_csv(x), pd.read_csv(y))
+
+
+def test_a_column_of_numbers_and_lists_writes_to_parquet(tmp_path):
+    # a grid over g.K: [2.0, [1, 2, 3]] ran every point, then pyarrow refused the column (exit 70)
+    import pandas as pd
+
+    from hybridsim.runs.table import write_table
+
+    write_table([{"g.K": 2.0, "m": 1.0}, {"g.K": [1.0, 2.0, 3.0], "m": 2.0}], tmp_path)
+    back = pd.read_parquet(tmp_path / "sweep.parquet")
+    assert back["g.K"].tolist() == ["2.0", "[1.0, 2.0, 3.0]"] and back["m"].tolist() == [1.0, 2.0]
