@@ -64,28 +64,6 @@ class Context:
             if len(late) == 1:
                 break
 
-    def verify_outputs(self):
-        """Evaluate every block's outputs once at t = 0 and check them against the block's declared
-        ports (their number and widths): a :class:`~hybridsim.errors.PluginFault` naming the block and
-        port otherwise (numpy would spread a 1-element value over a wider port, or fail later
-        with an index error)."""
-        from hybridsim.errors import PluginFault
-
-        with np.errstate(all="ignore"):
-            for i, b in enumerate(self.blocks):
-                outs = b.output(0.0, self.block_state(i, self.xc), self.u[i])
-                outs = list(outs) if isinstance(outs, (tuple, list)) else [outs]
-                if len(outs) != len(b.outputs):
-                    raise PluginFault(f"block {b.name!r} ({type(b).__name__}) broke the block contract: its "
-                                      f"output gave {len(outs)} port(s), it declares {len(b.outputs)}",
-                                      type(b).__module__, b.name)
-                for port, buf, v in zip(b.outputs, self.y[i], outs):
-                    if np.size(v) != buf.size:
-                        raise PluginFault(f"block {b.name!r} ({type(b).__name__}) broke the block contract: "
-                                          f"output {port.name!r} has {np.size(v)} element(s), it declares "
-                                          f"{buf.size}", type(b).__module__, b.name)
-                    buf[:] = v
-
     def _set_initial(self, i, x0):
         s = self.system.xslices[i]
         if s is not None:

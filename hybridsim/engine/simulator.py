@@ -105,7 +105,6 @@ class Simulator:
         self.located = _events.located_events(system, self.solver, locate_switches)
         self._timelines = {}
         self._compiled = self._fused = None
-        system.create_context().verify_outputs()  # the outputs' widths against the ports, before any path
         if compiled:
             from hybridsim.engine.compiled import CompiledGlue
 

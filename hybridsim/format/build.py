@@ -83,10 +83,12 @@ def check_plugin_blocks(system):
             raise PluginFault(f"{who}: output() returned {len(outs)} value(s); the block declares "
                               f"{len(b.outputs)} output(s) ({', '.join(p.name for p in b.outputs)})",
                               type(b).__module__, b.name)
-        for port, v in zip(b.outputs, outs):
+        for port, v in zip(b.outputs, outs):  # its width exactly: the compiled glue reads every element
             try:
-                np.broadcast_to(np.asarray(v, float), (port.width,))
+                size = np.asarray(v, float).size
             except (ValueError, TypeError):
+                size = None
+            if size != port.width:
                 raise PluginFault(f"{who}: output {port.name!r} returned shape {np.shape(v)}; the block "
                                   f"declares width {port.width}", type(b).__module__, b.name) from None
 

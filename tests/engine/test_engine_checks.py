@@ -351,8 +351,9 @@ def odd_plugin(tmp_path, monkeypatch):
 
 @pytest.mark.parametrize("path", ["generic", "fused", "compiled"])
 def test_an_output_of_the_wrong_width_breaks_the_block_contract(odd_plugin, capsys, path):
-    # the generic path spread one element over the port's two (exit 0), the fused one ended in an
-    # IndexError (exit 70), the compiled one in numba's own words without the block
+    # a 1-element output for a 2-wide port passed the plugin check (it broadcasts): the generic path
+    # spread it over both (exit 0), the fused one ended in an IndexError (exit 70), the compiled one
+    # in numba's own words without the block
     p = write(odd_plugin, "blocks:\n  s: {type: ramp}\n  b: {type: wrong_width}\n"
                           "  d: {type: demux, widths: [1, 1]}\nwires: [s.y -> b.u, b.y -> d.u]\n"
                           "simulation: {t_end: 0.1}\nlog: [b.y]\n")
@@ -360,7 +361,7 @@ def test_an_output_of_the_wrong_width_breaks_the_block_contract(odd_plugin, caps
             "compiled": ["--set", "simulation.compiled=true"]}[path]
     code = main(["run", str(p), "--plugin", "oddblocks", "-q", "-o", str(odd_plugin / "out")] + sets)
     _, err = capsys.readouterr()
-    assert code == 6 and "block 'b' (WrongWidth) broke the block contract: output 'y' has 1 element(s)" in err
+    assert code == 6 and "block 'b' (wrong_width): output 'y' returned shape (1,); the block declares width 2" in err
 
 
 def test_a_kernel_that_raises_on_the_compiled_path_is_named_as_on_the_python_path(odd_plugin, capsys):
