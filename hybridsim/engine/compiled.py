@@ -19,6 +19,7 @@ Needs: a fixed-step Runge-Kutta solver, kernels in every block that computes
 something (FMU blocks have none), events given as kernels, no time events
 or step hooks. :func:`problems` says what a diagram lacks.
 """
+import contextlib
 import hashlib
 import importlib.util
 import inspect
@@ -26,6 +27,7 @@ import logging
 import os
 import re
 import sys
+import threading
 import warnings
 
 from hybridsim.engine import native, rk
@@ -62,11 +64,10 @@ def problems(system, solver, located=None):
     if no_events:
         out.append("these blocks give their events as methods, not kernels (zero_crossings, "
                    "event_action): " + ", ".join(no_events))
-    big = [b for b in system.blocks if _widest(b)[0] >= MAX_TUPLE]
+    big = [(b, what) for b in system.blocks for items, what in [_widest(b)] if items >= MAX_TUPLE]
     if big:
         out.append(f"numba takes tuples of fewer than {MAX_TUPLE} items, and the glue hands a block its state "
-                   "and each port as one: " + ", ".join(f"{b.name} ({type(b).__name__}: {_widest(b)[1]})"
-                                                       for b in big))
+                   "and each port as one: " + ", ".join(f"{b.name} ({type(b).__name__}: {what})" for b, what in big))
     try:
         ParamLayout(system.blocks)
     except ParamStructureError as exc:
@@ -85,6 +86,31 @@ def _widest(block):
     sizes += [(p.width, f"input {p.name!r} {p.width} wide") for p in block.inputs]
     sizes += [(p.width, f"output {p.name!r} {p.width} wide") for p in block.outputs]
     return max(sizes, key=lambda s: s[0])
+
+
+_catching = threading.local()
+
+
+def _unraisable(info, previous=sys.unraisablehook):
+    """``sys.unraisablehook`` once a compiled run has caught: what a thread's run catches goes to its
+    list (:func:`caught_unraisable`); the rest as before."""
+    box = getattr(_catching, "box", None)
+    if box is None:
+        return previous(info)
+    box.append(info)
+
+
+@contextlib.contextmanager
+def caught_unraisable(box):
+    """The exceptions that compiled code reports as unraisable in this thread (a kernel that raises:
+    numba prints it as "ignored" and the loop goes on), into ``box`` instead of stderr."""
+    if sys.unraisablehook is not _unraisable:
+        sys.unraisablehook = _unraisable
+    _catching.box = box
+    try:
+        yield box
+    finally:
+        _catching.box = None
 
 
 class CompiledGlue:

@@ -120,6 +120,12 @@ class Plan:
             if fine_in and not b.may_be_nonfinite:
                 self.check_outputs(ctx, [i], t)
 
+    def blame_step(self, ctx, t0, x0, f0, h):
+        """:meth:`blame` at the later stages of a fixed step from (t0, x0) with derivative ``f0``, to
+        first order: x0 + theta h f0 at theta 1/2 and 1 (RK4's second stage exactly)."""
+        for theta in (0.5, 1.0):
+            self.blame(ctx, t0 + theta * h, x0 + theta * h * f0)
+
     def check_continuous(self, x, t, max_state, ctx=None):
         """Raise :class:`SimulationError` when a continuous state is not finite or beyond
         ``max_state`` (with ``ctx``: naming the block whose output made it so, when one did)."""

@@ -17,9 +17,6 @@ equations:
 Ticks run at ``0 <= n * base < t_end``; the run ends with the state at
 ``t_end``.
 """
-import contextlib
-import sys
-import threading
 import time as _time
 
 import numpy as np
@@ -194,7 +191,9 @@ class Simulator:
             return self._walk(ctx, tl, t_end, progress)
         # a kernel that raises inside compiled code: numba prints it as "ignored" and the run goes on
         blocks, raised = list(ctx.blocks), []
-        with _caught(raised):
+        from hybridsim.engine.compiled import caught_unraisable
+
+        with caught_unraisable(raised):
             try:
                 res = self._walk(ctx, tl, t_end, progress)
             except SimulationError:
@@ -365,8 +364,7 @@ class Session:
             f0 = state_derivatives(sim.system, ctx)(t - h, x0)
             if not np.isfinite(f0).all():
                 return
-            for ts, xs in _stage_points(x0, f0, t - h, h):
-                sim.system.plan.blame(ctx, ts, xs)
+            sim.system.plan.blame_step(ctx, t - h, x0, f0, h)
 
     def fail(self, code):
         """Raise the :class:`SimulationError` of a failed walk, naming the state, block or events."""
@@ -400,32 +398,6 @@ class Session:
                     plan.blame(ctx, *seen[0])
             raise SimulationError(getattr(self.s, "message", None) or f"the solver failed at t={t:.9g} s")
         raise SimulationError(f"simulation failed at t={t:.6g} s (status {code})")
-def _stage_points(x0, f0, t0, h):
-    """Where a fixed step from (t0, x0) evaluates its later stages, to first order: x0 + theta h f0
-    at theta 1/2 and 1 (RK4's second stage exactly)."""
-    return [(t0 + th * h, x0 + th * h * f0) for th in (0.5, 1.0)]
-_catching = threading.local()
-
-
-def _unraisable(info, previous=sys.unraisablehook):
-    """``sys.unraisablehook`` while this module is loaded: what a thread's compiled run catches goes
-    to its list (:func:`_caught`); the rest as before."""
-    box = getattr(_catching, "box", None)
-    if box is None:
-        return previous(info)
-    box.append(info)
-
-
-@contextlib.contextmanager
-def _caught(box):
-    """The exceptions compiled code reports as unraisable in this thread, into ``box``."""
-    if sys.unraisablehook is not _unraisable:
-        sys.unraisablehook = _unraisable
-    _catching.box = box
-    try:
-        yield box
-    finally:
-        _catching.box = None
 
 
 def _chunks(tl, pieces):
@@ -439,6 +411,8 @@ def _chunks(tl, pieces):
     cuts = sorted({int(hits[int(q)]) for q in np.linspace(0, len(hits) - 1, pieces + 1)[1:-1]} - {0})
     bounds = [0] + cuts + [m]
     return list(zip(bounds[:-1], bounds[1:]))
+
+
 def _progress(total):
     try:
         from tqdm import tqdm
@@ -446,10 +420,14 @@ def _progress(total):
         return None
     return tqdm(total=total, unit="s sim", delay=1.0, leave=False, disable=not on_terminal(),
                 bar_format="{l_bar}{bar}| {n:.2f}/{total:.2f} s [{elapsed}<{remaining}]")
+
+
 def on_terminal():
     """True when stderr is a terminal: progress bars only there (a log file gets no
     carriage-return frames)."""
     import sys
 
     return bool(getattr(sys.stderr, "isatty", lambda: False)())
+
+
 located_events = _events.located_events  # where api.check finds it
