@@ -165,16 +165,27 @@ def hybrid_tick(p, t, z, u):
 
 
 @kernel
+def hybrid_arrays(z, u):
+    """The state and the eleven inputs as arrays: compiled, :func:`hybrid_tick` then has the same
+    argument types for every arm and is compiled once (numba's cache), not once per number of joints."""
+    return np.asarray(z), (np.asarray(u[0]), np.asarray(u[1]), np.asarray(u[2]), np.asarray(u[3]),
+                           np.asarray(u[4]), np.asarray(u[5]), np.asarray(u[6]), np.asarray(u[7]),
+                           np.asarray(u[8]), np.asarray(u[9]), np.asarray(u[10]))
+
+
+@kernel
 def hybrid_output(p, t, z, u):
     """tau (held to the next tick) and F in {C}."""
-    tau, zq, zf, S, FC = hybrid_tick(p, t, z, u)
+    za, ua = hybrid_arrays(z, u)
+    tau, zq, zf, S, FC = hybrid_tick(p, t, za, ua)
     return (tau, FC)
 
 
 @kernel
 def hybrid_update(p, t, z, u):
     """The integrators and this tick's S."""
-    tau, zq, zf, S, FC = hybrid_tick(p, t, z, u)
+    za, ua = hybrid_arrays(z, u)
+    tau, zq, zf, S, FC = hybrid_tick(p, t, za, ua)
     return np.concatenate((zq, zf, S))
 
 

@@ -68,9 +68,11 @@ def make_jitable(functions=None):
     """Register ``functions`` (default: every :func:`kernel` so far) with numba, so compiled code
     may call them; each once. A kernel that works on floats and tuples is inlined where it is
     called (the plant's, called at every stage: inlined they run several times faster); one that
-    uses numpy arrays is called (its inlining would dominate the compile time). A kernel with a
+    uses numpy arrays is called (its inlining would dominate the compile time) and cached on disk, so
+    a diagram that calls it with the same argument types loads it instead of compiling it. A kernel with a
     numba twin (``f.compiled``) is skipped: calls of it compile to the twin."""
     import inspect
+    import os
     import re
 
     from numba.extending import register_jitable
@@ -82,5 +84,9 @@ def make_jitable(functions=None):
             text = inspect.getsource(f)
         except (OSError, TypeError):
             text = ""
-        register_jitable(inline="never" if re.search(r"\bnp\.", text) else "always")(f)
+        if re.search(r"\bnp\.", text):  # compiled once per machine where it has a file (numba's cache)
+            code = getattr(f, "__code__", None)
+            register_jitable(inline="never", cache=bool(code and os.path.isfile(code.co_filename)))(f)
+        else:
+            register_jitable(inline="always")(f)
         _JITABLE.add(f)

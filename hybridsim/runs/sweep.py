@@ -67,6 +67,8 @@ class Sweep:
             raise LoaderError(f"'diagram' must be a file name, got {data['diagram']!r}", self.path,
                               lines["diagram"])
         self.diagram = (self.path.parent / data["diagram"]).resolve()
+        if not self.diagram.is_file():
+            raise LoaderError(f"'diagram': no such file {data['diagram']!r}", self.path, lines["diagram"])
         for key in ("set", "grid", "scale", "random"):
             if data.get(key) is not None and not isinstance(data[key], dict):
                 raise LoaderError(f"'{key}' must be a mapping", self.path, lines[key])

@@ -151,13 +151,11 @@ def test_the_rigid_body_kernels_compiled_by_numba_equal_the_methods():
     """The numba builds of the arm's (every friction model), the kinematics' and gravity's kernels
     (what a call of them compiles to: their twins) against the methods, panda (a prismatic finger)."""
     numba = pytest.importorskip("numba")
-    from numba.extending import register_jitable
+    from hybridsim.engine import native
+    from hybridsim.engine.kernels import make_jitable
 
-    from hybridsim.engine.kernels import marked
-
-    for f in marked():
-        if f.__module__.startswith("hybridsim.blocks.robot"):
-            register_jitable(f)
+    native.use_cache_dir()
+    make_jitable()  # as the compiled path registers them (the rigid-body algorithms cached on disk)
 
     def jit(kernel):
         return numba.njit(lambda p, x, u: kernel(p, 0.0, x, u))

@@ -172,6 +172,17 @@ def test_a_bad_swept_value_stops_the_sweep_before_any_run(tmp_path):
     assert not (tmp_path / "o" / "points.jsonl").exists()
 
 
+def test_a_missing_diagram_is_named_at_its_line_of_the_sweep_file(tmp_path):
+    from hybridsim.errors import LoaderError
+
+    p = tmp_path / "bad.yaml"
+    p.write_text("scale: {g.K: [1, 2]}\ndiagram: nowhere.yaml\n")
+    with pytest.raises(LoaderError, match="'diagram': no such file 'nowhere.yaml'") as err:
+        sw.run_sweep(p, tmp_path / "o", jobs=1, progress=False)
+    assert str(err.value).startswith(f"{p}:2:")
+    assert not (tmp_path / "o").exists()
+
+
 @pytest.mark.slow
 def test_compiled_chunks_give_the_point_by_point_table(runtime_file, tmp_path):
     pytest.importorskip("numba")
