@@ -124,6 +124,8 @@ class Block:
     log_inputs = False
     #: the block's outputs may be NaN or infinite (else such an output stops the run)
     may_be_nonfinite = False
+    #: ``max_state`` bounds the discrete states (see :meth:`declare_discrete_state`)
+    discrete_bounded = True
     #: the block's equations as pure functions f(p, t, x, u) (hybridsim.engine.kernels);
     #: the methods below call them with ``params``. Blocks with kernels run on
     #: the fused and compiled paths as well as the generic one.
@@ -201,9 +203,11 @@ class Block:
                 f"smaller than its period {float(self.period)} s"
             )
 
-    def declare_discrete_state(self, n):
-        """Declare ``n`` discrete states (needs a rate)."""
+    def declare_discrete_state(self, n, bounded=True):
+        """Declare ``n`` discrete states (needs a rate). ``bounded``: ``max_state`` bounds them
+        (False for states that grow by design: a count of samples, a time)."""
         self.n_discrete = port_width(n, "states") if n else 0
+        self.discrete_bounded = bool(bounded)
 
     # -- parameters at run time -------------------------------------------------
     def with_params(self, **changes):

@@ -65,7 +65,8 @@ def example_records(n=1, s=1, e=1, d=1, b=1):
     lim = stepping.Limits(1e6, 1e-12, 1e-3, 10, 10, 10, 0, False, False, False)
     w = stepping.Work(f(n), f(n), f(n), f(n), f(n), f(n), f(s * n), f(s * n), f(n), f(s), f(e), f(e), f(e), f(e),
                       f(e), f(e), np.zeros(e, np.bool_), np.zeros(e, np.int64), np.zeros(e, np.bool_),
-                      np.zeros(e, np.bool_), np.zeros(e, np.int64), np.zeros(e, np.int64))
+                      np.zeros(e, np.bool_), np.zeros(e, np.int64), np.zeros(e, np.int64),
+                      np.zeros(d, np.bool_))
     out = stepping.Out(f(1, 1), np.zeros(1, np.int64), np.zeros(1, np.int64), f(1), np.zeros((1, b), np.bool_),
                        np.zeros(1, np.int64), np.zeros(3, np.int64), f(1))
     rks = rk.RKState(f(s), f(8))

@@ -87,6 +87,19 @@ class Plan:
             raise SimulationError(f"simulation diverged at t={t:.6g} s: discrete state of block "
                                   f"{self.system.blocks[i].name!r} is not finite")
 
+    def check_discrete_bound(self, z, k, t, max_state):
+        """Raise :class:`SimulationError` for element ``k`` of the discrete states ``z`` (the flat
+        vector, blocks in order), beyond ``max_state``."""
+        start = 0
+        for b in self.system.blocks:
+            if start <= k < start + b.n_discrete:
+                raise SimulationError(
+                    f"simulation diverged at t={t:.6g} s: discrete state {k - start} of block {b.name!r} "
+                    f"is {z[k]:.3g} (limit {max_state:g}). The closed loop may be unstable at these "
+                    "gains and rates.")
+            start += b.n_discrete
+        raise SimulationError(f"simulation diverged at t={t:.6g} s: discrete state {k} is beyond {max_state:g}")
+
     def checked_outputs(self, path):
         """The blocks of ``path`` whose outputs :meth:`check_outputs` checks (those that do not
         declare ``may_be_nonfinite``)."""

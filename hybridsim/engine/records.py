@@ -59,6 +59,7 @@ class Work(NamedTuple):
     muted: np.ndarray   # bool[e]: a switch stepped over for the rest of the interval
     repeats: np.ndarray  # int64[e]: how often each switch was located in this interval
     owner: np.ndarray   # int64[e]: the located block (column of Out.evb) of each function
+    zb: np.ndarray      # bool[d]: the discrete states max_state bounds
 
 
 class Out(NamedTuple):

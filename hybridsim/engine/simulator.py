@@ -304,7 +304,8 @@ class Session:
         cap = MAX_EVENT_LOG if (located or timed or stepped) else 0
         self.out = outputs(rows, len(columns), cap, len(located), columns)
         self.glue, self.ops, self.s, self.pf, self.pi, self.keeper = sim._machinery(ctx, self.out)
-        self.w = work(sysm.n_x, getattr(self.s, "c", np.zeros(1)).size, int(sum(sizes)), dirs, switch, owner)
+        zb = np.repeat([b.discrete_bounded for b in sysm.blocks], [b.n_discrete for b in sysm.blocks])
+        self.w = work(sysm.n_x, getattr(self.s, "c", np.zeros(1)).size, int(sum(sizes)), dirs, switch, owner, zb)
         variable = not isinstance(sim.solver, ExplicitRK)
         # steps in batches: a fixed-step method between checks; a solver that returns its own points
         batch = (not variable and not located and not timed) or getattr(sim.solver, "returns_points", False)
@@ -379,6 +380,8 @@ class Session:
             plan.check_outputs(ctx, [index], t)
         elif code == stepping.BAD_UPDATE:
             plan.check_discrete(index, ctx.xd[index], t)
+        elif code == stepping.BIG_UPDATE:
+            plan.check_discrete_bound(ctx.z, index, t, sim.max_state)
         elif code in (stepping.ZENO, stepping.STALLED, stepping.CHATTER):
             log = self.event_log()
             names = list(log[-1][1]) if log else []

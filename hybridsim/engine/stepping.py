@@ -48,6 +48,7 @@ CHATTER = 6     # an event iteration that does not settle
 STOPPED = 7     # a block asked to end the run (its request is kept by the glue)
 FAILED = 8      # the solver failed (its message is kept by the stepper)
 MISSED = 9      # a stepper that locates crossings itself stepped over one: status[1] = function index
+BIG_UPDATE = 10  # a bounded discrete state beyond max_state: status[1] = its index in z
 
 # -- what glue.stepped / glue.timed / glue.act answer --------------------------
 GO, STEP_EVENT, STOP = 0, 1, 2
@@ -163,6 +164,10 @@ def run(tl, k0, k1, gl, ops, s, lim, w, out, y, z, pf, pi):
             if bad >= 0:
                 fail(out, BAD_UPDATE, bad, k, t)
                 return BAD_UPDATE
+            for i in range(w.zb.size):
+                if w.zb[i] and not abs(z[i]) <= lim.max_state:
+                    fail(out, BIG_UPDATE, i, k, t)
+                    return BIG_UPDATE
             nxt = tl.next[k]
             if n_x > 0:
                 code = interval(t, tl.t[nxt], k + 1, nxt, tl, gl, ops, s, lim, w, out, y, z, pf, pi)

@@ -201,6 +201,32 @@ def _many(path, n=200):
     return res
 
 
+DISCRETE = """
+name: discrete_unstable
+blocks:
+  src: {type: step, time: 0.0}
+  d: {type: discrete_state_space, A: [[1.5]], B: [[1.0]], C: [[1.0]], D: [[0.0]], rate: 100}
+  n: {type: noise, rate: 1000, sigma: 0.0}
+  c: {type: counter, rate: 1000}
+wires: [src.y -> d.u]
+simulation: {t_end: 1.0, max_state: 1.0e6}
+log: [d.y, n.y, c.y]
+"""
+
+
+@pytest.mark.parametrize("path", ["generic", "fused", "compiled"])
+def test_a_discrete_state_beyond_max_state_stops_the_run_but_a_count_does_not(tmp_path, path):
+    """x[k+1] = 1.5 x[k] + 1 from 0 is 2 (1.5^k - 1): above 1e6 first at k = 33 (1.294e6), made by
+    the update at the hit t = 0.32 s; the noise block's and the counter's counts (a thousand by then) are not bounded."""
+    kw = {"generic": {"fused": False}, "fused": {}, "compiled": {"compiled": True}}[path]
+    p = write(tmp_path, DISCRETE)
+    with pytest.raises(SimulationError, match=r"t=0\.32 s: discrete state 0 of block 'd' is 1\.29e\+06"):
+        hs.simulate(p, **kw)
+    stable = write(tmp_path, DISCRETE.replace("[[1.5]]", "[[0.5]]").replace("1.0e6", "100.0"), "stable.yaml")
+    r = hs.simulate(stable, **kw)
+    assert r["c.y"][-1, 0] == 1000 and abs(r["d.y"][-1, 0] - 2.0) < 1e-9
+
+
 @pytest.mark.parametrize("path", ["generic", "fused"])
 def test_two_hundred_states(path):
     a, b = _many(path), _many("generic")
