@@ -48,8 +48,13 @@ class Schedule:
                 )
 
     def time(self, n):
-        """Exact time of tick ``n`` as a float (one rounding); ``n`` may be an int array."""
-        return n * self.base.numerator / self.base.denominator
+        """Exact time of tick ``n`` as a float (one rounding); ``n`` may be an int array. A base tick
+        whose numerator times ``n`` would pass int64 (a period of 1e300 s) costs one more rounding."""
+        num, den = self.base.numerator, self.base.denominator
+        top = int(np.max(np.abs(n))) if np.size(n) else 0
+        if max(num, den, top * num) < 2**63:
+            return n * num / den
+        return np.asarray(n, float) * (num / den)
 
     def hits(self, n_last):
         """Every tick up to ``n_last`` at which anything is due (tick 0 always).
@@ -57,11 +62,14 @@ class Schedule:
         Returns ``(n, due)``: the ticks (int64 array, increasing) and a
         boolean array ``due[k, i]``, timing ``i`` due at tick ``n[k]``.
         """
+        # a period or offset beyond n_last acts as n_last + 1 (due at most once): int64 holds it
+        cap = max(n_last, 0) + 1
+        ticks = [(min(p, cap), min(o, cap)) for p, o in self.ticks]
         parts = [np.zeros(1, dtype=np.int64)]
-        parts += [np.arange(o, n_last + 1, p, dtype=np.int64) for p, o in self.ticks if o <= n_last]
+        parts += [np.arange(o, n_last + 1, p, dtype=np.int64) for p, o in ticks if o <= n_last]
         n = np.unique(np.concatenate(parts))
-        due = np.zeros((n.size, len(self.ticks)), dtype=bool)
-        for i, (p, o) in enumerate(self.ticks):
+        due = np.zeros((n.size, len(ticks)), dtype=bool)
+        for i, (p, o) in enumerate(ticks):
             due[:, i] = (n >= o) & ((n - o) % p == 0)
         return n, due
 
@@ -72,12 +80,13 @@ class Schedule:
     def last_tick_before(self, t_end):
         """Largest n with ``time(n) < t_end``.
 
-        An end time within 1e-9 of a tick counts as that tick (so ``0.01`` s,
-        which is not exactly 1/100 in binary, ends before the tick at 1/100).
+        An end time within 1e-9 of a tick (relative to the tick or the end time, the smaller)
+        counts as that tick (so ``0.01`` s, which is not exactly 1/100 in binary, ends before the
+        tick at 1/100).
         """
         t = Fraction(t_end)
         k = round(t / self.base)
-        if abs(k * self.base - t) <= Fraction(1, 10**9) * self.base:
+        if abs(k * self.base - t) <= Fraction(1, 10**9) * min(self.base, t):
             return k - 1
         n = int(t / self.base)
         if n * self.base >= t:

@@ -57,3 +57,25 @@ def test_float_end_time_on_a_tick_ends_before_it():
     assert s.last_tick_before(0.01) == 0  # 0.01 is a hair above 1/100 in binary
     assert s.last_tick_before(0.3) == 29
     assert s.last_tick_before(0.305) == 30
+
+
+@pytest.mark.parametrize("text", ["zoh, period: 1e300", "zoh, rate: 1e-300"])
+def test_a_period_far_beyond_the_end_is_due_once(tmp_path, text):
+    """A period of 1e300 s next to the 0.5 ms log grid: ticks beyond int64, due at t = 0 only."""
+    import numpy as np
+
+    import hybridsim as hs
+
+    p = tmp_path / "d.yaml"
+    p.write_text("blocks:\n  a: {type: step, time: 0.1}\n  d: {type: %s}\n"
+                 "wires: [a.y -> d.u]\nsimulation: {t_end: 0.3}\nlog: [d.y]\n" % text)
+    r = hs.simulate(p)
+    assert len(r.t) == 601 and np.all(r["d.y"] == 0.0)  # held from t = 0, before the step
+
+
+def test_a_log_period_far_beyond_the_end_logs_the_start_and_the_end():
+    s = Schedule([(to_period(1e300), 0)])
+    n_last = s.last_tick_before(0.3)  # 0.3 s is not "within 1e-9 of" tick 0 because the tick is huge
+    assert n_last == 0
+    n, due = s.hits(n_last)
+    assert n.tolist() == [0] and s.time(n).tolist() == [0.0]
