@@ -257,6 +257,9 @@ def scipy_ops():
             ode = s.ode
             message = ode.step()
             failed = ode.status == "failed"
+            if ode.status == "running" and not ode.t - ode.t_old > 10 * np.spacing(abs(ode.t_old)):
+                # LSODA on tolerances float64 cannot meet takes steps of 0 s for ever
+                failed, message = True, "required step size is less than spacing between numbers"
         except NotFinite as exc:
             failed, message = True, str(exc)
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:  # scipy's linear algebra on
@@ -266,6 +269,10 @@ def scipy_ops():
         if failed:
             t_at = s.seen[0][0] if s.seen else s.ode.t
             s.message = f"solver {s.solver.method} failed at t={t_at:.9g} s: {message}"
+            if "spacing between numbers" in str(message):
+                atol = ", ".join(f"{v:g}" for v in np.ravel(s.solver.atol))
+                s.message += (f" (rtol {s.solver.rtol:g}, atol {atol}: float64 holds about 16 digits; "
+                              "loosen them, or look for a discontinuity at that time)")
             return np.nan
         xn[:] = ode.y
         s.num[1] = ode.t - ode.t_old

@@ -142,6 +142,20 @@ log: [x.y]
     assert 1.99 <= float(str(err.value).split("t=")[1].split(" ")[0]) <= 2.0
 
 
+@pytest.mark.parametrize("solver", ["lsoda", "radau", "bdf", "rk45"])
+def test_tolerances_float64_cannot_meet_fail_the_solver_instead_of_hanging(tmp_path, solver):
+    # atol 1e-20 on a first-order lag stepped at 0.1 s: LSODA took steps of 0 s for ever at t = 0.1
+    p = write(tmp_path, """
+name: tight
+blocks: {src: {type: step, time: 0.1}, lag: {type: first_order, tau: 0.05}}
+wires: [src.y -> lag.u]
+simulation: {t_end: 0.3, rtol: 1.0e-8, atol: 1.0e-20}
+log: [lag.y]
+""")
+    with pytest.raises(SimulationError, match=r"failed at t=0\.1 s: [Rr]equired step size is less than spacing"):
+        hs.simulate(p, solver=solver)
+
+
 def test_radau_on_a_huge_finite_derivative_fails_cleanly(tmp_path):
     # 5e307: finite, but Radau's Jacobian overflows in its LU (scipy: ValueError, was exit 70)
     p = write(tmp_path, """
