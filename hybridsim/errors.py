@@ -70,7 +70,7 @@ class LoaderError(InputError):
     """A YAML diagram or sweep file that is malformed, with file and line."""
 
     def __init__(self, message, path=None, line=None):
-        self.path, self.line = path, line
+        self.path, self.line, self.message = path, line, message
         where = str(path) if path else "<diagram>"
         if line is not None:
             where += f":{line}"

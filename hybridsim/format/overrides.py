@@ -98,7 +98,7 @@ class OverridesMixin:
         path = ParamPath.parse(ref) if not isinstance(ref, ParamPath) else ref
         if path.kind != "block":
             if path.kind == "param" and path.name in self.params:
-                return np.asarray(self._resolve(self.params[path.name], str(self.path), self.params), float)
+                return self._number(ref, self._resolve(self.params[path.name], str(self.path), self.params))
             raise LoaderError(f"{ref!r}: not a block parameter ('block.param')", self.path)
         bname, pname = path.block, path.inner
         spec = self.data["blocks"].get(bname)
@@ -107,7 +107,7 @@ class OverridesMixin:
                               f"{closest(bname, self.data['blocks'])}", self.path)
         if _is_subsystem(spec):
             if pname in spec:  # the subsystem block sets it
-                return np.asarray(self._resolve(spec[pname], str(self.path), self.params), float)
+                return self._number(ref, self._resolve(spec[pname], str(self.path), self.params))
             sub = type(self)(subsystem_path(spec, "."))  # the subsystem's own file, parsed alike
             sub.apply({k: self._resolve(v, str(self.path), self.params) for k, v in spec.items()
                        if k not in ("type", "file")})
@@ -115,13 +115,25 @@ class OverridesMixin:
         if "." in pname:
             raise LoaderError(f"{ref!r}: block {bname!r} is not a subsystem", self.path)
         if pname in spec:
-            return np.asarray(self._resolve(spec[pname], str(self.path), self.params), float)
+            return self._number(ref, self._resolve(spec[pname], str(self.path), self.params))
         cls = lookup(str(spec["type"]))
         try:
-            return np.asarray(default(cls, pname), float)
+            value = default(cls, pname)
         except (KeyError, AttributeError):
             raise LoaderError(f"{ref!r}: block {bname!r} ({spec['type']}) has no parameter {pname!r}",
                               self.path) from None
+        return self._number(ref, value)
+
+    def _number(self, ref, value):
+        """``value`` of the parameter ``ref`` as a float array, or a LoaderError saying it is not one."""
+        try:
+            out = np.asarray(value, float)
+        except (TypeError, ValueError):
+            out = None
+        if out is None or out.dtype != float:
+            raise LoaderError(f"{ref!r} is {value!r}, not a number: only a numeric parameter can be "
+                              "scaled, swept by a factor or used as a gain", self.path)
+        return out
 
     def variants(self):
         """List of (label, overrides) for the grid in ``variants`` ([('', {})] if none)."""

@@ -133,6 +133,11 @@ class SettingsMixin:
             if pname not in names:
                 problems.append(f"{where}: block {bname!r} has no parameter {pname!r}{closest(pname, names)}; "
                                 f"its parameters: {', '.join(names) or 'none'}")
+                continue
+            try:
+                self.param_value(ref)  # a gain is scaled: a number
+            except LoaderError as exc:
+                problems.append(f"{where}: {exc.message}")
         for ref, where, what in items:
             m = SIGNAL.match(ref)
             if not m:

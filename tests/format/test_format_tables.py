@@ -219,3 +219,14 @@ def test_check_refuses_an_analysis_gain_that_names_no_parameter_with_its_line(tm
     assert main(["check", str(p)]) == 2
     err = capsys.readouterr().err
     assert f"{p}:7: analysis gain 'k' 'g.Kq': block 'g' has no parameter 'Kq' (did you mean 'K'?)" in err, err
+
+
+def test_check_refuses_an_analysis_gain_that_is_not_a_number_with_its_line(tmp_path, capsys):
+    from hybridsim.app.cli import main
+
+    p = tmp_path / "g.yaml"
+    p.write_text("blocks:\n  c: {type: constant, value: 1.0}\n  pid: {type: discrete_pid, rate: 100}\n"
+                 "wires: [c.y -> pid.r, c.y -> pid.y]\nsimulation: {t_end: 0.01}\nanalysis:\n  gains: {aw: pid.anti_windup}\n")
+    assert main(["check", str(p)]) == 2  # analyze ended in a ValueError (exit 70)
+    err = capsys.readouterr().err
+    assert f"{p}:7: analysis gain 'aw' 'pid.anti_windup': 'pid.anti_windup' is 'clamping', not a number" in err, err
