@@ -133,6 +133,9 @@ class Sweep:
                     self._base[ref] = f.param_value(ref)  # a subsystem's parameter reads its file
                 except (HybridsimError, KeyError, ValueError, TypeError) as exc:
                     raise InputError(f"{self.path}: sweep: cannot scale {ref!r}: {exc}") from None
+            if not np.all(np.isfinite(self._base[ref])):  # inf times any factor: one point under many names
+                raise InputError(f"{self.path}: sweep: cannot scale {ref!r}: its value is "
+                                 f"{self._base[ref].tolist()!r}, not finite; sweep it with 'grid' instead")
         return self._base[ref]
 
     def axes(self):

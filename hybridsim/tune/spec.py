@@ -224,6 +224,9 @@ class TuneSpec:
                     self._fail("a constraint has bounds ('max', 'min'), not a goal", ln)
                 if "max" not in q and "min" not in q:
                     self._fail("a constraint needs 'max' or 'min'", ln)
+                if "max" in q and "min" in q and q["min"] > q["max"]:
+                    self._fail(f"a constraint's min ({q['min']!r}) exceeds its max ({q['max']!r}): no point "
+                               "can meet it", ln)
             if "reduce" in q and q["reduce"] not in REDUCE:
                 self._fail(f"reduce must be one of {', '.join(REDUCE)}, got {q['reduce']!r}", ln)
             kw.setdefault("name", q.get("analysis") or (f"{q['metric']}:{q['of']}" if "of" in q else q["metric"]))

@@ -172,6 +172,18 @@ def test_a_bad_swept_value_stops_the_sweep_before_any_run(tmp_path):
     assert not (tmp_path / "o" / "points.jsonl").exists()
 
 
+def test_a_parameter_that_is_not_finite_is_not_scaled(tmp_path):
+    from hybridsim.errors import InputError
+
+    d = tmp_path / "d.yaml"
+    d.write_text("blocks:\n  c: {type: constant, value: 1.0}\n  x: {type: integrator}\nwires: [c.y -> x.u]\n"
+                 "simulation: {t_end: 0.1}\n")
+    p = tmp_path / "s.yaml"
+    p.write_text("diagram: d.yaml\nscale: {x.upper: [0.5, 1.0]}\n")  # inf both times: two rows of one point
+    with pytest.raises(InputError, match="cannot scale 'x.upper': its value is inf, not finite"):
+        sw.run_sweep(p, tmp_path / "o", jobs=1, progress=False)
+
+
 def test_a_missing_diagram_is_named_at_its_line_of_the_sweep_file(tmp_path):
     from hybridsim.errors import LoaderError
 
