@@ -155,6 +155,14 @@ class Sweep:
             pts = pts + Grid.random(self.random["ranges"], self.random.get("n", 10), self.random.get("seed", 0))
         if not len(pts):
             raise InputError(f"{self.path}: the sweep has no points (give grid, scale or random)")
+        seen = {}
+        for i, p in enumerate(pts, 1):  # one point twice: two rows under one key, a resume that mixes them
+            if p.key in seen:
+                raise InputError(f"{self.path}: points {seen[p.key]} and {i} are the same run "
+                                 f"({', '.join(f'{k} = {v!r}' for k, v in p.changes.items())}): a value listed "
+                                 "twice in 'grid', a 'random' range of zero width, or factors of a parameter "
+                                 "that is 0")
+            seen[p.key] = i
         return pts
 
     def validate(self):

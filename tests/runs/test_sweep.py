@@ -184,6 +184,20 @@ def test_a_parameter_that_is_not_finite_is_not_scaled(tmp_path):
         sw.run_sweep(p, tmp_path / "o", jobs=1, progress=False)
 
 
+@pytest.mark.parametrize("axes", ["grid: {x.K: [2, 2]}", "random: {n: 2, ranges: {x.K: [3, 3]}}",
+                                  "scale: {x.initial: [1, 2]}"])
+def test_a_sweep_that_names_one_point_twice_is_refused(tmp_path, axes):
+    from hybridsim.errors import InputError
+
+    d = tmp_path / "d.yaml"
+    d.write_text("blocks:\n  c: {type: constant, value: 1.0}\n  x: {type: integrator}\nwires: [c.y -> x.u]\n"
+                 "simulation: {t_end: 0.1}\n")
+    p = tmp_path / "s.yaml"
+    p.write_text(f"diagram: d.yaml\n{axes}\n")
+    with pytest.raises(InputError, match="points 1 and 2 are the same run"):
+        sw.run_sweep(p, tmp_path / "o", jobs=1, progress=False)
+
+
 def test_a_missing_diagram_is_named_at_its_line_of_the_sweep_file(tmp_path):
     from hybridsim.errors import LoaderError
 
