@@ -29,7 +29,8 @@ def run(args):
     rows = run_sweep(options.path(args.sweep), out, jobs=args.jobs, dask=args.dask, progress=not args.quiet,
                      compiled=args.compiled, restart=args.force)
     failed = [r for r in rows if r["status"] != "ok"]
-    print(f"{len(rows)} rows ({len(failed)} failed) -> {out}/sweep.csv, sweep.parquet, heatmap.png, points.jsonl")
+    wrote = [n for n in ("sweep.csv", "sweep.parquet", "heatmap.png", "points.jsonl") if (Path(out) / n).exists()]
+    print(f"{len(rows)} rows ({len(failed)} failed) -> {out}/{', '.join(wrote)}")  # heatmap: two axes or more
     for r in failed[:5]:
         print(f"  failed {r['key']}: {r['message']}")
     return 0

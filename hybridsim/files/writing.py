@@ -94,10 +94,14 @@ def check_output_dir(path):
 
 
 def check_output_file(path, formats=None):
-    """Raise :class:`OutputError` unless file ``path`` can be written (and has a known suffix)."""
+    """Raise :class:`OutputError` unless file ``path`` can be written (and has a known suffix): a
+    folder there, or a file hybridsim did not write, is never replaced."""
     path = Path(path)
     if path.exists() and not path.is_file():
         raise OutputError(f"{str(path)!r} exists and is not a file; hybridsim does not replace it")
+    if path.is_file() and not written_by_hybridsim(path):
+        raise OutputError(f"{str(path)!r} exists and hybridsim did not write it; it is not replaced: "
+                          "remove it, or choose another name (nothing was written)")
     if formats is not None:
         fmt = path.suffix.lstrip(".").lower()
         if fmt not in formats:

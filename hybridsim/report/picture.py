@@ -224,9 +224,10 @@ def write_picture(path_or_file, output=None, expand=False, **overrides):
 
     plt = pyplot()
     f = path_or_file if isinstance(path_or_file, DiagramFile) else load(path_or_file, **overrides)
-    out, note = check_output_file(output or f"{safe_name(f.name)}.png", image_formats()), None
-    if not output:
-        out, note = default_output_file(out)
+    if output:
+        out, note = check_output_file(output, image_formats()), None
+    else:  # the default name: a file hybridsim did not write is kept, the next free name taken
+        out, note = default_output_file(f"{safe_name(f.name)}.png")
     diagram, _ = f.build(f.variants()[0][1])
     fig = draw_diagram(diagram.build(), f.description or f.name, expand=expand)
     with atomic_file(out, "wb") as fh:

@@ -38,6 +38,7 @@ class Executor:
         self.jobs = jobs or os.cpu_count() or 1
         self.dask = dask
         self._pool = self._client = None
+        self._size = 0
 
     def __enter__(self):
         if self.dask is not None and self._client is None:
@@ -81,10 +82,13 @@ class Executor:
             return
         from concurrent.futures import as_completed
 
-        if self._pool is None:
+        want = min(self.jobs, len(items))  # -j 2000 for 2 points: 2 processes, not 2000 started
+        if self._pool is None or self._size < want:
             from concurrent.futures import ProcessPoolExecutor
 
-            self._pool = ProcessPoolExecutor(self.jobs)
+            if self._pool is not None:
+                self._pool.shutdown()
+            self._pool, self._size = ProcessPoolExecutor(want), want
         futures = {self._pool.submit(fn, item): k for k, item in enumerate(items)}
         try:
             for fut in as_completed(futures):

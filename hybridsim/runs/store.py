@@ -62,7 +62,16 @@ class Store:
                 json.dump({"fingerprint": identity, **(about or {})}, fh, indent=1, default=str)
         self.done = {}
         if self.path.exists():
-            for line in self.path.read_text().splitlines():
+            try:
+                text = self.path.read_text()
+            except UnicodeDecodeError:
+                if not restart:
+                    raise InputError(f"{self.path} is not a file of points hybridsim wrote (not UTF-8 text); use "
+                                     f"another output folder (-o), or --force to start afresh (it is kept as "
+                                     f"{name}.old)") from None
+                os.replace(self.path, self.path.with_name(name + ".old"))
+                text = ""
+            for line in text.splitlines():
                 try:
                     rec = json.loads(line)
                     self.done[rec["key"]] = rec["value"]

@@ -185,3 +185,18 @@ def test_check_takes_sweep_and_tune_files(tmp_path, capsys):
     assert code == 2 and "b.yaml" in err and "gain" in err and "unknown section" not in err
     code, _, err = run(capsys, "check", sweep, "--set", "k=2")
     assert code == 2 and "--set applies to a diagram" in err
+
+
+@pytest.mark.parametrize("argv, name", [
+    (["draw", str(DIAGRAMS / "fig9_force_and_position.yaml"), "-o"], "pic.png"),
+    (["schema", "-o"], "schema.json"),
+    (["fmu", "export", str(DIAGRAMS / "fig9_force_and_position.yaml"), "-o"], "plant.fmu"),
+])
+def test_an_output_file_the_user_wrote_is_never_replaced(tmp_path, capsys, argv, name):
+    mine = tmp_path / name
+    mine.write_text("precious")
+    assert main(argv + [str(mine)]) == 2
+    assert mine.read_text() == "precious" and "hybridsim did not write it" in capsys.readouterr().err
+    if name != "plant.fmu":  # what hybridsim wrote there it replaces
+        mine.unlink()
+        assert main(argv + [str(mine)]) == 0 and main(argv + [str(mine)]) == 0

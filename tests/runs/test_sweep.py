@@ -198,6 +198,18 @@ def test_a_sweep_that_names_one_point_twice_is_refused(tmp_path, axes):
         sw.run_sweep(p, tmp_path / "o", jobs=1, progress=False)
 
 
+def test_a_points_file_that_is_not_text_is_refused_then_set_aside_with_force(tmp_path):
+    from hybridsim.errors import InputError
+    from hybridsim.runs.store import Store
+
+    Store(tmp_path, "id", "points.jsonl", "m.json", "sweep", "?")  # the manifest of this sweep
+    (tmp_path / "points.jsonl").write_bytes(b"\xff\xfe\x00")  # was UnicodeDecodeError, exit 70
+    with pytest.raises(InputError, match="not a file of points hybridsim wrote"):
+        Store(tmp_path, "id", "points.jsonl", "m.json", "sweep", "?")
+    assert len(Store(tmp_path, "id", "points.jsonl", "m.json", "sweep", "?", restart=True).done) == 0
+    assert (tmp_path / "points.jsonl.old").read_bytes() == b"\xff\xfe\x00"
+
+
 def test_a_missing_diagram_is_named_at_its_line_of_the_sweep_file(tmp_path):
     from hybridsim.errors import LoaderError
 
