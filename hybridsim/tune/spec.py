@@ -213,6 +213,11 @@ class TuneSpec:
             for key in ("max", "min", "after", "final", "settling"):
                 if key in q and not _finite(q[key]):
                     self._fail(f"{key!r} must be a finite number, got {q[key]!r}", ln)
+            if "settling" in q and not 0 < q["settling"] < 1:
+                self._fail(f"'settling' is the band as a fraction of the step (0.02 for 2 %), above 0 and "
+                           f"below 1, got {q['settling']!r}", ln)
+            if "after" in q and q["after"] < 0:
+                self._fail(f"'after' is when the step is applied, s (0 or later), got {q['after']!r}", ln)
             if objective:
                 if q.get("goal") not in GOALS:
                     self._fail(f"an objective needs goal: minimize or maximize, got {q.get('goal')!r}", ln)
@@ -263,9 +268,11 @@ class TuneSpec:
         from hybridsim.format.build import check, load
 
         try:
-            check(load(self.diagram, **self.fixed))
+            f = load(self.diagram, **self.fixed)
+            check(f)
         except InputError as exc:
             raise InputError(f"{self.path}: the diagram with 'set': {exc}") from None
+        self._check_signals(*f.build())
         for v in self.variants:
             try:
                 check(load(self.diagram, **{**self.fixed, **v}))
@@ -278,6 +285,32 @@ class TuneSpec:
                 except InputError as exc:
                     raise LoaderError(f"parameter {p.path} = {value!r}: {exc}", self.path,
                                       self._param_line(p)) from None
+
+    def _check_signals(self, diagram, settings):
+        """Each step measure's signal (``of``, ``reference``) a logged output element of the diagram, and
+        its ``after`` within the run (what a run would find only after it ran)."""
+        from hybridsim.format.kinds import SIGNAL
+
+        logged = {str(ref).split("[")[0] for ref in settings["log"]}
+        t_end = float(settings["simulation"]["t_end"])
+        for q in self.objectives + self.constraints:
+            if q.source != "step":
+                continue
+            if q.after >= t_end:
+                self._fail(f"'after' {q.after:g} s is not before the run's end ({t_end:g} s)", q.line)
+            for key, ref in (("of", q.signal), ("reference", q.reference)):
+                if ref is None:
+                    continue
+                m = SIGNAL.match(str(ref))
+                block = diagram.blocks.get(m.group(1)) if m else None
+                port = next((p for p in block.outputs if p.name == m.group(2)), None) if block else None
+                if port is None:
+                    self._fail(f"{key} {ref!r}: no output of that name in {self.diagram.name} (block.port or "
+                               "block.port[i])", q.line)
+                if m.group(3) is not None and int(m.group(3)) >= port.width:
+                    self._fail(f"{key} {ref!r}: {m.group(1)}.{m.group(2)} has {port.width} element(s)", q.line)
+                if logged and f"{m.group(1)}.{m.group(2)}" not in logged:
+                    self._fail(f"{key} {ref!r}: not logged by {self.diagram.name} (add it to its 'log')", q.line)
 
     def _param_line(self, p):
         data, _ = parse_file(self.path)

@@ -156,6 +156,11 @@ def test_pareto_front_by_hand():
     (PARAMS.replace("pid.Kd", "pid.Kx") + "objectives:\n" + SETTLE, 6, "pid.Kx"),
     (PARAMS + "objectives:\n  - {name: s, metric: rise_tim, goal: min}\n", 8, "metric 'rise_tim'"),
     (PARAMS + "objectives:\n  - {name: s, metric: settling_time_s, of: pid.v, goal: min}\n", 8, "pid.v"),
+    (PARAMS + "objectives:\n" + SETTLE.replace("final: 1.0", "settling: 5"), 8, "'settling' is the band"),
+    (PARAMS + "objectives:\n" + SETTLE.replace("final: 1.0", "after: -1"), 8, "'after' is when the step"),
+    (PARAMS + "objectives:\n" + SETTLE.replace("final: 1.0", "after: 100"), 8, "not before the run's end"),
+    (PARAMS + "objectives:\n" + SETTLE.replace("plant.y", "'plant.y[4]'"), 8, "plant.y has 1 element(s)"),
+    (PARAMS + "objectives:\n" + SETTLE.replace("final: 1.0", "reference: nob.y"), 8, "reference 'nob.y'"),
 ])
 def test_bad_tune_files_exit_2_with_file_and_line(tmp_path, capsys, body, line, message):
     p = tune_file(tmp_path, body)
