@@ -50,9 +50,11 @@ def write_plant_fmu(output=None, fmi=2):
     """
     from hybridsim.files import check_output_file, default_output_file, note_written
 
-    out, note = check_output_file(output or "plant.fmu", ["fmu"]), None
-    if not output:
-        out, note = default_output_file(out)
+    if output:
+        out, note = check_output_file(output, ["fmu"]), None
+    else:  # the default name: a file hybridsim did not write is kept, the next free name taken
+        out, note = default_output_file("plant.fmu")
+        check_output_file(out, ["fmu"])
     out = build_plant_fmu(out, fmi=fmi)
     note_written(out)
     return Path(out), note

@@ -143,6 +143,26 @@ def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
     return system, simulator, settings
 
 
+def _check_analysis_branches(f, overrides):
+    """The ``analysis`` section's ``set`` and each of its ``cases`` built as ``analyze`` builds them."""
+    from hybridsim.errors import InputError, LoaderError
+
+    if not f.data.get("analysis") or f.path is None:
+        return
+    cfg = f.analysis_settings()
+    lines = cfg.get("_lines", {})
+    branches = [("set", "", cfg.get("set") or {})]
+    branches += [("cases", name, {**(cfg.get("set") or {}), **ov}) for name, ov in (cfg.get("cases") or {}).items()]
+    for key, name, ov in branches:
+        if not ov:
+            continue
+        try:
+            build(load(f.path, **{**overrides, **ov}), check_only=True)
+        except InputError as exc:
+            text = str(exc).replace("--set ", "")
+            raise LoaderError(f"analysis {key} {name}".rstrip() + f" ({ov}): {text}", f.path, lines.get(key)) from None
+
+
 def check(path_or_file, **overrides):
     """Validate every variant of a diagram file as a run would, without running it.
 
@@ -158,6 +178,7 @@ def check(path_or_file, **overrides):
     for label, variant in variants:
         system, simulator, settings = build(f, variant, check_only=True)
         rates |= {float(1 / b.period) for b in system.blocks if b.period}
+    _check_analysis_branches(f, overrides)
     return {"blocks": len(system.blocks), "states": system.n_x, "rates": sorted(rates),
             "runs": len(variants)}
 

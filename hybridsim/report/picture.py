@@ -228,6 +228,7 @@ def write_picture(path_or_file, output=None, expand=False, **overrides):
         out, note = check_output_file(output, image_formats()), None
     else:  # the default name: a file hybridsim did not write is kept, the next free name taken
         out, note = default_output_file(f"{safe_name(f.name)}.png")
+        check_output_file(out, image_formats())
     diagram, _ = f.build(f.variants()[0][1])
     fig = draw_diagram(diagram.build(), f.description or f.name, expand=expand)
     with atomic_file(out, "wb") as fh:

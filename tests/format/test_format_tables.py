@@ -230,3 +230,19 @@ def test_check_refuses_an_analysis_gain_that_is_not_a_number_with_its_line(tmp_p
     assert main(["check", str(p)]) == 2  # analyze ended in a ValueError (exit 70)
     err = capsys.readouterr().err
     assert f"{p}:7: analysis gain 'aw' 'pid.anti_windup': 'pid.anti_windup' is 'clamping', not a number" in err, err
+
+
+@pytest.mark.parametrize("section, message", [
+    ("{set: {g.K: abc}}", "analysis set ({'g.K': 'abc'})"),
+    ("{cases: {big: {g.K: [1, 2]}}}", "analysis cases big"),
+    ("{set: {simulation.solver: foo}}", "unknown solver 'foo'"),
+])
+def test_check_builds_the_analysis_branches_as_analyze_does(tmp_path, capsys, section, message):
+    from hybridsim.app.cli import main
+
+    p = tmp_path / "g.yaml"
+    p.write_text("blocks:\n  c: {type: constant, value: 1.0}\n  g: {type: gain, K: 2.0}\nwires: [c.y -> g.u]\n"
+                 f"simulation: {{t_end: 0.01}}\nanalysis: {section}\n")
+    assert main(["check", str(p)]) == 2  # check said OK; analyze then refused it
+    err = capsys.readouterr().err
+    assert f"{p}:6: " in err and message in err and "--set" not in err, err
