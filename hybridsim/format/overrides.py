@@ -3,6 +3,7 @@
 Every override key is read as one :class:`~.paths.ParamPath`.
 """
 import itertools
+import json
 import math
 
 import numpy as np
@@ -147,6 +148,12 @@ class OverridesMixin:
                            spec.lines[n])
             if not isinstance(spec[n], list) or not spec[n]:
                 self._fail(f"variant {n!r} must be a non-empty list of values", spec.lines[n])
+            seen = set()
+            for v in spec[n]:  # the same run twice: one CSV written over by the other
+                tag = json.dumps(v, sort_keys=True, default=str)
+                if tag in seen:
+                    self._fail(f"variant {n!r} lists {v!r} twice", spec.lines[n])
+                seen.add(tag)
         count = math.prod(len(spec[n]) for n in names)
         if count > limits.get("MAX_VARIANTS"):
             self._fail(f"'variants' makes {count} runs; at most {limits.get('MAX_VARIANTS')} (use a sweep file "

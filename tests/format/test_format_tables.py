@@ -246,3 +246,14 @@ def test_check_builds_the_analysis_branches_as_analyze_does(tmp_path, capsys, se
     assert main(["check", str(p)]) == 2  # check said OK; analyze then refused it
     err = capsys.readouterr().err
     assert f"{p}:6: " in err and message in err and "--set" not in err, err
+
+
+@pytest.mark.parametrize("values", ["[1, 1]", "[0.1, 0.10000000000000001]"])
+def test_a_variant_value_listed_twice_is_refused_at_its_line(tmp_path, capsys, values):
+    from hybridsim.app.cli import main
+
+    p = tmp_path / "v.yaml"
+    p.write_text("params: {k: 1.0}\nblocks:\n  c: {type: constant, value: $k}\nsimulation: {t_end: 0.01}\n"
+                 f"variants:\n  k: {values}\n")
+    assert main(["check", str(p)]) == 2  # ran twice into one CSV
+    assert f"{p}:6: variant 'k' lists" in capsys.readouterr().err
