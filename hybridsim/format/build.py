@@ -157,7 +157,7 @@ def _check_analysis_branches(f, overrides):
         if not ov:
             continue
         try:
-            build(load(f.path, **{**overrides, **ov}), check_only=True)
+            build(load(f.path, **{**f.overrides, **overrides, **ov}), check_only=True)
         except InputError as exc:
             text = str(exc).replace("--set ", "")
             raise LoaderError(f"analysis {key} {name}".rstrip() + f" ({ov}): {text}", f.path, lines.get(key)) from None
