@@ -3,7 +3,7 @@
 Not in :mod:`hybridsim.api` (which ``import hybridsim`` loads): the sweep and tune layers sit
 above the format layer that the API is made of.
 """
-from hybridsim.format.build import check, load
+from hybridsim.format.build import check, check_analysis_branches, load
 
 
 def check_file(path, **overrides):
@@ -25,7 +25,10 @@ def check_file(path, **overrides):
 
     data, _ = parse_file(path)
     if "diagram" not in data or "blocks" in data or "extends" in data:
-        return {"kind": "diagram", **check(load(path, **overrides))}
+        f = load(path, **overrides)
+        summary = check(f)
+        check_analysis_branches(f)
+        return {"kind": "diagram", **summary}
     kind = "tune" if "parameters" in data or "objectives" in data else "sweep"
     if overrides:
         raise InputError(f"{path}: --set applies to a diagram; a {kind} file gives its diagram's values "

@@ -143,8 +143,10 @@ def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
     return system, simulator, settings
 
 
-def _check_analysis_branches(f, overrides):
-    """The ``analysis`` section's ``set`` and each of its ``cases`` built as ``analyze`` builds them."""
+def check_analysis_branches(f):
+    """Build the ``analysis`` section's ``set`` and each of its ``cases`` of the parsed file ``f`` as
+    ``analyze`` builds them (``hybridsim check``; not part of :func:`check`, which sweeps and tune
+    searches call once per value)."""
     from hybridsim.errors import InputError, LoaderError
 
     if not f.data.get("analysis") or f.path is None:
@@ -157,7 +159,7 @@ def _check_analysis_branches(f, overrides):
         if not ov:
             continue
         try:
-            build(load(f.path, **{**f.overrides, **overrides, **ov}), check_only=True)
+            build(load(f.path, **{**f.overrides, **ov}), check_only=True)
         except InputError as exc:
             text = str(exc).replace("--set ", "")
             raise LoaderError(f"analysis {key} {name}".rstrip() + f" ({ov}): {text}", f.path, lines.get(key)) from None
@@ -178,7 +180,6 @@ def check(path_or_file, **overrides):
     for label, variant in variants:
         system, simulator, settings = build(f, variant, check_only=True)
         rates |= {float(1 / b.period) for b in system.blocks if b.period}
-    _check_analysis_branches(f, overrides)
     return {"blocks": len(system.blocks), "states": system.n_x, "rates": sorted(rates),
             "runs": len(variants)}
 
