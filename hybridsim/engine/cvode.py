@@ -38,16 +38,25 @@ class CVode(Solver):
         Longest internal step in s (inf: no limit).
     method : {"BDF", "Adams"}
         BDF (orders 1-5) for stiff systems, Adams-Moulton for smooth ones.
+    scan : float
+        Longest internal step, s, while there are located event functions
+        (default 1 ms): CVODE looks for roots only at its step ends, and a
+        function driven by time rather than by the states (a relay on a sine)
+        could cross and cross back inside one long step. The scipy solvers
+        check the functions this often too.
     """
 
-    def __init__(self, rtol=1e-8, atol=1e-10, max_step=np.inf, method="BDF"):
+    def __init__(self, rtol=1e-8, atol=1e-10, max_step=np.inf, method="BDF", scan=1e-3):
         try:
             import sksundae  # noqa: F401
         except ImportError:  # pragma: no cover - a core dependency
             raise ImportError("solver cvode needs scikit-sundae: pip install scikit-sundae") from None
         if method not in ("BDF", "Adams"):
             raise ValueError(f"CVODE method must be 'BDF' or 'Adams', got {method!r}")
+        if not scan > 0:
+            raise ValueError(f"scan must be positive, got {scan!r}")
         self.rtol, self.atol, self.max_step, self.method = float(rtol), atol, float(max_step), method
+        self.scan = float(scan)
         self.name = "cvode"
 
     #: the core takes the points CVODE returns (log times, crossings, the stop) as its steps

@@ -23,6 +23,9 @@ from hybridsim.engine.solvers import NotFinite
 
 #: internal steps CVODE may take between two returned points
 MAX_STEPS = 1_000_000
+#: the same where a located switch has no action: a state sliding along it (a sliding mode) makes
+#: CVODE crawl at steps of nanoseconds, and the run fails in a second rather than a minute
+SWITCH_STEPS = 20_000
 
 
 class CVodeStepper:
@@ -72,8 +75,9 @@ class CVodeStepper:
             if muting:
                 stepping.mute(out, w.muted)
 
-        opts = dict(method=s.method, rtol=s.rtol, atol=s.atol, max_num_steps=MAX_STEPS,
-                    max_step=0.0 if not np.isfinite(s.max_step) else s.max_step)
+        longest = min(s.max_step, s.scan) if e else s.max_step  # roots are looked for at step ends only
+        opts = dict(method=s.method, rtol=s.rtol, atol=s.atol, max_step=longest if np.isfinite(longest) else 0.0,
+                    max_num_steps=SWITCH_STEPS if w.switch.any() else MAX_STEPS)
         if e:
             roots.terminal = [True] * e
             roots.direction = [int(d) for d in w.dirs]

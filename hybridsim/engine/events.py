@@ -34,6 +34,11 @@ MAX_STALLS = 50
 #: a switch without an action (stick/slip, contact) located more often than this between two
 #: hits slides along its surface: it is stepped over for the rest of that interval
 MAX_REPEATS = 20
+#: steps after such a switch is muted, and their mean length (s) below which the run is stuck
+#: sliding along it (a variable-step solver shrinks its steps to nothing on a right-hand side
+#: that switches at every step)
+SLIDE_STEPS = 1000
+SLIDE_STEP = 1e-6
 
 
 def located_events(system, solver, locate_switches=False):
@@ -149,10 +154,25 @@ def zeno_error(t, names, too_many, stalls):
                            "that time or give the model a resting state")
 
 
+def sliding_error(t, name, more):
+    """The error for a variable-step run stuck sliding along a switch (every path raises this one)."""
+    return SimulationError(
+        f"block {name!r}{' (and others)' if more else ''} switches at every step from t={t:.9g} s: its "
+        f"event function was located more than {MAX_REPEATS} times, then the solver's steps shrank "
+        f"below {SLIDE_STEP:g} s on average over {SLIDE_STEPS} steps: the state slides along the switch. "
+        + SLIDING_ADVICE)
+
+
+#: what a run stuck on a switch can do
+SLIDING_ADVICE = ("A variable-step solver cannot cross a sliding mode (Coulomb friction holding a mass still, "
+                  "a switch driven by its own output): give the model a mode for it (a stick band, a relay's "
+                  "hysteresis), or use a fixed-step solver (rk4, heun), which chatters across it")
+
+
 def chatter_error(t, names):
     """The error for an event iteration that does not settle (every path raises this one)."""
     return SimulationError(f"event iteration at t={t:.9g} s does not settle after {MAX_ITERATIONS} "
                            f"actions (chattering) in block(s) {', '.join(names)}")
 
 
-__all__ = ["EventSet", "StopRequest", "located_events", "layout", "zeno_error", "chatter_error"]
+__all__ = ["EventSet", "StopRequest", "located_events", "layout", "zeno_error", "sliding_error", "chatter_error"]

@@ -29,6 +29,8 @@ class Limits(NamedTuple):
     max_stalls: int       # events in a row, each within 10 time_tol of the one before
     max_iterations: int   # actions at one instant before the iteration counts as chattering
     max_repeats: int      # a switch without an action located more often is stepped over (0: never)
+    slide_steps: int      # steps after such a switch is muted before their length is judged
+    slide_step: float     # the mean step, s, below which a run sliding along a switch is stuck there
     timed: bool           # the glue has time events (next_time / timed)
     stepped: bool         # the glue wants to hear of every accepted step
     batch: bool           # steps may be taken several at a time (no located events, no step hooks)

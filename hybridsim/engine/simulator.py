@@ -335,6 +335,10 @@ class Session:
             self.ctx.xc = np.asarray(self.stop.x, float)
         return code
 
+    def _function_owner(self, index):
+        """The name of the block that owns located event function ``index``."""
+        return self.sim.system.blocks[self.sim.located[int(self.w.owner[index])]].name
+
     def event_log(self):
         """``[(t, block names)]`` of the events so far, in order: one entry per instant (events
         within ``10 time_tol`` of each other, the core's measure of one instant, are one entry
@@ -388,8 +392,10 @@ class Session:
             if code == stepping.CHATTER:
                 raise _events.chatter_error(t, names)
             raise _events.zeno_error(t, names, code == stepping.ZENO, index)
+        elif code == stepping.SLIDING:
+            raise _events.sliding_error(t, self._function_owner(index), self.w.muted.sum() > 1)
         elif code == stepping.MISSED:
-            owner = self.sim.system.blocks[self.sim.located[int(self.w.owner[index])]].name
+            owner = self._function_owner(index)
             raise SimulationError(
                 f"solver {sim.solver!r} stepped over a crossing of block {owner!r}'s event function "
                 f"before t={t:.9g} s without reporting it (events piling up, or two crossings in one "
@@ -399,7 +405,22 @@ class Session:
             if seen:  # the block whose output was not finite, when one was
                 with np.errstate(all="ignore"):
                     plan.blame(ctx, *seen[0])
-            raise SimulationError(getattr(self.s, "message", None) or f"the solver failed at t={t:.9g} s")
+            message = getattr(self.s, "message", None) or f"the solver failed at t={t:.9g} s"
+            muted = np.flatnonzero(self.w.muted)
+            if muted.size:  # it failed sliding along a switch
+                message = message.rstrip(".") + f". {_events.sliding_error(t, self._function_owner(muted[0]), muted.size > 1)}"
+            else:
+                log = self.event_log()
+                on = np.flatnonzero(self.w.switch & (np.abs(self.w.g) <= 1e-6))
+                if log and 0.0 <= t - log[-1][0] <= 1e-6:  # at a switch: the state may slide along it
+                    message = message.rstrip(".") + (
+                        f". It failed just after {', '.join(log[-1][1])} switched at t={log[-1][0]:.9g} s; the "
+                        f"state may slide along that switch. {_events.SLIDING_ADVICE}")
+                elif on.size:
+                    message = message.rstrip(".") + (
+                        f". Block {self._function_owner(on[0])!r} is on its switch there; the state may slide "
+                        f"along it. {_events.SLIDING_ADVICE}")
+            raise SimulationError(message)
         raise SimulationError(f"simulation failed at t={t:.6g} s (status {code})")
 
 

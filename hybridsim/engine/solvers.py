@@ -25,6 +25,8 @@ with the same core (a system of one block).
 """
 import math
 
+import warnings
+
 import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
 
@@ -255,7 +257,12 @@ def scipy_ops():
             if s.ode is None:
                 s.start(gl.rhs, y, z, pf, pi)
             ode = s.ode
-            message = ode.step()
+            with warnings.catch_warnings(record=True) as said:  # LSODA's reasons: kept for the message
+                warnings.simplefilter("always")
+                message = ode.step()
+            if said and ode.status == "failed":
+                reasons = "; ".join(str(m.message).strip().rstrip(".") for m in said)
+                message = f"{message} ({reasons})"
             failed = ode.status == "failed"
             if ode.status == "running" and not ode.t - ode.t_old > 10 * np.spacing(abs(ode.t_old)):
                 # LSODA on tolerances float64 cannot meet takes steps of 0 s for ever
@@ -333,4 +340,5 @@ def limits(max_state, time_tol=None, scan=1e-3, stepped=False, timed=False, batc
 
     return stepping.Limits(float(max_state), float(ev.TIME_TOL if time_tol is None else time_tol), float(scan),
                            int(ev.MAX_EVENTS), int(ev.MAX_STALLS), int(ev.MAX_ITERATIONS), int(max_repeats),
+                           int(ev.SLIDE_STEPS), float(ev.SLIDE_STEP),
                            bool(timed), bool(stepped), bool(batch))

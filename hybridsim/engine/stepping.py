@@ -49,6 +49,7 @@ STOPPED = 7     # a block asked to end the run (its request is kept by the glue)
 FAILED = 8      # the solver failed (its message is kept by the stepper)
 MISSED = 9      # a stepper that locates crossings itself stepped over one: status[1] = function index
 BIG_UPDATE = 10  # a bounded discrete state beyond max_state: status[1] = its index in z
+SLIDING = 11    # stuck sliding along a muted switch (tiny steps): status[1] = its function index
 
 # -- what glue.stepped / glue.timed / glue.act answer --------------------------
 GO, STEP_EVENT, STOP = 0, 1, 2
@@ -198,6 +199,9 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
     stalls = 0
     tol = lim.time_tol
     at_hit = located
+    slid = -1        # the first switch muted in this interval (sliding along its surface)
+    slid_t = t0      # since when
+    slid_n = 0       # steps since
     while True:
         # -- one integration from t0 to the next stop (a time event or t1) ----------------------
         stop = t1
@@ -288,6 +292,11 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                 break
             copy_into(x, xn)
             ta = tb
+            if slid >= 0:  # a solver that shrinks its steps to nothing on a switching right-hand side
+                slid_n += 1
+                if slid_n >= lim.slide_steps and tb - slid_t < slid_n * lim.slide_step:
+                    fail(out, SLIDING, slid, j, tb)
+                    return SLIDING
             if lim.stepped:
                 asked = gl.stepped(tb, x, y, z, pf, pi)
                 if asked == STOP:
@@ -323,6 +332,8 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                         w.repeats[i] += 1
                         if w.repeats[i] > lim.max_repeats:
                             w.muted[i] = True
+                            if slid < 0:
+                                slid, slid_t, slid_n = i, t_ev, 0
             code = settle(t_ev, gl, lim, w, out, y, z, pf, pi)
             if code != OK:
                 fail(out, code, out.status[1] if code == DIVERGED else 0, j, t_ev)

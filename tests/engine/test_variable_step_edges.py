@@ -341,3 +341,74 @@ def test_a_switch_driven_by_time_is_located_and_integrated_to_full_order(tmp_pat
     assert np.allclose([t for t, _ in res.meta["events"]], [a, 0.5 - a], atol=1e-9, rtol=0)
     exact = (0.5 - 2 * a) - a - (0.8 - (0.5 - a))
     assert abs(np.ravel(res["it.y"])[-1] - exact) < (1e-11 if solver in ("rk4", "heun") else 1e-7)
+
+
+SLIDING = {
+    "coulomb": """blocks:
+  F: {type: constant, value: 0.5}
+  fr: {type: coulomb_viscous, coulomb: 1.0}
+  acc: {type: sum, signs: "+-"}
+  v: {type: integrator, initial: -1.0}
+wires: [F.y -> acc.u1, fr.y -> acc.u2, acc.y -> v.u, v.y -> fr.u]
+simulation: {t_end: 1.5, step: 1.0e-3, log_period: 0.01}
+log: [v.y]
+""",
+    "switch": """blocks:
+  a: {type: constant, value: -1.0}
+  b: {type: constant, value: 1.0}
+  sw: {type: switch, threshold: 0.0}
+  i: {type: integrator, initial: 0.5}
+wires: [a.y -> sw.u1, i.y -> sw.control, b.y -> sw.u2, sw.y -> i.u]
+simulation: {t_end: 1.0, step: 1.0e-3, log_period: 0.01}
+"""}
+
+
+@pytest.mark.parametrize("case, block, t_slide", [("coulomb", "fr", 2 / 3), ("switch", "sw", 0.5)])
+@pytest.mark.parametrize("solver", VARIABLE + ["rk23"])
+def test_a_state_that_slides_along_a_switch_ends_in_a_clear_error_on_every_variable_step_solver(
+        tmp_path, solver, case, block, t_slide):
+    # a mass held by Coulomb friction (0.5 N against 1 N), a switch driven by its own integral: the
+    # right-hand side flips at every step from t_slide on. The solvers crawled there at steps of
+    # nanoseconds for ever (rk45, rk23, dop853, cvode); now each one stops within seconds, naming
+    # the block and the sliding mode
+    old = signal.signal(signal.SIGALRM, _hang)
+    signal.alarm(60)
+    try:
+        with pytest.raises(SimulationError, match=f"'?{block}'? .*slide") as err:
+            hs.simulate(_file(tmp_path, SLIDING[case]), solver=solver)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    assert "fixed-step solver" in str(err.value)
+    t = float(err.value.args[0].split("t=")[1].split(" ")[0])
+    assert abs(t - t_slide) < 1e-4
+
+
+@pytest.mark.parametrize("solver", ["rk4", "heun"])
+def test_a_fixed_step_solver_chatters_across_a_sliding_mode(tmp_path, solver):
+    # what the error advises: the velocity stays within a few steps' change of 0 once it gets there
+    res = hs.simulate(_file(tmp_path, SLIDING["coulomb"]), solver=solver)
+    after = res.t > 0.7
+    assert np.max(np.abs(res["v.y"][after])) < 1.5 * 1e-3 * 2
+
+
+SPARSE_LOG = """blocks:
+  s: {type: sine, amplitude: 1.0, frequency: 5.0}
+  r: {type: relay, switch_on: 0.5, switch_off: -0.5}
+  i: {type: integrator}
+wires: [s.y -> r.u, r.y -> i.u]
+simulation: {t_end: 1.0, step: 1.0e-3, log_period: 0.5}
+log: [i.y]
+"""
+
+
+@pytest.mark.parametrize("solver", VARIABLE)
+def test_a_relay_on_a_fast_sine_switches_between_sparse_log_points(tmp_path, solver):
+    # the integrator's rate is constant between switches, so CVODE took steps as long as the
+    # log period (0.5 s) and stepped over every crossing, two per period (0 events, exit 0); its
+    # steps are now no longer than the scan (1 ms) while there are located functions.
+    # sin(10 pi t) = 0.5 at (1/12 + k) / 5 s (on), = -0.5 at (7/12 + k) / 5 s (off)
+    res = hs.simulate(_file(tmp_path, SPARSE_LOG), solver=solver)
+    times = [t for t, _ in res.meta["events"]]
+    expected = sorted([(1 / 12 + k) / 5 for k in range(5)] + [(7 / 12 + k) / 5 for k in range(5)])
+    assert np.allclose(times, expected, atol=1e-9)
