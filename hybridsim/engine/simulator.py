@@ -101,6 +101,7 @@ class Simulator:
         self.log_path = system.evaluation_path({i for i, _ in self._log_ports})
         self.located = _events.located_events(system, self.solver, locate_switches)
         self._timelines = {}
+        self._step_checked = False
         self._compiled = self._fused = None
         if compiled:
             from hybridsim.engine.compiled import CompiledGlue
@@ -210,6 +211,15 @@ class Simulator:
 
     def _walk(self, ctx, tl, t_end, progress=None):
         sysm = self.system
+        if not self._step_checked and isinstance(self.solver, ExplicitRK):
+            self._step_checked = True  # once per simulator: a sweep's points share its structure
+            from hybridsim.engine.stiffness import check_step
+
+            def owner(k):
+                name, j = sysm.state_owner(k)
+                return f"state {j} of block {name!r}"
+
+            check_step(self.solver, state_derivatives(sysm, ctx), 0.0, ctx.xc, owner)
         progress = self.progress if progress is None else progress
         run = self.session(ctx, rows(tl))
         wall0 = _time.perf_counter()
