@@ -103,7 +103,7 @@ def types():
 INLINED = ("crossed_any", "first_sign_change", "first_bad", "copy_into", "mute", "record")
 #: the core's other functions, called
 CALLED = ("rk_begin", "rk_step", "rk_steps", "rk_dense", "rk_restep", "rk_rewind", "fail", "log_event",
-          "observe", "time_event", "restep_to_failure", "locate", "settle")
+          "observe", "observe_to", "time_event", "restep_to_failure", "locate", "settle")
 
 CORE_TAIL = """
 

@@ -123,6 +123,16 @@ def record(out, y, row):
         out.nrow[0] = row + 1
 
 
+def observe_to(gl, out, tl, j, ja, x, y, z, pf, pi):
+    """Log rows ``j .. ja - 1`` of ``tl`` from the state ``x``; the next row, or -1 on a bad output
+    (status set)."""
+    while j < ja:
+        if not observe(gl, out, tl.t[j], x, y, z, pf, pi, tl.rec[j], j):
+            return -1
+        j += 1
+    return j
+
+
 def log_event(out, t, fired, owner):
     """Append an event at ``t``: the located blocks whose functions ``fired``."""
     n = out.nev[0]
@@ -199,6 +209,7 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
     stalls = 0
     tol = lim.time_tol
     at_hit = located
+    t_end = tl.t[tl.t.size - 1]
     slid = -1        # the first switch muted in this interval (sliding along its surface)
     slid_t = t0      # since when
     slid_n = 0       # steps since
@@ -243,12 +254,13 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
         asked = GO
         t_ev = t0
         while True:
-            # log points at the step's start: the state itself
-            while j < j1 and tl.t[j] <= ta + 1e-9 * (s.num[1] if s.num[1] > 0.0 else tol):
-                if not observe(gl, out, tl.t[j], x, y, z, pf, pi, tl.rec[j], j):
-                    return BAD_OUTPUT
-                j += 1
-            t_lim = tl.t[j] if j < j1 else stop
+            # log points at the step's start (the state itself) are logged once the step is known: one
+            # within tol before an event is logged after it
+            at = ta + 1e-9 * (s.num[1] if s.num[1] > 0.0 else tol)
+            ja = j
+            while ja < j1 and tl.t[ja] <= at:
+                ja += 1
+            t_lim = tl.t[ja] if ja < j1 else stop
             if lim.batch:
                 tb = ops.steps(s, t_lim, x, xn, w, gl, y, z, pf, pi)
                 if tb == tb and first_bad(xn, lim.max_state) >= 0:
@@ -256,10 +268,16 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
             else:
                 tb = ops.step(s, x, xn, w, gl, y, z, pf, pi)
             if tb != tb:
+                j = observe_to(gl, out, tl, j, ja, x, y, z, pf, pi)
+                if j < 0:
+                    return BAD_OUTPUT
                 fail(out, FAILED, 0, j, ta)
                 return FAILED
             bad = first_bad(xn, lim.max_state)
             if bad >= 0:
+                j = observe_to(gl, out, tl, j, ja, x, y, z, pf, pi)
+                if j < 0:
+                    return BAD_OUTPUT
                 copy_into(w.xo, x)  # the step's start: where its stages can be looked at again
                 copy_into(x, xn)
                 fail(out, DIVERGED, bad, j, tb)
@@ -274,14 +292,24 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                 elif s.num[ROOT] < 0.0:  # it looked, and none lies in the step
                     miss = first_sign_change(w.g, w.gn, w.dirs)
                     if miss >= 0:  # yet one changed sign: without dense output it cannot be located
+                        j = observe_to(gl, out, tl, j, ja, x, y, z, pf, pi)
+                        if j < 0:
+                            return BAD_OUTPUT
                         copy_into(x, xn)
                         fail(out, MISSED, miss, j, tb)
                         return MISSED
                     copy_into(w.g, w.gn)
                 else:  # bisected on the step's dense output
                     event, t_ev = locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi)
-            # -- log points inside the step, before the event ---------------------------------
+                if event and t_ev >= t_end - tol:  # at the run's end: not acted on (the last row arrives)
+                    event = False
+                    copy_into(w.g, w.gn)
+            # -- log points at the step's start and inside it, before the event ------------------
             t_in = t_ev - tol if event else tb  # one within tol of the event: logged after it
+            while j < ja and tl.t[j] < t_in:
+                if not observe(gl, out, tl.t[j], x, y, z, pf, pi, tl.rec[j], j):
+                    return BAD_OUTPUT
+                j += 1
             h = tb - ta
             while j < j1 and tl.t[j] < t_in and tl.t[j] < tb - 1e-9 * h:
                 ops.dense(s, tl.t[j], x, w, w.xo)

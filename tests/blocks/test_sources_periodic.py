@@ -42,5 +42,9 @@ def test_edges_are_zero_crossings():
     p = block("pulse", "p", period=1.0, duty=0.25, delay=0.5)
     signs = [np.sign(p.zero_crossings(t, (), [])[0]) for t in (0.6, 0.8, 1.6)]
     assert signs[0] != signs[1] != signs[2]
+    # before the delay the output stays 0: no edge there (the function changed sign at every
+    # would-be edge, 0.25 s apart, and the variable-step solvers stopped at each), one at 0.5 s
+    early = [p.zero_crossings(t, (), [])[0] for t in np.linspace(-2.0, 0.499, 400)]
+    assert min(early) > 0 and p.zero_crossings(0.501, (), [])[0] < 0
     with pytest.raises(Exception, match="duty"):
         block("pulse", "p", duty=1.0)

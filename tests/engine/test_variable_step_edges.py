@@ -412,3 +412,49 @@ def test_a_relay_on_a_fast_sine_switches_between_sparse_log_points(tmp_path, sol
     times = [t for t, _ in res.meta["events"]]
     expected = sorted([(1 / 12 + k) / 5 for k in range(5)] + [(7 / 12 + k) / 5 for k in range(5)])
     assert np.allclose(times, expected, atol=1e-9)
+
+
+AT_THE_END = """blocks:
+  c: {type: constant, value: 1.0}
+  i: {type: integrator, upper: 1.0}
+  ball: {type: bouncing_ball, g: 8.0, e: 0.5, h0: 4.0}
+wires: [c.y -> i.u]
+simulation: {t_end: 1.0, step: 1.0e-3, log_period: 0.01}
+log: [i.y, ball.h, ball.v]
+"""
+
+
+@pytest.mark.parametrize("solver", ["rk4", "heun", "radau", "rk45", "rk23", "dop853"])
+def test_an_event_at_the_end_time_is_not_acted_on_by_any_solver(tmp_path, solver):
+    # the ball lands (4 - 4 t^2 = 0) and the integrator reaches its limit exactly at t_end = 1 s:
+    # rk4, heun and dop853 acted on the landing (last row v = +4, two events), radau, rk45 and
+    # rk23 did not (v = -8). The run ends at t_end: the last row is the state arriving there.
+    # (BDF, LSODA and CVODE at their default tolerances place the landing 1e-8 s early, inside
+    # the run, and act on it.)
+    res = hs.simulate(_file(tmp_path, AT_THE_END), solver=solver)
+    assert res.meta["events"] == []
+    assert res["ball.v"][-1, 0] == pytest.approx(-8.0, abs=1e-9)
+    assert res["i.y"][-1, 0] == pytest.approx(1.0, abs=1e-12)
+
+
+RESET_AFTER_CROSSING = """blocks:
+  c: {type: constant, value: 1.0}
+  p: {type: pulse, period: 0.5, duty: 0.5, delay: 0.5}
+  i: {type: integrator}
+  h: {type: hit_crossing, offset: 0.3}
+wires: [c.y -> i.u, p.y -> i.reset, i.y -> h.u]
+simulation: {t_end: 1.9, step: 1.0e-3, log_period: 0.01}
+log: [i.y, h.count]
+"""
+
+
+@pytest.mark.parametrize("solver, path", [("rk4", {}), ("heun", {}), ("rk4", {"fused": False}), ("radau", {})],
+                         ids=lambda v: v if isinstance(v, str) else "-".join(v) or "default")
+def test_a_log_point_at_a_step_start_just_before_a_reset_is_logged_after_it(tmp_path, solver, path):
+    # the hit_crossing's event at 1.3 s restarts rk4's grid, which then reaches 1.5 s a hair before
+    # the pulse's edge (located 9e-13 s later): the row at 1.5 s, a step's start, showed the value
+    # before the reset (0.5) where 0.5 and 1.0 s showed the reset value 0
+    res = hs.simulate(_file(tmp_path, RESET_AFTER_CROSSING), solver=solver, **path)
+    y, t = np.ravel(res["i.y"]), res.t
+    for tr in (0.5, 1.0, 1.5):
+        assert y[np.argmin(abs(t - tr))] == 0.0, tr
