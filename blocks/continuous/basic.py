@@ -53,8 +53,9 @@ class Integrator(Block):
         lo = vector(lower, "lower", n, inf_ok=True)
         hi = vector(upper, "upper", n, inf_ok=True)
         x0 = vector(initial, "initial", n)
-        if np.any(lo > hi):
-            raise ParameterError("lower", f"must not exceed upper ({lower!r} > {upper!r})")
+        if np.any(lo >= hi):  # equal limits: a constant, whose modes would only chatter at every reversal
+            raise ParameterError("lower", f"must be below upper ({lower!r} >= {upper!r}); for a constant "
+                                 "state use a constant block")
         if np.any((x0 < lo) | (x0 > hi)):
             raise ParameterError("initial", f"must lie within [lower, upper], got {initial!r}")
         self.params = IntegratorParams(vector(K, "K", n), x0, np.clip(lo, -_BIG, _BIG), np.clip(hi, -_BIG, _BIG), n)

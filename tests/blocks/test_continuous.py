@@ -36,6 +36,15 @@ def test_integrator_refuses_a_start_outside_its_limits():
         Integrator(initial=2.0, upper=1.0)
 
 
+def test_integrator_refuses_equal_limits():
+    # lower = upper held a constant by changing mode at every reversal of its input: 2 or 4
+    # events per reversal, and 2 at odd times on cvode, depending on the solver
+    with pytest.raises(hs.ParameterError, match="lower.*below upper.*constant block"):
+        Integrator(initial=0.5, lower=0.5, upper=0.5)
+    with pytest.raises(hs.ParameterError, match="lower"):
+        Integrator(lower=[0.0, 1.0], upper=[1.0, 1.0], width=2)
+
+
 def test_filtered_derivative_of_a_ramp():
     r = hs.registry.lookup("ramp")("r", initial=0.0, slope=1.0, start=0.0)
     res = _run([r, FilteredDerivative("d", tau=0.1)], [("r.y", "d.u")], 0.5, ["d.y"], step=1e-4)
