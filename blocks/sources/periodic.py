@@ -158,8 +158,8 @@ def pulse_output(p, t, x, u):
 @kernel
 def pulse_crossings(p, t, x, u):
     s = (t - p.delay) / p.period
-    if s < 0.0:  # before the delay: no edge, down to 0 at the first rise
-        return (-s,)
+    if s < 0.0:  # before the delay: no edge; down to 0 at the first rise with the same slope as after
+        return (-math.pi * s * math.sin(math.pi * p.duty),)
     return (math.sin(math.pi * s) * math.sin(math.pi * (s - p.duty)),)  # changes sign at each edge
 
 

@@ -210,6 +210,8 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
     tol = lim.time_tol
     at_hit = located
     t_end = tl.t[tl.t.size - 1]
+    deferred = False  # a crossing found at the next hit, fired after it (w.gp holds the functions before it)
+    t_hit, j_hit = t0, j - 1  # the hit this interval starts from, and its row
     slid = -1        # the first switch muted in this interval (sliding along its surface)
     slid_t = t0      # since when
     slid_n = 0       # steps since
@@ -255,7 +257,7 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
         t_ev = t0
         while True:
             # log points at the step's start (the state itself) are logged once the step is known: one
-            # within tol before an event is logged after it
+            # within tol before an event is logged after it, unless the step starts the integration
             at = ta + 1e-9 * (s.num[1] if s.num[1] > 0.0 else tol)
             ja = j
             while ja < j1 and tl.t[ja] <= at:
@@ -304,9 +306,14 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                 if event and t_ev >= t_end - tol:  # at the run's end: not acted on (the last row arrives)
                     event = False
                     copy_into(w.g, w.gn)
+                elif event and not timed and t_ev >= t1 - tol:  # at the next hit: fired just after it, as
+                    event = False  # a function fires on leaving its surface (the hit samples the value before)
+                    deferred = True
+                    copy_into(w.gp, w.glo if s.num[ROOT] == 0.0 else w.g)  # the functions before the crossing
+                    copy_into(w.g, w.gn)
             # -- log points at the step's start and inside it, before the event ------------------
             t_in = t_ev - tol if event else tb  # one within tol of the event: logged after it
-            while j < ja and tl.t[j] < t_in:
+            while j < ja and (tl.t[j] < t_in or ta == t0):  # (an integration's start is after its event)
                 if not observe(gl, out, tl.t[j], x, y, z, pf, pi, tl.rec[j], j):
                     return BAD_OUTPUT
                 j += 1
@@ -366,6 +373,9 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
             if code != OK:
                 fail(out, code, out.status[1] if code == DIVERGED else 0, j, t_ev)
                 return code
+            if t_ev - t_hit <= tol:  # at the hit's instant: its log row is logged again, after the event
+                if not observe(gl, out, t_hit, x, y, z, pf, pi, tl.rec[j_hit], j_hit):
+                    return BAD_OUTPUT
             t0 = t_ev
         elif timed:  # a time event
             count += 1
@@ -382,7 +392,7 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
         if not observe(gl, out, tl.t[j], x, y, z, pf, pi, tl.rec[j], j):
             return BAD_OUTPUT
         j += 1
-    if located:  # the functions at the stop, before its hit: compared after it
+    if located and not deferred:  # the functions at the stop, before its hit: compared after it
         gl.zc(t1, x, w.gp, y, z, pf, pi)
     return OK
 

@@ -164,7 +164,7 @@ log: [x.y]
 
 @pytest.mark.parametrize("solver", ["rk4"] + VARIABLE)
 def test_a_reset_by_a_pulse_logs_the_reset_value_and_one_entry_per_instant(tmp_path, solver):
-    # the pulse rises at 0.1, 0.4, 0.7 and 1.0 s and resets x = 2 t; the scipy solvers locate an
+    # the pulse rises at 0.1, 0.4, 0.7 (and 1.0 = t_end) s and resets x = 2 t; the scipy solvers locate an
     # edge up to 1e-12 s late and used to log the value before the reset at its instant, and
     # LSODA and CVODE listed the edge and the reset as two entries
     res = hs.simulate(_file(tmp_path, PULSED), solver=solver)
@@ -173,9 +173,9 @@ def test_a_reset_by_a_pulse_logs_the_reset_value_and_one_entry_per_instant(tmp_p
         assert y[np.argmin(abs(t - tr))] == 0.0
     times = [round(te, 9) for te, _ in res.meta["events"]]
     resets = [te for te, names in res.meta["events"] if "x" in names]
-    assert np.allclose(resets, [0.1, 0.4, 0.7, 1.0], atol=2e-12, rtol=0)
+    assert np.allclose(resets, [0.1, 0.4, 0.7], atol=2e-12, rtol=0)  # the edge at t_end is not acted on
     if solver != "rk4":  # the falling edges are switches, located by the variable-step solvers
-        assert times == [0.1, 0.25, 0.4, 0.55, 0.7, 0.85, 1.0]
+        assert times == [0.1, 0.25, 0.4, 0.55, 0.7, 0.85]
 
 
 SAMPLED = """blocks:
@@ -458,3 +458,28 @@ def test_a_log_point_at_a_step_start_just_before_a_reset_is_logged_after_it(tmp_
     y, t = np.ravel(res["i.y"]), res.t
     for tr in (0.5, 1.0, 1.5):
         assert y[np.argmin(abs(t - tr))] == 0.0, tr
+
+
+BOUNCE_AT_A_HIT = """blocks:
+  ball: {type: bouncing_ball, g: 10.0, e: 0.5, h0: 0.0, v0: 5.0}
+  z: {type: zoh, rate: 4}
+wires: [ball.v -> z.u]
+simulation: {t_end: 1.45, step: 1.0e-3, log_period: 0.01}
+log: [z.y, ball.v]
+"""
+
+
+@pytest.mark.parametrize("solver, path", [(s, {}) for s in ["rk4", "heun", "radau", "rk45", "rk23", "dop853"]]
+                         + [("rk4", {"fused": False})],
+                         ids=lambda v: v if isinstance(v, str) else "-".join(v) or "default")
+def test_a_bounce_at_a_sample_hit_is_sampled_before_and_logged_after_on_every_solver(tmp_path, solver, path):
+    # thrown up at 5 m/s under g = 10 the ball lands at exactly 1 s, a hit of the 4 Hz zoh. rk45 and
+    # dop853 located the landing at 1.0 and bounced before the hit (the zoh took +2.5), the others
+    # 1e-12 s after it (-5). Now a crossing at a hit fires just after it, as a function fires on
+    # leaving its surface: the zoh takes the value before (-5), and the hit's log row, at an event,
+    # is logged after it (+2.5), on every solver
+    res = hs.simulate(_file(tmp_path, BOUNCE_AT_A_HIT), solver=solver, **path)
+    t, zy, v = res.t, np.ravel(res["z.y"]), np.ravel(res["ball.v"])
+    assert np.allclose(zy[(t > 1.0) & (t < 1.25)], -5.0, atol=1e-9, rtol=0)
+    assert v[np.argmin(abs(t - 1.0))] == pytest.approx(2.5, abs=1e-9)
+    assert len(res.meta["events"]) == 1 and res.meta["events"][0][0] == pytest.approx(1.0, abs=2e-12)
