@@ -3,7 +3,9 @@
 Each has outputs ``y`` and its time derivative ``dy`` (units of y per s), like
 the sources of :mod:`hybridsim.blocks.sources.basic`. The edges of square, pulse and
 sawtooth are zero crossings of a smooth function, so the adaptive solvers (and
-fixed-step ones with ``locate_switches``) stop exactly on them.
+fixed-step ones with ``locate_switches``) stop exactly on them. At an edge's
+instant the output is the new level, also where the phase rounds a hair short
+of it (a 0.4 s pulse at 0.6 s: 0.6 / 0.4 = 1.4999999999999998).
 """
 import math
 from typing import NamedTuple
@@ -75,15 +77,30 @@ class Square(_Source):
 
 
 @kernel
+def fraction(c):
+    """The fraction in [0, 1) of the cycle reached at ``c`` cycles; a ``c`` within round-off below a
+    whole number counts as that number (0.6 s / 0.4 s is 1.4999999999999998: the edge at 1.5 is
+    reached)."""
+    k = math.floor(c + round_off(c))
+    return max(c - k, 0.0)
+
+
+@kernel
+def round_off(c):
+    """How far ``c`` (cycles, or a fraction of one) may be off an exact edge from rounding alone."""
+    return 64.0 * 2.220446049250313e-16 * max(1.0, abs(c))
+
+
+@kernel
 def cycle_fraction(f, phase, t):
     """The fraction in [0, 1) of the period reached at t (s) by a wave of f Hz and phase (rad)."""
-    c = f * t + phase / (2.0 * math.pi)
-    return c - math.floor(c)
+    return fraction(f * t + phase / (2.0 * math.pi))
 
 
 @kernel
 def square_output(p, t, x, u):
-    high = cycle_fraction(p.f, p.phase, t) < 0.5
+    c = p.f * t + p.phase / (2.0 * math.pi)
+    high = fraction(c) < 0.5 - round_off(c)
     return p.bias + (p.amp if high else -p.amp), p.amp * 0.0
 
 
@@ -151,7 +168,7 @@ class PulseParams(NamedTuple):
 @kernel
 def pulse_output(p, t, x, u):
     s = (t - p.delay) / p.period
-    high = t >= p.delay and s - math.floor(s) < p.duty
+    high = s >= -round_off(s) and fraction(s) < p.duty - round_off(s)
     return (p.amp if high else p.amp * 0.0), p.amp * 0.0
 
 

@@ -25,7 +25,10 @@ def test_periodic_sources(path):
     check("square", path, res["sq.y[0]"], 0.1 + 1.5 * signal.square(a), 1e-12)
     check("sawtooth", path, res["saw.y[1]"], 2.0 * signal.sawtooth(a), 1e-11)
     assert np.all(res["saw.dy[0]"] == 2 * f)
-    ref = np.where(t >= 0.25, 1.5 * (1 + signal.square(2 * np.pi * (t - 0.25) / 0.9, duty=0.3)), 0.0)
+    # exact on the log grid t = k / 100 s: high while (k - 25) mod 90 < 27 (scipy's square, from the
+    # rounded phase, read an edge instant such as 0.52 s on either side)
+    k = np.rint(t * 100).astype(int)
+    ref = np.where((k >= 25) & ((k - 25) % 90 < 27), 3.0, 0.0)
     check("pulse", path, res["pul.y[0]"], ref, 1e-12)
     check("chirp", path, res["lin.y[0]"], 1.2 * signal.chirp(t, 0.5, 2.0, 3.0, phi=np.degrees(0.4)), 1e-11)
     # d/dt A cos(phi + ph) = -A 2 pi f(t) sin(phi + ph), and sin x = cos(x - 90 deg)
@@ -48,3 +51,15 @@ def test_edges_are_zero_crossings():
     assert min(early) > 0 and p.zero_crossings(0.501, (), [])[0] < 0
     with pytest.raises(Exception, match="duty"):
         block("pulse", "p", duty=1.0)
+
+
+@pytest.mark.parametrize("path", PATHS)
+def test_an_edge_at_a_sample_hit_is_read_on_its_own_side(path):
+    # high on [0, 0.2), [0.4, 0.6), [0.8, 1.0): 0.6 / 0.4 is 1.4999999999999998 in floats, so the
+    # 10 Hz zoh read the pulse at 0.6 s as still high, and the square (1.25 Hz, the same edges) too
+    blocks = [block("pulse", "p", period=0.4, duty=0.5), block("square", "sq", frequency=2.5),
+              block("zoh", "zp", rate=10), block("zoh", "zs", rate=10)]
+    res = run(path, blocks, [("p.y", "zp.u"), ("sq.y", "zs.u")], 1.0, ["zp.y", "zs.y"], log_period=0.1)
+    high = np.array([1, 1, 0, 0, 1, 1, 0, 0, 1, 1, 1], float)  # (no hit at t_end: 0.9 s held)
+    assert np.array_equal(np.ravel(res["zp.y"]), high)
+    assert np.array_equal(np.ravel(res["zs.y"]), 2 * high - 1)
