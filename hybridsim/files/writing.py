@@ -67,6 +67,9 @@ def check_output_dir(path):
                               "(hybridsim never replaces a file with a folder); choose another -o")
         probe, missing = path, []
         while not probe.exists():
+            if probe.is_symlink():  # a link to nothing: creating the folder would mean replacing it
+                raise OutputError(f"cannot create output folder {str(path)!r}: {str(probe)!r} is a symbolic "
+                                  "link to a missing target; hybridsim does not replace it")
             if probe.parent == probe:
                 break
             missing.append(probe)
@@ -99,6 +102,9 @@ def check_output_file(path, formats=None):
     path = Path(path)
     if path.exists() and not path.is_file():
         raise OutputError(f"{str(path)!r} exists and is not a file; hybridsim does not replace it")
+    if path.is_symlink() and not path.exists():
+        raise OutputError(f"{str(path)!r} is a symbolic link to a missing target; hybridsim does not "
+                          "replace it: remove it, or choose another name (nothing was written)")
     if path.is_file() and not written_by_hybridsim(path):
         raise OutputError(f"{str(path)!r} exists and hybridsim did not write it; it is not replaced: "
                           "remove it, or choose another name (nothing was written)")

@@ -386,3 +386,16 @@ def test_default_output_folders_of_report_sweep_and_tune_keep_a_users_files(tmp_
     code, _, err = run(capsys, "report", str(d))
     assert code == 2 and "notes.txt" in err, err
     assert (rep / "notes.txt").read_text() == "mine\n"
+
+
+def test_a_symbolic_link_to_nothing_is_refused_as_an_output_file_or_folder(tmp_path, capsys, monkeypatch):
+    # -o onto a dangling link said "File exists" (exit 5) for a folder and followed it for a file
+    monkeypatch.chdir(tmp_path)
+    d = write(tmp_path, GOOD)
+    (tmp_path / "folder").symlink_to(tmp_path / "nowhere")
+    code, _, err = run(capsys, "run", d, "-q", "-o", "folder")
+    assert code == 2 and "symbolic link to a missing target" in err, err
+    (tmp_path / "pic.svg").symlink_to(tmp_path / "elsewhere.svg")
+    code, _, err = run(capsys, "draw", d, "-o", "pic.svg")
+    assert code == 2 and "symbolic link to a missing target" in err, err
+    assert not (tmp_path / "nowhere").exists() and not (tmp_path / "elsewhere.svg").exists()
