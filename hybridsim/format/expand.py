@@ -11,7 +11,7 @@ from hybridsim import limits
 from hybridsim.errors import LoaderError, ParameterError, RateError
 from hybridsim.engine.registry import closest, lookup, parameters, types
 from hybridsim.format import tables
-from hybridsim.format.values import _has_nan, _is_subsystem, subsystem_path
+from hybridsim.format.values import _has_nan, _is_subsystem, _references, subsystem_path
 
 _BAD_NAME = re.compile(r"[.\[\]\s:=]")  # a '.' separates a subsystem's name from its blocks' names
 
@@ -150,6 +150,7 @@ class ExpandMixin:
                 return None
         try:
             sub.apply(overrides)
+            sub.command_line = False  # its overrides come from this subsystem block
             for key in overrides:  # an inner block's error names where the value came from
                 if "." in str(key):
                     first, rest = str(key).split(".", 1)
@@ -164,6 +165,13 @@ class ExpandMixin:
         if self.files is not None:
             self.files.extend(f for f in sub.files if f not in self.files)
         return ins, outs, where
+
+    def _set_origin(self, value):
+        """' (the value of $k, from --set k)' where ``value`` refers to parameters set on the command line."""
+        if not getattr(self, "command_line", True):
+            return ""
+        named = sorted(n for n in _references(value) if n in getattr(self, "overrides", {}))
+        return "".join(f" (the value of ${n}, from --set {n})" for n in named)
 
     def _make_block(self, diagram, bname, spec, params, prefix, context):
         """Construct one block from its spec and add it as ``prefix + bname`` (problems noted)."""
@@ -207,12 +215,13 @@ class ExpandMixin:
                 why = by_key[pname].kind.problem(kwargs[pname])
                 if why:
                     problems.append(f"{context}{spec.locs[pname]}: block {bname!r} ({tname}): parameter {pname!r} "
-                                    + (why if why.startswith("must") else f"must be {by_key[pname].kind.text}: {why}"))
+                                    + (why if why.startswith("must") else f"must be {by_key[pname].kind.text}: {why}")
+                                    + self._set_origin(pval))
                     bad = True
                     continue
             if _has_nan(kwargs[pname]):
                 problems.append(f"{context}{spec.locs[pname]}: block {bname!r} ({tname}): parameter "
-                                f"{pname!r} is not a number (NaN)")
+                                f"{pname!r} is not a number (NaN)" + self._set_origin(pval))
                 bad = True
         for r in required:
             if r not in kwargs and not bad:
@@ -226,7 +235,8 @@ class ExpandMixin:
             where = next((spec.locs[k] for k in ("rate", "period") if k in spec), blocks.locs[bname])
             problems.append(f"{context}{where}: block {bname!r} ({tname}): bad rate: {exc}")
         except ParameterError as exc:
-            problems.append(f"{context}{spec.locs.get(exc.param, blocks.locs[bname])}: block {bname!r} ({tname}): {exc}")
+            problems.append(f"{context}{spec.locs.get(exc.param, blocks.locs[bname])}: block {bname!r} ({tname}): {exc}"
+                            + self._set_origin(spec.get(exc.param)))
         except (ValueError, TypeError, ArithmeticError) as exc:
             problems.append(f"{here}: block {bname!r} ({tname}): {exc}")
         except Exception as exc:  # noqa: BLE001 - a plugin's constructor may raise anything: its fault

@@ -80,6 +80,15 @@ def _construct_sequence(loader, node):
     return lst
 
 
+def _construct_int(loader, node):
+    digits = sum(ch.isdigit() for ch in node.value)
+    if digits > 308:  # beyond every float64 (1.8e308), and Python refuses past 4300 digits
+        raise LoaderError(f"the integer {node.value[:12]}... ({digits} digits) is beyond the largest float64 "
+                          "(1.8e308)", loader.source_path, node.start_mark.line + 1)
+    return yaml.SafeLoader.construct_yaml_int(loader, node)
+
+
+_Loader.add_constructor("tag:yaml.org,2002:int", _construct_int)
 _Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
 _Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_SEQUENCE_TAG, _construct_sequence)
 

@@ -257,3 +257,17 @@ def test_a_variant_value_listed_twice_is_refused_at_its_line(tmp_path, capsys, v
                  f"variants:\n  k: {values}\n")
     assert main(["check", str(p)]) == 2  # ran twice into one CSV
     assert f"{p}:6: variant 'k' lists" in capsys.readouterr().err
+
+
+def test_a_bad_value_given_with_set_is_named_as_such(tmp_path, capsys):
+    # a 400-digit integer said "int too large to convert to float" at the block's line; an
+    # infinite value reached through $k named only the block's line
+    d = write(tmp_path, "params: {k: 1.0}\nblocks:\n  c: {type: constant, value: $k}\n"
+                        "simulation: {t_end: 0.01}\nlog: [c.y]\n")
+    code, err = run(capsys, "check", str(d), "--set", "k=" + "9" * 400)
+    assert code == 2 and "--set k" in err and "(400 digits) is beyond the largest float64" in err, err
+    code, err = run(capsys, "check", str(d), "--set", "k=1e400")
+    assert code == 2 and ":3: block 'c'" in err and "(the value of $k, from --set k)" in err, err
+    (tmp_path / "big.yaml").write_text("blocks:\n  c: {type: constant, value: " + "9" * 5000 + "}\n")
+    code, err = run(capsys, "check", str(tmp_path / "big.yaml"))
+    assert code == 2 and "big.yaml:2" in err and "(5000 digits)" in err, err
