@@ -38,7 +38,8 @@ def write_outputs(f, runs, settings, outdir, only_ours=False):
         plt.close(fig)
         doc = {"diagram": f.name, "file": str(f.path), "description": f.description,
                "runs": [{"label": r["label"], "csv": r["csv"], "overrides": r["overrides"],
-                         "solver": r["result"].meta["solver"], "metrics": r["metrics"]}
+                         "solver": r["result"].meta["solver"], "metrics": r["metrics"],
+                         "notes": r["result"].meta.get("metric_notes", [])}
                         for r in runs]}
         (tmp / "metrics.json").write_text(json.dumps(doc, indent=2, default=float) + "\n")
     return outdir

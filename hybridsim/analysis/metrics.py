@@ -76,6 +76,9 @@ def compute(result, signals, config=None):
         ``{metric name: number, bool or None}``.
     """
     cfg = dict(config or {})
+    if len(result.t):
+        cfg, notes = within_run(cfg, float(result.t[-1]))
+        result.meta["metric_notes"] = notes
     arrays = {}
     for role, ref in signals.items():
         v = result[ref]
@@ -84,6 +87,23 @@ def compute(result, signals, config=None):
     for m in METRIC_SETS:
         out.update(m.compute(result.t, arrays, cfg))
     return out
+
+
+def within_run(cfg, t_end):
+    """``(cfg, notes)``: the metrics settings with the times the run does not reach (the ``in_run`` rows of
+    the ``metrics`` table) taken out, a span longer than the run cut to it, and a note for each."""
+    from hybridsim.format import tables
+
+    cfg, notes = dict(cfg), []
+    for key, why in tables.outside_run(tables.METRICS, cfg, t_end):
+        row = next(r for r in tables.METRICS if r.key == key)
+        if row.in_run == "span":
+            cfg[key] = t_end
+            notes.append(f"metrics {key}: {why}; the whole run is taken")
+        else:
+            del cfg[key]
+            notes.append(f"metrics {key}: {why}; the metrics that need it are left out")
+    return cfg, notes
 
 
 def describe(metrics):

@@ -44,6 +44,8 @@ def show(done):
         head = r["label"] or f.name
         parts = describe(r["metrics"]) + [f"{r['metrics']['wall_time_s']:.2f} s wall"]
         print(f"  {head}: " + ", ".join(parts))
+        for note in r["result"].meta.get("metric_notes", []):
+            print(f"  {head}: note: {note}")
         stopped = r["result"].meta.get("stopped")
         if stopped:
             print(f"  {head}: note: block {stopped['block']!r} ended the run at t={stopped['t']:.6g} s "

@@ -31,6 +31,8 @@ class Setting:
     """One key of a section: its kind (type and range), default and a one-line doc.
 
     ``owner``: the package that added the key with :func:`extend` ("" for the generic ones).
+    ``in_run``: a time the run must reach: ``"instant"`` (before ``t_end``), ``"span"`` (no longer
+    than the run) or ``"window"`` (``[t0, t1]`` inside it); checked against ``simulation.t_end``.
     """
 
     key: str
@@ -39,6 +41,7 @@ class Setting:
     doc: str
     required: bool = False
     owner: str = ""
+    in_run: str = ""
 
 
 class Record(Kind):
@@ -191,6 +194,24 @@ BLOCK_SETTINGS = {
 
 SECTIONS = {"diagram": DIAGRAM, "simulation": SIMULATION, "signals": SIGNALS, "metrics": METRICS, "plot": PLOT,
             "analysis": ANALYSIS, "analysis.step": ANALYSIS_STEP, "sweep": SWEEP, "random": SWEEP_RANDOM}
+
+
+def outside_run(table, values, t_end):
+    """``[(key, why)]`` for the times in ``values`` (a section's settings) that the run does not reach,
+    by the ``in_run`` of each row of ``table``."""
+    out = []
+    for row in table:
+        v = values.get(row.key)
+        if not row.in_run or v is None:
+            continue
+        if row.in_run == "instant" and not float(v) < t_end:
+            out.append((row.key, f"{v:g} s is not before the end of the run (t_end {t_end:g} s)"))
+        elif row.in_run == "span" and float(v) > t_end:
+            out.append((row.key, f"{v:g} s is longer than the run (t_end {t_end:g} s)"))
+        elif row.in_run == "window" and (float(v[0]) >= t_end or float(v[1]) > t_end):
+            out.append((row.key, f"[{float(v[0]):g}, {float(v[1]):g}] s does not lie within the run "
+                                 f"(t_end {t_end:g} s)"))
+    return out
 
 
 def extend(section, settings, owner):

@@ -1,0 +1,38 @@
+"""The metrics layer (hybridsim.analysis.metrics): settings the run does not reach."""
+import numpy as np
+import pytest
+
+import hybridsim.forcecontrol  # noqa: F401 - registers the force-control metrics and their settings
+from hybridsim.analysis import metrics
+from hybridsim.engine.result import Result
+
+
+def _run(t_end):
+    t = np.linspace(0.0, t_end, 101)
+    f = np.where(t >= 0.1, 1.0, 0.0)
+    return Result(t, {"f.y": f[:, None], "fd.y": f[:, None]}, {"wall_time_s": 0.0})
+
+
+def test_times_the_run_does_not_reach_are_left_out_with_a_note():
+    # a 0.25 s run: a step at 0.3 s and an error window up to 0.5 s were computed over whatever
+    # part of the run there was (a window past the end: the whole run), without a word
+    cfg, notes = metrics.within_run({"step_time": 0.3, "ss_window": 2.0, "error_window": [0.1, 0.5],
+                                     "filter_cutoff": 12.0}, 0.25)
+    assert cfg == {"ss_window": 0.25, "filter_cutoff": 12.0}
+    assert notes == ["metrics step_time: 0.3 s is not before the end of the run (t_end 0.25 s); the metrics "
+                     "that need it are left out",
+                     "metrics ss_window: 2 s is longer than the run (t_end 0.25 s); the whole run is taken",
+                     "metrics error_window: [0.1, 0.5] s does not lie within the run (t_end 0.25 s); the "
+                     "metrics that need it are left out"]
+    res = _run(0.25)
+    m = metrics.compute(res, {"force": "f.y", "force_desired": "fd.y"},
+                        {"step_time": 0.3, "error_window": [0.1, 0.5]})
+    assert "rise_time_s" not in m and "force_error_max_raw_N" not in m
+    assert len(res.meta["metric_notes"]) == 2
+
+
+def test_settings_inside_the_run_are_used_as_given():
+    cfg, notes = metrics.within_run({"step_time": 0.1, "ss_window": 0.25, "error_window": [0.0, 0.25]}, 0.25)
+    assert notes == [] and cfg == {"step_time": 0.1, "ss_window": 0.25, "error_window": [0.0, 0.25]}
+    m = metrics.compute(_run(0.25), {"force": "f.y", "force_desired": "fd.y"}, {"step_time": 0.1})
+    assert m["ss_force_error_raw_N"] == pytest.approx(0.0)
