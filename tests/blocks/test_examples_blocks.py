@@ -92,11 +92,12 @@ def thermostat_reference(t_end=600):
     return np.array(rows), switches
 
 
-@pytest.mark.slow  # 60 000 steps
+@pytest.mark.slow  # 30 000 steps
 def test_thermostat_with_relay_noise_and_a_lookup():
-    res = hs.simulate(DIAGRAMS / "examples" / "thermostat.yaml")
-    ref, switches = thermostat_reference()
+    # the first 300 s of the example's 600 (36 switches; the whole run took 25 s of the suite)
+    res = hs.simulate(DIAGRAMS / "examples" / "thermostat.yaml", t_end=300.0)
+    ref, switches = thermostat_reference(300)
     check("example thermostat: room", "generic", res["room.y[0]"][::10], ref[:, 0], 1e-6)  # each second
     check("example thermostat: sensor", "generic", res["sensor.y[0]"][::10], ref[:, 1], 1e-6)
     check("example thermostat: switch times", "generic", [t for t, _ in res.meta["events"]], switches, 1e-6)
-    assert len(switches) > 50 and 19.0 < res["room.y[0]"][300:].mean() < 21.0
+    assert len(switches) > 30 and 19.0 < res["room.y[0]"][300:].mean() < 21.0
