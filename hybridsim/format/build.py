@@ -155,6 +155,17 @@ def check_analysis_branches(f):
     lines = cfg.get("_lines", {})
     branches = [("set", "", cfg.get("set") or {})]
     branches += [("cases", name, {**(cfg.get("set") or {}), **ov}) for name, ov in (cfg.get("cases") or {}).items()]
+    # the sweeps' extremes: the lowest and highest servo rate, each gain at the smallest and largest scale
+    rates, scales, base = cfg.get("rates") or [], cfg.get("scales") or [], cfg.get("set") or {}
+    if rates and cfg.get("rate_param", "rate") in f.params:
+        branches += [("rates", "", {**base, cfg.get("rate_param", "rate"): r}) for r in sorted({min(rates), max(rates)})]
+    for gname, ref in (cfg.get("gains") or {}).items():
+        value = None
+        try:
+            value = f.param_value(ref)
+        except (InputError, KeyError, TypeError, ValueError):
+            continue  # the gain's own check names it
+        branches += [("scales", gname, {**base, ref: (value * k).tolist()}) for k in sorted({min(scales), max(scales)})]
     for key, name, ov in branches:
         if not ov:
             continue

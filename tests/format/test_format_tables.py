@@ -271,3 +271,19 @@ def test_a_bad_value_given_with_set_is_named_as_such(tmp_path, capsys):
     (tmp_path / "big.yaml").write_text("blocks:\n  c: {type: constant, value: " + "9" * 5000 + "}\n")
     code, err = run(capsys, "check", str(tmp_path / "big.yaml"))
     assert code == 2 and "big.yaml:2" in err and "(5000 digits)" in err, err
+
+
+def test_check_builds_the_extremes_of_the_analysis_sweeps(tmp_path, capsys):
+    # analysis rates of 1e300 Hz passed check and failed only in analyze; a gain scaled past
+    # what the block takes too
+    base = ("params: {rate: 100}\nblocks:\n  c: {type: constant, value: 1.0}\n  z: {type: zoh, rate: $rate}\n"
+            "  i: {type: integrator}\n  p: {type: pulse, period: 0.1, duty: 0.4}\n"
+            "wires: [c.y -> z.u, z.y -> i.u]\nsimulation: {t_end: 0.1}\nlog: [i.y]\n")
+    d = write(tmp_path, base + "analysis:\n  rates: [50, 1e300]\n")
+    code, err = run(capsys, "check", str(d))
+    assert code == 2 and "d.yaml:11: analysis rates ({'rate': 1e+300})" in err and "sample hits" in err, err
+    d = write(tmp_path, base + "analysis:\n  gains: {duty: p.duty}\n  scales: [0.5, 4.0]\n")
+    code, err = run(capsys, "check", str(d))
+    assert code == 2 and "analysis scales duty" in err and "duty" in err, err
+    d = write(tmp_path, base + "analysis:\n  rates: [50, 200]\n  gains: {duty: p.duty}\n  scales: [0.5, 2.0]\n")
+    assert run(capsys, "check", str(d))[0] == 0
