@@ -293,7 +293,12 @@ class TuneSpec:
 
         logged = {str(ref).split("[")[0] for ref in settings["log"]}
         t_end = float(settings["simulation"]["t_end"])
+        measured = _metric_names(settings, t_end)
         for q in self.objectives + self.constraints:
+            if q.source == "metric" and measured is not None and q.metric not in measured:
+                self._fail(f"metric {q.metric!r}: the runs of {self.diagram.name} measure "
+                           f"{', '.join(sorted(measured)) or 'no metric'} (its signals and metrics sections say "
+                           "which; a signal's step measure takes 'of')", q.line)
             if q.source != "step":
                 continue
             if q.after >= t_end:
@@ -326,3 +331,20 @@ def load_tune(path):
     spec = TuneSpec(path)
     spec.validate()
     return spec
+
+
+def _metric_names(settings, t_end):
+    """The names of the metrics a run of a diagram with these settings gives (from its signal roles, on
+    a stand-in run of zeros), or None when that cannot be told without running."""
+    import numpy as np
+
+    from hybridsim.analysis import metrics
+    from hybridsim.engine.result import Result
+
+    t = np.linspace(0.0, t_end, 201)
+    stand_in = Result(t, {ref: np.zeros((t.size, 1)) for ref in settings["signals"].values()}, {})
+    try:
+        with np.errstate(all="ignore"):
+            return set(metrics.compute(stand_in, settings["signals"], settings["metrics"])) | {"wall_time_s"}
+    except Exception:  # noqa: BLE001 - a metric set that needs real numbers: the run will say
+        return None

@@ -155,6 +155,9 @@ def test_pareto_front_by_hand():
     (PARAMS + "objective:\n" + SETTLE, 8, "unknown tune key 'objective'"),
     (PARAMS.replace("pid.Kd", "pid.Kx") + "objectives:\n" + SETTLE, 6, "pid.Kx"),
     (PARAMS + "objectives:\n  - {name: s, metric: rise_tim, goal: min}\n", 8, "metric 'rise_tim'"),
+    # a run's metric the diagram's signal roles do not give: found by a run only, before
+    (PARAMS + "objectives:\n  - {name: s, metric: rise_time_s, goal: min}\n", 8,
+     "the runs of msd_pid.yaml measure wall_time_s"),
     (PARAMS + "objectives:\n  - {name: s, metric: settling_time_s, of: pid.v, goal: min}\n", 8, "pid.v"),
     (PARAMS + "objectives:\n" + SETTLE.replace("final: 1.0", "settling: 5"), 8, "'settling' is the band"),
     (PARAMS + "objectives:\n" + SETTLE.replace("final: 1.0", "after: -1"), 8, "'after' is when the step"),
