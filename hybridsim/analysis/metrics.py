@@ -76,7 +76,7 @@ def compute(result, signals, config=None):
         ``{metric name: number, bool or None}``.
     """
     cfg = dict(config or {})
-    if len(result.t):
+    if len(result.t) and signals:
         cfg, notes = within_run(cfg, float(result.t[-1]))
         result.meta["metric_notes"] = notes
     arrays = {}
@@ -91,12 +91,15 @@ def compute(result, signals, config=None):
 
 def within_run(cfg, t_end):
     """``(cfg, notes)``: the metrics settings with the times the run does not reach (the ``in_run`` rows of
-    the ``metrics`` table) taken out, a span longer than the run cut to it, and a note for each."""
+    the ``metrics`` table) taken out, a span longer than the run cut to it, and a note for each (not for a
+    default: a default span longer than a short run is the whole run, as the table says)."""
     from hybridsim.format import tables
 
     cfg, notes = dict(cfg), []
     for key, why in tables.outside_run(tables.METRICS, cfg, t_end):
         row = next(r for r in tables.METRICS if r.key == key)
+        if cfg[key] == row.default:
+            continue
         if row.in_run == "span":
             cfg[key] = t_end
             notes.append(f"metrics {key}: {why}; the whole run is taken")

@@ -39,6 +39,9 @@ MAX_REPEATS = 20
 #: that switches at every step)
 SLIDE_STEPS = 1000
 SLIDE_STEP = 1e-6
+#: steps of a variable-step solver over which a mean step below SLIDE_STEP stops any run: it crawls
+#: (a state that bounces off a switch without crossing it, a stiff system on an explicit method)
+CRAWL_STEPS = 5_000
 
 
 def located_events(system, solver, locate_switches=False):
@@ -150,8 +153,9 @@ def zeno_error(t, names, too_many, stalls):
     what = (f"more than {MAX_EVENTS} events before the next hit" if too_many else
             f"{stalls} events within {10 * TIME_TOL:g} s of each other")
     return SimulationError(f"events accumulate at t={t:.9g} s in block(s) {', '.join(names)}: {what} "
-                           "(Zeno behaviour, e.g. a bouncing ball coming to rest); stop the run before "
-                           "that time or give the model a resting state")
+                           "(Zeno behaviour: a bouncing ball coming to rest, or a relay or switch that the "
+                           "state keeps flipping, a sliding mode); stop the run before that time, give the "
+                           "model a resting state, or give a relay hysteresis (switch_on above switch_off)")
 
 
 def sliding_error(t, name, more):

@@ -62,7 +62,7 @@ def example_records(n=1, s=1, e=1, d=1, b=1):
     f = lambda *shape: np.zeros(shape)  # noqa: E731
     tl = stepping.Timeline(f(2), np.zeros(2, np.int64), np.zeros((2, d), np.bool_), np.zeros(2, np.int64),
                            np.zeros(2, np.int64))
-    lim = stepping.Limits(1e6, 1e-12, 1e-3, 10, 10, 10, 0, 10, 1e-6, False, False, False)
+    lim = stepping.Limits(1e6, 1e-12, 1e-3, 10, 10, 10, 0, 10, 1e-6, 0, False, False, False)
     w = stepping.Work(f(n), f(n), f(n), f(n), f(n), f(n), f(s * n), f(s * n), f(n), f(s), f(e), f(e), f(e), f(e),
                       f(e), f(e), np.zeros(e, np.bool_), np.zeros(e, np.int64), np.zeros(e, np.bool_),
                       np.zeros(e, np.bool_), np.zeros(e, np.int64), np.zeros(e, np.int64),

@@ -31,6 +31,7 @@ class Limits(NamedTuple):
     max_repeats: int      # a switch without an action located more often is stepped over (0: never)
     slide_steps: int      # steps after such a switch is muted before their length is judged
     slide_step: float     # the mean step, s, below which a run sliding along a switch is stuck there
+    crawl_steps: int      # steps over which a mean step below slide_step stops any run (0: never)
     timed: bool           # the glue has time events (next_time / timed)
     stepped: bool         # the glue wants to hear of every accepted step
     batch: bool           # steps may be taken several at a time (no located events, no step hooks)

@@ -345,6 +345,16 @@ class Session:
             self.ctx.xc = np.asarray(self.stop.x, float)
         return code
 
+    def _switch_near_zero(self, near=1e-3):
+        """The block of the switch function (one without an action) nearest its surface at the last
+        accepted step, if one is within ``near`` of it; else None."""
+        w = self.w
+        if not w.switch.any():
+            return None
+        g = np.where(w.switch, np.abs(w.g), np.inf)
+        k = int(np.argmin(g))
+        return self._function_owner(k) if g[k] <= near else None
+
     def _function_owner(self, index):
         """The name of the block that owns located event function ``index``."""
         return self.sim.system.blocks[self.sim.located[int(self.w.owner[index])]].name
@@ -402,6 +412,15 @@ class Session:
             if code == stepping.CHATTER:
                 raise _events.chatter_error(t, names)
             raise _events.zeno_error(t, names, code == stepping.ZENO, index)
+        elif code == stepping.CRAWLING:
+            message = (f"solver {sim.solver.name}: its steps shrank below {_events.SLIDE_STEP:g} s on average over "
+                       f"{_events.CRAWL_STEPS} steps before t={t:.9g} s")
+            near = self._switch_near_zero()
+            if near is not None:
+                raise SimulationError(f"{message}. Block {near!r} is on its switch there; the state may slide "
+                                      f"along it. {_events.SLIDING_ADVICE}")
+            raise SimulationError(f"{message}: the system is stiff there (use radau, bdf or cvode) or its "
+                                  "right-hand side is discontinuous (a switch without an event function)")
         elif code == stepping.SLIDING:
             raise _events.sliding_error(t, self._function_owner(index), self.w.muted.sum() > 1)
         elif code == stepping.MISSED:
@@ -421,14 +440,14 @@ class Session:
                 message = message.rstrip(".") + f". {_events.sliding_error(t, self._function_owner(muted[0]), muted.size > 1)}"
             else:
                 log = self.event_log()
-                on = np.flatnonzero(self.w.switch & (np.abs(self.w.g) <= 1e-6))
+                near = self._switch_near_zero()
                 if log and 0.0 <= t - log[-1][0] <= 1e-6:  # at a switch: the state may slide along it
                     message = message.rstrip(".") + (
                         f". It failed just after {', '.join(log[-1][1])} switched at t={log[-1][0]:.9g} s; the "
                         f"state may slide along that switch. {_events.SLIDING_ADVICE}")
-                elif on.size:
+                elif near is not None:
                     message = message.rstrip(".") + (
-                        f". Block {self._function_owner(on[0])!r} is on its switch there; the state may slide "
+                        f". Block {near!r} is on or near its switch there; the state may slide "
                         f"along it. {_events.SLIDING_ADVICE}")
             raise SimulationError(message)
         raise SimulationError(f"simulation failed at t={t:.6g} s (status {code})")

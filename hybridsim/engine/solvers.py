@@ -340,5 +340,5 @@ def limits(max_state, time_tol=None, scan=1e-3, stepped=False, timed=False, batc
 
     return stepping.Limits(float(max_state), float(ev.TIME_TOL if time_tol is None else time_tol), float(scan),
                            int(ev.MAX_EVENTS), int(ev.MAX_STALLS), int(ev.MAX_ITERATIONS), int(max_repeats),
-                           int(ev.SLIDE_STEPS), float(ev.SLIDE_STEP),
+                           int(ev.SLIDE_STEPS), float(ev.SLIDE_STEP), int(ev.CRAWL_STEPS) if max_repeats > 0 else 0,
                            bool(timed), bool(stepped), bool(batch))

@@ -50,6 +50,7 @@ FAILED = 8      # the solver failed (its message is kept by the stepper)
 MISSED = 9      # a stepper that locates crossings itself stepped over one: status[1] = function index
 BIG_UPDATE = 10  # a bounded discrete state beyond max_state: status[1] = its index in z
 SLIDING = 11    # stuck sliding along a muted switch (tiny steps): status[1] = its function index
+CRAWLING = 12   # a variable-step solver's steps shrank to nothing (crawl_steps of them below slide_step)
 
 # -- what glue.stepped / glue.timed / glue.act answer --------------------------
 GO, STEP_EVENT, STOP = 0, 1, 2
@@ -215,6 +216,8 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
     slid = -1        # the first switch muted in this interval (sliding along its surface)
     slid_t = t0      # since when
     slid_n = 0       # steps since
+    crawl_t = t0     # the start of the current count of steps, and the count
+    crawl_n = 0
     while True:
         # -- one integration from t0 to the next stop (a time event or t1) ----------------------
         stop = t1
@@ -327,6 +330,13 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                 break
             copy_into(x, xn)
             ta = tb
+            if lim.crawl_steps > 0:  # any run whose steps shrank to nothing
+                crawl_n += 1
+                if crawl_n >= lim.crawl_steps:
+                    if tb - crawl_t < crawl_n * lim.slide_step:
+                        fail(out, CRAWLING, 0, j, tb)
+                        return CRAWLING
+                    crawl_t, crawl_n = tb, 0
             if slid >= 0:  # a solver that shrinks its steps to nothing on a switching right-hand side
                 slid_n += 1
                 if slid_n >= lim.slide_steps and tb - slid_t < slid_n * lim.slide_step:

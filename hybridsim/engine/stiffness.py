@@ -9,10 +9,11 @@ and leaves a limit at every step), goes on with a meaningless answer.
 refuses such a step, naming the mode, the block whose states carry it and the
 longest step that would do.
 
-Only smooth dynamics are judged: the Jacobian is taken by central differences
-at two step sizes, and an entry on which they disagree (a kink such as
+The Jacobian is taken by forward and by backward differences, each at two
+step sizes: an entry on which the step sizes disagree (a jump such as
 ``sgn(v)`` at ``v = 0``, which differences would read as an enormous
-stiffness) is left out. The check sees the initial state only; a mode that
+stiffness) is left out, and where the two sides differ (a kink: a lookup's
+breakpoint, a contact about to open) both are judged. The check sees the initial state only; a mode that
 becomes fast later (contact made) is caught, if it diverges, by ``max_state``.
 """
 import numpy as np
@@ -59,20 +60,26 @@ def longest_stable_step(A, b, h, lam):
     return lo
 
 
-def smooth_jacobian(f, t, x):
-    """The Jacobian of ``f(t, x)`` by central differences, entries where two step sizes disagree
-    (a kink) set to 0."""
+def one_sided_jacobians(f, t, x):
+    """``(J+, J-)``: the Jacobians of ``f(t, x)`` from forward and from backward differences, each at two
+    step sizes; an entry on which the two disagree (a jump, such as ``sgn(v)`` at ``v = 0``, where a
+    difference grows as the step shrinks) is 0. The two sides differ at a kink (a lookup's breakpoint,
+    a contact about to open): the motion may go either way, so both are judged."""
     n = x.size
-    J = np.zeros((n, 2, n))
-    for j in range(n):
-        for k, scale in enumerate((1e-6, 1e-5)):
-            d = scale * max(1.0, abs(x[j]))
-            e = np.zeros(n)
-            e[j] = d
-            J[:, k, j] = (f(t, x + e) - f(t, x - e)) / (2.0 * d)
-    fine, coarse = J[:, 0, :], J[:, 1, :]
-    same = np.abs(fine - coarse) <= 1e-3 * np.maximum(np.abs(fine), np.abs(coarse)) + 1e-9
-    return np.where(same & np.isfinite(fine), fine, 0.0)
+    f0 = f(t, x)
+    sides = []
+    for sign in (1.0, -1.0):
+        J = np.zeros((2, n, n))
+        for j in range(n):
+            for k, scale in enumerate((1e-7, 1e-6)):
+                d = sign * scale * max(1.0, abs(x[j]))
+                e = np.zeros(n)
+                e[j] = d
+                J[k, :, j] = (f(t, x + e) - f0) / d
+        fine, coarse = J
+        same = np.abs(fine - coarse) <= 1e-2 * np.maximum(np.abs(fine), np.abs(coarse)) + 1e-6
+        sides.append(np.where(same & np.isfinite(fine), fine, 0.0))
+    return sides[0], sides[1]
 
 
 def check_step(method, f, t, x, owner):
@@ -84,18 +91,22 @@ def check_step(method, f, t, x, owner):
         return
     try:
         with np.errstate(all="ignore"):
-            J = smooth_jacobian(f, t, x)
+            sides = one_sided_jacobians(f, t, x)
     except Exception:  # noqa: BLE001 - a block that refuses a perturbed state: the run itself will say
         return
-    if not np.isfinite(J).all():
+    worst = None
+    for J in sides:
+        if not np.isfinite(J).all():
+            continue
+        lam, vec = np.linalg.eig(J)
+        bad = np.flatnonzero(_unstable(method.A, method.b, method.step, lam))
+        if bad.size:
+            k = bad[np.argmax(np.abs(lam[bad]))]
+            if worst is None or abs(lam[k]) > abs(worst[0]):
+                worst = (lam[k], int(np.argmax(np.abs(vec[:, k]))))
+    if worst is None:
         return
-    lam, vec = np.linalg.eig(J)
-    bad = np.flatnonzero(_unstable(method.A, method.b, method.step, lam))
-    if not bad.size:
-        return
-    k = bad[np.argmax(np.abs(lam[bad]))]
-    mode = lam[k]
-    state = int(np.argmax(np.abs(vec[:, k])))
+    mode, state = worst
     longest = longest_stable_step(method.A, method.b, method.step, mode)
     growth = abs(stability_function(method.A, method.b, method.step * mode)[0])
     text = f"{mode.real:.4g}" if abs(mode.imag) < 1e-9 * abs(mode) else f"{mode:.4g}"

@@ -36,3 +36,12 @@ def test_settings_inside_the_run_are_used_as_given():
     assert notes == [] and cfg == {"step_time": 0.1, "ss_window": 0.25, "error_window": [0.0, 0.25]}
     m = metrics.compute(_run(0.25), {"force": "f.y", "force_desired": "fd.y"}, {"step_time": 0.1})
     assert m["ss_force_error_raw_N"] == pytest.approx(0.0)
+
+
+def test_no_note_without_metrics_or_for_a_default():
+    # a diagram with no signal roles got a note on the default ss_window (0.5 s) of a 0.25 s run
+    res = _run(0.25)
+    metrics.compute(res, {}, {"ss_window": 0.5, "filter_cutoff": 12.0})
+    assert res.meta.get("metric_notes", []) == []
+    cfg, notes = metrics.within_run({"ss_window": 0.5}, 0.25)  # the table's default: the whole run, unsaid
+    assert notes == [] and cfg == {"ss_window": 0.5}

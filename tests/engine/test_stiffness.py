@@ -45,3 +45,36 @@ def test_a_step_too_long_for_a_fast_lag_is_refused_naming_its_block(tmp_path, so
     res = hs.simulate(path, solver=solver, step=1e-5, t_end=0.6)  # a stable step: the lag settles at 1
     assert res["ff.y"][-1, 0] == pytest.approx(1.0, abs=1e-9)
     assert res["i.y"][-1, 0] == pytest.approx(0.5, abs=1e-12)
+
+
+KINK_AT_START = """blocks:
+  f: {type: lookup_1d, x: [-2.0, 1.0, 3.0], y: [-2000.0, 1000.0, 1001.0], extrapolation: linear}
+  g: {type: gain, K: -1.0}
+  x: {type: integrator, initial: 1.0}
+wires: [x.y -> f.u, f.y -> g.u, g.y -> x.u]
+simulation: {t_end: 0.2, step: 1.0e-2, log_period: 0.01, solver: rk4}
+log: [x.y]
+"""
+
+
+def test_both_sides_of_a_kink_at_the_initial_state_are_judged(tmp_path):
+    # x' = -f(x), f of slope 1000 below x = 1 and 0.5 above, x(0) = 1 on the kink: x = exp(-1000 t).
+    # Central differences read the mean slope (-500) and advised h <= 5.5 ms, which diverged (exit 0,
+    # x between -0.71 and 5.03); the side the motion takes has -1000: rk4 needs h <= 2.8 ms
+    path = tmp_path / "d.yaml"
+    path.write_text(KINK_AT_START)
+    for h in (1e-2, 5.5e-3):
+        with pytest.raises(SimulationError, match=r"lambda = -1000 1/s.*step <= 0\.002[78]"):
+            hs.simulate(path, step=h)
+    res = hs.simulate(path, step=2e-3)
+    assert abs(res["x.y"][-1, 0]) < 1e-12 and np.all(np.diff(res["x.y"][:, 0]) <= 0)
+
+
+def test_a_contact_about_to_open_counts_with_its_spring():
+    # eq 18's hand pressed on a stiff surface (Kr = 1e6 N/m, 3 N: 3 um deep): the longer difference
+    # step left the contact and the spring was dropped as a kink; rk4 at 2 ms was accepted and the
+    # hand bounced off (40 N, contact lost; 3-7 N and contact kept at 10 us)
+    from conftest import DIAGRAMS
+
+    with pytest.raises(SimulationError, match=r"too long for rk4.*block 'wrist'"):
+        hs.simulate(DIAGRAMS / "eq18_hand_oscillation.yaml", step=2e-3, Kr=1e6)

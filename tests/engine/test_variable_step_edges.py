@@ -483,3 +483,34 @@ def test_a_bounce_at_a_sample_hit_is_sampled_before_and_logged_after_on_every_so
     assert np.allclose(zy[(t > 1.0) & (t < 1.25)], -5.0, atol=1e-9, rtol=0)
     assert v[np.argmin(abs(t - 1.0))] == pytest.approx(2.5, abs=1e-9)
     assert len(res.meta["events"]) == 1 and res.meta["events"][0][0] == pytest.approx(1.0, abs=2e-12)
+
+
+SPRING_STICKS = """blocks:
+  k: {type: gain, K: 1.0}
+  fr: {type: coulomb_viscous, coulomb: 0.3}
+  acc: {type: sum, signs: "--"}
+  v: {type: integrator, initial: 0.0}
+  x: {type: integrator, initial: 1.0}
+wires: [x.y -> k.u, k.y -> acc.u1, fr.y -> acc.u2, acc.y -> v.u, v.y -> x.u, v.y -> fr.u]
+simulation: {t_end: 6.4, step: 1.0e-3, log_period: 0.01}
+log: [x.y, v.y]
+"""
+
+
+@pytest.mark.parametrize("solver", ["rk45", "rk23", "dop853", "cvode"])
+def test_a_state_that_bounces_off_a_switch_without_crossing_it_ends_in_a_clear_error(tmp_path, solver):
+    # a mass on a spring (m = k = 1) with 0.3 N of Coulomb friction from x = 1: it stops at pi
+    # (x = -0.4, the spring's 0.4 N breaks it away) and at 2 pi (x = 0.2) for good. There the
+    # explicit solvers' steps shrank to 3e-8 s with v bouncing off 0 at every step end, so no
+    # crossing was ever located and the sliding rule never started: they crawled for ever. Now
+    # any variable-step run whose steps average under 1 us over 5,000 steps stops, naming the switch
+    old = signal.signal(signal.SIGALRM, _hang)
+    signal.alarm(60)
+    try:
+        with pytest.raises(SimulationError, match="'fr' is on (or near )?its switch") as err:
+            hs.simulate(_file(tmp_path, SPRING_STICKS), solver=solver)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    t = float(err.value.args[0].split("t=")[1].split(" ")[0])
+    assert 2 * math.pi - 0.01 < t < 2 * math.pi + 0.01
