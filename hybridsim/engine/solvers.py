@@ -89,11 +89,15 @@ class Solver:
         fixed = isinstance(self, ExplicitRK)
         lim = limits(np.inf, stepped=False, timed=False, scan=getattr(self, "scan", 1e-3),
                      batch=(fixed and not e) or getattr(self, "returns_points", False),
-                     max_repeats=0 if fixed else MAX_REPEATS)
+                     max_repeats=0 if fixed else MAX_REPEATS,
+                     crawl=not fixed and not getattr(self, "returns_points", False))
         code = stepping.run(tl, 0, len(tl.t), glue, ops, s, lim, w, out, np.zeros(0), np.zeros(0), np.zeros(0),
                             np.zeros(0, np.int64))
         if code == stepping.DIVERGED:
             raise SimulationError(f"the state is not finite at t={out.tfail[0]:.9g} s")
+        if code in (stepping.CRAWLING, stepping.SLIDING):
+            raise SimulationError(f"the {self.name} steps shrank to nothing at t={out.tfail[0]:.9g} s: the system "
+                                  "is stiff there, or its right-hand side jumps (a sliding mode)")
         if code != stepping.OK:
             raise SimulationError(getattr(s, "message", None) or f"integration failed (status {code})")
         return w.x.copy(), seen
@@ -334,11 +338,13 @@ def outputs(rows, cols, cap, blocks, columns=None):
                         np.zeros(1, np.int64), np.zeros(3, np.int64), np.zeros(1))
 
 
-def limits(max_state, time_tol=None, scan=1e-3, stepped=False, timed=False, batch=False, max_repeats=0):
-    """The :class:`~.stepping.Limits` of a run (the event policies from :mod:`.events`)."""
+def limits(max_state, time_tol=None, scan=1e-3, stepped=False, timed=False, batch=False, max_repeats=0,
+           crawl=False):
+    """The :class:`~.stepping.Limits` of a run (the event policies from :mod:`.events`); ``crawl``: stop a
+    run whose steps shrink to nothing (a solver whose every step the core sees)."""
     from hybridsim.engine import events as ev
 
     return stepping.Limits(float(max_state), float(ev.TIME_TOL if time_tol is None else time_tol), float(scan),
                            int(ev.MAX_EVENTS), int(ev.MAX_STALLS), int(ev.MAX_ITERATIONS), int(max_repeats),
-                           int(ev.SLIDE_STEPS), float(ev.SLIDE_STEP), int(ev.CRAWL_STEPS) if max_repeats > 0 else 0,
+                           int(ev.SLIDE_STEPS), float(ev.SLIDE_STEP), int(ev.CRAWL_STEPS) if crawl else 0,
                            bool(timed), bool(stepped), bool(batch))
