@@ -7,6 +7,8 @@ def add(sub):
                        description="Every registered block type (the library's and the plugins') by group, "
                                    "with its one-line description; -v adds parameters with their defaults, "
                                    "ports with their widths, rate and continuous states.")
+    p.add_argument("types", nargs="*", metavar="TYPE",
+                   help="only these block types (e.g. integrator relay), with their parameters and ports")
     p.add_argument("-v", "--verbose", action="store_true", help="with their parameters")
     p.set_defaults(func=run)
 
@@ -15,7 +17,19 @@ def run(args):
     """Do the command: one call of the Python API, its result printed; returns the exit status."""
     from hybridsim.format.catalog import catalog
 
-    for k, (group, infos) in enumerate(catalog().items()):
+    groups = catalog()
+    if args.types:
+        from hybridsim.engine.registry import closest
+        from hybridsim.errors import InputError
+
+        known = {b.type_name: b for infos in groups.values() for b in infos}
+        for t in args.types:
+            if t not in known:
+                raise InputError(f"no block type {t!r}{closest(t, list(known))}; 'hybridsim blocks' lists them")
+        for t in args.types:
+            print("\n".join(lines(known[t], True)))
+        return 0
+    for k, (group, infos) in enumerate(groups.items()):
         print(f"\n{group}:" if k else f"{group}:")
         for b in infos:
             print("\n".join(lines(b, args.verbose)))

@@ -143,6 +143,14 @@ def test_blocks_verbose_shows_defaults_and_ports(capsys):
     assert "inputs: tau[2], f_wrist[2]; outputs: q[2], qd[2]; 4 continuous states" in out  # the arm
 
 
+def test_blocks_of_named_types_show_their_parameters_and_a_typo_gets_the_closest(capsys):
+    code, out, _ = run(capsys, "blocks", "integrator", "relay")
+    assert code == 0 and out.splitlines()[0].split()[0] == "integrator" and "lower=-inf" in out
+    assert "switch_on=0.0" in out and "gain " not in out
+    code, _, err = run(capsys, "blocks", "integrater")
+    assert code == 2 and "did you mean 'integrator'" in err
+
+
 def test_blocks_lists_the_library_by_group(capsys):
     assert main(["blocks"]) == 0
     out = capsys.readouterr().out
