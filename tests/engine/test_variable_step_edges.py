@@ -363,6 +363,7 @@ simulation: {t_end: 1.0, step: 1.0e-3, log_period: 0.01}
 """}
 
 
+@pytest.mark.slow  # a few thousand small steps on each of 14 runs
 @pytest.mark.parametrize("case, block, t_slide", [("coulomb", "fr", 2 / 3), ("switch", "sw", 0.5)])
 @pytest.mark.parametrize("solver", VARIABLE + ["rk23"])
 def test_a_state_that_slides_along_a_switch_ends_in_a_clear_error_on_every_variable_step_solver(
@@ -497,6 +498,7 @@ log: [x.y, v.y]
 """
 
 
+@pytest.mark.slow  # 6.28 s of a crawling solver's small steps on each
 @pytest.mark.parametrize("solver", ["rk45", "rk23", "dop853", "cvode"])
 def test_a_state_that_bounces_off_a_switch_without_crossing_it_ends_in_a_clear_error(tmp_path, solver):
     # a mass on a spring (m = k = 1) with 0.3 N of Coulomb friction from x = 1: it stops at pi
