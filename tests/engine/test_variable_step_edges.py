@@ -45,18 +45,24 @@ def _hang(signum, frame):
     raise TimeoutError("the run hangs")
 
 
-@pytest.mark.parametrize("solver", VARIABLE)
-def test_a_right_hand_side_that_turns_infinite_names_the_block_within_a_step(tmp_path, solver):
-    # 1/0 from t = 0.3 s on: every solver stops (LSODA used to hang) and names the block
+def _fails_within_a_minute(path, match, **kw):
+    """The SimulationError (matching ``match``) a run of ``path`` raises, a hang failing the test after
+    60 s, and the time its message names (``t=...``)."""
     old = signal.signal(signal.SIGALRM, _hang)
     signal.alarm(60)
     try:
-        with pytest.raises(SimulationError, match="'div'") as err:
-            hs.simulate(_file(tmp_path, DIVISION), solver=solver)
+        with pytest.raises(SimulationError, match=match) as err:
+            hs.simulate(path, **kw)
     finally:
         signal.alarm(0)
         signal.signal(signal.SIGALRM, old)
-    t = float(err.value.args[0].split("t=")[1].split(" ")[0])
+    return err.value, float(err.value.args[0].split("t=")[1].split(" ")[0])
+
+
+@pytest.mark.parametrize("solver", VARIABLE)
+def test_a_right_hand_side_that_turns_infinite_names_the_block_within_a_step(tmp_path, solver):
+    # 1/0 from t = 0.3 s on: every solver stops (LSODA used to hang) and names the block
+    _, t = _fails_within_a_minute(_file(tmp_path, DIVISION), "'div'", solver=solver)
     assert 0.3 <= t <= 1.0
 
 
@@ -372,16 +378,8 @@ def test_a_state_that_slides_along_a_switch_ends_in_a_clear_error_on_every_varia
     # right-hand side flips at every step from t_slide on. The solvers crawled there at steps of
     # nanoseconds for ever (rk45, rk23, dop853, cvode); now each one stops within seconds, naming
     # the block and the sliding mode
-    old = signal.signal(signal.SIGALRM, _hang)
-    signal.alarm(60)
-    try:
-        with pytest.raises(SimulationError, match=f"'?{block}'? .*slide") as err:
-            hs.simulate(_file(tmp_path, SLIDING[case]), solver=solver)
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, old)
-    assert "fixed-step solver" in str(err.value)
-    t = float(err.value.args[0].split("t=")[1].split(" ")[0])
+    err, t = _fails_within_a_minute(_file(tmp_path, SLIDING[case]), f"'?{block}'? .*slide", solver=solver)
+    assert "fixed-step solver" in str(err)
     assert abs(t - t_slide) < 1e-4
 
 
@@ -506,13 +504,5 @@ def test_a_state_that_bounces_off_a_switch_without_crossing_it_ends_in_a_clear_e
     # explicit solvers' steps shrank to 3e-8 s with v bouncing off 0 at every step end, so no
     # crossing was ever located and the sliding rule never started: they crawled for ever. Now
     # any variable-step run whose steps average under 1 us over 5,000 steps stops, naming the switch
-    old = signal.signal(signal.SIGALRM, _hang)
-    signal.alarm(60)
-    try:
-        with pytest.raises(SimulationError, match="'fr' is on (or near )?its switch") as err:
-            hs.simulate(_file(tmp_path, SPRING_STICKS), solver=solver)
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, old)
-    t = float(err.value.args[0].split("t=")[1].split(" ")[0])
+    _, t = _fails_within_a_minute(_file(tmp_path, SPRING_STICKS), "'fr' is on (or near )?its switch", solver=solver)
     assert 2 * math.pi - 0.01 < t < 2 * math.pi + 0.01
