@@ -12,7 +12,7 @@ from hybridsim.format.expand import ExpandMixin, count_blocks
 from hybridsim.format.extends import read_merged
 from hybridsim.format.kinds import ListOf, MapOf, Text
 from hybridsim.format.tables import Record
-from hybridsim.format.overrides import OverridesMixin
+from hybridsim.format.overrides import ORIGIN, OverridesMixin
 from hybridsim.format.settings import SettingsMixin
 from hybridsim.format.values import _plain
 from hybridsim.format.yamlio import _Dict
@@ -68,6 +68,7 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
         self.params = _Dict(data.get("params") or {})
         self.params.lines = getattr(data.get("params"), "lines", {}) or {}
         self.overrides = {}  # every override applied, as given (a copy of the file is parsed with them)
+        self.origin = ORIGIN.get()  # what messages call their source ("--set", a sweep's)
         self.apply(overrides or {})
 
     def _fail(self, message, line=None):

@@ -167,11 +167,11 @@ class ExpandMixin:
         return ins, outs, where
 
     def _set_origin(self, value):
-        """' (the value of $k, from --set k)' where ``value`` refers to parameters set on the command line."""
+        """' (the value of $k, from --set k)' where ``value`` refers to parameters set by an override."""
         if not getattr(self, "command_line", True):
             return ""
         named = sorted(n for n in _references(value) if n in getattr(self, "overrides", {}))
-        return "".join(f" (the value of ${n}, from --set {n})" for n in named)
+        return "".join(f" (the value of ${n}, from {self.origin} {n})" for n in named)
 
     def _make_block(self, diagram, bname, spec, params, prefix, context):
         """Construct one block from its spec and add it as ``prefix + bname`` (problems noted)."""

@@ -2,6 +2,8 @@
 
 Every override key is read as one :class:`~.paths.ParamPath`.
 """
+import contextlib
+import contextvars
 import itertools
 import json
 import math
@@ -11,22 +13,36 @@ import numpy as np
 from hybridsim import limits
 from hybridsim.errors import LoaderError
 from hybridsim.engine.registry import closest, default, lookup
-from hybridsim.format.paths import ParamPath
+from hybridsim.format.paths import OverrideLoc, ParamPath
 from hybridsim.format.tables import SIMULATION, keys
 from hybridsim.format.values import _is_subsystem, _references, subsystem_path
 from hybridsim.format.yamlio import _Dict
 
 SIM_KEYS = keys(SIMULATION)
 
+#: what messages call an override's source: ``--set`` on the command line; a sweep or tune file's
+#: checks name theirs (:func:`overrides_from`)
+ORIGIN = contextvars.ContextVar("override_origin", default="--set")
+
+
+@contextlib.contextmanager
+def overrides_from(origin):
+    """Within: diagram files parsed with overrides name ``origin`` as their source (``"the sweep's"``)."""
+    token = ORIGIN.set(origin)
+    try:
+        yield
+    finally:
+        ORIGIN.reset(token)
+
 
 class OverridesMixin:
     """The override methods of :class:`~.diagram_file.DiagramFile`."""
 
-    def _path(self, key, what="--set"):
+    def _path(self, key, what=None):
         try:
             return ParamPath.parse(str(key))
         except ValueError as exc:
-            self._fail(f"{what} {key}: {exc}")
+            self._fail(f"{what or self.origin} {key}: {exc}")
 
     def apply(self, overrides):
         """Apply ``{path: value}`` overrides in place (see class docstring).
@@ -44,49 +60,49 @@ class OverridesMixin:
             if path.kind == "param":
                 name = path.name
                 if name not in self.params:
-                    self._fail(f"--set {key}: no parameter {name!r} in 'params'"
+                    self._fail(f"{self.origin} {key}: no parameter {name!r} in 'params'"
                                f"{closest(name, self.params)}")
                 self.params[name] = value
                 if isinstance(self.data.get("variants"), dict):
                     self.data["variants"].pop(name, None)  # a fixed value ends that sweep
             elif path.kind == "simulation":
                 if path.name not in SIM_KEYS:
-                    self._fail(f"--set {key}: unknown simulation setting {path.name!r}{closest(path.name, SIM_KEYS)}; "
+                    self._fail(f"{self.origin} {key}: unknown simulation setting {path.name!r}{closest(path.name, SIM_KEYS)}; "
                                f"settings: {', '.join(SIM_KEYS)}")
                 if not isinstance(self.data.get("simulation"), dict):
                     self.data["simulation"] = _Dict()
                     self.data["simulation"].lines, self.data["simulation"].locs = {}, {}
                 self.data["simulation"][path.name] = value
-                getattr(self.data["simulation"], "locs", {})[path.name] = f"--set {key}"
+                getattr(self.data["simulation"], "locs", {})[path.name] = OverrideLoc(f"{self.origin} {key}")
             else:
                 bname, blocks = path.block, self.data["blocks"]
                 if _is_subsystem(blocks.get(bname)) and len(path.parts) >= 2:
                     pname = path.inner  # ctrl.pid.Kp: the subsystem passes pid.Kp on
                 elif bname not in blocks or len(path.parts) > 2:
-                    self._fail(f"--set {key}: no block {bname!r}{closest(bname, blocks)}")
+                    self._fail(f"{self.origin} {key}: no block {bname!r}{closest(bname, blocks)}")
                 else:
                     pname = path.name
                 if not isinstance(blocks[bname], dict):
-                    self._fail(f"--set {key}: block {bname!r} has no parameters to set")
+                    self._fail(f"{self.origin} {key}: block {bname!r} has no parameters to set")
                 blocks[bname][pname] = value
                 blocks[bname].lines[pname] = None
-                blocks[bname].locs[pname] = f"--set {key}"
+                blocks[bname].locs[pname] = OverrideLoc(f"{self.origin} {key}")
 
     def _element_set(self, path, value, key):
         """The whole value of ``path`` (no index) with its element ``path.index`` set to ``value``."""
         if path.kind != "block":
             current = self.params.get(path.name) if path.kind == "param" else None
             if not isinstance(current, list):
-                self._fail(f"--set {key}: an element index needs a list-valued parameter")
+                self._fail(f"{self.origin} {key}: an element index needs a list-valued parameter")
         else:
             try:
                 current = self.param_value(path.without_index().key).tolist()
             except (LoaderError, KeyError, TypeError, ValueError) as exc:
-                self._fail(f"--set {key}: {exc}")
+                self._fail(f"{self.origin} {key}: {exc}")
         flat = np.ravel(np.asarray(current, dtype=object)).tolist() if not isinstance(current, list) \
             else list(current)
         if not 0 <= path.index < len(flat):
-            self._fail(f"--set {key}: index {path.index} is out of range; the parameter has "
+            self._fail(f"{self.origin} {key}: index {path.index} is out of range; the parameter has "
                        f"{len(flat)} element(s), 0..{len(flat) - 1}")
         flat[path.index] = value
         return flat

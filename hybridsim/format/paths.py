@@ -88,3 +88,8 @@ def canonical(text):
         return ParamPath.parse(text).key
     except ValueError:
         return str(text)
+
+
+class OverrideLoc(str):
+    """Where a value came from when an override set it (``--set k``, ``sweep k``), in place of a
+    ``file:line``: messages print it, and a relative path it gives is read from the working folder."""

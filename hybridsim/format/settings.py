@@ -13,7 +13,7 @@ from hybridsim.errors import DiagramError, LoaderError
 from hybridsim.engine.registry import closest, parameters
 from hybridsim.format import tables
 from hybridsim.format.kinds import SIGNAL
-from hybridsim.format.paths import ParamPath
+from hybridsim.format.paths import OverrideLoc, ParamPath
 from hybridsim.format.values import _plain
 from hybridsim.format.yamlio import _Dict, _List
 
@@ -40,7 +40,7 @@ class SettingsMixin:
         lines = getattr(raw, "lines", None) or {}
         locs = getattr(raw, "locs", None) or {}
         resolved = {k: self._resolve(v, locs.get(k, str(self.path)), params) for k, v in raw.items()}
-        shown = {**lines, **{k: loc for k, loc in locs.items() if str(loc).startswith("--set")}}
+        shown = {**lines, **{k: loc for k, loc in locs.items() if isinstance(loc, OverrideLoc)}}
         got = tables.problems(tables.SECTIONS[name], resolved, name, self.path, shown,
                               getattr(raw, "line", None))
         return {k: v for k, v in resolved.items() if v is not None}, lines, got  # null: the default

@@ -3,6 +3,7 @@ import math
 import os
 from pathlib import Path
 
+from hybridsim.format.paths import OverrideLoc
 from hybridsim.format.yamlio import plain
 
 def subsystem_path(spec, fallback):
@@ -13,7 +14,7 @@ def subsystem_path(spec, fallback):
     ``fallback`` (the working folder).
     """
     loc = (getattr(spec, "locs", None) or {}).get("file", "")
-    base = Path(loc.rsplit(":", 1)[0]).parent if loc and not loc.startswith("--set") else Path(fallback)
+    base = Path(loc.rsplit(":", 1)[0]).parent if loc and not isinstance(loc, OverrideLoc) else Path(fallback)
     return Path(os.path.normpath(base / spec["file"]))
 
 

@@ -174,6 +174,7 @@ class Sweep:
         parameter or a bad value stops here with exit 2.
         """
         from hybridsim.format.build import check, load
+        from hybridsim.format.overrides import overrides_from
 
         exp = self.experiment
         check(exp.file)
@@ -185,7 +186,8 @@ class Sweep:
             if all(v._unchanged(key, value) or v.runtime(key, value, names=True) for _, v in exp.variants()):
                 continue
             try:
-                check(load(self.diagram, **{**self.fixed, key: value}))
+                with overrides_from("the sweep's"):
+                    check(load(self.diagram, **{**self.fixed, key: value}))
             except InputError as exc:
                 raise InputError(f"{self.path}: swept value {key} = {value!r}: {exc}") from None
 

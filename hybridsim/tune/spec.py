@@ -266,22 +266,26 @@ class TuneSpec:
         """Check the diagram with ``set``, every variant and both ends (or every choice) of each parameter
         as a run would (:func:`hybridsim.format.build.check`), before any point runs."""
         from hybridsim.format.build import check, load
+        from hybridsim.format.overrides import overrides_from
 
         try:
-            f = load(self.diagram, **self.fixed)
-            check(f)
+            with overrides_from("the tune file's"):
+                f = load(self.diagram, **self.fixed)
+                check(f)
         except InputError as exc:
             raise InputError(f"{self.path}: the diagram with 'set': {exc}") from None
         self._check_signals(*f.build())
         for v in self.variants:
             try:
-                check(load(self.diagram, **{**self.fixed, **v}))
+                with overrides_from("the tune file's"):
+                    check(load(self.diagram, **{**self.fixed, **v}))
             except InputError as exc:
                 raise InputError(f"{self.path}: variant {v}: {exc}") from None
         for p in self.parameters:
             for value in p.ends():
                 try:
-                    check(load(self.diagram, **{**self.fixed, p.path: p.as_override(value)}))
+                    with overrides_from("the tune file's"):
+                        check(load(self.diagram, **{**self.fixed, p.path: p.as_override(value)}))
                 except InputError as exc:
                     raise LoaderError(f"parameter {p.path} = {value!r}: {exc}", self.path,
                                       self._param_line(p)) from None

@@ -287,3 +287,14 @@ def test_check_builds_the_extremes_of_the_analysis_sweeps(tmp_path, capsys):
     assert code == 2 and "analysis scales duty" in err and "duty" in err, err
     d = write(tmp_path, base + "analysis:\n  rates: [50, 200]\n  gains: {duty: p.duty}\n  scales: [0.5, 2.0]\n")
     assert run(capsys, "check", str(d))[0] == 0
+
+
+def test_a_bad_swept_value_is_named_as_the_sweeps_not_as_set(tmp_path, capsys):
+    # the sweep's values reach the diagram as overrides: their messages said "--set c.value"
+    d = write(tmp_path, "params: {k: 1.0}\nblocks:\n  c: {type: constant, value: $k}\n"
+                        "simulation: {t_end: 0.01}\nlog: [c.y]\n")
+    for key, where in (("k", "(the value of $k, from the sweep's k)"), ("c.value", "the sweep's c.value: block 'c'")):
+        s = tmp_path / f"s_{key}.yaml"
+        s.write_text(f"diagram: {d}\ngrid: {{{key}: [1.0, .inf]}}\n")
+        code, err = run(capsys, "check", str(s))
+        assert code == 2 and where in err and "--set" not in err, err
