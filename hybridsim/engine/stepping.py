@@ -20,7 +20,11 @@ each step
 Time events (a block's ``next_event_time``) are stops hit exactly; blocks
 told of every accepted step (``after_step``) may ask for a step event or
 stop the run. Too many events before the next hit, or events piling up at
-one instant, is Zeno behaviour.
+one instant, is Zeno behaviour. A crossing within ``time_tol`` of the next
+hit fires just after it (the hit samples the value before; its log row is
+logged again after the event); one at the run's end is not acted on. A
+variable-step run whose steps shrink to nothing (sliding along a muted
+switch, or any ``crawl_steps`` steps averaging under ``slide_step``) stops.
 
 Everything here keeps to the subset of Python that numba compiles. The
 compiled path compiles these very functions once per machine
