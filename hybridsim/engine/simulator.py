@@ -22,7 +22,7 @@ import time as _time
 import numpy as np
 
 from hybridsim.engine import events as _events
-from hybridsim.engine import rk, stepping
+from hybridsim.engine import stepping
 from hybridsim.engine.context import Context
 from hybridsim.engine.glue import GenericGlue, state_derivatives
 from hybridsim.engine.result import Result, parse_signal
@@ -346,20 +346,6 @@ class Session:
             self.ctx.xc = np.asarray(self.stop.x, float)
         return code
 
-    def _switch_near_zero(self, near=1e-3):
-        """The block of the switch function (one without an action) nearest its surface at the last
-        accepted step, if one is within ``near`` of it; else None."""
-        w = self.w
-        if not w.switch.any():
-            return None
-        g = np.where(w.switch, np.abs(w.g), np.inf)
-        k = int(np.argmin(g))
-        return self._function_owner(k) if g[k] <= near else None
-
-    def _function_owner(self, index):
-        """The name of the block that owns located event function ``index``."""
-        return self.sim.system.blocks[self.sim.located[int(self.w.owner[index])]].name
-
     def event_log(self):
         """``[(t, block names)]`` of the events so far, in order: one entry per instant (events
         within ``10 time_tol`` of each other, the core's measure of one instant, are one entry
@@ -378,80 +364,11 @@ class Session:
                 log.append((t, tuple(sorted(acting))))
         return log
 
-    def _blame_stages(self, t):
-        """A fixed step whose state came out not finite: the block whose output went non-finite, with
-        its inputs finite, at one of the step's stages (raises its SimulationError), if one did."""
-        sim, ctx = self.sim, self.ctx
-        h = float(self.s.num[rk.H])
-        x0 = np.array(self.w.xo, float)
-        if not (h > 0 and np.isfinite(x0).all()):
-            return
-        with np.errstate(all="ignore"):
-            f0 = state_derivatives(sim.system, ctx)(t - h, x0)
-            if not np.isfinite(f0).all():
-                return
-            sim.system.plan.blame_step(ctx, t - h, x0, f0, h)
-
     def fail(self, code):
-        """Raise the :class:`SimulationError` of a failed walk, naming the state, block or events."""
-        ctx, out, sim = self.ctx, self.out, self.sim
-        plan = sim.system.plan
-        index, t = int(out.status[1]), float(out.tfail[0])
-        if code == stepping.DIVERGED:
-            if isinstance(sim.solver, ExplicitRK) and not np.isfinite(ctx.xc).all():
-                self._blame_stages(t)
-            plan.check_continuous(ctx.xc, t, sim.max_state, ctx)
-        elif code == stepping.BAD_OUTPUT:
-            plan.check_outputs(ctx, [index], t)
-        elif code == stepping.BAD_UPDATE:
-            plan.check_discrete(index, ctx.xd[index], t)
-        elif code == stepping.BIG_UPDATE:
-            plan.check_discrete_bound(ctx.z, index, t, sim.max_state)
-        elif code in (stepping.ZENO, stepping.STALLED, stepping.CHATTER):
-            log = self.event_log()
-            names = list(log[-1][1]) if log else []
-            if code == stepping.CHATTER:
-                raise _events.chatter_error(t, names)
-            raise _events.zeno_error(t, names, code == stepping.ZENO, index)
-        elif code == stepping.CRAWLING:
-            message = (f"solver {sim.solver.name}: its steps shrank below {_events.SLIDE_STEP:g} s on average over "
-                       f"{_events.CRAWL_STEPS} steps before t={t:.9g} s")
-            near = self._switch_near_zero()
-            if near is not None:
-                raise SimulationError(f"{message}. Block {near!r} is on its switch there; the state may slide "
-                                      f"along it. {_events.SLIDING_ADVICE}")
-            raise SimulationError(f"{message}: the system is stiff there (use radau, bdf or cvode) or its "
-                                  "right-hand side is discontinuous (a switch without an event function)")
-        elif code == stepping.SLIDING:
-            raise _events.sliding_error(t, self._function_owner(index), self.w.muted.sum() > 1)
-        elif code == stepping.MISSED:
-            owner = self._function_owner(index)
-            raise SimulationError(
-                f"solver {sim.solver!r} stepped over a crossing of block {owner!r}'s event function "
-                f"before t={t:.9g} s without reporting it (events piling up, or two crossings in one "
-                "step); a fixed-step RK solver (rk4, heun) or scipy's locate every crossing")
-        elif code == stepping.FAILED:
-            seen = getattr(self.s, "seen", None)
-            if seen:  # the block whose output was not finite, when one was
-                with np.errstate(all="ignore"):
-                    plan.blame(ctx, *seen[0])
-            message = getattr(self.s, "message", None) or f"the solver failed at t={t:.9g} s"
-            muted = np.flatnonzero(self.w.muted)
-            if muted.size:  # it failed sliding along a switch
-                message = message.rstrip(".") + f". {_events.sliding_error(t, self._function_owner(muted[0]), muted.size > 1)}"
-            else:
-                log = self.event_log()
-                near = self._switch_near_zero()
-                if log and 0.0 <= t - log[-1][0] <= 1e-6:  # at a switch: the state may slide along it
-                    message = message.rstrip(".") + (
-                        f". It failed just after {', '.join(log[-1][1])} switched at t={log[-1][0]:.9g} s; the "
-                        f"state may slide along that switch. {_events.SLIDING_ADVICE}")
-                elif near is not None:
-                    message = message.rstrip(".") + (
-                        f". Block {near!r} is on or near its switch there; the state may slide "
-                        f"along it. {_events.SLIDING_ADVICE}")
-            raise SimulationError(message)
-        raise SimulationError(f"simulation failed at t={t:.6g} s (status {code})")
+        """Raise the :class:`SimulationError` of a failed walk (:func:`~.failures.explain`)."""
+        from hybridsim.engine.failures import explain
+
+        explain(self, code)
 
 
 def _chunks(tl, pieces):

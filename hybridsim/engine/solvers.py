@@ -261,9 +261,12 @@ def scipy_ops():
             if s.ode is None:
                 s.start(gl.rhs, y, z, pf, pi)
             ode = s.ode
-            with warnings.catch_warnings(record=True) as said:  # LSODA's reasons: kept for the message
-                warnings.simplefilter("always")
-                message = ode.step()
+            if s.solver.method == "LSODA":  # it says why it failed only as a warning: kept for the message
+                with warnings.catch_warnings(record=True) as said:
+                    warnings.simplefilter("always")
+                    message = ode.step()
+            else:  # (not around every step of the others: a per-step cost, and global state)
+                said, message = None, ode.step()
             if said and ode.status == "failed":
                 reasons = "; ".join(str(m.message).strip().rstrip(".") for m in said)
                 message = f"{message} ({reasons})"

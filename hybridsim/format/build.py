@@ -148,6 +148,7 @@ def check_analysis_branches(f):
     ``analyze`` builds them (``hybridsim check``; not part of :func:`check`, which sweeps and tune
     searches call once per value)."""
     from hybridsim.errors import InputError, LoaderError
+    from hybridsim.format.overrides import overrides_from
 
     if not f.data.get("analysis") or f.path is None:
         return
@@ -170,10 +171,10 @@ def check_analysis_branches(f):
         if not ov:
             continue
         try:
-            build(load(f.path, **{**f.overrides, **ov}), check_only=True)
+            with overrides_from("the analysis section's"):
+                build(load(f.path, **{**f.overrides, **ov}), check_only=True)
         except InputError as exc:
-            text = str(exc).replace("--set ", "")
-            raise LoaderError(f"analysis {key} {name}".rstrip() + f" ({ov}): {text}", f.path, lines.get(key)) from None
+            raise LoaderError(f"analysis {key} {name}".rstrip() + f" ({ov}): {exc}", f.path, lines.get(key)) from None
 
 
 def check(path_or_file, **overrides):
