@@ -3,9 +3,8 @@
 :func:`glue_source` writes one function per field of :class:`~hybridsim.engine.records.Glue`
 (the hit's output pass, the updates, the right-hand side, the event functions and actions,
 the log path) over the run's flat arrays; :mod:`hybridsim.engine.compiled` compiles and caches
-them. Inside the right-hand side every signal element is a local float and the plant's kernels
-are inlined; elsewhere each kernel is a call of its own compiled version (cached across
-diagrams). The blocks' numbers are rebuilt from the flat ``pf`` / ``pi`` arrays
+them. Inside the right-hand side every signal element is a local float. Each kernel is a call of
+its own compiled version (cached across diagrams; LLVM inlines the small ones). The blocks' numbers are rebuilt from the flat ``pf`` / ``pi`` arrays
 (:class:`~hybridsim.engine.params.ParamLayout`).
 """
 import functools
@@ -56,19 +55,19 @@ class _Writer:
     def inputs(self, i, local=None):
         return _tuple(self.port(a, o, local) for a, o in self.sysm.sources[i])
 
-    def kernel(self, i, what, inline):
-        """The name of block ``i``'s kernel ``what`` in the source (inlined or a compiled call)."""
+    def kernel(self, i, what):
+        """The name of block ``i``'s kernel ``what`` in the source: a call of its own compiled version."""
         f = getattr(self.sysm.blocks[i].kernels, what)
-        name = f"{what[:3]}{i}" + ("" if inline else "_c")
-        self.env[name] = f if inline else ("njit", f)
+        name = f"{what[:3]}{i}"
+        self.env[name] = ("njit", f)
         return name
 
-    def evaluate(self, i, pad, local, inline, xname="x", store=False):
+    def evaluate(self, i, pad, local, xname="x", store=False):
         """Lines computing block ``i``'s outputs into locals (and into y when ``store``)."""
         b = self.sysm.blocks[i]
         if not b.outputs:
             return []
-        f = self.kernel(i, "output", inline)
+        f = self.kernel(i, "output")
         lines = [f"{pad}r{i} = {f}(P{i}, t, {self.state(i, xname)}, {self.inputs(i, local)})"]
         for o, port in enumerate(b.outputs):
             for j in range(port.width):
@@ -107,12 +106,12 @@ def glue_source(system, log_path, located, layout):
     local = set()
     for i, disc in sysm.plan.hit_sequence():
         if disc:
-            body = wr.evaluate(i, "        ", local, False, store=True) + wr.check(i, "        ")
+            body = wr.evaluate(i, "        ", local, store=True) + wr.check(i, "        ")
             local.discard(i)  # held when not due: later blocks read it from y
             if body:
                 L += [f"    if due[row, {due_col[i]}]:"] + body
         else:
-            L += wr.evaluate(i, "    ", local, False, store=True) + wr.check(i, "    ")
+            L += wr.evaluate(i, "    ", local, store=True) + wr.check(i, "    ")
     L.append("    return -1")
     fns.append(L)
 
@@ -121,7 +120,7 @@ def glue_source(system, log_path, located, layout):
     L = [f"def update{sig}:"] + wr.param_lines(upd)
     for i in upd:
         n, a = sysm.blocks[i].n_discrete, wr.zoff[i]
-        f = wr.kernel(i, "update", False)
+        f = wr.kernel(i, "update")
         L += [f"    if due[row, {due_col[i]}]:",
               f"        s{i} = {f}(P{i}, t, {wr.state(i)}, {wr.inputs(i)})"]
         L += [f"        z[{a + j}] = s{i}[{j}]" for j in range(n)]
@@ -130,21 +129,21 @@ def glue_source(system, log_path, located, layout):
     L.append("    return -1")
     fns.append(L)
 
-    # the right-hand side: the plant's kernels inlined, every signal a local
+    # the right-hand side: every signal a local
     path = sorted(set(sysm.rhs_path))
 
     def rhs_outputs(pad="    "):
         local = set()
         lines = []
         for i in path:
-            lines += wr.evaluate(i, pad, local, True)
+            lines += wr.evaluate(i, pad, local)
         return lines, local
 
     lines, local = rhs_outputs()
     L = ["def rhs(t, x, dx, at, y, z, pf, pi):"] + wr.param_lines(path + list(sysm.stateful)) + lines
     for i in sysm.stateful:
         s = sysm.xslices[i]
-        f = wr.kernel(i, "derivatives", True)
+        f = wr.kernel(i, "derivatives")
         L.append(f"    d{i} = {f}(P{i}, t, {wr.state(i)}, {wr.inputs(i, local)})")
         L += [f"    dx[at + {s.start + j}] = d{i}[{j}]" for j in range(s.stop - s.start)]
     fns.append(L)
@@ -155,7 +154,7 @@ def glue_source(system, log_path, located, layout):
     L = ["def zc(t, x, g, y, z, pf, pi):"] + (wr.param_lines(path + list(located)) + lines if located else [])
     c = 0
     for i, m in zip(located, sizes):
-        f = wr.kernel(i, "zero_crossings", False)
+        f = wr.kernel(i, "zero_crossings")
         L.append(f"    e{i} = {f}(P{i}, t, {wr.state(i)}, {wr.inputs(i, local)})")
         L += [f"    g[{c + j}] = e{i}[{j}]" for j in range(m)]
         c += m
@@ -170,7 +169,7 @@ def glue_source(system, log_path, located, layout):
         if sysm.blocks[i].kernels.event_action is None or s is None:  # a switch: it only restarts
             c += m
             continue
-        f = wr.kernel(i, "event_action", False)
+        f = wr.kernel(i, "event_action")
         fired = _tuple(f"fired[{c + j}]" for j in range(m))
         L += [f"    if {' or '.join(f'fired[{c + j}]' for j in range(m))}:",
               f"        a{i} = {f}(P{i}, t, {wr.state(i)}, {wr.inputs(i, local)}, {fired})"]
@@ -183,7 +182,7 @@ def glue_source(system, log_path, located, layout):
     L = ["def observe(t, x, y, z, pf, pi):"] + wr.param_lines(log_path)
     local = set()
     for i in log_path:
-        L += wr.evaluate(i, "    ", local, False, store=True) + wr.check(i, "    ")
+        L += wr.evaluate(i, "    ", local, store=True) + wr.check(i, "    ")
     L.append("    return -1")
     fns.append(L)
     fns.append(["def next_time(t, x, y, z, pf, pi):", "    return np.inf"])

@@ -7,9 +7,8 @@ functions of :class:`~hybridsim.engine.stepping.Glue` (the hit's output pass,
 the updates, the right-hand side, the event functions and actions, the log
 path) generated as numba source from the blocks' kernels
 (:mod:`hybridsim.engine.kernels`) and compiled as first-class functions. Inside
-the right-hand side every signal element is a local float and the plant's
-kernels are inlined; elsewhere the kernels are called as compiled functions
-that numba caches on disk across diagrams. The blocks' numbers reach the
+the right-hand side every signal element is a local float; the kernels are
+called as compiled functions that numba caches on disk across diagrams. The blocks' numbers reach the
 glue at run time as two flat arrays (:class:`ParamLayout`), so one compiled
 glue serves every parameter value of a diagram's structure. Generated
 modules live in ``HYBRIDSIM_CACHE`` (default ``~/.cache/hybridsim``), keyed by
@@ -171,7 +170,8 @@ def _dispatcher(f):
     from numba import njit
 
     if f not in _jitted:
-        _jitted[f] = njit(cache=True)(getattr(f, "compiled", f))
+        # only the glue calls it: no wrapper to call it from Python or C (a tenth of its compile)
+        _jitted[f] = njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)(getattr(f, "compiled", f))
     return _jitted[f]
 
 

@@ -66,27 +66,19 @@ _JITABLE = set()  # functions registered with numba (once each: a second registr
 
 def make_jitable(functions=None):
     """Register ``functions`` (default: every :func:`kernel` so far) with numba, so compiled code
-    may call them; each once. A kernel that works on floats and tuples is inlined where it is
-    called (the plant's, called at every stage: inlined they run several times faster); one that
-    uses numpy arrays is called (its inlining would dominate the compile time) and cached on disk, so
-    a diagram that calls it with the same argument types loads it instead of compiling it. A kernel with a
-    numba twin (``f.compiled``) is skipped: calls of it compile to the twin."""
-    import inspect
+    may call them; each once. Each kernel is compiled on its own, once per machine where it has a
+    file (numba's cache), and called: a diagram's glue compiles only itself, and LLVM still inlines
+    the small kernels where the glue calls them. (Inlining every kernel at numba's level made the
+    glue's right-hand side compile ten times slower and run a tenth faster.) A kernel with a numba
+    twin (``f.compiled``) is skipped: calls of it compile to the twin."""
     import os
-    import re
 
     from numba.extending import register_jitable
 
     for f in marked() if functions is None else functions:
         if f in _JITABLE or hasattr(f, "compiled"):
             continue
-        try:
-            text = inspect.getsource(f)
-        except (OSError, TypeError):
-            text = ""
-        if re.search(r"\bnp\.", text):  # compiled once per machine where it has a file (numba's cache)
-            code = getattr(f, "__code__", None)
-            register_jitable(inline="never", cache=bool(code and os.path.isfile(code.co_filename)))(f)
-        else:
-            register_jitable(inline="always")(f)
+        code = getattr(f, "__code__", None)
+        register_jitable(inline="never", cache=bool(code and os.path.isfile(code.co_filename)),
+                         no_cpython_wrapper=True, no_cfunc_wrapper=True)(f)  # only compiled code calls it
         _JITABLE.add(f)
