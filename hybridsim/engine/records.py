@@ -84,8 +84,9 @@ class Glue(NamedTuple):
     Every function takes ``(t, x, ...)`` then the run's arrays ``y`` (every output
     element), ``z`` (every discrete state), ``pf`` / ``pi`` (the blocks' numbers,
     floats and integers) and writes in place. ``due[k]`` is the row of the stop: the
-    discrete blocks due. (Whole arrays and offsets are passed, never views: a view
-    passed to a first-class function costs more than the call.)
+    discrete blocks due. (Whole arrays and offsets are passed, never views. The compiled
+    core passes each array as its data pointer, which the generated glue views again with
+    the sizes it knows: :data:`hybridsim.engine.native.CORE_TAIL`'s ``glue_*`` adapters.)
     """
 
     outputs: Callable   # (t, x, y, z, pf, pi, due, k) -> block with a non-finite output, or -1
