@@ -43,7 +43,7 @@ examples:
 
 --set PATH=VALUE: PATH is a name in the diagram's 'params', a block
 parameter 'block.param' ('sub.block.param' inside a subsystem, 'block.param[i]'
-for one element), or 'simulation.key' ({sim}).
+for one element), 'simulation.key' ({sim}), or 'metrics.key' ({metrics}).
 VALUE is read as YAML: 10, 1e-4, [5, 50], true.
 A --set of a parameter that 'variants' sweeps fixes it to one run.
 Every setting of every section: docs/settings.md. Limits checked before a
@@ -51,7 +51,7 @@ run (steps, log size, blocks, sweep points) are raised with environment
 variables, e.g. HYBRIDSIM_MAX_STEPS=1e9.
 
 exit status: {codes}.
-""".format(sim=tables.help_text(tables.SIMULATION),
+""".format(sim=tables.help_text(tables.SIMULATION), metrics=tables.help_text(tables.METRICS),
            codes="; ".join(f"{code} {origin}" for code, origin, _ in EXIT_CODES))
 
 

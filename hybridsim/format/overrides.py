@@ -13,12 +13,11 @@ import numpy as np
 from hybridsim import limits
 from hybridsim.errors import LoaderError
 from hybridsim.engine.registry import closest, default, lookup
-from hybridsim.format.paths import OverrideLoc, ParamPath
-from hybridsim.format.tables import SIMULATION, keys
+from hybridsim.format import tables
+from hybridsim.format.paths import SETTING_SECTIONS, OverrideLoc, ParamPath
 from hybridsim.format.values import _is_subsystem, _references, subsystem_path
 from hybridsim.format.yamlio import _Dict
 
-SIM_KEYS = keys(SIMULATION)
 
 #: what messages call an override's source: ``--set`` on the command line; a sweep or tune file's
 #: checks name theirs (:func:`overrides_from`)
@@ -65,15 +64,16 @@ class OverridesMixin:
                 self.params[name] = value
                 if isinstance(self.data.get("variants"), dict):
                     self.data["variants"].pop(name, None)  # a fixed value ends that sweep
-            elif path.kind == "simulation":
-                if path.name not in SIM_KEYS:
-                    self._fail(f"{self.origin} {key}: unknown simulation setting {path.name!r}{closest(path.name, SIM_KEYS)}; "
-                               f"settings: {', '.join(SIM_KEYS)}")
-                if not isinstance(self.data.get("simulation"), dict):
-                    self.data["simulation"] = _Dict()
-                    self.data["simulation"].lines, self.data["simulation"].locs = {}, {}
-                self.data["simulation"][path.name] = value
-                getattr(self.data["simulation"], "locs", {})[path.name] = OverrideLoc(f"{self.origin} {key}")
+            elif path.kind in SETTING_SECTIONS:
+                section, known = path.kind, tables.keys(tables.SECTIONS[path.kind])
+                if path.name not in known:
+                    self._fail(f"{self.origin} {key}: unknown {section} setting {path.name!r}{closest(path.name, known)}; "
+                               f"settings: {', '.join(known)}")
+                if not isinstance(self.data.get(section), dict):
+                    self.data[section] = _Dict()
+                    self.data[section].lines, self.data[section].locs = {}, {}
+                self.data[section][path.name] = value
+                getattr(self.data[section], "locs", {})[path.name] = OverrideLoc(f"{self.origin} {key}")
             else:
                 bname, blocks = path.block, self.data["blocks"]
                 if _is_subsystem(blocks.get(bname)) and len(path.parts) >= 2:
@@ -204,8 +204,8 @@ class OverridesMixin:
                 if name in (self.data.get("variants") or {}):
                     self._fail(f"{name!r} is swept by 'variants': not a run-time parameter")
                 named[name] = value
-            elif path.kind == "simulation":
-                self._fail(f"{key!r} is a simulation setting: not a run-time parameter")
+            elif path.kind in SETTING_SECTIONS:
+                self._fail(f"{key!r} is a {path.kind} setting: not a run-time parameter")
             else:
                 bname = path.block
                 if bname not in self.data["blocks"] or (

@@ -2,12 +2,15 @@
 
 ``k`` and ``params.k`` (a name in ``params``), ``g.K`` and ``blocks.g.K`` (a
 block parameter), ``ctrl.pid.Kp`` (inside subsystem ``ctrl``), ``g.K[1]`` (one
-element), ``simulation.t_end`` (a setting). Two spellings of one parameter
+element), ``simulation.t_end`` and ``metrics.step_time`` (a setting of a section in
+:data:`SETTING_SECTIONS`). Two spellings of one parameter
 have one :attr:`ParamPath.key`, so a sweep that names both is refused.
 """
 import re
 from dataclasses import dataclass
 
+#: the sections whose keys a path may name as ``SECTION.KEY`` (its kind is the section's name)
+SETTING_SECTIONS = ("simulation", "metrics")
 _INDEX = re.compile(r"^(.*?)\[(\d+)\]$")
 _PART = re.compile(r"^[^.\[\]\s=:]+$")
 
@@ -17,7 +20,7 @@ class ParamPath:
     """A parsed parameter path.
 
     ``kind`` is ``"param"`` (a name in ``params``), ``"block"`` (a block
-    parameter) or ``"simulation"`` (a simulation setting); ``parts`` the names:
+    parameter) or a section of :data:`SETTING_SECTIONS` (one of its settings); ``parts`` the names:
     ``("k",)``, ``("ctrl", "pid", "Kp")`` (blocks, then the parameter),
     ``("t_end",)``; ``index`` the element ``[i]`` of a vector parameter, or None.
     """
@@ -39,15 +42,15 @@ class ParamPath:
         parts = raw.split(".")
         if not raw or not all(_PART.match(p) for p in parts):
             raise ValueError(f"{text!r} is not a parameter path ('name', 'block.param', "
-                             "'sub.block.param' or 'simulation.key'; names without spaces, '[', ']', '=')")
+                             "'sub.block.param', 'simulation.key' or 'metrics.key'; names without spaces, '[', ']', '=')")
         if parts[0] == "params":
             if len(parts) != 2:
                 raise ValueError(f"{text!r}: 'params.NAME' names one parameter")
             return cls("param", (parts[1],), index)
-        if parts[0] == "simulation":
+        if parts[0] in SETTING_SECTIONS:
             if len(parts) != 2 or index is not None:
-                raise ValueError(f"{text!r}: 'simulation.KEY' names one setting")
-            return cls("simulation", (parts[1],), None)
+                raise ValueError(f"{text!r}: '{parts[0]}.KEY' names one setting")
+            return cls(parts[0], (parts[1],), None)
         if parts[0] == "blocks":
             parts = parts[1:]
             if len(parts) < 2:
@@ -57,7 +60,7 @@ class ParamPath:
     @property
     def key(self):
         """The canonical spelling: ``k``, ``g.K``, ``ctrl.pid.Kp[1]``, ``simulation.t_end``."""
-        base = ("simulation." if self.kind == "simulation" else "") + ".".join(self.parts)
+        base = (f"{self.kind}." if self.kind in SETTING_SECTIONS else "") + ".".join(self.parts)
         return base + (f"[{self.index}]" if self.index is not None else "")
 
     @property

@@ -13,7 +13,7 @@ from hybridsim.errors import DiagramError, LoaderError
 from hybridsim.engine.registry import closest, parameters
 from hybridsim.format import tables
 from hybridsim.format.kinds import SIGNAL
-from hybridsim.format.paths import OverrideLoc, ParamPath
+from hybridsim.format.paths import SETTING_SECTIONS, OverrideLoc, ParamPath
 from hybridsim.format.values import _plain
 from hybridsim.format.yamlio import _Dict, _List
 
@@ -66,9 +66,9 @@ class SettingsMixin:
             path = ParamPath.parse(key)  # the table has checked the form
             if path.kind == "param" and path.name not in self.params:
                 out.append(f"{where}: {what}: no parameter {path.name!r} in 'params'{closest(path.name, self.params)}")
-            elif path.kind == "simulation" and path.name not in tables.keys(tables.SIMULATION):
-                out.append(f"{where}: {what}: unknown simulation setting {path.name!r}"
-                           f"{closest(path.name, tables.keys(tables.SIMULATION))}")
+            elif path.kind in SETTING_SECTIONS and path.name not in tables.keys(tables.SECTIONS[path.kind]):
+                out.append(f"{where}: {what}: unknown {path.kind} setting {path.name!r}"
+                           f"{closest(path.name, tables.keys(tables.SECTIONS[path.kind]))}")
             elif path.kind == "block" and path.block not in self.data["blocks"]:
                 out.append(f"{where}: {what}: no block {path.block!r}{closest(path.block, self.data['blocks'])}")
         return out

@@ -19,7 +19,9 @@ def overlay(spec, values, outdir):
     """
     from hybridsim.tune.space import overrides
 
-    params, blocks, sim = {}, {}, {}
+    from hybridsim.format.paths import SETTING_SECTIONS
+
+    params, blocks, settings = {}, {}, {s: {} for s in SETTING_SECTIONS}
     ov = {k: v for k, v in spec.fixed.items() if k != "simulation.compiled"}
     ov.update(overrides(spec.parameters, values))
     for key, value in ov.items():
@@ -31,8 +33,8 @@ def overlay(spec, values, outdir):
         value = _plain(value)
         if len(parts) == 1:
             params[parts[0]] = value
-        elif parts[0] == "simulation":
-            sim[parts[1]] = value
+        elif parts[0] in SETTING_SECTIONS:
+            settings[parts[0]][parts[1]] = value
         else:  # block.param, or sub.block.param (the subsystem passes block.param on)
             blocks.setdefault(parts[0], {})[".".join(parts[1:])] = value
     from hybridsim.format.build import load
@@ -41,7 +43,7 @@ def overlay(spec, values, outdir):
     fixed = {k: [v] for k, v in params.items() if k in swept}  # a value set for a swept name ends that sweep
     rel = os.path.relpath(spec.diagram, Path(outdir).resolve())
     doc = {"extends": rel, "name": f"{spec.diagram.stem}_tuned"}
-    for key, part in (("params", params), ("variants", fixed), ("blocks", blocks), ("simulation", sim)):
+    for key, part in (("params", params), ("variants", fixed), ("blocks", blocks), *settings.items()):
         if part:
             doc[key] = part
     head = f"# the best point of {spec.path.name} (hybridsim tune), over {spec.diagram.name}\n"

@@ -88,6 +88,21 @@ def test_overrides_and_variants(tmp_path):
         DiagramFile(p, {"kk": 1})
 
 
+def test_a_metrics_setting_is_set_like_a_simulation_setting(tmp_path):
+    # it said "no block 'metrics'": every section with a settings table takes SECTION.KEY
+    import hybridsim.forcecontrol.settings  # noqa: F401 (the metrics settings' table rows)
+
+    p = write(tmp_path, GOOD)
+    f = DiagramFile(p, {"metrics.step_time": 0.15, "simulation.t_end": 0.3})
+    settings = f.build()[1]
+    assert settings["metrics"]["step_time"] == 0.15 and settings["simulation"]["t_end"] == 0.3
+    with pytest.raises(LoaderError, match=r"--set metrics.stepp_time: unknown metrics setting 'stepp_time' "
+                                          r"\(did you mean 'step_time'\?\)"):
+        DiagramFile(p, {"metrics.stepp_time": 1.0})
+    with pytest.raises(LoaderError, match="'metrics.step_time' is a metrics setting: not a run-time parameter"):
+        DiagramFile(p).runtime_params({"metrics.step_time": 1.0})
+
+
 def test_an_unknown_plot_setting_is_an_error_at_its_line(tmp_path):
     # a misspelt label used to be ignored and the figure silently kept its default
     f = DiagramFile(write(tmp_path, GOOD + "plot:\n  title: mine\n  force_lable: C-Z force\n"))
