@@ -49,10 +49,12 @@ def problems(system, solver, located=None):
     if not isinstance(solver, ExplicitRK):
         out.append("the compiled path integrates with a fixed-step Runge-Kutta method (rk4, heun); "
                    f"this diagram's solver is {solver!r}")
-    missing = [f"{b.name} ({type(b).__name__})" for b in system.blocks
-               if (b.outputs or b.n_continuous or b.n_discrete) and not has_kernels(b)]
+    missing = [b for b in system.blocks if (b.outputs or b.n_continuous or b.n_discrete) and not has_kernels(b)]
     if missing:
-        out.append("these blocks have no kernels (hybridsim.engine.kernels) to compile: " + ", ".join(missing))
+        types = sorted({getattr(type(b), "type_name", None) for b in missing} - {None})
+        out.append("these blocks have no kernels (hybridsim.engine.kernels) to compile, in this configuration: "
+                   + ", ".join(f"{b.name} ({type(b).__name__})" for b in missing)
+                   + (f" (`hybridsim blocks {' '.join(types)}` says which configurations have them)" if types else ""))
     timed = [system.blocks[i].name for i in system.time_events]
     if timed:
         out.append("time events (next_event_time) are not on the compiled path: " + ", ".join(timed))
@@ -88,6 +90,7 @@ def _widest(block):
 
 
 _catching = threading.local()
+_LAYOUTS_LOCK = threading.Lock()  # run_batch's threads may meet a new layout at once
 
 
 def _unraisable(info, previous=sys.unraisablehook):
@@ -126,10 +129,11 @@ class CompiledGlue:
             raise CompiledPathError(
                 "the compiled path needs numba: pip install -e \".[fast]\" (or run without --compiled)"
             ) from None
-        self.system, self.solver = system, solver
+        self.system, self.solver, self.log_path = system, solver, log_path
         self.layout = ParamLayout(system.blocks)
         self.source, env = glue_source(system, log_path, self.located, self.layout)
         self.glue = _load(self.source, env, system.name, system)
+        self._layouts = {}  # a run's params of other sizes (a longer table): their layout and glue
         try:
             self.run_fn = native.core(type(solver))
         except OSError as exc:
@@ -140,12 +144,30 @@ class CompiledGlue:
 
     def machinery(self, ctx):
         """``(glue, ops, state, pf, pi)`` for a run of ``ctx`` (its blocks' numbers flattened)."""
+        glue = self.glue
         try:
             pf, pi = self.layout.flatten(ctx.params)
-        except ParamStructureError as exc:
-            raise ParameterError("params", f"{exc}: rebuild the diagram for that") from None
+        except ParamStructureError:  # an array of another size (a table's points): that layout's glue
+            glue, pf, pi = self._other_layout(ctx.params)
         s = self.state._replace(num=self.state.num.copy())  # one per run: runs may share threads
-        return self.glue, None, s, pf, pi
+        return glue, None, s, pf, pi
+
+    def _other_layout(self, params):
+        """``(glue, pf, pi)`` for params whose arrays have other sizes than the diagram's: the glue
+        of their layout, compiled once (and cached like any glue)."""
+        try:
+            layout = ParamLayout(self.system.blocks, params)
+        except ParamStructureError as exc:
+            raise ParameterError("params", str(exc)) from None
+        key = repr(layout.specs)
+        if key not in self._layouts:
+            with _LAYOUTS_LOCK:
+                if key not in self._layouts:
+                    source, env = glue_source(self.system, self.log_path, self.located, layout)
+                    self._layouts[key] = (layout, _load(source, env, self.system.name, self.system))
+        layout, glue = self._layouts[key]
+        pf, pi = layout.flatten(params)
+        return glue, pf, pi
 
 
 def _entry(run_fn):

@@ -21,13 +21,14 @@ _INTS = (np.int64, np.int32, np.uint64, np.uint32, np.int16, np.uint16, np.int8,
 class ParamLayout:
     """Where every number of every block's params lies in the flat arrays ``pf`` and ``pi``."""
 
-    def __init__(self, blocks):
+    def __init__(self, blocks, params=None):
+        """The layout of ``blocks``' params (or of ``params``, one per block: a run's own numbers)."""
         self.nf = self.ni = 0
         self.names = [b.name for b in blocks]
         self.specs = []
-        for b in blocks:
+        for b, v in zip(blocks, [b.params for b in blocks] if params is None else params):
             try:
-                self.specs.append(self._spec(b.params))
+                self.specs.append(self._spec(v))
             except ParamStructureError as exc:
                 raise ParamStructureError(f"block {b.name!r} ({type(b).__name__}): its params hold {exc}, "
                                           "which compiled kernels cannot take") from None

@@ -83,6 +83,16 @@ def test_compiled_path_says_what_it_cannot_compile():
         hs.Simulator(d.build(), compiled=True)
     with pytest.raises(CompiledPathError, match="fixed-step Runge-Kutta"):
         hs.build(SMOOTH, compiled=True, solver="radau")
+    # a library block with kernels in some configurations only points at its help
+    from hybridsim.engine.compiled import problems
+    from hybridsim.engine.registry import lookup
+
+    d = hs.Diagram("wide")
+    d.add(lookup("constant")("c", value=[float(k) for k in range(9)]))
+    d.add(lookup("demux")("dm", widths=[1] * 9))
+    d.connect("c.y", "dm.u")
+    why = problems(d.build(), hs.RK4(1e-3))
+    assert len(why) == 1 and "in this configuration: dm (Demux) (`hybridsim blocks demux` says which" in why[0]
 
 
 @pytest.mark.slow
@@ -175,3 +185,15 @@ def test_friction_models_run_identically_on_every_path(model):
     assert np.array_equal(hs.simulate(DIAGRAMS / "fig10_force_ramp.yaml", **ov).table(), generic.table())
     assert np.array_equal(hs.simulate(DIAGRAMS / "fig10_force_ramp.yaml", compiled=True, **ov).table(),
                           generic.table())
+
+
+@pytest.mark.slow
+def test_a_matrix_product_agrees_to_round_off(tmp_path):
+    # numpy's and numba's BLAS sum the four terms of C x in different orders (docs/semantics.md)
+    path = tmp_path / "ss4.yaml"
+    path.write_text("blocks:\n  r: {type: sine, frequency: 3.0}\n"
+                    "  ss: {type: state_space, A: [[-1.0, 0.5, 0, 0], [-0.5, -1.1, 0.5, 0], [0, -0.5, -1.2, 0.5],"
+                    " [0, 0, -0.5, -1.3]], B: [[1.0], [0], [0], [0]], C: [[1.0, 1.0, 1.0, 1.0]]}\n"
+                    "wires: [r.y -> ss.u]\nsimulation: {t_end: 1.0, step: 1.0e-3, log_period: 0.01}\nlog: [ss.y]\n")
+    a, b = hs.simulate(path, compiled=True)["ss.y"], hs.simulate(path, fused=False)["ss.y"]
+    assert np.max(np.abs(a - b)) <= 1e-15 * np.max(np.abs(b))

@@ -67,3 +67,29 @@ def test_an_unrelated_kernel_does_not_change_the_compiled_module():
 
     _, sim, _ = hs.build(SMOOTH, compiled=True)
     assert sim._compiled.source == before
+
+
+LOOKUP = """\
+blocks:
+  clk: {type: clock}
+  lut: {type: lookup_1d, x: [0.0, 0.5, 1.0], y: [0.0, 1.0, 0.0]}
+  int: {type: integrator}
+wires: [clk.y -> lut.u, lut.y -> int.u]
+simulation: {t_end: 1.0, solver: rk4, step: 1.0e-3, log_period: 0.01}
+log: [lut.y, int.y]
+"""
+
+
+@pytest.mark.slow
+def test_a_longer_table_at_run_time_runs_compiled_as_on_the_python_path(tmp_path):
+    # the compiled path refused it ("its params changed their layout"), and the whole batch with it
+    path = tmp_path / "lut.yaml"
+    path.write_text(LOOKUP)
+    longer = {"lut.x": [0.0, 0.2, 0.4, 0.6, 0.8, 1.0], "lut.y": [0.0, 1.0, -1.0, 2.0, -2.0, 3.0]}
+    _, sim, _ = hs.build(path, compiled=True)
+    _, generic, _ = hs.build(path, fused=False)
+    out = sim.run_batch(1.0, [{}, longer, {}], workers=2)
+    assert np.array_equal(out[1].table(), generic.run(1.0, params=longer).table())
+    assert np.array_equal(out[0].table(), out[2].table())
+    assert np.array_equal(out[0].table(), generic.run(1.0).table())
+    assert out[1]["lut.y"][-1, 0] == 3.0  # the longer table's end
