@@ -4,8 +4,10 @@
 (the hit's output pass, the updates, the right-hand side, the event functions and actions,
 the log path) over the run's flat arrays; :mod:`hybridsim.engine.compiled` compiles and caches
 them. Inside the right-hand side every signal element is a local float. Each kernel is a call of
-its own compiled version (cached across diagrams; LLVM inlines the small ones). The blocks' numbers are rebuilt from the flat ``pf`` / ``pi`` arrays
-(:class:`~hybridsim.engine.params.ParamLayout`).
+its own compiled version (cached across diagrams; LLVM inlines the small ones). The blocks'
+numbers are rebuilt from the flat ``pf`` / ``pi`` arrays
+(:class:`~hybridsim.engine.params.ParamLayout`). The functions take their arrays as data
+pointers and view them with the sizes known here.
 """
 import functools
 import hashlib
@@ -190,7 +192,7 @@ def glue_source(system, log_path, located, layout):
     fns.append(["def stepped(t, x, y, z, pf, pi):", "    return 0"])
 
     # the core passes each array as its data pointer (one word, not numba's seven-field array
-    # struct: half the cost of a call); the glue views it with the sizes known here
+    # struct); the glue views it with the sizes known here
     n_y = sum(p.width for b in sysm.blocks for p in b.outputs)
     n_z = sum(b.n_discrete for b in sysm.blocks)
     n_e = sum(sizes)

@@ -81,7 +81,7 @@ def types():
 
     A, I, B, B2 = nt.float64[::1], nt.int64[::1], nt.boolean[::1], nt.boolean[:, ::1]
     f64, i64 = nt.float64, nt.int64
-    F, N, T = nt.CPointer(f64), nt.CPointer(i64), nt.CPointer(nt.boolean)  # arrays as their data (GLUE_CALLS)
+    F, N, T = nt.CPointer(f64), nt.CPointer(i64), nt.CPointer(nt.boolean)  # arrays as data (CORE_TAIL's glue_*)
     glue = {
         "outputs": FunctionType(i64(f64, F, F, F, F, N, T, i64)),
         "update": FunctionType(i64(f64, F, F, F, F, N, T, i64)),
@@ -116,8 +116,8 @@ def copy_into(dst, src):  # element by element: a slice assignment may allocate 
         dst[i] = src[i]
 
 
-# the glue's calls: each array passed as its data pointer (a first-class function's array argument is
-# a seven-field struct, and the calls' cost was half the per-stage overhead)
+# the glue's calls: each array passed as its data pointer (a first-class function's array argument
+# is numba's seven-field struct, eight of them in every call of the right-hand side)
 def glue_outputs(gl, t, x, y, z, pf, pi, due, row):
     return gl.outputs(t, x.ctypes, y.ctypes, z.ctypes, pf.ctypes, pi.ctypes, due.ctypes, row)
 

@@ -67,8 +67,8 @@ class OverridesMixin:
             elif path.kind in SETTING_SECTIONS:
                 section, known = path.kind, tables.keys(tables.SECTIONS[path.kind])
                 if path.name not in known:
-                    self._fail(f"{self.origin} {key}: unknown {section} setting {path.name!r}{closest(path.name, known)}; "
-                               f"settings: {', '.join(known)}")
+                    self._fail(f"{self.origin} {key}: unknown {section} setting {path.name!r}"
+                               f"{closest(path.name, known)}; settings: {', '.join(known)}")
                 if not isinstance(self.data.get(section), dict):
                     self.data[section] = _Dict()
                     self.data[section].lines, self.data[section].locs = {}, {}

@@ -41,8 +41,8 @@ class ParamPath:
             raw, index = m.group(1), int(m.group(2))
         parts = raw.split(".")
         if not raw or not all(_PART.match(p) for p in parts):
-            raise ValueError(f"{text!r} is not a parameter path ('name', 'block.param', "
-                             "'sub.block.param', 'simulation.key' or 'metrics.key'; names without spaces, '[', ']', '=')")
+            raise ValueError(f"{text!r} is not a parameter path ('name', 'block.param', 'sub.block.param', "
+                             "'simulation.key' or 'metrics.key'; names without spaces, '[', ']', '=')")
         if parts[0] == "params":
             if len(parts) != 2:
                 raise ValueError(f"{text!r}: 'params.NAME' names one parameter")
