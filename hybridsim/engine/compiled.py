@@ -30,7 +30,7 @@ import threading
 import warnings
 
 from hybridsim.engine import native, rk
-from hybridsim.engine.codegen import glue_source
+from hybridsim.engine.codegen import HIT_OPS, glue_source
 from hybridsim.engine.fused import event_kernels, has_kernels
 from hybridsim.engine.kernels import make_jitable, marked
 from hybridsim.engine.params import ParamLayout, ParamStructureError
@@ -233,7 +233,12 @@ def _load(source, env, name, system=None):
             # the results are checked bit for bit against the generic path (tests)
             warnings.simplefilter("ignore", NumbaIRAssumptionWarning)
             warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)
-            glue = Glue(*(cfunc(types[k].signature, cache=True)(getattr(module, k)) for k in Glue._fields))
+            made = {}  # the output pass, updates and log path are one function (codegen.HIT_OPS)
+            for k in Glue._fields:
+                source = "hit" if k in HIT_OPS else k
+                if source not in made:
+                    made[source] = cfunc(types[k].signature, cache=True)(getattr(module, source))
+            glue = Glue(*(made["hit" if k in HIT_OPS else k] for k in Glue._fields))
     except NumbaError as exc:
         raise CompiledPathError(_compile_failure(exc, name, system)) from None
     _loaded[key] = glue

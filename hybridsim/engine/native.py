@@ -83,16 +83,16 @@ def types():
     f64, i64 = nt.float64, nt.int64
     F, N, T = nt.CPointer(f64), nt.CPointer(i64), nt.CPointer(nt.boolean)  # arrays as data (CORE_TAIL's glue_*)
     glue = {
-        "outputs": FunctionType(i64(f64, F, F, F, F, N, T, i64)),
-        "update": FunctionType(i64(f64, F, F, F, F, N, T, i64)),
+        # the output pass, the updates and the log path: one function, told which by its first argument
+        "outputs": FunctionType(i64(i64, f64, F, F, F, F, N, T, i64)),
         "rhs": FunctionType(nt.void(f64, F, F, i64, F, F, F, N)),
         "zc": FunctionType(nt.void(f64, F, F, F, F, F, N)),
         "act": FunctionType(i64(f64, F, F, T, F, F, F, N)),
-        "observe": FunctionType(i64(f64, F, F, F, F, N)),
         "next_time": FunctionType(f64(f64, F, F, F, F, N)),
         "timed": FunctionType(i64(f64, F, F, F, F, F, N)),
         "stepped": FunctionType(i64(f64, F, F, F, F, N)),
     }
+    glue["update"] = glue["observe"] = glue["outputs"]
     tl, lim, w, out, rks = (typeof(r) for r in example_records())
     GLUE = nt.NamedTuple([glue[k] for k in stepping.Glue._fields], stepping.Glue)
     run = i64(tl, i64, i64, GLUE, rks, lim, w, out, A, A, A, I)
@@ -110,6 +110,9 @@ CORE_TAIL = """
 
 # -- compiled with numba (this file is generated: stepping.py and {method}'s steps, then this) -------
 from numba import njit as _njit  # noqa: E402
+import numpy as _np  # noqa: E402
+
+NO_DUE = _np.zeros((1, 1), _np.bool_)
 
 def copy_into(dst, src):  # element by element: a slice assignment may allocate (no NRT here)
     for i in range(dst.size):
@@ -118,12 +121,13 @@ def copy_into(dst, src):  # element by element: a slice assignment may allocate 
 
 # the glue's calls: each array passed as its data pointer (a first-class function's array argument
 # is numba's seven-field struct, eight of them in every call of the right-hand side)
+# (the compiled glue's outputs, update and observe are one function, ``hit``, told which by ``op``)
 def glue_outputs(gl, t, x, y, z, pf, pi, due, row):
-    return gl.outputs(t, x.ctypes, y.ctypes, z.ctypes, pf.ctypes, pi.ctypes, due.ctypes, row)
+    return gl.outputs(0, t, x.ctypes, y.ctypes, z.ctypes, pf.ctypes, pi.ctypes, due.ctypes, row)
 
 
 def glue_update(gl, t, x, y, z, pf, pi, due, row):
-    return gl.update(t, x.ctypes, y.ctypes, z.ctypes, pf.ctypes, pi.ctypes, due.ctypes, row)
+    return gl.update(1, t, x.ctypes, y.ctypes, z.ctypes, pf.ctypes, pi.ctypes, due.ctypes, row)
 
 
 def glue_rhs(gl, t, x, dx, at, y, z, pf, pi):
@@ -138,8 +142,8 @@ def glue_act(gl, t, x, xn, fired, y, z, pf, pi):
     return gl.act(t, x.ctypes, xn.ctypes, fired.ctypes, y.ctypes, z.ctypes, pf.ctypes, pi.ctypes)
 
 
-def glue_observe(gl, t, x, y, z, pf, pi):
-    return gl.observe(t, x.ctypes, y.ctypes, z.ctypes, pf.ctypes, pi.ctypes)
+def glue_observe(gl, t, x, y, z, pf, pi):  # no hit: any row of bools serves as ``due`` (not read)
+    return gl.observe(2, t, x.ctypes, y.ctypes, z.ctypes, pf.ctypes, pi.ctypes, NO_DUE.ctypes, 0)
 
 
 def glue_next_time(gl, t, x, y, z, pf, pi):
