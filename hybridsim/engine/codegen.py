@@ -4,11 +4,11 @@
 output pass, the updates, the right-hand side, the event functions and actions, the log path)
 over the run's flat arrays, the output pass, updates and log path as one function ``hit`` (they
 run only at hits and log points; compiled together, they link their kernels once);
-:mod:`hybridsim.engine.compiled` compiles and caches them. Inside the right-hand side every signal element is a local float. Each kernel is a call of
-its own compiled version (cached across diagrams; LLVM inlines the small ones). The blocks'
-numbers are rebuilt from the flat ``pf`` / ``pi`` arrays
-(:class:`~hybridsim.engine.params.ParamLayout`). The functions take their arrays as data
-pointers and view them with the sizes known here.
+:mod:`hybridsim.engine.compiled` compiles and caches them. Inside the right-hand side every
+signal element is a local float. Each kernel is a call of its own compiled version (cached
+across diagrams; LLVM inlines the small ones). The blocks' numbers are rebuilt from the flat
+``pf`` / ``pi`` arrays (:class:`~hybridsim.engine.params.ParamLayout`). The functions take their
+arrays as data pointers and view them with the sizes known here.
 """
 import functools
 import hashlib

@@ -8,8 +8,8 @@ the updates, the right-hand side, the event functions and actions, the log
 path) generated as numba source from the blocks' kernels
 (:mod:`hybridsim.engine.kernels`) and compiled as first-class functions. Inside
 the right-hand side every signal element is a local float; the kernels are
-called as compiled functions that numba caches on disk across diagrams. The blocks' numbers reach the
-glue at run time as two flat arrays (:class:`ParamLayout`), so one compiled
+called as compiled functions that numba caches on disk across diagrams. The
+blocks' numbers reach the glue at run time as two flat arrays (:class:`ParamLayout`), so one compiled
 glue serves every parameter value of a diagram's structure. Generated
 modules live in ``HYBRIDSIM_CACHE`` (default ``~/.cache/hybridsim``), keyed by
 their source and the kernels' source text.
@@ -192,7 +192,7 @@ def _dispatcher(f):
     from numba import njit
 
     if f not in _jitted:
-        # only the glue calls it: no wrapper to call it from Python or C (a tenth of its compile)
+        # only the glue calls it: no wrapper to call it from Python or C
         _jitted[f] = njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)(getattr(f, "compiled", f))
     return _jitted[f]
 
@@ -233,12 +233,11 @@ def _load(source, env, name, system=None):
             # the results are checked bit for bit against the generic path (tests)
             warnings.simplefilter("ignore", NumbaIRAssumptionWarning)
             warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)
-            made = {}  # the output pass, updates and log path are one function (codegen.HIT_OPS)
-            for k in Glue._fields:
-                source = "hit" if k in HIT_OPS else k
-                if source not in made:
-                    made[source] = cfunc(types[k].signature, cache=True)(getattr(module, source))
-            glue = Glue(*(made["hit" if k in HIT_OPS else k] for k in Glue._fields))
+            # the output pass, updates and log path are one function, compiled once (codegen.HIT_OPS)
+            names = {k: "hit" if k in HIT_OPS else k for k in Glue._fields}
+            made = {n: cfunc(types[k].signature, cache=True)(getattr(module, n)) for k, n in names.items()
+                    if k == n or k == HIT_OPS[0]}
+            glue = Glue(*(made[names[k]] for k in Glue._fields))
     except NumbaError as exc:
         raise CompiledPathError(_compile_failure(exc, name, system)) from None
     _loaded[key] = glue

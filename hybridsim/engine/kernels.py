@@ -68,9 +68,9 @@ def make_jitable(functions=None):
     """Register ``functions`` (default: every :func:`kernel` so far) with numba, so compiled code
     may call them; each once. Each kernel is compiled on its own, once per machine where it has a
     file (numba's cache), and called: a diagram's glue compiles only itself, and LLVM still inlines
-    the small kernels where the glue calls them. (Inlining every kernel at numba's level made the
-    glue's right-hand side compile ten times slower and run a tenth faster.) A kernel with a numba
-    twin (``f.compiled``) is skipped: calls of it compile to the twin."""
+    the small kernels where the glue calls them (inlining at numba's level cost compile time for no
+    measurable speed: benchmarks/RESULTS.md, 2026-12-04). A kernel with a numba twin
+    (``f.compiled``) is skipped: calls of it compile to the twin."""
     import os
 
     from numba.extending import register_jitable

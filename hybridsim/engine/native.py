@@ -99,8 +99,8 @@ def types():
     return {"glue": glue, "run": run, "array": A, "ints": I, "bools": B}
 
 
-#: the core's functions that ``run`` calls, each compiled on its own (inlining even the small ones at
-#: numba's level made the core compile half as fast again, for no speed: LLVM inlines them)
+#: the core's functions that ``run`` calls, each compiled on its own (LLVM inlines the small ones;
+#: inlining them at numba's level only cost compile time)
 CALLED = ("crossed_any", "first_sign_change", "first_bad", "copy_into", "mute", "record", "rk_begin", "rk_step",
           "rk_steps", "rk_dense", "rk_restep", "rk_rewind", "fail", "log_event", "observe", "observe_to",
           "time_event", "restep_to_failure", "locate", "settle")
