@@ -240,12 +240,16 @@ def cvode_ops():
         reached = False
         if root is not None:  # the core's rule: a function fires once on its firing side, not on reaching 0
             past = np.zeros(root.size, np.bool_)
-            stepping.crossed_any(np.zeros(root.size), _zc(t, xn, np.empty(root.size), w, gl, y, z, pf, pi),
-                                 w.dirs, past)
+            here = _zc(t, xn, np.empty(root.size), w, gl, y, z, pf, pi)
+            stepping.crossed_any(np.zeros(root.size), here, w.dirs, past)
             root = root & past
             reached = not root.any()
             root = None if reached else root
-        s.num[stepping.ROOT] = 1.0 if root is not None else -1.0
+            if reached:  # the functions where CVODE starts afresh, as the core would have kept them
+                w.g[:] = here
+        # from its second point on, an integration's roots were searched by CVODE on a grid holding
+        # every point it returned (its step ends and the log times): the core need not look again
+        s.num[stepping.ROOT] = 1.0 if root is not None else (-1.0 if s.fresh else -2.0)
         if s.fresh and root is None and w.g.size:
             leaving_sides(s, xn, w, gl, y, z, pf, pi)
         s.fresh = False

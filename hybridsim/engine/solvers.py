@@ -29,6 +29,8 @@ import warnings
 
 import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
+from scipy.linalg.lapack import dgetrf, dgetrs, zgetrf, zgetrs
+from scipy.sparse import issparse
 
 from hybridsim.engine import rk, stepping
 from hybridsim.engine.finite import all_finite
@@ -247,6 +249,29 @@ class ScipyStepper:
         self.seen = seen
         self.ode = METHODS[s.method](fun, self.t0, self.x0, self.t1, rtol=s.rtol, atol=s.atol,
                                      max_step=s.max_step, first_step=min(s.scan, s.max_step, self.t1 - self.t0))
+        if hasattr(self.ode, "solve_lu") and not issparse(self.ode.J):
+            direct_lu(self.ode)
+
+
+def direct_lu(ode):
+    """Radau's and BDF's dense LU factorisation and solve as LAPACK's getrf / getrs themselves:
+    ``scipy.linalg.lu_solve`` checks its arguments' array namespace and device on every call, a
+    cost several times the solve's for a plant of a few states, paid at every Newton iteration.
+    A matrix that is not finite fails the step as ``lu_factor`` does (ValueError); a singular one
+    gives a solve that is not finite, which Newton's iteration rejects."""
+    def lu(a):
+        ode.nlu += 1
+        if not np.isfinite(a).all():
+            raise ValueError("array must not contain infs or NaNs")
+        complex_ = a.dtype.kind == "c"
+        lu_, piv, _ = (zgetrf if complex_ else dgetrf)(a, overwrite_a=True)
+        return lu_, piv, zgetrs if complex_ else dgetrs
+
+    def solve_lu(factors, b):
+        lu_, piv, getrs = factors
+        return getrs(lu_, piv, b, overwrite_b=True)[0]
+
+    ode.lu, ode.solve_lu = lu, solve_lu
 
 
 def scipy_ops():

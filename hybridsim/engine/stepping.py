@@ -61,7 +61,8 @@ GO, STEP_EVENT, STOP = 0, 1, 2
 
 #: where a stepper that locates crossings itself says what it found (``s.num[ROOT]``): +1 the step
 #: ends at a crossing (``w.fired`` set), -1 none in the step (the core checks that none changed sign
-#: from ``w.g``, which such a stepper may set to the side a function leaves its surface to), 0 it
+#: from ``w.g``, which such a stepper may set to the side a function leaves its surface to), -2 none,
+#: and its own search covered the step from its last point (the core does not look again), 0 it
 #: does not look (then the core bisects)
 ROOT = 6
 
@@ -292,7 +293,7 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                 fail(out, DIVERGED, bad, j, tb)
                 return DIVERGED
             # -- events: the first sign change inside the step --------------------------------
-            if located:
+            if located and s.num[ROOT] > -1.5:
                 gl.zc(tb, xn, w.gn, y, z, pf, pi)
                 mute(w.gn, w.muted)
                 if s.num[ROOT] > 0.0:  # the stepper found the crossing itself (CVODE): at tb
