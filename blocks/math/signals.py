@@ -30,11 +30,16 @@ class Sum(Block):
 @kernel
 def sum_output(p, t, x, u):
     signs = p[0]
-    y = signs[0] * np.asarray(u[0])
+    n = len(u[0])
+    y = np.empty(n)  # one array, summed into element by element (compiled: no temporaries)
+    first = u[0]
+    for i in range(n):
+        y[i] = signs[0] * first[i]
     k = 0
     for v in unroll(u):  # the inputs may mix arrays and tuples (compiled: unrolled)
         if k > 0:
-            y = y + signs[k] * np.asarray(v)
+            for i in range(n):
+                y[i] = y[i] + signs[k] * v[i]
         k += 1
     return (y,)
 
@@ -77,7 +82,11 @@ class Selection(Block):
 
 @kernel
 def selection_output(p, t, x, u):
-    return (p[0] * np.asarray(u[0]),)  # eq 13
+    s, v = p[0], u[0]
+    y = np.empty(s.size)
+    for i in range(s.size):
+        y[i] = s[i] * v[i]  # eq 13
+    return (y,)
 
 
 @register("mux")

@@ -50,13 +50,26 @@ class PositionPID(_Sampled):
 @kernel
 def pid_output(p, t, z, u):
     Kp, Ki, Kd, T = p
-    e, ed = np.asarray(u[0]), np.asarray(u[1])
-    return (np.dot(Kp, e) + np.dot(Ki, np.asarray(z) + e * T) + np.dot(Kd, ed),)  # eq 15a
+    e, ed = u[0], u[1]
+    n = Kp.shape[0]
+    tau = np.empty(n)
+    for i in range(n):  # eq 15a: Kp e + Ki (z + e T) + Kd ed, as loops (compiled: no BLAS call, one array)
+        a = b = c = 0.0
+        for j in range(n):
+            a += Kp[i, j] * e[j]
+            b += Ki[i, j] * (z[j] + e[j] * T)
+            c += Kd[i, j] * ed[j]
+        tau[i] = a + b + c
+    return (tau,)
 
 
 @kernel
 def pid_update(p, t, z, u):
-    return np.asarray(z) + np.asarray(u[0]) * p[3]  # rectangle rule, current sample included
+    e = u[0]
+    new = np.empty(len(z))
+    for j in range(len(z)):
+        new[j] = z[j] + e[j] * p[3]  # rectangle rule, current sample included
+    return new
 
 
 @register("force_pi")
@@ -84,21 +97,33 @@ class ForcePI(_Sampled):
 
 @kernel
 def limited(e, limit):
-    """The saturation limiter: e clipped element-wise to +-limit."""
-    return np.minimum(np.maximum(e, -limit), limit)
+    """The saturation limiter: e clipped to +-limit (NaN stays NaN)."""
+    return -limit if e < -limit else (limit if e > limit else e)
 
 
 @kernel
 def force_pi_output(p, t, z, u):
     Kp, Ki, limit, T = p
-    e, ff = np.asarray(u[0]), np.asarray(u[1])
-    return (ff + np.dot(Kp, e) + np.dot(Ki, np.asarray(z) + limited(e, limit) * T),)  # eq 15b
+    e, ff = u[0], u[1]
+    n = Kp.shape[0]
+    tau = np.empty(n)
+    for i in range(n):  # eq 15b: ff + Kp e + Ki (z + e' T), e' the limited error
+        a = b = 0.0
+        for j in range(n):
+            a += Kp[i, j] * e[j]
+            b += Ki[i, j] * (z[j] + limited(e[j], limit[j]) * T)
+        tau[i] = ff[i] + a + b
+    return (tau,)
 
 
 @kernel
 def force_pi_update(p, t, z, u):
     Kp, Ki, limit, T = p
-    return np.asarray(z) + limited(np.asarray(u[0]), limit) * T
+    e = u[0]
+    new = np.empty(len(z))
+    for j in range(len(z)):
+        new[j] = z[j] + limited(e[j], limit[j]) * T
+    return new
 
 
 PositionPID.kernels = Kernels(output=pid_output, update=pid_update)
