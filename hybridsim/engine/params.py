@@ -112,6 +112,8 @@ def _expr(spec, env, tag):
     if kind == "af":
         a, shape = spec[1], spec[2]
         size = int(np.prod(shape)) if shape else 1
+        if len(shape) == 1:  # a slice is already that vector (reshape calls numba's C helper)
+            return f"pf[{a}:{a + size}]"
         return f"pf[{a}:{a + size}].reshape({tuple(shape)!r})"
     if kind == "ai":
         a, shape, dtype = spec[1], spec[2], spec[3]
