@@ -114,6 +114,8 @@ def _expr(spec, env, tag):
         size = int(np.prod(shape)) if shape else 1
         if len(shape) == 1:  # a slice is already that vector (reshape calls numba's C helper)
             return f"pf[{a}:{a + size}]"
+        if len(shape) > 1:  # a view from the data pointer (hybridsim.engine.pointers)
+            return f"carray(offset(pf_p, {a}), {tuple(shape)!r})"
         return f"pf[{a}:{a + size}].reshape({tuple(shape)!r})"
     if kind == "ai":
         a, shape, dtype = spec[1], spec[2], spec[3]
