@@ -9,6 +9,17 @@ import numpy as np
 from hybridsim.errors import ParameterError
 
 
+def _not_a(what, value, name):
+    """The error for ``value`` where ``what`` was needed; a string that spells infinity gets YAML's
+    spelling (``inf`` is a string to YAML, ``.inf`` a number)."""
+    hint = ""
+    if isinstance(value, str) and value.strip().lstrip("+-").lower() in ("inf", "infinity", "nan"):
+        sign = "-" if value.strip().startswith("-") else ""
+        hint = (" (YAML writes not-a-number as .nan)" if value.strip().lstrip("+-").lower() == "nan"
+                else f" (YAML writes infinity as {sign}.inf)")
+    return ParameterError(name, f"must be {what}, got {value!r}{hint}")
+
+
 def _check_values(arr, name, inf_ok, sign):
     if np.isnan(arr).any() or (not inf_ok and np.isinf(arr).any()):
         raise ParameterError(name, f"must be finite, got {arr.tolist()!r}")
@@ -21,7 +32,7 @@ def _check_values(arr, name, inf_ok, sign):
 def scalar(value, name, sign=None, inf_ok=False):
     """A parameter as one finite float; ``sign``: None, 'positive' or 'nonnegative'."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-        raise ParameterError(name, f"must be a number, got {value!r}")
+        raise _not_a("a number", value, name)
     v = float(value)
     _check_values(np.array([v]), name, inf_ok, sign)
     return v
@@ -62,7 +73,7 @@ def vector(value, name, width=None, sign=None, inf_ok=False):
     broadcast).
     """
     if isinstance(value, bool) or isinstance(value, str):
-        raise ParameterError(name, f"must be a number or a list of numbers, got {value!r}")
+        raise _not_a("a number or a list of numbers", value, name)
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -87,7 +98,7 @@ def floats(value, name, width=None, sign=None, inf_ok=False):
 def matrix(value, name, n):
     """A gain as an n x n matrix: a scalar, a diagonal list, or a full matrix (finite)."""
     if isinstance(value, (bool, str)):
-        raise ParameterError(name, f"must be a number, a list or a matrix, got {value!r}")
+        raise _not_a("a number, a list or a matrix", value, name)
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):

@@ -27,3 +27,13 @@ def test_a_list_for_a_choice_in_a_file_is_bad_input_on_its_line(tmp_path):
                     "wires: [s.y -> hc.u]\n")
     with pytest.raises(hs.errors.DiagramError, match=r"d\.yaml:5: .*'direction' must be rising, falling or either"):
         hs.build(path)
+
+
+@pytest.mark.parametrize("text, hint", [("inf", "infinity as .inf"), ("-inf", "infinity as -.inf"),
+                                        ("Infinity", "infinity as .inf"), ("nan", "not-a-number as .nan")])
+@pytest.mark.parametrize("block, param, extra", [("force_pi", "limit", {"rate": 100}), ("integrator", "upper", {}),
+                                                 ("gain", "K", {})])
+def test_infinity_spelled_as_a_word_is_told_yaml_spelling(block, param, extra, text, hint):
+    # YAML reads `inf` as a string (``.inf`` is the number): the error says how to write it
+    with pytest.raises(ParameterError, match=f"got '{text}' \\(YAML writes {hint}\\)"):
+        lookup(block)(**{param: text}, **extra)
