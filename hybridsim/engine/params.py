@@ -70,7 +70,8 @@ class ParamLayout:
         return pf, pi
 
     def expression(self, i, env):
-        """The source rebuilding block ``i``'s params from ``pf`` and ``pi`` (classes put in ``env``)."""
+        """The source rebuilding block ``i``'s params from ``pf`` and ``pi`` (a matrix from ``pf_p``, pf's
+        data pointer; classes put in ``env``)."""
         return _expr(self.specs[i], env, f"{i}")
 
 
