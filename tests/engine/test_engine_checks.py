@@ -413,3 +413,32 @@ def test_a_kernel_that_raises_on_the_compiled_path_is_named_as_on_the_python_pat
     _, err = capsys.readouterr()
     assert code == 6 and "raised ValueError: input beyond the limit" in err
     assert "Traceback" not in err and "Exception ignored" not in err
+
+
+class _Spike(hs.Block):
+    """NaN for 0.10549 <= t < 0.10551 (between RK4's step ends at h = 1 ms), declared possible."""
+    may_be_nonfinite = True
+    time_varying = True
+
+    def __init__(self, name="spike"):
+        super().__init__(name)
+        self.params = ()
+        self.declare_output("y", 1)
+
+    def output(self, t, x, u):
+        return (np.array([math.nan if 0.10549 <= t < 0.10551 else 1.0]),)
+
+
+@pytest.mark.parametrize("fused", [False, True])
+def test_a_state_gone_nan_from_a_value_never_seen_at_a_check_says_not_a_number(fused):
+    # the spike reaches the integrator only at RK4's midpoint stage; no output at a checked point is
+    # NaN, so no block can be named: it said only "the closed loop may be unstable"
+    d = hs.Diagram("spike")
+    d.add(_Spike("s"))
+    d.add(lookup("gain")("g", K=2.0))
+    d.add(lookup("integrator")("P"))
+    d.connect("s.y", "g.u")
+    d.connect("g.y", "P.u")
+    with pytest.raises(SimulationError, match=r"diverged at t=0\.106 s: state 0 of block 'P' is nan .*Not a number: "
+                                              r"a value feeding its derivative went NaN within the last step"):
+        hs.Simulator(d.build(), hs.RK4(1e-3), log=["P.y"], fused=fused).run(0.3)
