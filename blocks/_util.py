@@ -9,15 +9,28 @@ import numpy as np
 from hybridsim.errors import ParameterError
 
 
-def _not_a(what, value, name):
-    """The error for ``value`` where ``what`` was needed; a string that spells infinity gets YAML's
-    spelling (``inf`` is a string to YAML, ``.inf`` a number)."""
+def _not_a(what, value, name, word=None):
+    """The error for ``value`` where ``what`` was needed; a string (``word``, in a list) that spells
+    infinity gets YAML's spelling (``inf`` is a string to YAML, ``.inf`` a number)."""
+    word = value if word is None else word
     hint = ""
-    if isinstance(value, str) and value.strip().lstrip("+-").lower() in ("inf", "infinity", "nan"):
-        sign = "-" if value.strip().startswith("-") else ""
-        hint = (" (YAML writes not-a-number as .nan)" if value.strip().lstrip("+-").lower() == "nan"
+    if isinstance(word, str) and word.strip().lstrip("+-").lower() in ("inf", "infinity", "nan"):
+        sign = "-" if word.strip().startswith("-") else ""
+        hint = (" (YAML writes not-a-number as .nan)" if word.strip().lstrip("+-").lower() == "nan"
                 else f" (YAML writes infinity as {sign}.inf)")
     return ParameterError(name, f"must be {what}, got {value!r}{hint}")
+
+
+def _a_string(value):
+    """The first string inside a (nested) list, or None: numpy would read '1e3' or 'inf' as numbers."""
+    if isinstance(value, str):
+        return value
+    if isinstance(value, (list, tuple)):
+        for v in value:
+            found = _a_string(v)
+            if found is not None:
+                return found
+    return None
 
 
 def _check_values(arr, name, inf_ok, sign):
@@ -72,8 +85,8 @@ def vector(value, name, width=None, sign=None, inf_ok=False):
     ``width`` elements (``[0.5]`` where two are needed is an error, not a
     broadcast).
     """
-    if isinstance(value, bool) or isinstance(value, str):
-        raise _not_a("a number or a list of numbers", value, name)
+    if isinstance(value, bool) or _a_string(value) is not None:
+        raise _not_a("a number or a list of numbers", value, name, _a_string(value))
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -97,8 +110,8 @@ def floats(value, name, width=None, sign=None, inf_ok=False):
 
 def matrix(value, name, n):
     """A gain as an n x n matrix: a scalar, a diagonal list, or a full matrix (finite)."""
-    if isinstance(value, (bool, str)):
-        raise _not_a("a number, a list or a matrix", value, name)
+    if isinstance(value, bool) or _a_string(value) is not None:
+        raise _not_a("a number, a list or a matrix", value, name, _a_string(value))
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):

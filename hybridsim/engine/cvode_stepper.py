@@ -184,6 +184,7 @@ def cvode_ops():
         s.event_at, s.event_x = None, None
         s.cv, s.queue, s.ta, s.started, s.looked = None, [], t0, False, False
         s.said = ""
+        s.stale = s.watch = False  # w.g (the core's) holds the functions at the last point; one sat on 0
 
     def solve(s, w, gl, y, z, pf, pi):
         """Every log time to the stop in one call: the returned points, queued (a failure after
@@ -227,16 +228,21 @@ def cvode_ops():
             return t, res.y, np.asarray(res.i_events, float).reshape(-1, w.g.size)[-1] != 0
         return (s.t1 if target == s.t1 else t), res.y, None
 
-    def take(s, point, xn, w, gl, y, z, pf, pi):
+    def take(s, point, x, xn, w, gl, y, z, pf, pi):
+        """The point ``point`` into ``xn`` (``x``: the state at the last one); its time, or NaN."""
         t, yy, root = point
-        if t == "failed":
-            s.result(yy, s.ta)  # a callback's exception is raised here
+        if t == "failed" or yy is None:
+            refresh(s, x, w, gl, y, z, pf, pi)  # the failure's diagnosis reads the functions there
+            if t == "failed":
+                s.result(yy, s.ta)  # a callback's exception is raised here
             return np.nan
-        if yy is None:
-            return np.nan
+        t_last = s.ta
         xn[:] = np.asarray(yy, float).reshape(-1)
         s.num[1] = t - s.ta
         s.ta = t
+        if s.fresh or s.watch:  # w.g: the functions at the (re)start, or at the last point, where the
+            # core looked. CVODE leaves one exactly on 0 out of its search until a point where it is not
+            s.watch = bool((w.g == 0.0).any())  # (leaving 0 unreported): the core looks till then
         reached = False
         if root is not None:  # the core's rule: a function fires once on its firing side, not on reaching 0
             past = np.zeros(root.size, np.bool_)
@@ -245,22 +251,39 @@ def cvode_ops():
             root = root & past
             reached = not root.any()
             root = None if reached else root
-            if reached:  # the functions where CVODE starts afresh, as the core would have kept them
-                w.g[:] = here
-        # from its second point on, an integration's roots were searched by CVODE on a grid holding
-        # every point it returned (its step ends and the log times): the core need not look again
-        s.num[stepping.ROOT] = 1.0 if root is not None else (-1.0 if s.fresh else -2.0)
+        # past an integration's first point, CVODE's root search has compared the functions on a grid
+        # holding every point it returned (its step ends and the log times): the core need not look
+        # again, unless one sat exactly on 0 at the last point
+        s.num[stepping.ROOT] = 1.0 if root is not None else (-1.0 if s.fresh or s.watch else -2.0)
+        if root is not None:  # the core reads w.g as the functions before the crossing
+            refresh(s, x, w, gl, y, z, pf, pi, t_last)
+        s.stale = s.stale or s.num[stepping.ROOT] < -1.5
         if s.fresh and root is None and w.g.size:
             leaving_sides(s, xn, w, gl, y, z, pf, pi)
         s.fresh = False
         if root is not None:
             w.fired[:] = root
             s.event_at, s.event_x = t, xn.copy()
+            # CVODE stops at the crossing; the core may go on from it (a crossing just before the next
+            # hit fires after that hit): from here, as from the state before an event's action
+            restart(s, t, xn, before=xn.copy())
         if reached:  # no event here: CVODE starts afresh, and leaving the surface is judged at that start
-            s.t0, s.x0, s.before = t, xn.copy(), None
-            s.times = [tt for tt in s.times if tt > t]
-            s.cv, s.queue, s.started, s.fresh, s.looked = None, [], False, True, False
+            if s.num[stepping.ROOT] < -1.5:  # the core keeps w.g only where it looks
+                w.g[:] = here
+                s.stale = False
+            restart(s, t, xn, before=None)
         return t
+
+    def refresh(s, x, w, gl, y, z, pf, pi, t_last=None):
+        """w.g at the last point (state ``x``) when the core did not keep it there (ROOT = -2)."""
+        if s.stale and w.g.size:
+            _zc(s.ta if t_last is None else t_last, x, w.g, w, gl, y, z, pf, pi)
+        s.stale = False
+
+    def restart(s, t, xn, before):
+        s.t0, s.x0, s.before = t, xn.copy(), before
+        s.times = [tt for tt in s.times if tt > t]
+        s.cv, s.queue, s.started, s.fresh, s.looked = None, [], False, True, False
 
     def at_start(s, xn, w, gl, y, z, pf, pi):
         """The crossing at the start (:func:`start_crossing`), taken, once per start; else None."""
@@ -268,11 +291,11 @@ def cvode_ops():
             return None
         s.looked = True
         point = start_crossing(s, w, gl, y, z, pf, pi)
-        return None if point is None else take(s, point, xn, w, gl, y, z, pf, pi)
+        return None if point is None else take(s, point, s.x0, xn, w, gl, y, z, pf, pi)
 
     def step(s, x, xn, w, gl, y, z, pf, pi):
         t = at_start(s, xn, w, gl, y, z, pf, pi)
-        return t if t is not None else take(s, one(s, w, gl, y, z, pf, pi), xn, w, gl, y, z, pf, pi)
+        return t if t is not None else take(s, one(s, w, gl, y, z, pf, pi), x, xn, w, gl, y, z, pf, pi)
 
     def steps(s, t_lim, x, xn, w, gl, y, z, pf, pi):
         t = at_start(s, xn, w, gl, y, z, pf, pi)
@@ -282,7 +305,7 @@ def cvode_ops():
             s.cv = None
         if not s.queue:
             return step(s, x, xn, w, gl, y, z, pf, pi)
-        return take(s, s.queue.pop(0), xn, w, gl, y, z, pf, pi)
+        return take(s, s.queue.pop(0), x, xn, w, gl, y, z, pf, pi)
 
     def dense(s, t, x, w, xo):  # the core asks only inside a step; CVODE's points end at log times
         xo[:] = x

@@ -104,9 +104,9 @@ def types():
 CALLED = ("crossed_any", "first_sign_change", "first_bad", "copy_into", "mute", "record", "rk_begin", "rk_step",
           "rk_steps", "rk_dense", "rk_restep", "rk_rewind", "fail", "log_event", "observe", "observe_to",
           "time_event", "restep_to_failure", "locate", "settle")
-#: of those, the ones inlined where they are called: a call passes each array of a record (the 21 of
-#: ``Work``) as seven separate arguments, and the steps are called at every log point (a batch) or
-#: every step (one at a time, with located events)
+#: of those, the ones inlined where they are called: a call passes each array of a record (every
+#: array of ``Work``) as seven separate arguments, and the steps are called at every log point (a
+#: batch) or every step (one at a time, with located events)
 INLINED = ("rk_steps", "rk_step")
 
 CORE_TAIL = """

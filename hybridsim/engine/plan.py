@@ -149,8 +149,8 @@ class Plan:
                 with np.errstate(all="ignore"):
                     self.blame(ctx, t, x)
             name, j = self.system.state_owner(k)
-            why = ("Not a number: a value feeding its derivative went NaN within the last step (a block's "
-                   "output between the points where outputs are checked: hits, log points, step ends), "
+            why = ("Not a number: a value it was computed from went NaN (a block's output between the "
+                   "points where outputs are checked: hits, log points, step ends; or an event's action), "
                    "or the closed loop is unstable at these gains and rates." if np.isnan(x[k]) else
                    "The closed loop may be unstable at these gains and rates, or the solver step too large.")
             raise SimulationError(

@@ -255,10 +255,11 @@ class ScipyStepper:
 
 def direct_lu(ode):
     """Radau's and BDF's dense LU factorisation and solve as LAPACK's getrf / getrs themselves:
-    ``scipy.linalg.lu_solve`` checks its arguments' array namespace and device on every call, a
-    cost several times the solve's for a plant of a few states, paid at every Newton iteration.
-    A matrix that is not finite fails the step as ``lu_factor`` does (ValueError); a singular one
-    gives a solve that is not finite, which Newton's iteration rejects."""
+    ``scipy.linalg.lu_solve`` checks its arguments' array namespace and device on every call,
+    which for a plant of a few states costs more than the solve, at every Newton iteration.
+    A matrix that is not finite fails the step as ``lu_factor`` does (ValueError). Not kept:
+    scipy's warning for a singular matrix and its check of the right-hand side (a solve that is
+    not finite makes the next right-hand side evaluation fail the run, as before)."""
     def lu(a):
         ode.nlu += 1
         if not np.isfinite(a).all():

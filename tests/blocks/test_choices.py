@@ -37,3 +37,11 @@ def test_infinity_spelled_as_a_word_is_told_yaml_spelling(block, param, extra, t
     # YAML reads `inf` as a string (``.inf`` is the number): the error says how to write it
     with pytest.raises(ParameterError, match=f"got '{text}' \\(YAML writes {hint}\\)"):
         lookup(block)(**{param: text}, **extra)
+
+
+@pytest.mark.parametrize("value", [["inf", "inf"], [1.0, "2"], [[1.0, 0.0], [0.0, "inf"]]])
+def test_a_word_inside_a_list_of_numbers_is_refused_too(value):
+    # numpy read ['inf', 'inf'] as infinities and ['1', '2'] as numbers: a number written as text
+    with pytest.raises(ParameterError, match="must be a number"):
+        lookup("force_pi")(limit=value[:2] if isinstance(value[0], list) else value, rate=100,
+                           Kp=value if isinstance(value[0], list) else 0.4)

@@ -253,3 +253,52 @@ def test_repeated_log_times_are_each_logged():
     x1, outs = CVode(rtol=1e-10, atol=1e-12).advance(lambda t, x: -x, 0.0, 1.0, np.ones(1), t_out)
     assert len(outs) == 4 and outs[1][0] == outs[2][0]
     assert np.max(np.abs(np.ravel(outs) - np.exp(-np.array(t_out)))) < 1e-8
+
+
+def _dead_zone_crossing():
+    # sin(2 pi t) through a dead zone of +-0.5: the hit_crossing's function sits exactly on 0 from
+    # the start and leaves it rising at t = 1/12 s; CVODE leaves such a function out of its search
+    from hybridsim.engine.registry import lookup
+
+    d = hs.Diagram("dz")
+    d.add(lookup("sine")("s", frequency=1.0))
+    d.add(lookup("dead_zone")("dz", lower=-0.5, upper=0.5))
+    d.add(lookup("hit_crossing")("h", direction="rising"))
+    d.connect("s.y", "dz.u")
+    d.connect("dz.y", "h.u")
+    return d.build()
+
+
+def test_a_function_leaving_zero_unreported_is_not_passed_over_silently():
+    # the core looks at every point while a function sits exactly on 0: CVODE either reports the
+    # crossing RK4 finds at 1/12 s or the run stops saying it stepped over one (it ran on with 0 events)
+    rk = hs.Simulator(_dead_zone_crossing(), hs.RK4(1e-3), log=["h.count"], log_period=0.01).run(1.0)
+    assert rk["h.count"][-1, 0] == 1
+    try:
+        res = hs.Simulator(_dead_zone_crossing(), CVode(), log=["h.count"], log_period=0.01).run(1.0)
+    except SimulationError as exc:
+        assert "stepped over a crossing of block 'h'" in str(exc)
+    else:
+        assert res["h.count"][-1, 0] == 1
+
+
+def test_a_crossing_just_before_a_hit_fires_after_it_as_on_rk4():
+    # rising zeros of the sine 5e-13 s before each hit of a 1 Hz zoh: within the core's time
+    # tolerance, so each fires just after its hit. CVODE's stop there lost every one (0 events,
+    # exit 0) and integrated the interval again from its start
+    from hybridsim.engine.registry import lookup
+
+    def diagram():
+        d = hs.Diagram("defer")
+        d.add(lookup("sine")("s", frequency=1.0, phase=2 * math.pi * 5e-13))
+        d.add(lookup("hit_crossing")("h", direction="rising"))
+        d.add(lookup("zoh")("z", rate=1.0))
+        d.connect("s.y", "h.u")
+        d.connect("s.y", "z.u")
+        return d.build()
+
+    runs = {name: hs.Simulator(diagram(), solver, log=["h.count"], log_period=0.01).run(3.5)
+            for name, solver in (("rk4", hs.RK4(1e-3)), ("cvode", CVode()))}
+    assert runs["cvode"]["h.count"][-1, 0] == runs["rk4"]["h.count"][-1, 0] == 3
+    assert np.all(np.diff(runs["cvode"].t) > 0)
+    assert [round(t, 9) for t, _ in runs["cvode"].meta["events"]] == [round(t, 9) for t, _ in runs["rk4"].meta["events"]]
