@@ -302,3 +302,22 @@ def test_a_crossing_just_before_a_hit_fires_after_it_as_on_rk4():
     assert runs["cvode"]["h.count"][-1, 0] == runs["rk4"]["h.count"][-1, 0] == 3
     assert np.all(np.diff(runs["cvode"].t) > 0)
     assert [round(t, 9) for t, _ in runs["cvode"].meta["events"]] == [round(t, 9) for t, _ in runs["rk4"].meta["events"]]
+
+
+def test_the_core_compares_event_functions_only_where_cvode_did_not(monkeypatch):
+    # past an integration's first point CVODE's own search covered every point it returned: the
+    # core compares the functions at the first points after each start (and while one sits on 0),
+    # not at each of the 2000 log points
+    from hybridsim.engine import stepping
+    from hybridsim.engine.registry import lookup
+
+    d = hs.Diagram("limited")
+    d.add(lookup("cosine")("u", amplitude=1.0, frequency=1.0))
+    d.add(lookup("integrator")("i", K=10.0, upper=0.5))
+    d.connect("u.y", "i.u")
+    calls = []
+    real = stepping.first_sign_change
+    monkeypatch.setattr(stepping, "first_sign_change", lambda a, b, dirs: calls.append(1) or real(a, b, dirs))
+    res = hs.Simulator(d.build(), CVode(), log=["i.y"], log_period=0.0005).run(1.0)
+    assert [round(t, 9) for t, _ in res.meta["events"]] == [0.050861297, 0.25]  # reach, leave (closed form)
+    assert res.t.size == 2001 and 0 < len(calls) < 50
