@@ -13,11 +13,12 @@ def _not_a(what, value, name, word=None):
     """The error for ``value`` where ``what`` was needed; a string (``word``, in a list) that spells
     infinity gets YAML's spelling (``inf`` is a string to YAML, ``.inf`` a number)."""
     word = value if word is None else word
+    bare = word.strip().lstrip("+-").lower() if isinstance(word, str) else ""
     hint = ""
-    if isinstance(word, str) and word.strip().lstrip("+-").lower() in ("inf", "infinity", "nan"):
-        sign = "-" if word.strip().startswith("-") else ""
-        hint = (" (YAML writes not-a-number as .nan)" if word.strip().lstrip("+-").lower() == "nan"
-                else f" (YAML writes infinity as {sign}.inf)")
+    if bare in ("inf", "infinity"):
+        hint = f" (YAML writes infinity as {'-' if word.strip().startswith('-') else ''}.inf)"
+    elif bare == "nan":
+        hint = " (YAML writes not-a-number as .nan)"
     return ParameterError(name, f"must be {what}, got {value!r}{hint}")
 
 
@@ -31,6 +32,18 @@ def _a_string(value):
             if found is not None:
                 return found
     return None
+
+
+def as_floats(value, name, what):
+    """``value`` as a float array, or the error saying it must be ``what``: a bool, a string, or a
+    list holding one (numpy would read '1e3' or 'inf' as numbers), or anything not numeric."""
+    word = _a_string(value)
+    if isinstance(value, bool) or word is not None:
+        raise _not_a(what, value, name, word)
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise _not_a(what, value, name) from None
 
 
 def _check_values(arr, name, inf_ok, sign):
@@ -85,12 +98,7 @@ def vector(value, name, width=None, sign=None, inf_ok=False):
     ``width`` elements (``[0.5]`` where two are needed is an error, not a
     broadcast).
     """
-    if isinstance(value, bool) or _a_string(value) is not None:
-        raise _not_a("a number or a list of numbers", value, name, _a_string(value))
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ParameterError(name, f"must be a number or a list of numbers, got {value!r}") from None
+    arr = as_floats(value, name, "a number or a list of numbers")
     if arr.ndim > 1:
         raise ParameterError(name, f"must be a flat list, got shape {arr.shape}")
     if arr.ndim == 0:
@@ -110,12 +118,7 @@ def floats(value, name, width=None, sign=None, inf_ok=False):
 
 def matrix(value, name, n):
     """A gain as an n x n matrix: a scalar, a diagonal list, or a full matrix (finite)."""
-    if isinstance(value, bool) or _a_string(value) is not None:
-        raise _not_a("a number, a list or a matrix", value, name, _a_string(value))
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ParameterError(name, f"must be a number, a list or a matrix, got {value!r}") from None
+    arr = as_floats(value, name, "a number, a list or a matrix")
     if arr.ndim == 0:
         _check_values(arr.reshape(1), name, False, None)
         return np.eye(n) * float(arr)
@@ -129,10 +132,7 @@ def matrix(value, name, n):
 
 def finite_matrix(value, name):
     """A 2-D float array of finite numbers (state-space matrices)."""
-    try:
-        arr = np.atleast_2d(np.asarray(value, dtype=float))
-    except (TypeError, ValueError):
-        raise ParameterError(name, f"must be a matrix of numbers, got {value!r}") from None
+    arr = np.atleast_2d(as_floats(value, name, "a matrix of numbers"))
     if arr.ndim != 2:
         raise ParameterError(name, f"must be a matrix, got shape {arr.shape}")
     _check_values(arr.ravel(), name, False, None)

@@ -16,7 +16,7 @@ from hybridsim.errors import ParameterError
 from hybridsim.engine.kernels import Kernels, kernel
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks._util import vector
+from hybridsim.blocks._util import as_floats, vector
 
 GROUP = "math"  # where `hybridsim blocks` lists this module's blocks
 
@@ -120,10 +120,7 @@ class LookupND(Block):
                 isinstance(b, (list, tuple, np.ndarray)) for b in breakpoints):
             raise ParameterError("breakpoints", "must be a list of breakpoint lists, one per dimension")
         bps = [_breakpoints(b, "breakpoints") for b in breakpoints]
-        try:
-            tab = np.asarray(table, dtype=float)
-        except (TypeError, ValueError):
-            raise ParameterError("table", "must be a nested list of numbers (a rectangular grid)") from None
+        tab = as_floats(table, "table", "a nested list of numbers (a rectangular grid)")
         shape = tuple(b.size for b in bps)
         if tab.shape != shape:
             raise ParameterError("table", f"must have shape {shape} (one value per grid point), got {tab.shape}")

@@ -13,7 +13,7 @@ from hybridsim.errors import ParameterError
 from hybridsim.engine.kernels import Kernels, kernel, unroll
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks._util import choice, count, vector
+from hybridsim.blocks._util import as_floats, choice, count, vector
 from hybridsim.blocks.math.lookup import lookup_1d_output, table_params
 
 
@@ -266,10 +266,7 @@ class Lookup2D(Block):
     def __init__(self, name="lookup2", x1=(0.0, 1.0), x2=(0.0, 1.0), table=((0.0, 0.0), (0.0, 0.0))):
         super().__init__(name)
         b1, b2 = _breakpoints(x1, "x1"), _breakpoints(x2, "x2")
-        try:
-            tab = np.asarray(table, dtype=float)
-        except (TypeError, ValueError):
-            raise ParameterError("table", f"must be a matrix of numbers, got {table!r}") from None
+        tab = as_floats(table, "table", "a matrix of numbers")
         if tab.shape != (b1.size, b2.size) or not np.all(np.isfinite(tab)):
             raise ParameterError("table", f"must be {b1.size}x{b2.size} finite numbers, got shape {tab.shape}")
         self.params = (b1, b2, tab)

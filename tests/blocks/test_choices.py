@@ -45,3 +45,13 @@ def test_a_word_inside_a_list_of_numbers_is_refused_too(value):
     with pytest.raises(ParameterError, match="must be a number"):
         lookup("force_pi")(limit=value[:2] if isinstance(value[0], list) else value, rate=100,
                            Kp=value if isinstance(value[0], list) else 0.4)
+
+
+@pytest.mark.parametrize("block, kw", [
+    ("state_space", {"A": [["inf"]], "B": [[1.0]], "C": [[1.0]], "D": [[0.0]]}),
+    ("lookup_nd", {"breakpoints": [[0.0, 1.0]], "table": [0.0, "1"]}),
+    ("lookup_2d", {"table": [[0.0, 0.0], [0.0, "nan"]]}),
+])
+def test_every_numeric_table_refuses_numbers_written_as_words(block, kw):
+    with pytest.raises(ParameterError, match="must be a (matrix|nested list) of numbers"):
+        lookup(block)(**kw)
