@@ -15,6 +15,7 @@ import hashlib
 import inspect
 import re
 
+from hybridsim.engine import rk_code
 from hybridsim.engine.fused import event_sizes
 from hybridsim.engine.kernels import marked
 
@@ -95,8 +96,9 @@ def _tuple(items):
     return "(" + "".join(f"{x}, " for x in items) + ")" if items else "()"
 
 
-def glue_source(system, log_path, located, layout):
-    """The generated module's source and the names it needs: ``(source, env)``."""
+def glue_source(system, log_path, located, layout, method):
+    """The generated module's source and the names it needs: ``(source, env)``; ``method`` is the
+    Runge-Kutta method whose steps the glue takes itself (:func:`~.rk_code.glue_steps_lines`)."""
     sysm = system
     env = {}
     wr = _Writer(sysm, layout, env)
@@ -143,14 +145,21 @@ def glue_source(system, log_path, located, layout):
             lines += wr.evaluate(i, pad, local)
         return lines, local
 
+    # the right-hand side: its blocks' params built once per call of the steps (``rhs_params``), then
+    # every signal a local in ``rhs_body`` (inlined into the steps; not viewed: it takes arrays)
     lines, local = rhs_outputs()
-    L = ["def rhs(t, x, dx, at, y, z, pf, pi):"] + wr.param_lines(path + list(sysm.stateful)) + lines
+    used = sorted(set(path + list(sysm.stateful)))
+    held = ", ".join(f"P{i}" for i in used) + ("," if len(used) == 1 else "")
+    fns.append(["def rhs_params(pf, pi):"] + wr.param_lines(used) + [f"    return ({held})"])
+    L = ["def rhs_body(t, x, dx, at, y, z, PP):"] + ([f"    {held} = PP"] if used else []) + lines
     for i in sysm.stateful:
         s = sysm.xslices[i]
         f = wr.kernel(i, "derivatives")
         L.append(f"    d{i} = {f}(P{i}, t, {wr.state(i)}, {wr.inputs(i, local)})")
         L += [f"    dx[at + {s.start + j}] = d{i}[{j}]" for j in range(s.stop - s.start)]
-    fns.append(L)
+    rhs_fn = L + ["    pass"]
+    fns.append(["def rhs(t, x, dx, at, y, z, pf, pi):", "    rhs_body(t, x, dx, at, y, z, rhs_params(pf_p, pi_p))"])
+    fns.append(rk_code.glue_steps_lines(method, "rhs_body", "rhs_params(pf_p, pi_p)"))
 
     # located events: their functions and actions
     sizes = event_sizes(sysm, located) if located else []
@@ -213,10 +222,12 @@ def glue_source(system, log_path, located, layout):
     n_y = sum(p.width for b in sysm.blocks for p in b.outputs)
     n_z = sum(b.n_discrete for b in sysm.blocks)
     n_e = sum(sizes)
-    shapes = {"x": f"({sysm.n_x},)", "xn": f"({sysm.n_x},)", "dx": f"(at + {sysm.n_x},)", "y": f"({n_y},)",
+    n_x, stages = sysm.n_x, len(method.c)
+    shapes = {"num": "(8,)", "kk": f"({stages * n_x},)", "xs": f"({n_x},)", "xm": f"({n_x},)",
+              "x": f"({sysm.n_x},)", "xn": f"({sysm.n_x},)", "dx": f"(at + {sysm.n_x},)", "y": f"({n_y},)",
               "z": f"({n_z},)", "pf": f"({layout.nf},)", "pi": f"({layout.ni},)", "g": f"({n_e},)",
               "fired": f"({n_e},)", "due": f"(row + 1, {len(sysm.discrete)})"}
-    fns = [_viewing(f, shapes) for f in fns]
+    fns = [rhs_fn] + [_viewing(f, shapes) for f in fns]
     body = "\n\n\n".join("\n".join(f if len(f) > 1 else f + ["    pass"]) for f in fns)
     kernels = [f[1] if isinstance(f, tuple) else f for f in env.values() if callable(f) or isinstance(f, tuple)]
     stamp = _stamp(reachable(k for k in kernels if callable(k)))

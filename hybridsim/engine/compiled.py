@@ -131,7 +131,7 @@ class CompiledGlue:
             ) from None
         self.system, self.solver, self.log_path = system, solver, log_path
         self.layout = ParamLayout(system.blocks)
-        self.source, env = glue_source(system, log_path, self.located, self.layout)
+        self.source, env = glue_source(system, log_path, self.located, self.layout, type(solver))
         self.glue = _load(self.source, env, system.name, system)
         self._layouts = {}  # a run's params of other sizes (a longer table): their layout and glue
         try:
@@ -163,7 +163,7 @@ class CompiledGlue:
         if key not in self._layouts:
             with _LAYOUTS_LOCK:
                 if key not in self._layouts:
-                    source, env = glue_source(self.system, self.log_path, self.located, layout)
+                    source, env = glue_source(self.system, self.log_path, self.located, layout, type(self.solver))
                     self._layouts[key] = (layout, _load(source, env, self.system.name, self.system))
         layout, glue = self._layouts[key]
         pf, pi = layout.flatten(params)
@@ -199,7 +199,7 @@ def _dispatcher(f):
 
 def _load(source, env, name, system=None):
     """Compile (or load from the cache) the glue in ``source``: a :class:`~.stepping.Glue` of cfuncs."""
-    from numba import cfunc
+    from numba import cfunc, njit
     from numba.core.errors import NumbaError, NumbaExperimentalFeatureWarning, NumbaIRAssumptionWarning
     from hybridsim.engine.stepping import Glue
 
@@ -226,6 +226,11 @@ def _load(source, env, name, system=None):
     sys.modules[spec.name] = module  # numba's cache finds the module by name
     spec.loader.exec_module(module)
     vars(module).update(resolved)  # the kernels, by the names the source uses
+    # the right-hand side's params and body, called by the glue's rhs and its own steps (the body
+    # inlined into each stage, where the params it reads are then the values built once)
+    inner = dict(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+    module.rhs_params = njit(inline="always", **inner)(module.rhs_params)
+    module.rhs_body = njit(inline="always", **inner)(module.rhs_body)
     types = native.types()["glue"]
     try:
         with warnings.catch_warnings(), native.compiling(f"glue_{key}"):

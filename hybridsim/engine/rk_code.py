@@ -99,7 +99,69 @@ def _arr(expr, k_name="kk"):
     return re.sub(r"\bk(\d+)\[e\]", lambda m: f"{k_name}[{int(m.group(1)) - 1} * n + e]", expr)
 
 
-def array_source(method):
+def _stage_lines(method, pad, xvar, kname, tvar, call, tail="y, z, pf, pi"):
+    """Each stage: its state into ``xs``, then ``call`` its derivatives into stage j of ``kname``."""
+    out = []
+    for i, (c, row) in enumerate(zip(method.c, method.A)):
+        terms = _terms(row)
+        tt = _time(method, c).replace("t", tvar, 1)
+        if not terms:
+            out.append(f"{pad}{call}({tt}, {xvar}, {kname}, {i} * n, {tail})")
+            continue
+        out += [f"{pad}for e in range(n):",
+                f"{pad}    xs[e] = {_arr(_combo(method, terms, '[e]'), kname).replace('x[e]', xvar + '[e]')}",
+                f"{pad}{call}({tt}, xs, {kname}, {i} * n, {tail})"]
+    return out
+
+
+def _step_body(method, call, tail="y, z, pf, pi"):
+    """Lines of one step ``k`` of the grid (``num``: step, h, n, k, t0, t1) from ``x`` into ``xn``, its
+    stages in ``kk`` (``xs`` the stages' states); returns the step's end time."""
+    return (["    k = int(num[3])",
+             "    h = num[1]",
+             "    t = num[4] + k * h",
+             "    n = x.size"] + _scaled_lines(method, "    ") + _stage_lines(method, "    ", "x", "kk", "t", call, tail) + [
+            "    for e in range(n):",
+            f"        xn[e] = {_arr(_result(method, '[e]'))}",
+            "    num[3] = k + 1",
+            "    return num[5] if k + 1 >= int(num[2]) else num[4] + (k + 1) * h"])
+
+
+def _steps_body(method, call, tail="y, z, pf, pi"):
+    """Lines of as many steps as end by ``t_lim`` (at least one) from ``x`` into ``xn`` (``xm`` the
+    state between them): the steps written out in the loop, a call per step costing more than its
+    arithmetic. Returns the last step's end time."""
+    return (["    num[7] = num[3]",
+             "    k = int(num[3])",
+             "    h = num[1]",
+             "    m = int(num[2])",
+             "    t0 = num[4]",
+             "    n = x.size",
+             "    src = x"] + _scaled_lines(method, "    ") + [
+            "    while True:",
+            "        t = t0 + k * h"] + _stage_lines(method, "        ", "src", "kk", "t", call, tail) + [
+            "        for e in range(n):",
+            f"            xn[e] = {_arr(_result(method, '[e]')).replace('x[e]', 'src[e]')}",
+            "        k += 1",
+            "        if not (k < m and t0 + (k + 1) * h <= t_lim + 1e-9 * h):",
+            "            break",
+            "        for e in range(n):",
+            "            xm[e] = xn[e]",
+            "        src = xm",
+            "    num[3] = k",
+            "    return num[5] if k >= m else t0 + k * h"])
+
+
+def glue_steps_lines(method, rhs, params):
+    """Lines of ``steps(num, t_lim, x, xn, kk, xs, xm, y, z, pf, pi)``: the stepper's ``steps`` for a
+    compiled glue, the diagram's right-hand side called directly as ``rhs(t, x, dx, at, y, z, PP)``
+    (inlined: no call through a pointer per stage), ``PP = params`` built once per call. The same
+    lines as :func:`array_source`'s; with ``t_lim = -inf`` it takes exactly one step."""
+    return (["def steps(num, t_lim, x, xn, kk, xs, xm, y, z, pf, pi):", f"    PP = {params}"]
+            + _steps_body(method, rhs, "y, z, PP"))
+
+
+def array_source(method, glue_steps=False):
     """Source of the core's Runge-Kutta stepper for ``method`` on arrays (:class:`~.stepping.Ops`).
 
     ``step(s, x, xn, w, rhs, y, z, pf, pi)`` takes step ``k`` of the current grid
@@ -108,23 +170,11 @@ def array_source(method):
     ``t_lim``; ``dense`` the state inside the last step; ``restep`` one fresh step of
     ``hh``; ``begin`` cuts [t0, t1] into equal steps; ``rewind`` goes back to the
     start of the last ``steps``. The same expressions, element by element, as
-    :func:`unrolled_lines` writes on tuples.
+    :func:`unrolled_lines` writes on tuples. With ``glue_steps`` (the compiled core)
+    ``step`` and ``steps`` call the glue's own steps (:func:`glue_steps_lines`, compiled
+    with the diagram's right-hand side; one step: ``t_lim = -inf``).
     """
     scaled = _scaled_lines(method, "    ")
-
-    def stage_lines(pad, xvar, kname, tvar):
-        out = []
-        for i, (c, row) in enumerate(zip(method.c, method.A)):
-            terms = _terms(row)
-            tt = _time(method, c).replace("t", tvar, 1)
-            if not terms:
-                out.append(f"{pad}gl.rhs({tt}, {xvar}, {kname}, {i} * n, y, z, pf, pi)")
-                continue
-            out += [f"{pad}for e in range(n):",
-                    f"{pad}    xs[e] = {_arr(_combo(method, terms, '[e]'), kname).replace('x[e]', xvar + '[e]')}",
-                    f"{pad}gl.rhs({tt}, xs, {kname}, {i} * n, y, z, pf, pi)"]
-        return out
-
     used = _dense_terms(method)
     dense = " + ".join(f"wts[{j}] * kk[{j} * n + e]" for j in used)
     L = ["def rk_begin(s, t0, t1, x, times, j, j1):",
@@ -133,44 +183,15 @@ def array_source(method):
          "    num[2] = m", "    num[1] = (t1 - t0) / m", "    num[3] = 0", "    num[7] = 0",
          "    num[4] = t0", "    num[5] = t1", "",
          "",
-         "def rk_step(s, x, xn, w, gl, y, z, pf, pi):",
-         "    num = s.num",
-         "    k = int(num[3])",
-         "    h = num[1]",
-         "    t = num[4] + k * h",
-         "    n = x.size",
-         "    kk = w.k",
-         "    xs = w.xs"] + scaled + stage_lines("    ", "x", "kk", "t") + [
-         "    for e in range(n):",
-         f"        xn[e] = {_arr(_result(method, '[e]'))}",
-         "    num[3] = k + 1",
-         "    return num[5] if k + 1 >= int(num[2]) else num[4] + (k + 1) * h", "",
+         "def rk_step(s, x, xn, w, gl, y, z, pf, pi):"] + (
+        ["    return gl.steps(s.num, -math.inf, x, xn, w.k, w.xs, w.xm, y, z, pf, pi)"] if glue_steps else
+        ["    num = s.num", "    kk = w.k", "    xs = w.xs"] + _step_body(method, "gl.rhs")) + [
          "",
-         "def rk_steps(s, t_lim, x, xn, w, gl, y, z, pf, pi):",
-         "    # the steps written out in the loop (a call per step would cost more than its arithmetic)",
-         "    num = s.num",
-         "    num[7] = num[3]",
-         "    k = int(num[3])",
-         "    h = num[1]",
-         "    m = int(num[2])",
-         "    t0 = num[4]",
-         "    n = x.size",
-         "    kk = w.k",
-         "    xs = w.xs",
-         "    xm = w.xm",
-         "    src = x"] + scaled + [
-         "    while True:",
-         "        t = t0 + k * h"] + stage_lines("        ", "src", "kk", "t") + [
-         "        for e in range(n):",
-         f"            xn[e] = {_arr(_result(method, '[e]')).replace('x[e]', 'src[e]')}",
-         "        k += 1",
-         "        if not (k < m and t0 + (k + 1) * h <= t_lim + 1e-9 * h):",
-         "            break",
-         "        for e in range(n):",
-         "            xm[e] = xn[e]",
-         "        src = xm",
-         "    num[3] = k",
-         "    return num[5] if k >= m else t0 + k * h", "",
+         "",
+         "def rk_steps(s, t_lim, x, xn, w, gl, y, z, pf, pi):"] + (
+        ["    return gl.steps(s.num, t_lim, x, xn, w.k, w.xs, w.xm, y, z, pf, pi)"] if glue_steps else
+        ["    num = s.num", "    kk = w.k", "    xs = w.xs", "    xm = w.xm"] + _steps_body(method, "gl.rhs")) + [
+         "",
          "",
          "def rk_dense(s, t, x, w, xo):",
          "    num = s.num",
@@ -192,7 +213,7 @@ def array_source(method):
           "    h = hh",
           "    n = x.size",
           "    kk = w.kr",
-          "    xs = w.xr"] + scaled + stage_lines("    ", "x", "kk", "t") + [
+          "    xs = w.xr"] + scaled + _stage_lines(method, "    ", "x", "kk", "t", "gl.rhs") + [
           "    for e in range(n):",
           f"        xr[e] = {_arr(_result(method, '[e]'))}",
           "    return True", "",

@@ -147,7 +147,10 @@ def test_first_compile_is_announced_once(tmp_path, monkeypatch, caplog):
     monkeypatch.setenv("HYBRIDSIM_CACHE", str(tmp_path))
     source = (f"# {tmp_path}\nimport math\n\n\n"
               "def hit(op, t, x, y, z, pf, pi, due, row):\n    return -1\n\n\n"
+              "def rhs_params(pf, pi):\n    return ()\n\n\n"
+              "def rhs_body(t, x, dx, at, y, z, PP):\n    dx[at] = -x[0]\n\n\n"
               "def rhs(t, x, dx, at, y, z, pf, pi):\n    dx[at] = -x[0]\n\n\n"
+              "def steps(num, t_lim, x, xn, kk, xs, xm, y, z, pf, pi):\n    return t_lim\n\n\n"
               "def zc(t, x, g, y, z, pf, pi):\n    pass\n\n\n"
               "def act(t, x, xn, fired, y, z, pf, pi):\n    return 0\n\n\n"
               "def next_time(t, x, y, z, pf, pi):\n    return math.inf\n\n\n"
