@@ -109,7 +109,13 @@ class Cosine(_Source):
 def cosine_output(p, t, x, u):
     offset, amp, w, phase = p
     a = w * t + phase
-    return offset + amp * math.cos(a), -amp * w * math.sin(a)
+    c, s = math.cos(a), math.sin(a)
+    n = offset.size
+    y = np.empty(2 * n)  # both outputs in one array, element by element: one allocation when compiled
+    for i in range(n):
+        y[i] = offset[i] + amp[i] * c
+        y[n + i] = -amp[i] * w * s
+    return y[:n], y[n:]
 
 
 @register("table")
