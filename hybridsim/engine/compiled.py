@@ -6,8 +6,10 @@ machine (:mod:`hybridsim.engine.native`) with this diagram's glue: the
 functions of :class:`~hybridsim.engine.stepping.Glue` (the hit's output pass,
 the updates, the right-hand side, the event functions and actions, the log
 path) generated as numba source from the blocks' kernels
-(:mod:`hybridsim.engine.kernels`) and compiled as first-class functions. Inside
-the right-hand side every signal element is a local float; the kernels are
+(:mod:`hybridsim.engine.kernels`) and compiled as first-class functions, with
+the method's steps (``Glue.steps``: the right-hand side inlined into each stage,
+:func:`~hybridsim.engine.rk_code.glue_steps_lines`). Inside the right-hand side
+every signal element is a local float; the kernels are
 called as compiled functions that numba caches on disk across diagrams. The
 blocks' numbers reach the glue at run time as two flat arrays (:class:`ParamLayout`), so one compiled
 glue serves every parameter value of a diagram's structure. Generated

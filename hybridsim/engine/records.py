@@ -113,7 +113,8 @@ class Ops(NamedTuple):
     one) and returns the end time; ``dense`` the state at ``t`` inside the last step;
     ``restep`` one fresh step of ``hh`` s from the last step's start, False where the
     stepper cannot; ``rewind`` puts the stepper back to the start of the last
-    ``steps`` (False: it cannot). The steppers call ``gl.rhs`` for the derivatives.
+    ``steps`` (False: it cannot). The steppers call ``gl.rhs`` for the derivatives (the
+    compiled core's Runge-Kutta steps call ``gl.steps``, the glue's own).
     """
 
     begin: Callable    # (s, t0, t1, x, times, j, j1)
