@@ -28,10 +28,10 @@ class Sum(Block):
 
 
 @kernel
-def sum_output(p, t, x, u):
+def sum_output(p, t, x, u, out):
     signs = p[0]
     n = len(u[0])
-    y = np.empty(n)  # one array, summed into element by element (compiled: no temporaries)
+    y = out[0]  # summed into element by element (compiled: no temporaries)
     first = u[0]
     for i in range(n):
         y[i] = signs[0] * first[i]
@@ -41,7 +41,7 @@ def sum_output(p, t, x, u):
             for i in range(n):
                 y[i] = y[i] + signs[k] * v[i]
         k += 1
-    return (y,)
+    return out
 
 
 @register("gain")
@@ -81,12 +81,11 @@ class Selection(Block):
 
 
 @kernel
-def selection_output(p, t, x, u):
-    s, v = p[0], u[0]
-    y = np.empty(s.size)
+def selection_output(p, t, x, u, out):
+    s, v, y = p[0], u[0], out[0]
     for i in range(s.size):
         y[i] = s[i] * v[i]  # eq 13
-    return (y,)
+    return out
 
 
 @register("mux")
@@ -197,7 +196,7 @@ def _widths(widths):
     return [count(w, "widths") for w in widths]
 
 
-Sum.kernels = Kernels(output=sum_output)
+Sum.kernels = Kernels(output_into=sum_output)
 Mux.kernels = Kernels(output=mux_output)
 Gain.kernels = Kernels(output=gain_output)
-Selection.kernels = Kernels(output=selection_output)
+Selection.kernels = Kernels(output_into=selection_output)

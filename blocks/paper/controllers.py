@@ -48,19 +48,19 @@ class PositionPID(_Sampled):
 
 
 @kernel
-def pid_output(p, t, z, u):
+def pid_output(p, t, z, u, out):
     Kp, Ki, Kd, T = p
     e, ed = u[0], u[1]
     n = Kp.shape[0]
-    tau = np.empty(n)
-    for i in range(n):  # eq 15a: Kp e + Ki (z + e T) + Kd ed, as loops (compiled: no BLAS call, one array)
+    tau = out[0]
+    for i in range(n):  # eq 15a: Kp e + Ki (z + e T) + Kd ed, as loops (compiled: no BLAS call, no array)
         a = b = c = 0.0
         for j in range(n):
             a += Kp[i, j] * e[j]
             b += Ki[i, j] * (z[j] + e[j] * T)
             c += Kd[i, j] * ed[j]
         tau[i] = a + b + c
-    return (tau,)
+    return out
 
 
 @kernel
@@ -102,18 +102,18 @@ def limited(e, limit):
 
 
 @kernel
-def force_pi_output(p, t, z, u):
+def force_pi_output(p, t, z, u, out):
     Kp, Ki, limit, T = p
     e, ff = u[0], u[1]
     n = Kp.shape[0]
-    tau = np.empty(n)
+    tau = out[0]
     for i in range(n):  # eq 15b: ff + Kp e + Ki (z + e' T), e' the limited error
         a = b = 0.0
         for j in range(n):
             a += Kp[i, j] * e[j]
             b += Ki[i, j] * (z[j] + limited(e[j], limit[j]) * T)
         tau[i] = ff[i] + a + b
-    return (tau,)
+    return out
 
 
 @kernel
@@ -126,5 +126,5 @@ def force_pi_update(p, t, z, u):
     return new
 
 
-PositionPID.kernels = Kernels(output=pid_output, update=pid_update)
-ForcePI.kernels = Kernels(output=force_pi_output, update=force_pi_update)
+PositionPID.kernels = Kernels(output_into=pid_output, update=pid_update)
+ForcePI.kernels = Kernels(output_into=force_pi_output, update=force_pi_update)

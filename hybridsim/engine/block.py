@@ -263,6 +263,8 @@ class Block:
     def output(self, t, x, u):
         """Outputs at time ``t`` (s) from state ``x`` and inputs ``u``: one sequence per output port."""
         k = self.kernels
+        if k is not None and k.output_into is not None:
+            return k.output_into(self.params, t, x, u, tuple(np.empty(p.width) for p in self.outputs))
         return k.output(self.params, t, x, u) if k is not None and k.output else ()
 
     def derivatives(self, t, x, u):

@@ -70,16 +70,19 @@ class _Writer:
         return name
 
     def evaluate(self, i, pad, local, xname="x", store=False):
-        """Lines computing block ``i``'s outputs into locals (and into y when ``store``)."""
+        """Lines computing block ``i``'s outputs into locals (and into y when ``store``; a kernel that
+        writes its outputs, ``output_into``, writes them into y itself, its own elements there)."""
         b = self.sysm.blocks[i]
         if not b.outputs:
             return []
-        f = self.kernel(i, "output")
-        lines = [f"{pad}r{i} = {f}(P{i}, t, {self.state(i, xname)}, {self.inputs(i, local)})"]
+        into = self.sysm.blocks[i].kernels.output_into is not None
+        f = self.kernel(i, "output_into" if into else "output")
+        ports = "" if not into else ", " + _tuple(f"y[{a}:{a + p.width}]" for a, p in zip(self.yoff[i], b.outputs))
+        lines = [f"{pad}r{i} = {f}(P{i}, t, {self.state(i, xname)}, {self.inputs(i, local)}{ports})"]
         for o, port in enumerate(b.outputs):
             for j in range(port.width):
                 lines.append(f"{pad}y{i}_{o}_{j} = r{i}[{o}][{j}]")
-                if store:
+                if store and not into:
                     lines.append(f"{pad}y[{self.yoff[i][o] + j}] = y{i}_{o}_{j}")
         local.add(i)
         return lines

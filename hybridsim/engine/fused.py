@@ -17,6 +17,7 @@ remains the reference. Discontinuities are stepped over.
 import numpy as np
 
 from hybridsim.engine import stepping
+from hybridsim.engine.kernels import gives_outputs
 from hybridsim.engine.rk_code import tuple_source, unrolled_lines
 from hybridsim.engine.solvers import ExplicitRK
 
@@ -34,7 +35,7 @@ def has_kernels(block):
     k = block.kernels
     if k is None:
         return False
-    return (k.output is not None and (not block.n_continuous or k.derivatives is not None)
+    return (gives_outputs(k) and (not block.n_continuous or k.derivatives is not None)
             and (not block.n_discrete or k.update is not None))
 
 
@@ -60,7 +61,7 @@ def rk_source(system, method, params_arg=False, located=None):
     on_path = set(path)
     held = sysm.plan.held_ports()
     held_index = {port: k for k, port in enumerate(held)}
-    env = {}
+    env = {"empty": np.empty}
     extra = ", P" if params_arg else ""
     lines = [f"def rhs(t, X, H{extra}):"]
 
@@ -84,9 +85,12 @@ def rk_source(system, method, params_arg=False, located=None):
 
     done = set()
     for i in path:
-        env[f"out{i}"] = sysm.blocks[i].kernels.output
+        kern = sysm.blocks[i].kernels
+        env[f"out{i}"] = kern.output_into or kern.output
         args = [arg(i, a, o, k, done) for k, (a, o) in enumerate(sysm.sources[i])]
-        lines.append(f"    o{i} = out{i}({params(i)}, t, {state(i)}, {tuple_source(args)})")
+        into = "" if kern.output_into is None else \
+            ", " + tuple_source(f"empty({p.width})" for p in sysm.blocks[i].outputs)  # arrays it fills
+        lines.append(f"    o{i} = out{i}({params(i)}, t, {state(i)}, {tuple_source(args)}{into})")
         done.add(i)
     done = on_path
     parts = []

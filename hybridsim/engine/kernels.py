@@ -9,7 +9,11 @@ writes its equations once, as functions ``f(p, t, x, u)`` of
 * ``u``: its inputs, one indexable sequence of floats per input port;
 
 returning what the block method would (outputs: one sequence per port;
-derivatives and update: one sequence). :class:`~hybridsim.engine.block.Block` calls
+derivatives and update: one sequence). A block whose outputs are arrays of any
+width gives ``output_into(p, t, x, u, out)`` instead of ``output``: it writes
+each port into the 1-D float array ``out[k]`` it is given and returns ``out``
+(compiled, the arrays are the run's own wire vector: no array is allocated
+per call). :class:`~hybridsim.engine.block.Block` calls
 them with ``self.params`` on the generic path; :mod:`hybridsim.engine.fused` calls
 them from its generated Python RK4; :mod:`hybridsim.engine.compiled` compiles them
 with numba into one loop. So a kernel keeps to what numba's nopython mode
@@ -44,6 +48,12 @@ class Kernels(NamedTuple):
     update: Optional[Callable] = None
     zero_crossings: Optional[Callable] = None
     event_action: Optional[Callable] = None
+    output_into: Optional[Callable] = None  # (p, t, x, u, out) -> out: the outputs written into out
+
+
+def gives_outputs(k):
+    """True when the kernels ``k`` compute the block's outputs (``output`` or ``output_into``)."""
+    return k.output is not None or k.output_into is not None
 
 
 def kernel(fn):
