@@ -64,9 +64,8 @@ def pid_output(p, t, z, u, out):
 
 
 @kernel
-def pid_update(p, t, z, u):
+def pid_update(p, t, z, u, new):
     e = u[0]
-    new = np.empty(len(z))
     for j in range(len(z)):
         new[j] = z[j] + e[j] * p[3]  # rectangle rule, current sample included
     return new
@@ -117,14 +116,13 @@ def force_pi_output(p, t, z, u, out):
 
 
 @kernel
-def force_pi_update(p, t, z, u):
+def force_pi_update(p, t, z, u, new):
     Kp, Ki, limit, T = p
     e = u[0]
-    new = np.empty(len(z))
     for j in range(len(z)):
         new[j] = z[j] + limited(e[j], limit[j]) * T
     return new
 
 
-PositionPID.kernels = Kernels(output_into=pid_output, update=pid_update)
-ForcePI.kernels = Kernels(output_into=force_pi_output, update=force_pi_update)
+PositionPID.kernels = Kernels(output_into=pid_output, update_into=pid_update)
+ForcePI.kernels = Kernels(output_into=force_pi_output, update_into=force_pi_update)

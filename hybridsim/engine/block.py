@@ -277,6 +277,8 @@ class Block:
     def update(self, t, x, u):
         """The discrete state after the sample hit at ``t`` (s) (default: unchanged)."""
         k = self.kernels
+        if k is not None and k.update_into is not None:
+            return k.update_into(self.params, t, x, u, np.empty(self.n_discrete))
         return k.update(self.params, t, x, u) if k is not None and k.update else x
 
     def initial_state(self, u=None):

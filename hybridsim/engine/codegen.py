@@ -131,10 +131,15 @@ def glue_source(system, log_path, located, layout, method):
     L = [f"def update{sig}:"] + wr.param_lines(upd)
     for i in upd:
         n, a = sysm.blocks[i].n_discrete, wr.zoff[i]
-        f = wr.kernel(i, "update")
-        L += [f"    if due[row, {due_col[i]}]:",
-              f"        s{i} = {f}(P{i}, t, {wr.state(i)}, {wr.inputs(i)})"]
-        L += [f"        z[{a + j}] = s{i}[{j}]" for j in range(n)]
+        if sysm.blocks[i].kernels.update_into is not None:  # written into its own part of z
+            f = wr.kernel(i, "update_into")
+            L += [f"    if due[row, {due_col[i]}]:",
+                  f"        {f}(P{i}, t, {wr.state(i)}, {wr.inputs(i)}, z[{a}:{a + n}])"]
+        else:
+            f = wr.kernel(i, "update")
+            L += [f"    if due[row, {due_col[i]}]:",
+                  f"        s{i} = {f}(P{i}, t, {wr.state(i)}, {wr.inputs(i)})"]
+            L += [f"        z[{a + j}] = s{i}[{j}]" for j in range(n)]
         L += [f"        if not ({' and '.join(f'math.isfinite(z[{a + j}])' for j in range(n))}):",
               f"            return {i}"]
     L.append("    return -1")

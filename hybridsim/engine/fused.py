@@ -17,7 +17,7 @@ remains the reference. Discontinuities are stepped over.
 import numpy as np
 
 from hybridsim.engine import stepping
-from hybridsim.engine.kernels import gives_outputs
+from hybridsim.engine.kernels import gives
 from hybridsim.engine.rk_code import tuple_source, unrolled_lines
 from hybridsim.engine.solvers import ExplicitRK
 
@@ -35,8 +35,8 @@ def has_kernels(block):
     k = block.kernels
     if k is None:
         return False
-    return (gives_outputs(k) and (not block.n_continuous or k.derivatives is not None)
-            and (not block.n_discrete or k.update is not None))
+    return (gives(k, "output") and (not block.n_continuous or k.derivatives is not None)
+            and (not block.n_discrete or gives(k, "update")))
 
 
 def build(system, method, located=None):

@@ -13,7 +13,8 @@ derivatives and update: one sequence). A block whose outputs are arrays of any
 width gives ``output_into(p, t, x, u, out)`` instead of ``output``: it writes
 each port into the 1-D float array ``out[k]`` it is given and returns ``out``
 (compiled, the arrays are the run's own wire vector: no array is allocated
-per call). :class:`~hybridsim.engine.block.Block` calls
+per call); ``update_into(p, t, x, u, new)`` likewise writes the new discrete
+state into ``new`` (compiled, the run's own discrete state vector). :class:`~hybridsim.engine.block.Block` calls
 them with ``self.params`` on the generic path; :mod:`hybridsim.engine.fused` calls
 them from its generated Python RK4; :mod:`hybridsim.engine.compiled` compiles them
 with numba into one loop. So a kernel keeps to what numba's nopython mode
@@ -49,11 +50,12 @@ class Kernels(NamedTuple):
     zero_crossings: Optional[Callable] = None
     event_action: Optional[Callable] = None
     output_into: Optional[Callable] = None  # (p, t, x, u, out) -> out: the outputs written into out
+    update_into: Optional[Callable] = None  # (p, t, x, u, new) -> new: the new discrete state written into new
 
 
-def gives_outputs(k):
-    """True when the kernels ``k`` compute the block's outputs (``output`` or ``output_into``)."""
-    return k.output is not None or k.output_into is not None
+def gives(k, what):
+    """True when the kernels ``k`` compute ``what`` ("output", "update"): as a value or ``_into``."""
+    return getattr(k, what) is not None or getattr(k, what + "_into", None) is not None
 
 
 def kernel(fn):
