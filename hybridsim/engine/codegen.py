@@ -168,7 +168,10 @@ def glue_source(system, log_path, located, layout, method):
         L.append(f"    d{i} = {f}(P{i}, t, {wr.state(i)}, {wr.inputs(i, local)})")
         L += [f"    dx[at + {s.start + j}] = d{i}[{j}]" for j in range(s.stop - s.start)]
     rhs_fn = L + ["    pass"]
-    fns.append(["def rhs(t, x, dx, at, y, z, pf, pi):", "    rhs_body(t, x, dx, at, y, z, rhs_params(pf_p, pi_p))"])
+    # the compiled core takes every step, restep included, through ``steps`` and never calls ``rhs``
+    # (compiling it would cost a copy of the right-hand side): NaN, should anything call it
+    fns.append(["def rhs(t, x, dx, at, y, z, pf, pi):", f"    for k in range({sysm.n_x}):",
+                "        dx[at + k] = math.nan"])
     fns.append(rk_code.glue_steps_lines(method, "rhs_body", "rhs_params(pf_p, pi_p)"))
 
     # located events: their functions and actions

@@ -151,7 +151,7 @@ class CompiledGlue:
             pf, pi = self.layout.flatten(ctx.params)
         except ParamStructureError:  # an array of another size (a table's points): that layout's glue
             glue, pf, pi = self._other_layout(ctx.params)
-        s = self.state._replace(num=self.state.num.copy())  # one per run: runs may share threads
+        s = self.state._replace(num=self.state.num.copy(), tmp=self.state.tmp.copy())  # one per run: runs may share threads
         return glue, None, s, pf, pi
 
     def _other_layout(self, params):

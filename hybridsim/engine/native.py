@@ -69,7 +69,7 @@ def example_records(n=1, s=1, e=1, d=1, b=1):
                       np.zeros(d, np.bool_))
     out = stepping.Out(f(1, 1), np.zeros(1, np.int64), np.zeros(1, np.int64), f(1), np.zeros((1, b), np.bool_),
                        np.zeros(1, np.int64), np.zeros(3, np.int64), f(1))
-    rks = rk.RKState(f(s), f(8))
+    rks = rk.RKState(f(s), f(8), f(8))
     return tl, lim, w, out, rks
 
 

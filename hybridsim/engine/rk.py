@@ -25,13 +25,14 @@ class RKState(NamedTuple):
 
     c: np.ndarray    # float64[s]: the method's nodes (s: its number of stages)
     num: np.ndarray  # float64[8]: step, h, n (steps in the grid), k (taken), t0, t1, -, k at the last `steps`
+    tmp: np.ndarray  # float64[8]: a grid of one step, as num (the compiled glue's restep)
 
 
 def rk_state(method):
     """A fresh :class:`RKState` of an :class:`~hybridsim.engine.solvers.ExplicitRK` method."""
     num = np.zeros(8)
     num[STEP] = method.step
-    return RKState(np.array(method.c, float), num)
+    return RKState(np.array(method.c, float), num, np.zeros(8))
 
 
 @functools.lru_cache(maxsize=None)

@@ -152,13 +152,37 @@ def _steps_body(method, call, tail="y, z, pf, pi"):
             "    return num[5] if k >= m else t0 + k * h"])
 
 
+def _stage_switch_lines(method, pad, xvar, kname, tvar, call, tail):
+    """:func:`_stage_lines` as one loop over the stages, each stage's state and time chosen by a
+    branch and ``call`` written once (a compiled glue inlines the right-hand side once, not once per
+    stage): the same expressions."""
+    last = len(method.c) - 1
+    out = [f"{pad}for i in range({len(method.c)}):"]
+    for i, (c, row) in enumerate(zip(method.c, method.A)):
+        terms = _terms(row)
+        out.append(f"{pad}    if i == {i}:" if i == 0 else (f"{pad}    elif i == {i}:" if i < last else f"{pad}    else:"))
+        out.append(f"{pad}        ts = {_time(method, c).replace('t', tvar, 1)}")
+        if not terms:
+            out.append(f"{pad}        v = {xvar}")
+            continue
+        out += [f"{pad}        for e in range(n):",
+                f"{pad}            xs[e] = {_arr(_combo(method, terms, '[e]'), kname).replace('x[e]', xvar + '[e]')}",
+                f"{pad}        v = xs"]
+    out.append(f"{pad}    {call}(ts, v, {kname}, i * n, {tail})")
+    return out
+
+
 def glue_steps_lines(method, rhs, params):
     """Lines of ``steps(num, t_lim, x, xn, kk, xs, xm, y, z, pf, pi)``: the stepper's ``steps`` for a
     compiled glue, the diagram's right-hand side called directly as ``rhs(t, x, dx, at, y, z, PP)``
-    (inlined: no call through a pointer per stage), ``PP = params`` built once per call. The same
-    lines as :func:`array_source`'s; with ``t_lim = -inf`` it takes exactly one step."""
-    return (["def steps(num, t_lim, x, xn, kk, xs, xm, y, z, pf, pi):", f"    PP = {params}"]
-            + _steps_body(method, rhs, "y, z, PP"))
+    from one place, in a loop over the stages (inlined once: no call through a pointer per stage),
+    ``PP = params`` built once per call. The same expressions as :func:`array_source`'s
+    ``rk_steps``; with ``t_lim = -inf`` it takes exactly one step."""
+    body = _steps_body(method, rhs, "y, z, PP")
+    start = body.index("        t = t0 + k * h") + 1
+    end = start + len(_stage_lines(method, "        ", "src", "kk", "t", rhs, "y, z, PP"))
+    body = body[:start] + _stage_switch_lines(method, "        ", "src", "kk", "t", rhs, "y, z, PP") + body[end:]
+    return ["def steps(num, t_lim, x, xn, kk, xs, xm, y, z, pf, pi):", f"    PP = {params}"] + body
 
 
 def array_source(method, glue_steps=False):
@@ -171,8 +195,9 @@ def array_source(method, glue_steps=False):
     ``hh``; ``begin`` cuts [t0, t1] into equal steps; ``rewind`` goes back to the
     start of the last ``steps``. The same expressions, element by element, as
     :func:`unrolled_lines` writes on tuples. With ``glue_steps`` (the compiled core)
-    ``step`` and ``steps`` call the glue's own steps (:func:`glue_steps_lines`, compiled
-    with the diagram's right-hand side; one step: ``t_lim = -inf``).
+    ``step``, ``steps`` and ``restep`` call the glue's own steps (:func:`glue_steps_lines`,
+    compiled with the diagram's right-hand side; one step: ``t_lim = -inf``; a restep: a grid
+    of one step of ``hh``), so the compiled core never calls ``gl.rhs``.
     """
     scaled = _scaled_lines(method, "    ")
     used = _dense_terms(method)
@@ -209,13 +234,17 @@ def array_source(method, glue_steps=False):
           "",
           "def rk_restep(s, hh, x, w, gl, y, z, pf, pi, xr):",
           "    num = s.num",
-          "    t = num[4] + (int(num[3]) - 1) * num[1]",
+          "    t = num[4] + (int(num[3]) - 1) * num[1]"] + ([
+          "    tmp = s.tmp  # a grid of one step of hh from t: the glue's steps take it",
+          "    tmp[0] = num[0]", "    tmp[1] = hh", "    tmp[2] = 1.0", "    tmp[3] = 0.0", "    tmp[4] = t",
+          "    tmp[5] = t + hh",
+          "    gl.steps(tmp, -math.inf, x, xr, w.kr, w.xr, w.xr, y, z, pf, pi)"] if glue_steps else [
           "    h = hh",
           "    n = x.size",
           "    kk = w.kr",
           "    xs = w.xr"] + scaled + _stage_lines(method, "    ", "x", "kk", "t", "gl.rhs") + [
           "    for e in range(n):",
-          f"        xr[e] = {_arr(_result(method, '[e]'))}",
+          f"        xr[e] = {_arr(_result(method, '[e]'))}"]) + [
           "    return True", "",
           "",
           "def rk_rewind(s):",
