@@ -4,8 +4,9 @@
 output pass, the updates, the right-hand side, the event functions and actions, the log path)
 over the run's flat arrays, the output pass, updates and log path as one function ``hit`` (they
 run only at hits and log points; compiled together, they link their kernels once), and the
-method's Runge-Kutta steps (``steps``) with the right-hand side's body (``rhs_body``) inlined
-into each stage and its blocks' params (``rhs_params``) built once per call;
+method's Runge-Kutta steps (``steps``), the stages in one loop with the right-hand side's body
+(``rhs_body``) inlined there once and its blocks' params (``rhs_params``) built once per call (the
+compiled core takes every step and restep through ``steps``; its ``rhs`` is not called);
 :mod:`hybridsim.engine.compiled` compiles and caches them. Inside the right-hand side every
 signal element is a local float. Each kernel is a call of its own compiled version (cached
 across diagrams; LLVM inlines the small ones). The blocks' numbers are rebuilt from the flat

@@ -7,8 +7,8 @@ functions of :class:`~hybridsim.engine.stepping.Glue` (the hit's output pass,
 the updates, the right-hand side, the event functions and actions, the log
 path) generated as numba source from the blocks' kernels
 (:mod:`hybridsim.engine.kernels`) and compiled as first-class functions, with
-the method's steps (``Glue.steps``: the right-hand side inlined into each stage,
-:func:`~hybridsim.engine.rk_code.glue_steps_lines`). Inside the right-hand side
+the method's steps (``Glue.steps``: the right-hand side inlined in the loop over the
+stages, :func:`~hybridsim.engine.rk_code.glue_steps_lines`). Inside the right-hand side
 every signal element is a local float; the kernels are
 called as compiled functions that numba caches on disk across diagrams. The
 blocks' numbers reach the glue at run time as two flat arrays (:class:`ParamLayout`), so one compiled
@@ -228,8 +228,8 @@ def _load(source, env, name, system=None):
     sys.modules[spec.name] = module  # numba's cache finds the module by name
     spec.loader.exec_module(module)
     vars(module).update(resolved)  # the kernels, by the names the source uses
-    # the right-hand side's params and body, called by the glue's rhs and its own steps (the body
-    # inlined into each stage, where the params it reads are then the values built once)
+    # the right-hand side's params and body, called by the glue's steps (inlined there, where the
+    # params it reads are then the values built once per call)
     inner = dict(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
     module.rhs_params = njit(inline="always", **inner)(module.rhs_params)
     module.rhs_body = njit(inline="always", **inner)(module.rhs_body)

@@ -98,7 +98,8 @@ class Glue(NamedTuple):
     next_time: Callable  # (t, x, y, z, pf, pi) -> the next time event after t (inf: none)
     timed: Callable     # (t, x, xn, y, z, pf, pi) -> GO or STOP: the state after the time events at t
     stepped: Callable   # (t, x, y, z, pf, pi) -> GO, STEP_EVENT or STOP, after every accepted step
-    # a compiled glue's own Runge-Kutta steps, its right-hand side inlined (rk_code.glue_steps_lines)
+    # a compiled glue's own Runge-Kutta steps, its right-hand side inlined (rk_code.glue_steps_lines);
+    # the compiled core takes every step and restep through it and never calls that glue's rhs
     steps: Callable = None  # (num, t_lim, x, xn, kk, xs, xm, y, z, pf, pi) -> t_end
 
 
