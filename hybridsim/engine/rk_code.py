@@ -99,18 +99,24 @@ def _arr(expr, k_name="kk"):
     return re.sub(r"\bk(\d+)\[e\]", lambda m: f"{k_name}[{int(m.group(1)) - 1} * n + e]", expr)
 
 
+def _stages(method, xvar, kname, tvar):
+    """Per stage: ``(its time, the lines putting its state into xs)``; no lines: the state is ``xvar``."""
+    out = []
+    for c, row in zip(method.c, method.A):
+        terms = _terms(row)
+        lines = [] if not terms else [
+            "for e in range(n):",
+            f"    xs[e] = {_arr(_combo(method, terms, '[e]'), kname).replace('x[e]', xvar + '[e]')}"]
+        out.append((_time(method, c).replace("t", tvar, 1), lines))
+    return out
+
+
 def _stage_lines(method, pad, xvar, kname, tvar, call, tail="y, z, pf, pi"):
     """Each stage: its state into ``xs``, then ``call`` its derivatives into stage j of ``kname``."""
     out = []
-    for i, (c, row) in enumerate(zip(method.c, method.A)):
-        terms = _terms(row)
-        tt = _time(method, c).replace("t", tvar, 1)
-        if not terms:
-            out.append(f"{pad}{call}({tt}, {xvar}, {kname}, {i} * n, {tail})")
-            continue
-        out += [f"{pad}for e in range(n):",
-                f"{pad}    xs[e] = {_arr(_combo(method, terms, '[e]'), kname).replace('x[e]', xvar + '[e]')}",
-                f"{pad}{call}({tt}, xs, {kname}, {i} * n, {tail})"]
+    for i, (tt, lines) in enumerate(_stages(method, xvar, kname, tvar)):
+        out += [pad + line for line in lines]
+        out.append(f"{pad}{call}({tt}, {'xs' if lines else xvar}, {kname}, {i} * n, {tail})")
     return out
 
 
@@ -156,18 +162,13 @@ def _stage_switch_lines(method, pad, xvar, kname, tvar, call, tail):
     """:func:`_stage_lines` as one loop over the stages, each stage's state and time chosen by a
     branch and ``call`` written once (a compiled glue inlines the right-hand side once, not once per
     stage): the same expressions."""
-    last = len(method.c) - 1
-    out = [f"{pad}for i in range({len(method.c)}):"]
-    for i, (c, row) in enumerate(zip(method.c, method.A)):
-        terms = _terms(row)
-        out.append(f"{pad}    if i == {i}:" if i == 0 else (f"{pad}    elif i == {i}:" if i < last else f"{pad}    else:"))
-        out.append(f"{pad}        ts = {_time(method, c).replace('t', tvar, 1)}")
-        if not terms:
-            out.append(f"{pad}        v = {xvar}")
-            continue
-        out += [f"{pad}        for e in range(n):",
-                f"{pad}            xs[e] = {_arr(_combo(method, terms, '[e]'), kname).replace('x[e]', xvar + '[e]')}",
-                f"{pad}        v = xs"]
+    stages = _stages(method, xvar, kname, tvar)
+    out = [f"{pad}for i in range({len(stages)}):"]
+    for i, (tt, lines) in enumerate(stages):
+        branch = "if" if i == 0 else ("elif" if i < len(stages) - 1 else "else")
+        out.append(f"{pad}    {branch} i == {i}:" if branch != "else" else f"{pad}    else:")
+        out += [f"{pad}        ts = {tt}"] + [f"{pad}        {line}" for line in lines]
+        out.append(f"{pad}        v = {'xs' if lines else xvar}")
     out.append(f"{pad}    {call}(ts, v, {kname}, i * n, {tail})")
     return out
 
