@@ -21,6 +21,7 @@ something (FMU blocks have none), events given as kernels, no time events
 or step hooks. :func:`problems` says what a diagram lacks.
 """
 import contextlib
+import ctypes
 import hashlib
 import importlib.util
 import inspect
@@ -31,8 +32,11 @@ import sys
 import threading
 import warnings
 
+import numpy as np
+
 from hybridsim.engine import native, rk
 from hybridsim.engine.codegen import HIT_OPS, glue_source
+from hybridsim.engine.context import Context
 from hybridsim.engine.fused import event_kernels, has_kernels
 from hybridsim.engine.kernels import make_jitable, marked
 from hybridsim.engine.params import ParamLayout, ParamStructureError
@@ -110,11 +114,12 @@ def caught_unraisable(box):
     numba prints it as "ignored" and the loop goes on), into ``box`` instead of stderr."""
     if sys.unraisablehook is not _unraisable:
         sys.unraisablehook = _unraisable
+    before = getattr(_catching, "box", None)
     _catching.box = box
     try:
         yield box
     finally:
-        _catching.box = None
+        _catching.box = before
 
 
 class CompiledGlue:
@@ -144,13 +149,47 @@ class CompiledGlue:
         self.run = _entry(self.run_fn)
         self.state = rk.rk_state(solver)
 
-    def machinery(self, ctx):
-        """``(glue, ops, state, pf, pi)`` for a run of ``ctx`` (its blocks' numbers flattened)."""
-        glue = self.glue
+    def numbers(self, params):
+        """``(glue, pf, pi)``: a run's params (one per block) flattened, and the glue of their layout."""
         try:
-            pf, pi = self.layout.flatten(ctx.params)
+            return (self.glue, *self.layout.flatten(params))
         except ParamStructureError:  # an array of another size (a table's points): that layout's glue
-            glue, pf, pi = self._other_layout(ctx.params)
+            return self._other_layout(params)
+
+    def context(self, params=None):
+        """``(ctx, numbers)``: a fresh context of the system (``params``: ``{"block.param": value}``)
+        whose provisional outputs at t = 0 the glue computes, and its :meth:`numbers`."""
+        sysm = self.system
+        blocks = sysm.blocks_with(params) if params else sysm.blocks
+        numbers = self.numbers(tuple(b.params for b in blocks))
+
+        def outputs(ctx, t, held):
+            return self.evaluate(numbers, t, ctx, held)
+
+        return Context(sysm, blocks, outputs), numbers
+
+    def evaluate(self, numbers, t, ctx, held):
+        """Every block's outputs at ``t`` into ``ctx`` (``held``: the discrete blocks hold theirs), by
+        the glue's output pass; False when that pass stopped at a non-finite output or a kernel
+        raised (the blocks' Python then computes them as the generic path does, and says so)."""
+        glue, pf, pi = numbers
+        call = _callers.get(glue.outputs.address)
+        if call is None:
+            call = _callers[glue.outputs.address] = _OUTPUTS(glue.outputs.address)
+        due = np.full((1, len(self.system.discrete)), not held)
+        xc, y, z = ctx.xc, *ctx.flat()
+        if not (xc.dtype == np.float64 and xc.flags.c_contiguous):
+            return False
+        raised = []
+        with caught_unraisable(raised):
+            code = call(0, t, xc.ctypes.data, y.ctypes.data, z.ctypes.data, pf.ctypes.data, pi.ctypes.data,
+                        due.ctypes.data, 0)
+        return code < 0 and not raised
+
+    def machinery(self, ctx, numbers=None):
+        """``(glue, ops, state, pf, pi)`` for a run of ``ctx`` (``numbers``: :meth:`numbers` of its
+        params, when already flattened)."""
+        glue, pf, pi = numbers or self.numbers(ctx.params)
         s = self.state._replace(num=self.state.num.copy(), tmp=self.state.tmp.copy())  # one per run: runs may share threads
         return glue, None, s, pf, pi
 
@@ -170,6 +209,11 @@ class CompiledGlue:
         layout, glue = self._layouts[key]
         pf, pi = layout.flatten(params)
         return glue, pf, pi
+
+
+#: the glue's output pass (``hit``, op 0) called from Python: arrays as data addresses
+_OUTPUTS = ctypes.CFUNCTYPE(ctypes.c_int64, ctypes.c_int64, ctypes.c_double, *[ctypes.c_void_p] * 6, ctypes.c_int64)
+_callers = {}  # the address of a glue's hit -> its ctypes caller
 
 
 def _entry(run_fn):

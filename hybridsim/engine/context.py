@@ -19,30 +19,28 @@ contexts of the same system can run side by side (blocks hold no run data).
 """
 import numpy as np
 
+from hybridsim.engine.block import Block
+
 
 class Context:
     """Holds the state and signal values of one simulation of a system."""
 
-    def __init__(self, system, blocks=None):
+    def __init__(self, system, blocks=None, outputs=None):
+        """``outputs(ctx, t, held)``: computes every block's outputs at ``t`` (``held``: the discrete
+        blocks hold theirs) as :meth:`evaluate` would, returning False when it did not (a compiled
+        output pass); default: the blocks' methods."""
         self.system = system
+        self._outputs = outputs
         self.blocks = list(blocks) if blocks is not None else list(system.blocks)
         self.params = tuple(b.params for b in self.blocks)
-        blocks = self.blocks
         self.t = 0.0
-        self.ywire = np.zeros(sum(p.width for b in blocks for p in b.outputs))
-        self.z = np.zeros(sum(b.n_discrete for b in blocks))
-        self.y, k = [], 0
-        for b in blocks:
-            self.y.append([])
-            for p in b.outputs:
-                self.y[-1].append(self.ywire[k:k + p.width])
-                k += p.width
-        self.u = [[self.y[a][o] for (a, o) in system.sources[i]] for i in range(len(blocks))]
+        # (a block's copy with other params has the structure of the system's: with_params)
+        self.ywire, self.z = ywire, z = np.zeros(system.n_y), np.zeros(system.n_z)
+        self.y = [[ywire[s] for s in ports] for ports in system.yslices]
+        y = self.y
+        self.u = [[y[a][o] for (a, o) in ins] for ins in system.sources]
         self.xc = np.zeros(system.n_x)
-        self.xd, k = [], 0
-        for b in blocks:
-            self.xd.append(self.z[k:k + b.n_discrete])
-            k += b.n_discrete
+        self.xd = [z[s] for s in system.zslices]
         self.events = None   # the run's located and time events (hybridsim.engine.events.EventSet)
         self.stopped = None  # a block's StopRequest that ended the run
         self._initialize()
@@ -52,13 +50,14 @@ class Context:
         for i, b in enumerate(self.blocks):
             if b.init_needs_inputs:
                 late.append(i)
-                continue
-            self._set_initial(i, b.initial_state(None))
+            elif b.n_continuous or b.n_discrete or type(b).initial_state is not Block.initial_state:
+                self._set_initial(i, b.initial_state(None))
         # provisional outputs at t = 0, then the blocks that need inputs; again while one such
         # block's start depends on another's (a filter on a pre-loaded spring), in any order
         for _ in range(len(late)):
-            with np.errstate(all="ignore"):  # a non-finite output is reported by the run, naming its block
-                self.evaluate(range(len(self.blocks)), 0.0, self.xc)
+            if not self.outputs(0.0, held=False):
+                with np.errstate(all="ignore"):  # a non-finite output is reported by the run, naming its block
+                    self.evaluate(range(len(self.blocks)), 0.0, self.xc)
             for i in late:
                 self._set_initial(i, self.blocks[i].initial_state(self.u[i]))
             if len(late) == 1:
@@ -87,6 +86,12 @@ class Context:
         """The state a block's functions see: a view of ``xc`` or its discrete state."""
         s = self.system.xslices[i]
         return xc[s] if s is not None else self.xd[i]
+
+    def outputs(self, t, held):
+        """Every block's outputs at (t, ``xc``), the discrete ones too unless ``held``, by the compiled
+        output pass this context was given; False when there is none or it did not (a non-finite
+        output on the way: :meth:`evaluate` then computes them, as the generic path does)."""
+        return self._outputs is not None and self._outputs(self, t, held)
 
     def evaluate(self, path, t, xc):
         """Compute the outputs of the blocks in ``path`` (in order) at (t, xc)."""

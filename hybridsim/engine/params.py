@@ -24,6 +24,7 @@ class ParamLayout:
     def __init__(self, blocks, params=None):
         """The layout of ``blocks``' params (or of ``params``, one per block: a run's own numbers)."""
         self.nf = self.ni = 0
+        self._fast = None  # flatten's generated copy (_flattener), made at its first call
         self.names = [b.name for b in blocks]
         self.specs = []
         for b, v in zip(blocks, [b.params for b in blocks] if params is None else params):
@@ -62,6 +63,13 @@ class ParamLayout:
         """``(pf, pi)`` of a run's params (one per block, in the system's order); raises
         :class:`ParamStructureError` when one does not have this layout."""
         pf, pi = np.zeros(self.nf), np.zeros(self.ni, np.int64)
+        if self._fast is None:
+            self._fast = _flattener(self.specs)
+        try:  # the layout's straight-line copy; anything unexpected: the checked walk below says what
+            self._fast(params, pf, pi)
+            return pf, pi
+        except Exception:
+            pass
         for name, spec, v in zip(self.names, self.specs, params):
             try:
                 _fill(spec, v, pf, pi)
@@ -100,6 +108,48 @@ def _fill(spec, v, pf, pi):
             raise ParamStructureError(f"{len(items)} values became {len(v)}")
         for s, x in zip(items, v):
             _fill(s, x, pf, pi)
+
+
+def _whole(v):
+    """``int(v)`` of a whole number (a float in its place changed the layout)."""
+    if isinstance(v, (float, np.floating)):
+        raise ParamStructureError("a whole number became a float")
+    return int(v)
+
+
+def _flattener(specs):
+    """``copy(params, pf, pi)``: :func:`_fill` of every block written out as straight-line Python for
+    this layout (no call per number); it raises on any params of another layout."""
+    lines, names = ["def copy(params, pf, pi):"], iter(range(1 << 62))
+
+    def leaf(spec, v):
+        kind = spec[0]
+        if kind == "f":
+            lines.append(f"    pf[{spec[1]}] = float({v})")
+        elif kind in ("i", "b"):
+            lines.append(f"    pi[{spec[1]}] = whole({v})")
+        elif kind == "af":
+            a, size = spec[1], int(np.prod(spec[2]))
+            lines.append(f"    a = asarray({v}, float)")
+            lines.append(f"    if a.shape != {spec[2]!r}:\n        raise ValueError")
+            lines.append(f"    pf[{a}:{a + size}] = a.ravel()")
+        elif kind == "ai":
+            lines.append(f"    fill({spec!r}, {v}, pf, pi)")
+        else:
+            items = spec[-1]
+            parts = [f"v{next(names)}" for _ in items]
+            lines.append(f"    if len({v}) != {len(items)}:\n        raise ValueError")
+            if parts:
+                lines.append(f"    {', '.join(parts)}, = {v}")
+            for s, p in zip(items, parts):
+                leaf(s, p)
+
+    lines.append(f"    if len(params) != {len(specs)}:\n        raise ValueError")
+    for i, spec in enumerate(specs):
+        leaf(spec, f"params[{i}]")
+    env = {"whole": _whole, "asarray": np.asarray, "fill": _fill, "int64": np.int64}
+    exec(compile("\n".join(lines) + "\n", "<hybridsim.engine.params flatten>", "exec"), env)  # noqa: S102
+    return env["copy"]
 
 
 def _expr(spec, env, tag):

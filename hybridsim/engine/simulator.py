@@ -75,6 +75,7 @@ class Simulator:
         from hybridsim.engine.block import to_period
 
         self._made = dict(log=log, log_period=log_period, max_state=max_state, locate_switches=locate_switches)
+        self._cache = {}  # what every run of this structure shares (log columns, bounded states)
         self.system = system
         self.solver = solver or RK4()
         self.log_period = to_period(log_period, "log period")
@@ -138,8 +139,8 @@ class Simulator:
         t_end = self._check_t_end(t_end)
         if context is not None and params:
             raise InputError("give run-time params or a context, not both (the context holds its blocks)")
-        ctx = context or self.system.create_context(params)
-        return self._run(ctx, self._timeline(t_end), t_end)
+        ctx, numbers = (context, None) if context is not None else self._context(params)
+        return self._run(ctx, self._timeline(t_end), t_end, numbers=numbers)
 
     def run_batch(self, t_end, param_sets, workers=None):
         """Run once per entry of ``param_sets`` (each ``{"block.param": value}``); a list of Results.
@@ -155,11 +156,11 @@ class Simulator:
 
         t_end = self._check_t_end(t_end)
         tl = self._timeline(t_end)
-        contexts = [self.system.create_context(p) for p in param_sets]  # bad params: raise here
+        contexts = [self._context(p) for p in param_sets]  # bad params: raise here
 
-        def one(ctx):
+        def one(made):
             try:
-                return self._run(ctx, tl, t_end, progress=False)
+                return self._run(made[0], tl, t_end, progress=False, numbers=made[1])
             except SimulationError as exc:
                 return exc
 
@@ -168,6 +169,13 @@ class Simulator:
             return [one(c) for c in contexts]
         with ThreadPoolExecutor(workers) as pool:
             return list(pool.map(one, contexts))
+
+    def _context(self, params):
+        """``(ctx, numbers)``: a fresh context; on the compiled path its flattened params
+        (:meth:`~hybridsim.engine.compiled.CompiledGlue.numbers`) and outputs computed by the glue."""
+        if self._compiled is not None:
+            return self._compiled.context(params)
+        return self.system.create_context(params), None
 
     def _check_t_end(self, t_end):
         t_end = float(t_end)
@@ -182,12 +190,12 @@ class Simulator:
         return tl
 
     # -- one run ------------------------------------------------------------------------
-    def session(self, ctx, rows=0):
+    def session(self, ctx, rows=0, numbers=None):
         """A :class:`Session`: the stepping core set up to advance ``ctx`` (``rows``: log rows it
-        may write)."""
-        return Session(self, ctx, rows)
+        may write; ``numbers``: its params as the compiled path flattened them, if it has)."""
+        return Session(self, ctx, rows, numbers)
 
-    def _run(self, ctx, tl, t_end, progress=None):
+    def _run(self, ctx, tl, t_end, progress=None, numbers=None):
         if self._compiled is None:
             return self._walk(ctx, tl, t_end, progress)
         # a kernel that raises inside compiled code: numba prints it as "ignored" and the run goes on
@@ -196,7 +204,7 @@ class Simulator:
 
         with caught_unraisable(raised):
             try:
-                res = self._walk(ctx, tl, t_end, progress)
+                res = self._walk(ctx, tl, t_end, progress, numbers)
             except SimulationError:
                 if not raised:
                     raise
@@ -209,7 +217,7 @@ class Simulator:
         raise SimulationError(f"a block's compiled kernel raised {type(exc).__name__}: {exc} (on the Python "
                               "path the same run went through)")
 
-    def _walk(self, ctx, tl, t_end, progress=None):
+    def _walk(self, ctx, tl, t_end, progress=None, numbers=None):
         sysm = self.system
         if not self._step_checked and isinstance(self.solver, ExplicitRK):
             self._step_checked = True  # once per simulator: a sweep's points share its structure
@@ -221,7 +229,7 @@ class Simulator:
 
             check_step(self.solver, state_derivatives(sysm, ctx), 0.0, ctx.xc, owner)
         progress = self.progress if progress is None else progress
-        run = self.session(ctx, rows(tl))
+        run = self.session(ctx, rows(tl), numbers)
         wall0 = _time.perf_counter()
         bar = _progress(t_end) if progress else None
         try:
@@ -237,7 +245,9 @@ class Simulator:
             if code == stepping.STOPPED and run.stop is not None:
                 ctx.stopped = run.stop
                 t_end = run.stop.t
-            else:  # the context ends consistent: every output not held, evaluated at t_end
+            elif not (self._compiled is not None
+                      and self._compiled.evaluate((run.glue, run.pf, run.pi), t_end, ctx, held=True)):
+                # the context ends consistent: every output not held, evaluated at t_end
                 ctx.evaluate([i for i in range(len(sysm.blocks)) if sysm.kind[i] != "discrete"], t_end, ctx.xc)
         finally:
             if bar is not None:
@@ -249,11 +259,11 @@ class Simulator:
         last = int(run.out.status[2]) if code != stepping.OK else len(tl.t) - 1
         return self._result(tl, run.out, ctx, t_end, _time.perf_counter() - wall0, last)
 
-    def _machinery(self, ctx, out):
+    def _machinery(self, ctx, out, numbers=None):
         """``(glue, ops, state, pf, pi, keeper)`` of this simulator's path for ``ctx`` (``keeper``
         keeps the names of blocks acting at time and step events, and a stop request)."""
         if self._compiled is not None:
-            glue, ops, s, pf, pi = self._compiled.machinery(ctx)
+            glue, ops, s, pf, pi = self._compiled.machinery(ctx, numbers)
             return glue, ops, s, pf, pi, None
         keeper = GenericGlue(self.system, ctx, self.located, self.log_path, out.nev)
         glue = keeper.glue()
@@ -263,16 +273,20 @@ class Simulator:
             ops, s = self.solver.stepper()
         return glue, ops, s, np.zeros(0), np.zeros(0, np.int64), keeper
 
-    def _columns(self, ctx):
-        """The elements of the wire vector that the log's columns copy."""
-        starts = {}
-        k = 0
-        for i, b in enumerate(ctx.blocks):
-            for o, p in enumerate(b.outputs):
-                starts[(i, o)] = k
-                k += p.width
-        return [starts[(i, o)] + j for i, o in self._log_ports
-                for j in range(self.system.blocks[i].outputs[o].width)]
+    def _columns(self):
+        """The elements of the wire vector that the log's columns copy (an int64 array)."""
+        if self._cache.get("columns") is None:
+            ys = self.system.yslices
+            self._cache["columns"] = np.array([j for i, o in self._log_ports
+                                              for j in range(ys[i][o].start, ys[i][o].stop)], np.int64)
+        return self._cache["columns"]
+
+    def _bounded(self):
+        """Which discrete states ``max_state`` bounds (a bool array over ``z``)."""
+        if self._cache.get("bounded") is None:
+            blocks = self.system.blocks
+            self._cache["bounded"] = np.repeat([b.discrete_bounded for b in blocks], [b.n_discrete for b in blocks])
+        return self._cache["bounded"]
 
     def _result(self, tl, out, ctx, t_end, wall, last):
         blocks = self.system.blocks
@@ -302,19 +316,19 @@ class Session:
     ``ctx.xc`` before and after. ``out`` holds the log rows and events written.
     """
 
-    def __init__(self, sim, ctx, rows=0):
+    def __init__(self, sim, ctx, rows=0, numbers=None):
         self.sim, self.ctx = sim, ctx
         sysm = sim.system
         self.y, self.z = ctx.flat()
-        columns = sim._columns(ctx) if rows else []
+        columns = sim._columns() if rows else []
         timed, stepped = bool(sysm.time_events), bool(sysm.after_step)
         located = sim.located
         sizes, dirs, switch = _events.layout(sysm, ctx, located) if located else ([], None, None)
         owner = np.repeat(np.arange(len(sizes)), sizes) if located else None
         cap = MAX_EVENT_LOG if (located or timed or stepped) else 0
         self.out = outputs(rows, len(columns), cap, len(located), columns)
-        self.glue, self.ops, self.s, self.pf, self.pi, self.keeper = sim._machinery(ctx, self.out)
-        zb = np.repeat([b.discrete_bounded for b in sysm.blocks], [b.n_discrete for b in sysm.blocks])
+        self.glue, self.ops, self.s, self.pf, self.pi, self.keeper = sim._machinery(ctx, self.out, numbers)
+        zb = sim._bounded()
         self.w = work(sysm.n_x, getattr(self.s, "c", np.zeros(1)).size, int(sum(sizes)), dirs, switch, owner, zb)
         variable = not isinstance(sim.solver, ExplicitRK)
         # steps in batches: a fixed-step method between checks; a solver that returns its own points

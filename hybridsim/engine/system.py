@@ -118,6 +118,15 @@ class System:
                 atol.append(b.atol if b.atol is not None else np.full(b.n_continuous, np.nan))
         self.n_x = n
         self.atol = np.concatenate(atol) if atol else np.zeros(0)
+        # every output in one wire vector, every discrete state in one vector: each block's slices
+        self.yslices, k = [], 0
+        for b in self.blocks:
+            self.yslices.append([slice(k + 0, k := k + p.width) for p in b.outputs])
+        self.n_y = k
+        self.zslices, k = [], 0
+        for b in self.blocks:
+            self.zslices.append(slice(k + 0, k := k + b.n_discrete))
+        self.n_z = k
 
     # -- queries -------------------------------------------------------------
     def block(self, name):
