@@ -288,11 +288,24 @@ def _load(source, env, name, system=None):
             names = {k: "hit" if k in HIT_OPS else k for k in Glue._fields}
             made = {n: cfunc(types[k].signature, cache=True)(getattr(module, n)) for k, n in names.items()
                     if k == n or k == HIT_OPS[0]}
-            glue = Glue(*(made[names[k]] for k in Glue._fields))
+            glue = Glue(*(_Address(made[names[k]]) for k in Glue._fields))
     except NumbaError as exc:
         raise CompiledPathError(_compile_failure(exc, name, system)) from None
     _loaded[key] = glue
     return glue
+
+
+class _Address:
+    """A compiled glue function as the core takes it: numba asks ``__wrapper_address__`` for the
+    machine code's address (a cfunc it would first check against the signature, at every call)."""
+
+    __slots__ = ("cfunc", "address")
+
+    def __init__(self, cfunc):
+        self.cfunc, self.address = cfunc, cfunc.address  # the cfunc keeps its machine code alive
+
+    def __wrapper_address__(self):
+        return self.address
 
 
 def _compile_failure(exc, name, system):
