@@ -104,7 +104,7 @@ def main():
 def breakdown(spec, n):
     """CPU seconds per point of each part of a sweep's point, run here (see the module doc)."""
     from hybridsim.analysis import metrics
-    from hybridsim.engine import simulator, system
+    from hybridsim.engine import simulator
     from hybridsim.runs import many, store, sweep
 
     spent = defaultdict(float)
@@ -139,7 +139,7 @@ def breakdown(spec, n):
     simulator.Session.__init__ = wrap_session
     patched.append((simulator.Session, "__init__", real_init))
     wrap(simulator.Session, "walk", "engine: compiled run, all")
-    wrap(system.System, "create_context", "engine: contexts (with_params, initial outputs)")
+    wrap(simulator.Simulator, "_context", "engine: contexts (with_params, initial outputs)")
     wrap(simulator.Simulator, "_run", "engine: one run, all")
     wrap(metrics, "compute", "metrics")
     wrap(sweep.Row, "__call__", "row, all")
