@@ -219,13 +219,24 @@ _callers = {}  # the address of a glue's hit -> its ctypes caller
 def _entry(run_fn):
     """``run`` as :func:`~hybridsim.engine.stepping.run` takes its arguments, through the compiled
     core's entry point for its one signature (no dispatch on argument types; the stepper is
-    compiled in, so ``ops`` is not passed)."""
+    compiled in, so ``ops`` is not passed; the glue goes as its functions' addresses)."""
     entry = run_fn.overloads[run_fn.signatures[0]].entry_point
 
     def run(tl, k0, k1, glue, ops, s, lim, w, out, y, z, pf, pi):
-        return entry(tl, k0, k1, glue, s, lim, w, out, y, z, pf, pi)
+        return entry(tl, k0, k1, addresses(glue), s, lim, w, out, y, z, pf, pi)
 
     return run
+
+
+_addresses = {}  # the address of a glue's steps -> the addresses of all its functions
+
+
+def addresses(glue):
+    """The addresses of ``glue``'s compiled functions, in :class:`~.stepping.Glue`'s order (int64)."""
+    a = _addresses.get(glue.steps.address)
+    if a is None:
+        a = _addresses[glue.steps.address] = np.array([f.address for f in glue], np.int64)
+    return a
 
 
 # -- compiling and loading ----------------------------------------------------------------------
@@ -296,16 +307,13 @@ def _load(source, env, name, system=None):
 
 
 class _Address:
-    """A compiled glue function as the core takes it: numba asks ``__wrapper_address__`` for the
-    machine code's address (a cfunc it would first check against the signature, at every call)."""
+    """A compiled glue function: its cfunc (which keeps the machine code alive) and the address
+    the core calls (:func:`addresses`)."""
 
     __slots__ = ("cfunc", "address")
 
     def __init__(self, cfunc):
-        self.cfunc, self.address = cfunc, cfunc.address  # the cfunc keeps its machine code alive
-
-    def __wrapper_address__(self):
-        return self.address
+        self.cfunc, self.address = cfunc, cfunc.address
 
 
 def _compile_failure(exc, name, system):

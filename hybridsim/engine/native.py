@@ -95,8 +95,8 @@ def types():
     }
     glue["update"] = glue["observe"] = glue["outputs"]
     tl, lim, w, out, rks = (typeof(r) for r in example_records())
-    GLUE = nt.NamedTuple([glue[k] for k in stepping.Glue._fields], stepping.Glue)
-    run = i64(tl, i64, i64, GLUE, rks, lim, w, out, A, A, A, I)
+    # the glue reaches the core as its functions' addresses (Glue's order), made functions inside
+    run = i64(tl, i64, i64, I, rks, lim, w, out, A, A, A, I)
     return {"glue": glue, "run": run, "array": A, "ints": I, "bools": B}
 
 
@@ -116,6 +116,8 @@ CORE_TAIL = """
 # -- compiled with numba (this file is generated: stepping.py and {method}'s steps, then this) -------
 from numba import njit as _njit  # noqa: E402
 import numpy as _np  # noqa: E402
+
+from hybridsim.engine.pointers import function_at  # noqa: E402
 
 NO_DUE = _np.zeros((1, 1), _np.bool_)
 
@@ -178,7 +180,8 @@ interval = _njit(interval, nogil=True, **_INNER)
 stepping_run = _njit(run, nogil=True, **_INNER)
 
 
-def run_rk(tl, k0, k1, gl, s, lim, w, out, y, z, pf, pi):
+def run_rk(tl, k0, k1, ga, s, lim, w, out, y, z, pf, pi):
+    gl = Glue({made})
     return stepping_run(tl, k0, k1, gl, 0, s, lim, w, out, y, z, pf, pi)
 """
 
@@ -211,7 +214,8 @@ def core(method_class):
               + core_text + "\n\n# -- the Runge-Kutta steps " + "-" * 60 + "\n"
               + compiled_calls(rk_code.array_source(method_class, glue_steps=True).replace("import math\n", ""))
               + CORE_TAIL.format(method=method_class.name, called=CALLED, inlined=INLINED,
-                               glue=stepping.Glue._fields))
+                                 glue=stepping.Glue._fields, made=", ".join(
+                                     f"function_at(ga[{k}], T_{f})" for k, f in enumerate(stepping.Glue._fields))))
     stamp = hashlib.sha256(source.encode()).hexdigest()[:16]
     folder = cache_dir()
     folder.mkdir(parents=True, exist_ok=True)
@@ -224,6 +228,9 @@ def core(method_class):
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module  # numba's cache finds the module by name
     spec.loader.exec_module(module)
+    glue = types()["glue"]
+    for f in stepping.Glue._fields:  # the types function_at makes of the glue's addresses
+        setattr(module, f"T_{f}", glue[f])
     with warnings.catch_warnings(), compiling(f"core_{method_class.name}_{stamp}"):
         warnings.simplefilter("ignore", NumbaExperimentalFeatureWarning)
         return njit(types()["run"], cache=True, nogil=True, _nrt=False)(module.run_rk)
