@@ -316,8 +316,10 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                     copy_into(w.g, w.gn)
                 elif event and not timed and t_ev >= t1 - tol:  # at the next hit: fired just after it, as
                     event = False  # a function fires on leaving its surface (the hit samples the value before)
+                    if not deferred:  # the functions before the first such crossing (a second one, as
+                        # close to the hit, must not take the first's function past its surface)
+                        copy_into(w.gp, w.glo if s.num[ROOT] == 0.0 else w.g)
                     deferred = True
-                    copy_into(w.gp, w.glo if s.num[ROOT] == 0.0 else w.g)  # the functions before the crossing
                     copy_into(w.g, w.gn)
             # -- log points at the step's start and inside it, before the event ------------------
             t_in = t_ev - tol if event else tb  # one within tol of the event: logged after it

@@ -152,3 +152,17 @@ def test_located_switches_run_bit_for_bit_on_every_path():
     for r in runs[1:]:
         assert np.array_equal(runs[0].table(), r.table())
         assert runs[0].meta["events"] == r.meta["events"]
+
+
+@pytest.mark.parametrize("solver", ["cvode", "radau", "rk4"])
+def test_two_crossings_within_round_off_of_a_hit_both_fire_after_it(solver):
+    # the pulse's own switch and the memory's trigger cross a few ulps before the zoh's hit at
+    # 2.64 s: the memory samples sin(2 pi 1.3 t) there (the second deferred crossing once took the
+    # first's "before" values, and the memory kept its previous sample)
+    from conftest import ROOT
+
+    r = hs.simulate(ROOT / "tests" / "data" / "memory_edge_at_hit.yaml", solver=solver)
+    assert abs(r["mem.y"][-1] - math.sin(2 * math.pi * 1.3 * 2.64)) < 1e-9
+    at = [names for t, names in r.meta["events"] if abs(t - 2.64) < 1e-9]
+    # one entry (the pulse's switch is located too, except on a fixed step)
+    assert at == [("mem",) if solver == "rk4" else ("mem", "pul")]
