@@ -168,8 +168,8 @@ def _zc(t, x, g, w, gl, y, z, pf, pi):
 #: the time step (s, relative past t = 1 s) over which a function's rate at a start is taken
 LEAVE_STEP = 1e-9
 #: where a crossing at a start is reported (s after it, relative past t = 1 s): the RK and scipy
-#: paths bisect such a crossing to within 1e-12 s of the start
-START_STEP = 1e-12
+#: paths bisect such a crossing to within 1e-15 s of the start
+START_STEP = 1e-15
 
 
 def cvode_ops():

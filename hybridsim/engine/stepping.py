@@ -467,9 +467,13 @@ def locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi):
             copy_into(w.xm, w.xn)
         if crossed_any(w.glo, w.ghi, w.dirs, w.fired):
             copy_into(w.xe, w.xm)
-            # bisection on the dense output: [lo, hi] in fractions of the step
-            while (hi - lo) * h > lim.time_tol:
+            # bisection on the dense output: [lo, hi] in fractions of the step, to a thousandth of
+            # time_tol or adjacent times (an event up to time_tol late would start the next one
+            # that late: a chain of resets would drift by time_tol per event)
+            while (hi - lo) * h > 1e-3 * lim.time_tol:
                 mid = 0.5 * (lo + hi)
+                if not ta + lo * h < ta + mid * h < ta + hi * h:
+                    break
                 ops.dense(s, ta + mid * h, w.x, w, w.xm)
                 gl.zc(ta + mid * h, w.xm, w.gm, y, z, pf, pi)
                 mute(w.gm, w.muted)

@@ -166,3 +166,17 @@ def test_two_crossings_within_round_off_of_a_hit_both_fire_after_it(solver):
     at = [names for t, names in r.meta["events"] if abs(t - 2.64) < 1e-9]
     # one entry (the pulse's switch is located too, except on a fixed step)
     assert at == [("mem",) if solver == "rk4" else ("mem", "pul")]
+
+
+@pytest.mark.parametrize("solver", ["rk4", "radau", "lsoda", "rk45", "cvode"])
+def test_a_chain_of_resets_does_not_drift(solver):
+    # each reset starts the next period: an event located up to 1e-12 s late made the 7th one
+    # 3e-12 s late, past the instant, and the row at 1.25 s logged 0.25 instead of the reset value
+    from conftest import ROOT
+
+    r = hs.simulate(ROOT / "tests" / "data" / "sawtooth_resets.yaml", solver=solver)
+    times = [t for t, _ in r.meta["events"]]
+    assert len(times) == 7
+    assert max(abs(t - 0.25 * (k + 1)) for k, t in enumerate(times)) < 1e-12
+    at_resets = [r["integ.y"][k, 0] for k, t in enumerate(r.t) if t > 0 and abs(t / 0.25 - round(t / 0.25)) < 1e-9]
+    assert at_resets == [0.0] * 7
