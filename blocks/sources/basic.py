@@ -56,19 +56,30 @@ def constant_output(p, t, x, u):
 
 @register("step")
 class Step(_Source):
-    """y = initial for t < time, final from t = time on (the unit step U of eq 17a)."""
+    """y = initial for t < time, final from t = time on (the unit step U of eq 17a).
+
+    Its jump is a zero crossing (``t - time``), located where switches are (variable-step
+    solvers, ``locate_switches``) when it can change a derivative; a fixed step steps over it.
+    """
 
     def __init__(self, name="step", initial=0.0, final=1.0, time=0.0):
         n = _widths(initial=initial, final=final)
         super().__init__(name, n)
         self.params = (floats(initial, "initial", n), floats(final, "final", n),
                        scalar(time, "time"), (0.0,) * n)
+        self.event_directions = (1,)  # its jump, located where switches are (a step from 0 has none)
 
 
 @kernel
 def step_output(p, t, x, u):
     initial, final, time, zero = p
     return (final if t >= time else initial), zero
+
+
+@kernel
+def step_crossings(p, t, x, u):
+    time = p[2]
+    return ((t - time) if time > 0.0 else 1.0,)
 
 
 @register("ramp")
@@ -146,7 +157,7 @@ def table_output(p, t, x, u):
 
 
 Constant.kernels = Kernels(output=constant_output)
-Step.kernels = Kernels(output=step_output)
+Step.kernels = Kernels(output=step_output, zero_crossings=step_crossings)
 Ramp.kernels = Kernels(output=ramp_output)
 Cosine.kernels = Kernels(output_into=cosine_output)
 Table.kernels = Kernels(output=table_output)

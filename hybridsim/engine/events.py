@@ -46,10 +46,13 @@ CRAWL_STEPS = 5_000
 
 def located_events(system, solver, locate_switches=False):
     """The blocks whose events ``solver`` locates: those with resets, and on the variable-step
-    solvers (or with ``locate_switches``) every block with zero crossings."""
+    solvers (or with ``locate_switches``) every block with zero crossings whose switch can change
+    a derivative (a block with continuous state, or one the right-hand side evaluates; a source
+    stepping a sampled block's input changes nothing between hits, and is not an event)."""
     located = list(system.action_events)
     if locate_switches or not getattr(solver, "fixed_step", False):
-        located += [i for i in system.events if i not in located]
+        moves = set(system.rhs_path) | set(system.stateful)
+        located += [i for i in system.events if i not in located and i in moves]
     return located
 
 

@@ -180,3 +180,33 @@ def test_a_chain_of_resets_does_not_drift(solver):
     assert max(abs(t - 0.25 * (k + 1)) for k, t in enumerate(times)) < 1e-12
     at_resets = [r["integ.y"][k, 0] for k, t in enumerate(r.t) if t > 0 and abs(t / 0.25 - round(t / 0.25)) < 1e-9]
     assert at_resets == [0.0] * 7
+
+
+STEP_INTO_INTEGRATOR = """name: stepint
+blocks:
+  r: {type: step, initial: 0.0, final: 1.0, time: 0.5}
+  integ: {type: integrator}
+wires: [r.y -> integ.u]
+simulation: {t_end: 1.0, step: 1.0e-3, log_period: 0.01}
+log: [integ.y]
+"""
+
+
+@pytest.mark.parametrize("solver", ["radau", "bdf", "rk45", "dop853", "cvode"])
+def test_a_step_into_an_integrator_is_located(tmp_path, solver):
+    # the step's jump is a switch: located, the integral of a unit step at 0.5 s is 0.5 at 1 s
+    # (it was stepped over: the solver's step across it carried a first-order error)
+    path = tmp_path / "stepint.yaml"
+    path.write_text(STEP_INTO_INTEGRATOR)
+    r = hs.simulate(path, solver=solver)
+    assert abs(r["integ.y"][-1, 0] - 0.5) < 1e-8
+    assert [names for _, names in r.meta["events"]] == [("r",)]
+
+
+def test_a_switch_that_cannot_change_a_derivative_is_not_located(tmp_path):
+    # a step into a zoh changes nothing between hits: no event, on any solver
+    path = tmp_path / "sampled.yaml"
+    path.write_text(STEP_INTO_INTEGRATOR.replace("r.y -> integ.u", "r.y -> z.u, z.y -> integ.u")
+                    .replace("  integ: {type: integrator}", "  integ: {type: integrator}\n  z: {type: zoh, rate: 10}"))
+    for solver in ("radau", "cvode"):
+        assert hs.simulate(path, solver=solver).meta["events"] == []
