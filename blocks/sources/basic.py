@@ -59,7 +59,8 @@ class Step(_Source):
     """y = initial for t < time, final from t = time on (the unit step U of eq 17a).
 
     Its jump is a zero crossing (``t - time``), located where switches are (variable-step
-    solvers, ``locate_switches``) when it can change a derivative; a fixed step steps over it.
+    solvers, ``locate_switches``) when it can change a derivative; otherwise a fixed step steps
+    over it (its last stage at the jump sees ``final``: an O(h) error in an integral of y).
     """
 
     def __init__(self, name="step", initial=0.0, final=1.0, time=0.0):
@@ -78,8 +79,12 @@ def step_output(p, t, x, u):
 
 @kernel
 def step_crossings(p, t, x, u):
+    """t - time, past zero from t = time on, where the output is ``final`` (a function fires on
+    leaving zero: at t = time itself it is already past)."""
     time = p[2]
-    return ((t - time) if time > 0.0 else 1.0,)
+    if time <= 0.0:
+        return (1.0,)
+    return ((t - time) if t < time else max(t - time, 1e-300),)
 
 
 @register("ramp")

@@ -486,9 +486,10 @@ def locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi):
                     copy_into(w.glo, w.gm)
             crossed_any(w.glo, w.ghi, w.dirs, w.fired)
             early = False
-            if hi < 1.0 and ops.restep(s, lo * h, w.x, w, gl, y, z, pf, pi, w.xm):
+            if lo > 0.0 and ops.restep(s, lo * h, w.x, w, gl, y, z, pf, pi, w.xm):
                 # a fresh step to just before a crossing driven by time (a source's, an input's):
                 # every stage on the side it leaves, where the step's dense output has stages past it
+                # (a crossing at the step's very end too: its last stage was past it)
                 gl.zc(ta + hi * h, w.xm, w.gm, y, z, pf, pi)
                 mute(w.gm, w.muted)
                 if crossed_any(w.glo, w.gm, w.dirs, w.fired):

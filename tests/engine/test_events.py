@@ -210,3 +210,15 @@ def test_a_switch_that_cannot_change_a_derivative_is_not_located(tmp_path):
                     .replace("  integ: {type: integrator}", "  integ: {type: integrator}\n  z: {type: zoh, rate: 10}"))
     for solver in ("radau", "cvode"):
         assert hs.simulate(path, solver=solver).meta["events"] == []
+
+
+@pytest.mark.parametrize("path", [{"fused": False}, {}, {"compiled": True}], ids=["generic", "fused", "compiled"])
+@pytest.mark.parametrize("solver", ["rk4", "heun"])
+def test_a_step_on_the_fixed_grid_is_integrated_exactly_with_located_switches(tmp_path, solver, path):
+    # the jump at 0.5 s is a step's end: its last stage saw the new value (0.500167 on rk4); located,
+    # the step is taken again to just before it
+    f = tmp_path / "stepint.yaml"
+    f.write_text(STEP_INTO_INTEGRATOR)
+    r = hs.simulate(f, solver=solver, locate_switches=True, **path)
+    assert abs(r["integ.y"][-1, 0] - 0.5) < 1e-12
+    assert r.meta["events"] == [(0.5, ("r",))]
