@@ -209,6 +209,10 @@ class ScipySolver(Solver):
         return f"ScipySolver({self.method}, rtol={self.rtol:g})"
 
 
+#: the multistep methods whose integrations restart at order 1 (a first step of the size the last
+#: integration reached at a higher order would be too long for them)
+RESTART_AT_ORDER_1 = ("BDF", "LSODA")
+
 #: scipy's solvers by the name ``solve_ivp`` gives them
 METHODS = {"Radau": Radau, "BDF": BDF, "LSODA": LSODA, "RK45": RK45, "RK23": RK23, "DOP853": DOP853}
 
@@ -225,6 +229,7 @@ class ScipyStepper:
 
     def __init__(self, solver):
         self.solver, self.num = solver, np.zeros(8)
+        self.h_next = np.inf  # the step the last integration would have taken next, s
         self.ode = self.interp = self.logged = None
         self.times = np.zeros(0)
         self.message = self.seen = self.raised = None
@@ -248,7 +253,8 @@ class ScipyStepper:
 
         self.seen = seen
         self.ode = METHODS[s.method](fun, self.t0, self.x0, self.t1, rtol=s.rtol, atol=s.atol,
-                                     max_step=s.max_step, first_step=min(s.scan, s.max_step, self.t1 - self.t0))
+                                     max_step=s.max_step,
+                                     first_step=min(s.scan, s.max_step, self.h_next, self.t1 - self.t0))
         if hasattr(self.ode, "solve_lu") and not issparse(self.ode.J):
             direct_lu(self.ode)
 
@@ -317,6 +323,12 @@ def scipy_ops():
         xn[:] = ode.y
         s.num[1] = ode.t - ode.t_old
         s.interp = s.logged = None
+        # an integration restarted at a hit or an event goes on with the step it had (scipy's Radau
+        # judges its first step by a weaker error estimate: a 1 ms first step after a PID left its
+        # limit was accepted 5e-5 wrong); not BDF and LSODA, which restart at order 1
+        if s.solver.method not in RESTART_AT_ORDER_1:
+            h = getattr(ode, "h_abs", None)
+            s.h_next = h if h is not None and h > 0.0 else np.inf
         return ode.t
 
     def steps(s, t_lim, x, xn, w, gl, y, z, pf, pi):
