@@ -325,8 +325,9 @@ def scipy_ops():
         s.interp = s.logged = None
         # an integration restarted at a hit or an event goes on with the step it had (scipy's Radau
         # judges its first step by a weaker error estimate: a 1 ms first step after a PID left its
-        # limit was accepted 5e-5 wrong); not BDF and LSODA, which restart at order 1
-        if s.solver.method not in RESTART_AT_ORDER_1:
+        # limit was accepted 5e-5 wrong); not BDF and LSODA, which restart at order 1. Only a step the
+        # stop did not cut short says so (the last one, cut to end at a hit, may be 1e-15 s)
+        if s.solver.method not in RESTART_AT_ORDER_1 and ode.t < ode.t_bound:
             h = getattr(ode, "h_abs", None)
             s.h_next = h if h is not None and h > 0.0 else np.inf
         return ode.t
