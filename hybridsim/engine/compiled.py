@@ -170,16 +170,18 @@ class CompiledGlue:
 
     def evaluate(self, numbers, t, ctx, held):
         """Every block's outputs at ``t`` into ``ctx`` (``held``: the discrete blocks hold theirs), by
-        the glue's output pass; False when that pass stopped at a non-finite output or a kernel
-        raised (the blocks' Python then computes them as the generic path does, and says so)."""
+        the glue's output pass; False when it did not (a state not a contiguous float array) or
+        stopped at a non-finite output or a kernel raised: the caller then evaluates the blocks'
+        Python, as the generic path does (which raises the kernel's error, or goes on past NaN)."""
+        xc = ctx.xc
+        if not (xc.dtype == np.float64 and xc.flags.c_contiguous):
+            return False
         glue, pf, pi = numbers
         call = _callers.get(glue.outputs.address)
         if call is None:
             call = _callers[glue.outputs.address] = _OUTPUTS(glue.outputs.address)
         due = np.full((1, len(self.system.discrete)), not held)
-        xc, y, z = ctx.xc, *ctx.flat()
-        if not (xc.dtype == np.float64 and xc.flags.c_contiguous):
-            return False
+        y, z = ctx.flat()
         raised = []
         with caught_unraisable(raised):
             code = call(0, t, xc.ctypes.data, y.ctypes.data, z.ctypes.data, pf.ctypes.data, pi.ctypes.data,

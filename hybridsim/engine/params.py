@@ -147,7 +147,7 @@ def _flattener(specs):
     lines.append(f"    if len(params) != {len(specs)}:\n        raise ValueError")
     for i, spec in enumerate(specs):
         leaf(spec, f"params[{i}]")
-    env = {"whole": _whole, "asarray": np.asarray, "fill": _fill, "int64": np.int64}
+    env = {"whole": _whole, "asarray": np.asarray, "fill": _fill}
     exec(compile("\n".join(lines) + "\n", "<hybridsim.engine.params flatten>", "exec"), env)  # noqa: S102
     return env["copy"]
 

@@ -75,7 +75,6 @@ class Simulator:
         from hybridsim.engine.block import to_period
 
         self._made = dict(log=log, log_period=log_period, max_state=max_state, locate_switches=locate_switches)
-        self._cache = {}  # what every run of this structure shares (log columns, bounded states)
         self.system = system
         self.solver = solver or RK4()
         self.log_period = to_period(log_period, "log period")
@@ -99,6 +98,12 @@ class Simulator:
                 raise DiagramError([f"cannot log {r!r}: no such output"], system.source) from None
         self.log_refs = refs
         self._log_ports = [system.port_ref(r) for r in refs]
+        ys, blocks = system.yslices, system.blocks
+        #: the elements of the wire vector that the log's columns copy
+        self._log_columns = np.array([j for i, o in self._log_ports for j in range(ys[i][o].start, ys[i][o].stop)],
+                                     np.int64)
+        #: which discrete states ``max_state`` bounds (over ``z``)
+        self._bounded = np.repeat([b.discrete_bounded for b in blocks], [b.n_discrete for b in blocks]).astype(bool)
         self.log_path = system.evaluation_path({i for i, _ in self._log_ports})
         self.located = _events.located_events(system, self.solver, locate_switches)
         self._timelines = {}
@@ -273,21 +278,6 @@ class Simulator:
             ops, s = self.solver.stepper()
         return glue, ops, s, np.zeros(0), np.zeros(0, np.int64), keeper
 
-    def _columns(self):
-        """The elements of the wire vector that the log's columns copy (an int64 array)."""
-        if self._cache.get("columns") is None:
-            ys = self.system.yslices
-            self._cache["columns"] = np.array([j for i, o in self._log_ports
-                                              for j in range(ys[i][o].start, ys[i][o].stop)], np.int64)
-        return self._cache["columns"]
-
-    def _bounded(self):
-        """Which discrete states ``max_state`` bounds (a bool array over ``z``)."""
-        if self._cache.get("bounded") is None:
-            blocks = self.system.blocks
-            self._cache["bounded"] = np.repeat([b.discrete_bounded for b in blocks], [b.n_discrete for b in blocks])
-        return self._cache["bounded"]
-
     def _result(self, tl, out, ctx, t_end, wall, last):
         blocks = self.system.blocks
         n = int(out.nrow[0])
@@ -320,7 +310,7 @@ class Session:
         self.sim, self.ctx = sim, ctx
         sysm = sim.system
         self.y, self.z = ctx.flat()
-        columns = sim._columns() if rows else []
+        columns = sim._log_columns if rows else []
         timed, stepped = bool(sysm.time_events), bool(sysm.after_step)
         located = sim.located
         sizes, dirs, switch = _events.layout(sysm, ctx, located) if located else ([], None, None)
@@ -328,8 +318,8 @@ class Session:
         cap = MAX_EVENT_LOG if (located or timed or stepped) else 0
         self.out = outputs(rows, len(columns), cap, len(located), columns)
         self.glue, self.ops, self.s, self.pf, self.pi, self.keeper = sim._machinery(ctx, self.out, numbers)
-        zb = sim._bounded()
-        self.w = work(sysm.n_x, getattr(self.s, "c", np.zeros(1)).size, int(sum(sizes)), dirs, switch, owner, zb)
+        self.w = work(sysm.n_x, getattr(self.s, "c", np.zeros(1)).size, int(sum(sizes)), dirs, switch, owner,
+                      sim._bounded)
         variable = not isinstance(sim.solver, ExplicitRK)
         # steps in batches: a fixed-step method between checks; a solver that returns its own points
         batch = (not variable and not located and not timed) or getattr(sim.solver, "returns_points", False)

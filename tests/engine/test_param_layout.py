@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 
 import hybridsim as hs
-from hybridsim.engine import params as P
 from hybridsim.engine.params import ParamLayout, ParamStructureError
 
 from conftest import DIAGRAMS
@@ -63,4 +62,3 @@ def test_the_copy_and_the_walk_agree_on_shipped_diagrams(name):
     pf, pi = layout.flatten(params)
     wf, wi = _walk(layout, params)
     assert np.array_equal(pf, wf) and np.array_equal(pi, wi)
-    assert P._flattener(layout.specs) is not None
