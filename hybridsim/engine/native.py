@@ -100,11 +100,12 @@ def types():
     return {"glue": glue, "run": run, "array": A, "ints": I, "bools": B}
 
 
-#: the core's functions that ``run`` calls, each compiled on its own (LLVM inlines the small ones;
-#: inlining them at numba's level only cost compile time)
-CALLED = ("crossed_any", "first_sign_change", "first_bad", "copy_into", "mute", "record", "rk_begin", "rk_step",
-          "rk_steps", "rk_dense", "rk_restep", "rk_rewind", "fail", "log_event", "observe", "observe_to",
-          "time_event", "restep_to_failure", "locate", "settle")
+#: the core's functions that ``run`` calls (every function of stepping.py but the two compiled with
+#: nogil, and the stepper's), each compiled on its own (LLVM inlines the small ones; inlining them at
+#: numba's level only cost compile time)
+CALLED = tuple(name for name, f in vars(stepping).items() if getattr(f, "__module__", None) == stepping.__name__
+               and callable(f) and not isinstance(f, type) and name not in ("run", "interval")) + (
+    "rk_begin", "rk_step", "rk_steps", "rk_dense", "rk_restep", "rk_rewind")
 #: of those, the ones inlined where they are called: a call passes each array of a record (every
 #: array of ``Work``) as seven separate arguments, and the steps are called at every log point (a
 #: batch) or every step (one at a time, with located events)

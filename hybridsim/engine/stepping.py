@@ -499,14 +499,46 @@ def locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi):
             if not early and hi < 1.0 and ops.restep(s, hi * h, w.x, w, gl, y, z, pf, pi, w.xm):
                 gl.zc(ta + hi * h, w.xm, w.gm, y, z, pf, pi)
                 mute(w.gm, w.muted)
-                if crossed_any(w.glo, w.gm, w.dirs, w.fired):
-                    copy_into(w.xe, w.xm)
+                if not crossed_any(w.glo, w.gm, w.dirs, w.fired):
+                    # the dense output crossed where a fresh step does not: a stage past a jump in
+                    # time (a source's step at the step's end) bent it; the crossing is where fresh
+                    # steps cross, after hi
+                    return fresh_crossing(ta, tb, hi, gl, ops, s, lim, w, y, z, pf, pi)
+                copy_into(w.xe, w.xm)
             crossed_any(w.glo, w.ghi, w.dirs, w.fired)
             return True, (ta + hi * h if hi < 1.0 else tb)
         copy_into(w.glo, w.ghi)
         lo = hi
     copy_into(w.g, w.gn)
     return False, tb
+
+
+def fresh_crossing(ta, tb, lo, gl, ops, s, lim, w, y, z, pf, pi):
+    """The first crossing of the functions ``w.g`` at ``ta`` on fresh steps from ``ta`` (a fixed-step
+    stepper's restep), bisected on [ta + lo h, tb]; ``locate``'s answer. None when the step's end
+    has not crossed either."""
+    h = tb - ta
+    if not crossed_any(w.g, w.gn, w.dirs, w.fired):
+        copy_into(w.g, w.gn)
+        return False, tb
+    hi = 1.0
+    copy_into(w.xe, w.xn)
+    copy_into(w.ghi, w.gn)
+    while (hi - lo) * h > 1e-3 * lim.time_tol:
+        mid = 0.5 * (lo + hi)
+        if not ta + lo * h < ta + mid * h < ta + hi * h:
+            break
+        ops.restep(s, mid * h, w.x, w, gl, y, z, pf, pi, w.xm)
+        gl.zc(ta + mid * h, w.xm, w.gm, y, z, pf, pi)
+        mute(w.gm, w.muted)
+        if crossed_any(w.g, w.gm, w.dirs, w.fired):
+            hi = mid
+            copy_into(w.xe, w.xm)
+            copy_into(w.ghi, w.gm)
+        else:
+            lo = mid
+    crossed_any(w.g, w.ghi, w.dirs, w.fired)
+    return True, (ta + hi * h if hi < 1.0 else tb)
 
 
 def settle(t, gl, lim, w, out, y, z, pf, pi):

@@ -222,3 +222,29 @@ def test_a_step_on_the_fixed_grid_is_integrated_exactly_with_located_switches(tm
     r = hs.simulate(f, solver=solver, locate_switches=True, **path)
     assert abs(r["integ.y"][-1, 0] - 0.5) < 1e-12
     assert r.meta["events"] == [(0.5, ("r",))]
+
+
+PID_AT_REST = """name: pidrest
+blocks:
+  r: {type: step, initial: 0.0, final: 1.0, time: T}
+  pid: {type: pid, Kp: 5.0, Ki: 5.0, Kd: 0.1, N: 50.0, lower: -0.8, upper: 0.8}
+  plant: {type: first_order, tau: 0.05}
+wires: [r.y -> pid.r, plant.y -> pid.y, pid.u -> plant.u]
+simulation: {t_end: 0.1, step: 1.0e-3, log_period: 0.01, locate_switches: true}
+log: [pid.u]
+"""
+
+
+@pytest.mark.parametrize("path", [{"fused": False}, {}, {"compiled": True}], ids=["generic", "fused", "compiled"])
+@pytest.mark.parametrize("solver", ["rk4", "heun"])
+@pytest.mark.parametrize("time", [0.02, 0.0195])
+def test_a_jump_at_or_inside_a_fixed_step_is_one_event_at_its_time(tmp_path, solver, path, time):
+    # the PID's e = r - y sits at exactly 0 until the setpoint steps; the step's dense output, bent by
+    # its last stage past the jump, left zero before it (0.019, 0.01975 and 0.02 were listed on rk4):
+    # fresh steps say where the functions cross
+    f = tmp_path / "pidrest.yaml"
+    f.write_text(PID_AT_REST.replace("time: T", f"time: {time}"))
+    r = hs.simulate(f, solver=solver, **path)
+    [(t, names)] = r.meta["events"]
+    assert names == ("pid", "r") and 0.0 <= t - time < 1e-14
+    assert r["pid.u"][-1, 0] == 0.8
