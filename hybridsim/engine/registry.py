@@ -233,7 +233,7 @@ def group(cls):
 
 def closest(name, candidates):
     """' (did you mean X?)' for the closest candidate, or ''."""
-    match = difflib.get_close_matches(str(name), list(candidates), n=1, cutoff=0.5)
+    match = difflib.get_close_matches(str(name), [str(c) for c in candidates], n=1, cutoff=0.5)
     return f" (did you mean {match[0]!r}?)" if match else ""
 
 

@@ -52,6 +52,9 @@ def _construct_mapping(loader, node):
             hash(key)
         except TypeError:
             raise LoaderError("a mapping key must be a plain value", line=knode.start_mark.line + 1) from None
+        if key is None or isinstance(key, bool):  # YAML 1.1 reads on/off/yes/no/true/false/null/~ so
+            raise LoaderError(f"the key {knode.value or '(empty)'!r} reads as {key!r} in YAML, not as a name; "
+                              f"quote it ('{knode.value}') to use it as one", line=knode.start_mark.line + 1)
         if key in own:
             raise LoaderError(f"duplicate key {key!r} (first given on line {own[key]}); "
                               "each key may appear once in a mapping", line=knode.start_mark.line + 1)

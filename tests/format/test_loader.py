@@ -1,3 +1,5 @@
+import re
+
 import pytest
 
 from hybridsim.errors import DiagramError, LoaderError
@@ -43,6 +45,24 @@ def test_undefined_reference_and_missing_type(tmp_path):
     msgs = "\n".join(exc.value.problems)
     assert "undefined parameter reference '$kk' (did you mean 'k'?)" in msgs
     assert "block 'zoh' has no 'type'" in msgs
+
+
+@pytest.mark.parametrize("word", ["on", "off", "yes", "No", "true", "null", "~"])
+def test_a_key_yaml_reads_as_a_boolean_or_null_is_refused_at_its_line(tmp_path, word):
+    # `params: {on: 0.25}` made the key True: '$on' was undefined, and its suggestion crashed
+    p = write(tmp_path, f"params:\n  {word}: 0.25\nblocks:\n  c: {{type: constant, value: 1.0}}\n")
+    with pytest.raises(LoaderError, match=rf"d\.yaml:2: the key '{re.escape(word)}' reads as (True|False|None) in YAML.*"
+                                          rf"quote it \('{re.escape(word)}'\)"):
+        DiagramFile(p)
+    quoted = write(tmp_path, f"params:\n  '{word}': 0.25\nblocks:\n  c: {{type: constant, value: ${word}}}\n")
+    diagram, _ = DiagramFile(quoted).build()
+    assert diagram.blocks["c"].params[0][0] == 0.25
+
+
+def test_a_suggestion_among_names_that_are_not_text_does_not_crash():
+    from hybridsim.engine.registry import closest
+
+    assert closest("on", [True, 5, "one"]) == " (did you mean 'one'?)"
 
 
 def test_wrong_type_of_value(tmp_path):
