@@ -39,6 +39,7 @@ class CVodeStepper:
         self.queue = []
         self.failed, self.message, self.seen = [], None, None
         self.event_at = self.event_x = None  # the last crossing CVODE returned, and the state there
+        self.event_fired = self.before_fired = None  # the functions that fired there; and for ``before``
 
     def start(self, w, gl, y, z, pf, pi):
         """A fresh CVODE for (t0, x0) with the glue's right-hand side and event functions."""
@@ -122,9 +123,11 @@ def start_crossing(s, w, gl, y, z, pf, pi):
     stepping.crossed_any(g0, g0 + change, w.dirs, fired)
     if not (fired & on).any():
         return None
-    if s.before is not None:  # on its surface, crossed just now, going on as it did: not again
+    if s.before is not None:  # on its surface, crossed just now, going on as it did: not again (only
+        # a function that fired in that event: another one reaching its surface at the same instant
+        # crosses now)
         before = _rates(s.t0, s.before, None, w, gl, y, z, pf, pi, START_STEP)[0]
-        fired &= ~(on & np.isclose(before, change, rtol=1e-9, atol=0.0))
+        fired &= ~(on & s.before_fired & np.isclose(before, change, rtol=1e-9, atol=0.0))
     return (t1, x1, fired) if fired.any() else None
 
 
@@ -181,7 +184,8 @@ def cvode_ops():
         s.fresh = True  # at the first point from here, leaving_sides stands in for functions on
         # their surface at the start (after their own event): CVODE skips roots there
         s.before = s.event_x if s.event_at == t0 else None  # from an event: the state before its action
-        s.event_at, s.event_x = None, None
+        s.before_fired = s.event_fired
+        s.event_at, s.event_x, s.event_fired = None, None, None
         s.cv, s.queue, s.ta, s.started, s.looked = None, [], t0, False, False
         s.said = ""
         s.stale = s.watch = False  # w.g (the core's) holds the functions at the last point; one sat on 0
@@ -263,10 +267,11 @@ def cvode_ops():
         s.fresh = False
         if root is not None:
             w.fired[:] = root
-            s.event_at, s.event_x = t, xn.copy()
+            s.event_at, s.event_x, s.event_fired = t, xn.copy(), root.copy()
             # CVODE stops at the crossing; the core may go on from it (a crossing just before the next
             # hit fires after that hit): from here, as from the state before an event's action
             restart(s, t, xn, before=xn.copy())
+            s.before_fired = root.copy()
         if reached:  # no event here: CVODE starts afresh, and leaving the surface is judged at that start
             if s.num[stepping.ROOT] < -1.5:  # the core keeps w.g only where it looks
                 w.g[:] = here

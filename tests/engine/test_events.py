@@ -248,3 +248,29 @@ def test_a_jump_at_or_inside_a_fixed_step_is_one_event_at_its_time(tmp_path, sol
     [(t, names)] = r.meta["events"]
     assert names == ("pid", "r") and 0.0 <= t - time < 1e-14
     assert r["pid.u"][-1, 0] == 0.8
+
+
+LIMIT_AT_A_SWITCH = """name: limit_at_switch
+blocks:
+  u: {type: step, initial: 1.0, final: -1.0, time: 0.3}
+  L: {type: integrator, K: 1.0, upper: 0.25}
+  st: {type: step, initial: 0.0, final: 1.0, time: 0.25}
+  C: {type: integrator, K: 1.0}
+wires: [u.y -> L.u, st.y -> C.u]
+simulation: {t_end: 0.5, step: 1.0e-3, log_period: LOG, locate_switches: true}
+log: [L.y]
+"""
+
+
+@pytest.mark.parametrize("log_period", [0.01, 0.0007])
+@pytest.mark.parametrize("solver", ["cvode", "radau", "rk45", "rk4"])
+def test_a_limit_reached_at_the_instant_another_block_switches_is_not_dropped(tmp_path, solver, log_period):
+    # L reaches its limit at 0.25 s, as the step st switches; CVODE reported st's root only and, at the
+    # restart, took L (on its surface, its rate unchanged by st's action) for a function that had just
+    # fired: L ran through its limit (0.1 at 0.5 s, not 0.25 - 0.2 = 0.05)
+    f = tmp_path / "limsw.yaml"
+    f.write_text(LIMIT_AT_A_SWITCH.replace("LOG", str(log_period)))
+    r = hs.simulate(f, solver=solver)
+    assert abs(r["L.y"][-1, 0] - (0.25 - (r.t[-1] - 0.3))) < 1e-9  # the last row: 0.5 s, or 0.4998 s
+    assert [names for _, names in r.meta["events"]] == [("L", "st"), ("L", "u")]
+    assert np.allclose([t for t, _ in r.meta["events"]], [0.25, 0.3], atol=1e-12, rtol=0)
