@@ -492,7 +492,7 @@ def locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi):
                 # (a crossing at the step's very end too: its last stage was past it)
                 gl.zc(ta + hi * h, w.xm, w.gm, y, z, pf, pi)
                 mute(w.gm, w.muted)
-                if crossed_any(w.glo, w.gm, w.dirs, w.fired):
+                if crossed_any(w.glo, w.gm, w.dirs, w.fired):  # fired: those that crossed from that state
                     copy_into(w.xe, w.xm)
                     early = True
             # a fresh step to the crossing (the method's own order) when it is past the surface too
@@ -505,7 +505,11 @@ def locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi):
                     # steps cross, after hi
                     return fresh_crossing(ta, tb, hi, gl, ops, s, lim, w, y, z, pf, pi)
                 copy_into(w.xe, w.xm)
-            crossed_any(w.glo, w.ghi, w.dirs, w.fired)
+                early = True
+            if not early:  # the dense output's state and functions, then
+                crossed_any(w.glo, w.ghi, w.dirs, w.fired)
+            # (else fired holds the functions crossed at the state acted on: one that crossed on the
+            # dense output only, a state's crossing a hair after a switch's, fires on its own later)
             return True, (ta + hi * h if hi < 1.0 else tb)
         copy_into(w.glo, w.ghi)
         lo = hi

@@ -274,3 +274,29 @@ def test_a_limit_reached_at_the_instant_another_block_switches_is_not_dropped(tm
     assert abs(r["L.y"][-1, 0] - (0.25 - (r.t[-1] - 0.3))) < 1e-9  # the last row: 0.5 s, or 0.4998 s
     assert [names for _, names in r.meta["events"]] == [("L", "st"), ("L", "u")]
     assert np.allclose([t for t, _ in r.meta["events"]], [0.25, 0.3], atol=1e-12, rtol=0)
+
+
+CROSSING_A_HAIR_AFTER_A_SWITCH = """name: hair
+blocks:
+  one: {type: constant, value: 1.0}
+  B: {type: integrator, K: 1.0}
+  hit: {type: hit_crossing, offset: 0.1500000000000006, direction: rising}
+  pul: {type: pulse, period: 0.2, duty: 0.5, delay: 0.05}
+  C: {type: integrator, K: 1.0}
+wires: [one.y -> B.u, B.y -> hit.u, pul.y -> C.u]
+simulation: {t_end: 0.2, step: 1.0e-3, log_period: 0.01, locate_switches: true}
+log: [hit.count]
+"""
+
+
+@pytest.mark.parametrize("path", [{"fused": False}, {}, {"compiled": True}], ids=["generic", "fused", "compiled"])
+@pytest.mark.parametrize("solver", ["rk4", "heun"])
+def test_a_crossing_a_hair_after_a_switch_is_acted_on_once(tmp_path, solver, path):
+    # B = t crosses 0.1500000000000006 two ulps after the pulse falls at 0.15: the switch's state is
+    # a fresh step to just before it, where B has not crossed, yet hit was acted on there (its dense
+    # output had) and again when B crossed: hit.count 2
+    f = tmp_path / "hair.yaml"
+    f.write_text(CROSSING_A_HAIR_AFTER_A_SWITCH)
+    r = hs.simulate(f, solver=solver, **path)
+    assert r["hit.count"][-1, 0] == 1.0
+    assert [names for _, names in r.meta["events"]] == [("pul",), ("hit", "pul")]
