@@ -105,8 +105,18 @@ def square_output(p, t, x, u):
 
 
 @kernel
-def wave_crossings(p, t, x, u):
-    return (math.sin(2.0 * math.pi * p.f * t + p.phase),)
+def edge_function(size, high):
+    """A wave's event function: ``size`` (how far the edges are, zero at each), signed by the
+    output's level (+ high, - low), never 0: past zero from an edge on, where the output has
+    switched (a function fires on leaving zero: an edge at t = 0 is none)."""
+    g = max(abs(size), 1e-300)
+    return g if high else -g
+
+
+@kernel
+def square_crossings(p, t, x, u):
+    c = p.f * t + p.phase / (2.0 * math.pi)
+    return (edge_function(math.sin(2.0 * math.pi * c), fraction(c) < 0.5 - round_off(c)),)
 
 
 @register("sawtooth")
@@ -166,18 +176,24 @@ class PulseParams(NamedTuple):
 
 
 @kernel
-def pulse_output(p, t, x, u):
+def pulse_high(p, t):
     s = (t - p.delay) / p.period
-    high = s >= -round_off(s) and fraction(s) < p.duty - round_off(s)
-    return (p.amp if high else p.amp * 0.0), p.amp * 0.0
+    return s >= -round_off(s) and fraction(s) < p.duty - round_off(s)
+
+
+@kernel
+def pulse_output(p, t, x, u):
+    return (p.amp if pulse_high(p, t) else p.amp * 0.0), p.amp * 0.0
 
 
 @kernel
 def pulse_crossings(p, t, x, u):
     s = (t - p.delay) / p.period
     if s < 0.0:  # before the delay: no edge; down to 0 at the first rise with the same slope as after
-        return (-math.pi * s * math.sin(math.pi * p.duty),)
-    return (math.sin(math.pi * s) * math.sin(math.pi * (s - p.duty)),)  # changes sign at each edge
+        size = math.pi * s * math.sin(math.pi * p.duty)
+    else:  # zero at each edge
+        size = math.sin(math.pi * s) * math.sin(math.pi * (s - p.duty))
+    return (edge_function(size, pulse_high(p, t)),)
 
 
 @register("chirp")
@@ -244,7 +260,7 @@ def clock_output(p, t, x, u):
 
 
 Sine.kernels = Kernels(output=sine_output)
-Square.kernels = Kernels(output=square_output, zero_crossings=wave_crossings)
+Square.kernels = Kernels(output=square_output, zero_crossings=square_crossings)
 Sawtooth.kernels = Kernels(output=sawtooth_output, zero_crossings=sawtooth_crossings)
 Pulse.kernels = Kernels(output=pulse_output, zero_crossings=pulse_crossings)
 Chirp.kernels = Kernels(output=chirp_output)
