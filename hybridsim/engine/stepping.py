@@ -311,9 +311,13 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                     copy_into(w.g, w.gn)
                 else:  # bisected on the step's dense output
                     event, t_ev = locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi)
+                # a crossing at the run's end or at the next hit is not acted on before it; the stop's
+                # state is the crossing's (a fresh step's to just before a jump, where one was taken:
+                # the step's own last stage saw the value after it)
                 if event and t_ev >= t_end - tol:  # at the run's end: not acted on (the last row arrives)
                     event = False
                     copy_into(w.g, w.gn)
+                    copy_into(xn, w.xe)
                 elif event and not timed and t_ev >= t1 - tol:  # at the next hit: fired just after it, as
                     event = False  # a function fires on leaving its surface (the hit samples the value before)
                     if not deferred:  # the functions before the first such crossing (a second one, as
@@ -321,6 +325,7 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                         copy_into(w.gp, w.glo if s.num[ROOT] == 0.0 else w.g)
                     deferred = True
                     copy_into(w.g, w.gn)
+                    copy_into(xn, w.xe)
             # -- log points at the step's start and inside it, before the event ------------------
             t_in = t_ev - tol if event else tb  # one within tol of the event: logged after it
             while j < ja and (tl.t[j] < t_in or ta == t0):  # (an integration's start is after its event)

@@ -224,6 +224,26 @@ def test_a_step_on_the_fixed_grid_is_integrated_exactly_with_located_switches(tm
     assert r.meta["events"] == [(0.5, ("r",))]
 
 
+
+@pytest.mark.parametrize("path", [{"fused": False}, {}, {"compiled": True}], ids=["generic", "fused", "compiled"])
+@pytest.mark.parametrize("solver", ["rk4", "heun"])
+def test_a_jump_at_a_sample_hit_or_at_the_end_is_integrated_exactly_with_located_switches(tmp_path, solver, path):
+    # the step at 0.5 s falls on a 10 Hz zoh's hit: the crossing fires after the hit, and the hit
+    # took the step's own state, whose last stage saw the jump (0.500167 on rk4, 0.5005 on heun)
+    f = tmp_path / "stephit.yaml"
+    f.write_text(STEP_INTO_INTEGRATOR.replace("r.y -> integ.u", "r.y -> integ.u, integ.y -> z.u")
+                 .replace("  integ: {type: integrator}", "  integ: {type: integrator}\n  z: {type: zoh, rate: 10}"))
+    r = hs.simulate(f, solver=solver, locate_switches=True, **path)
+    assert abs(r["integ.y"][-1, 0] - 0.5) < 1e-12
+    assert r.meta["events"] == [(0.5, ("r",))]
+    # a jump at the run's end: a square's edge at 1 s, its integral 0 (3.3e-5 on rk4)
+    f.write_text(STEP_INTO_INTEGRATOR.replace("{type: step, initial: 0.0, final: 1.0, time: 0.5}",
+                                              "{type: square, frequency: 1.0}"))
+    r = hs.simulate(f, solver=solver, locate_switches=True, **path)
+    assert abs(r.context.xc[0]) < 1e-12
+    assert [names for _, names in r.meta["events"]] == [("r",)]  # the edge at 0.5 s; none at 0 or 1 s
+
+
 PID_AT_REST = """name: pidrest
 blocks:
   r: {type: step, initial: 0.0, final: 1.0, time: T}
