@@ -78,6 +78,11 @@ class ExpandMixin:
                 flat = []
                 for ref in refs:
                     got = self._endpoint(ref, subs, prefix, section == "outputs", spec.locs[name], context, problems)
+                    if got is not None and ref.split(".")[0] not in subs:  # a block of this file: its port
+                        why = self._port_problem(diagram, ref, prefix, section[:-1])
+                        if why:
+                            problems.append(f"{where}: {section[:-1]} {name!r}: {why}")
+                            got = None
                     if got is not None:
                         flat += got
                 if flat:
@@ -85,6 +90,21 @@ class ExpandMixin:
         for name, ref in outs.items():
             self.aliases[prefix + name] = ref
         return ins, outs
+
+    def _port_problem(self, diagram, ref, prefix, kind):
+        """Why the 'block.port' ``ref`` of this file is not one of its blocks' ``kind`` ports ("input",
+        "output"), or None (a block that had a problem of its own is not blamed again)."""
+        bname, pname = ref.split(".")
+        block = diagram.blocks.get(prefix + bname)
+        if block is None:
+            if self._dead(prefix + ref):
+                return None
+            return f"no block {bname!r}{closest(bname, self.data['blocks'])}"
+        names = [p.name for p in (block.outputs if kind == "output" else block.inputs)]
+        if pname in names:
+            return None
+        return (f"block {bname!r} ({type(block).__name__}) has no {kind} {pname!r}{closest(pname, names)}; "
+                f"its {kind}s: {', '.join(names) or 'none'}")
 
     def _dead(self, ref):
         """Whether the flat 'block.port' ``ref`` belongs to a block (or inside a subsystem) that had a problem."""

@@ -115,6 +115,24 @@ def test_bad_subsystems_are_clear_errors(tmp_path, capsys, spec, message):
     assert message in err and "Traceback" not in err
 
 
+@pytest.mark.parametrize("ports, message", [
+    ("outputs: {y: nope.y}", "output 'y': no block 'nope'"),
+    ("outputs: {y: g.u}", "output 'y': block 'g' (Gain) has no output 'u'; its outputs: y"),
+    ("inputs: {a: [s.u1, g.x], b: s.u2}", "input 'a': block 'g' (Gain) has no input 'x'; its inputs: u"),
+])
+def test_a_subsystem_files_declared_ports_are_checked_where_they_are_declared(tmp_path, capsys, ports, message):
+    # an output naming no block passed check and ran (exit 0) while nothing wired it; wired, the error
+    # named the outer wire, never the subsystem file's line
+    key = ports.split(":")[0]
+    lines = [line for line in INNER.splitlines() if not line.startswith(key)] + [ports]
+    (tmp_path / "inner.yaml").write_text("\n".join(lines) + "\n")
+    (tmp_path / "d.yaml").write_text("blocks:\n  c: {type: constant, value: 1.0}\n"
+                                     "  m: {type: subsystem, file: inner.yaml}\nwires: [c.y -> m.b]\n")
+    assert main(["check", str(tmp_path / "d.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert f"inner.yaml:{len(lines)}: {message}" in err and "in subsystem m (" in err, err
+
+
 def test_a_dot_in_a_block_name_is_refused(tmp_path, capsys):
     (tmp_path / "d.yaml").write_text("blocks:\n  a.b: {type: constant, value: 1.0}\n")
     assert main(["check", str(tmp_path / "d.yaml")]) == 2
