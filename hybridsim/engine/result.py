@@ -3,6 +3,7 @@ import csv
 
 import numpy as np
 
+from hybridsim.engine.registry import closest
 from hybridsim.files import atomic_file
 
 
@@ -30,8 +31,21 @@ class Result:
         self.context = context
 
     def __getitem__(self, ref):
-        base, idx = parse_signal(ref)
-        return self.signals[base] if idx is None else self.signals[base][:, idx]
+        if not isinstance(ref, str):
+            raise TypeError(f"a logged signal is named 'block.port' or 'block.port[i]', got {ref!r}")
+        try:
+            base, idx = parse_signal(ref)
+        except ValueError:
+            raise KeyError(f"{ref!r} is not 'block.port' or 'block.port[i]'") from None
+        if base not in self.signals:
+            raise KeyError(f"{base!r} was not logged{closest(base, self.signals)}; "
+                           f"logged: {', '.join(self.signals) or 'nothing'}")
+        a = self.signals[base]
+        if idx is None:
+            return a
+        if not -a.shape[1] <= idx < a.shape[1]:
+            raise IndexError(f"{base} has {a.shape[1]} element(s): [{idx}] is not one of them")
+        return a[:, idx]
 
     def __contains__(self, ref):
         return parse_signal(ref)[0] in self.signals

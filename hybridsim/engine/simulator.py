@@ -18,6 +18,8 @@ Ticks run at ``0 <= n * base < t_end``; the run ends with the state at
 ``t_end``.
 """
 import time as _time
+from collections.abc import Mapping
+from numbers import Real
 
 import numpy as np
 
@@ -178,11 +180,15 @@ class Simulator:
     def _context(self, params):
         """``(ctx, numbers)``: a fresh context; on the compiled path its flattened params
         (:meth:`~hybridsim.engine.compiled.CompiledGlue.numbers`) and outputs computed by the glue."""
+        if params is not None and not isinstance(params, Mapping):
+            raise InputError(f"run-time params are a mapping {{'block.param': value}}, got {params!r}")
         if self._compiled is not None:
             return self._compiled.context(params)
         return self.system.create_context(params), None
 
     def _check_t_end(self, t_end):
+        if not isinstance(t_end, Real) or isinstance(t_end, bool):
+            raise InputError(f"end time must be a number of seconds, got {t_end!r}")
         t_end = float(t_end)
         if not (t_end > 0 and np.isfinite(t_end)):
             raise InputError(f"end time must be positive and finite, got {t_end!r}")

@@ -1,11 +1,13 @@
 """A parsed diagram file: its sections checked, overrides applied, built into a Diagram."""
 import copy
 import logging
+import os
+from collections.abc import Mapping
 from pathlib import Path
 
 from hybridsim import limits
 from hybridsim.engine.diagram import Diagram
-from hybridsim.errors import DiagramError, LoaderError
+from hybridsim.errors import DiagramError, InputError, LoaderError
 from hybridsim.engine.registry import closest
 from hybridsim.format import tables
 from hybridsim.format.expand import ExpandMixin, count_blocks
@@ -47,6 +49,8 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
     """
 
     def __init__(self, path, overrides=None):
+        if not isinstance(path, (str, os.PathLike)):
+            raise TypeError(f"a diagram file is a path (str or pathlib.Path), got {path!r}")
         self.path = Path(path)
         self.files = []  # this file and every file it extends, resolved
         data = read_merged(self.path, files=self.files)
@@ -110,6 +114,8 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
         budget, then the blocks are built. Raises :class:`DiagramError`
         listing every problem found in the blocks and wires.
         """
+        if overrides is not None and not isinstance(overrides, Mapping):
+            raise InputError(f"a variant is a mapping {{parameter: value}}, as variants() lists them; got {overrides!r}")
         params = dict(self.params)
         for k, v in (overrides or {}).items():
             if k not in params:

@@ -32,3 +32,33 @@ def test_a_diagram_shows_itself_as_svg():
     d.connect("c.y", "g.u")
     svg = d._repr_svg_()
     assert svg.lstrip().startswith("<?xml") and "<svg" in svg
+
+
+def test_a_signal_not_logged_or_not_a_name_is_a_clear_error():
+    import pytest
+
+    res = _res()
+    with pytest.raises(KeyError, match=r"'plant\.x' was not logged \(did you mean 'plant\.y'\?\); logged: "):
+        res["plant.x"]
+    with pytest.raises(TypeError, match="'block.port' or 'block.port\\[i\\]', got 5"):
+        res[5]
+    with pytest.raises(IndexError, match=r"plant\.y has 1 element\(s\): \[7\] is not one of them"):
+        res["plant.y[7]"]
+    with pytest.raises(KeyError, match="is not 'block.port' or"):
+        res["plant.y[x]"]
+    assert np.array_equal(res["plant.y[-1]"], res["plant.y"][:, 0])
+
+
+def test_the_api_refuses_a_variant_params_or_end_time_of_the_wrong_kind():
+    import pytest
+
+    path = DIAGRAMS / "examples" / "msd_pid.yaml"
+    with pytest.raises(hs.InputError, match="a variant is a mapping"):
+        hs.simulate(path, variant=99)
+    _, sim, _ = hs.build(path)
+    with pytest.raises(hs.InputError, match="run-time params are a mapping"):
+        sim.run(0.1, params=[1])
+    with pytest.raises(hs.InputError, match="end time must be a number of seconds, got '1'"):
+        sim.run("1")
+    with pytest.raises(TypeError, match="a diagram file is a path"):
+        hs.simulate(None)
