@@ -55,6 +55,10 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
         self.files = []  # this file and every file it extends, resolved
         data = read_merged(self.path, files=self.files)
         self.data = data
+        if "diagram" in data and "blocks" not in data:  # a sweep or tune file given where a diagram goes
+            kind = "tune" if "parameters" in data or "objectives" in data else "sweep"
+            self._fail(f"this is a {kind} file (it names a 'diagram' and has no 'blocks'), not a diagram; "
+                       f"run it with 'hybridsim {kind}'", data.lines["diagram"])
         for key in data:
             if key not in TOP_KEYS:
                 self._fail(f"unknown section {key!r}{closest(key, TOP_KEYS)}; "

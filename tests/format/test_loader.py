@@ -130,3 +130,13 @@ def test_an_unknown_plot_setting_is_an_error_at_its_line(tmp_path):
         f.build()
     ok = DiagramFile(write(tmp_path, GOOD + "plot: {title: mine, force_label: C-Z force}\n"))
     assert ok.build()[1]["plot"] == {"title": "mine", "force_label": "C-Z force"}
+
+
+def test_a_sweep_or_tune_file_given_as_a_diagram_says_which_command_runs_it(tmp_path):
+    # it said "unknown section 'diagram' (did you mean 'params'?)"
+    sweep = write(tmp_path, "diagram: d.yaml\ngrid: {k: [1, 2]}\n", "s.yaml")
+    with pytest.raises(LoaderError, match=r"s\.yaml:1: this is a sweep file .* run it with 'hybridsim sweep'"):
+        DiagramFile(sweep)
+    tune = write(tmp_path, "diagram: d.yaml\nparameters: {k: [1, 2]}\n", "t.yaml")
+    with pytest.raises(LoaderError, match="this is a tune file .* 'hybridsim tune'"):
+        DiagramFile(tune)
