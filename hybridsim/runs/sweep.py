@@ -76,6 +76,7 @@ class Sweep:
             if key in data and not isinstance(data[key], bool):
                 raise LoaderError(f"'{key}' must be true or false, got {data[key]!r}", self.path, lines[key])
         self.fixed = {str(k): v for k, v in (data.get("set") or {}).items()}
+        self._set_lines = dict(getattr(data.get("set"), "lines", None) or {})
         self.grid = dict(data.get("grid") or {})
         self.scale = dict(data.get("scale") or {})
         for key, axes in (("grid", self.grid), ("scale", self.scale)):
@@ -116,8 +117,15 @@ class Sweep:
     def experiment(self):
         """The diagram with ``set`` (and the compiled path when asked): what every point changes."""
         if self._experiment is None:
+            from hybridsim.format.overrides import overrides_from
+
             fixed = {**self.fixed, **({"simulation.compiled": True} if self.compiled else {})}
-            self._experiment = Experiment(self.diagram, **fixed)
+            try:
+                with overrides_from("set"):
+                    self._experiment = Experiment(self.diagram, **fixed)
+            except LoaderError as exc:  # a value of 'set': the sweep file's line, then the diagram's words
+                key = next((k for k in self.fixed if f"set {k}:" in str(exc)), None)
+                raise LoaderError(f"in 'set': {exc}", self.path, self._set_lines.get(key)) from None
         return self._experiment
 
     def _base_value(self, ref):

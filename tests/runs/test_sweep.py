@@ -251,3 +251,12 @@ def test_a_column_of_numbers_and_lists_writes_to_parquet(tmp_path):
     write_table([{"g.K": 2.0, "m": 1.0}, {"g.K": [1.0, 2.0, 3.0], "m": 2.0}], tmp_path)
     back = pd.read_parquet(tmp_path / "sweep.parquet")
     assert back["g.K"].tolist() == ["2.0", "[1.0, 2.0, 3.0]"] and back["m"].tolist() == [1.0, 2.0]
+
+
+def test_a_bad_set_value_names_the_sweep_file_and_its_line(tmp_path, capsys):
+    # it named the diagram and blamed "--set kpp", which the user never gave
+    p = tmp_path / "s.yaml"
+    p.write_text(SMALL.replace("force: 5.0", "forse: 5.0"))
+    assert main(["check", str(p)]) == 2
+    err = capsys.readouterr().err
+    assert "s.yaml:3: in 'set': " in err and "set forse: no parameter 'forse' in 'params' (did you mean 'force'?)" in err
