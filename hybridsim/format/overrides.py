@@ -49,7 +49,11 @@ class OverridesMixin:
         Setting a parameter that ``variants`` sweeps fixes it: that sweep ends.
         A path with an element index (``g.K[1]``) changes that element of the
         parameter's current value (from the file, else the block's default).
+        A parameter set together with every value that uses it is refused: it
+        would change nothing.
         """
+        used = _references({k: v for k, v in self.data.items() if k != "params"})
+        replaced = {}  # parameter -> the overrides that replaced a value using it
         for key, value in overrides.items():
             self.overrides[key] = value
             path = self._path(key)
@@ -72,6 +76,8 @@ class OverridesMixin:
                 if not isinstance(self.data.get(section), dict):
                     self.data[section] = _Dict()
                     self.data[section].lines, self.data[section].locs = {}, {}
+                for n in _references(self.data[section].get(path.name)):
+                    replaced.setdefault(n, []).append(str(key))
                 self.data[section][path.name] = value
                 getattr(self.data[section], "locs", {})[path.name] = OverrideLoc(f"{self.origin} {key}")
             else:
@@ -84,9 +90,17 @@ class OverridesMixin:
                     pname = path.name
                 if not isinstance(blocks[bname], dict):
                     self._fail(f"{self.origin} {key}: block {bname!r} has no parameters to set")
+                for n in _references(blocks[bname].get(pname)):
+                    replaced.setdefault(n, []).append(str(key))
                 blocks[bname][pname] = value
                 blocks[bname].lines[pname] = None
                 blocks[bname].locs[pname] = OverrideLoc(f"{self.origin} {key}")
+        left = _references({k: v for k, v in self.data.items() if k != "params"})
+        for key in overrides:
+            name = str(key)
+            if name in replaced and name in used and name not in left:
+                self._fail(f"{self.origin} {key}: changes nothing: every value that uses ${name} is set too "
+                           f"({', '.join(replaced[name])}); give one of them")
 
     def _element_set(self, path, value, key):
         """The whole value of ``path`` (no index) with its element ``path.index`` set to ``value``."""

@@ -198,6 +198,14 @@ class Sweep:
                     check(load(self.diagram, **{**self.fixed, key: value}))
             except InputError as exc:
                 raise InputError(f"{self.path}: swept value {key} = {value!r}: {exc}") from None
+        together = {}  # one value of every swept name at once: names that cancel each other (a parameter
+        for key, value in tries:  # and every block value that uses it) are refused by the diagram file
+            together.setdefault(key, value)
+        try:
+            with overrides_from("the sweep's"):
+                load(self.diagram, **{**self.fixed, **together})
+        except InputError as exc:
+            raise InputError(f"{self.path}: {exc}") from None
 
     def fingerprint(self):
         """The identity of everything a point's numbers depend on besides its own overrides: every file

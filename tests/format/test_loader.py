@@ -140,3 +140,14 @@ def test_a_sweep_or_tune_file_given_as_a_diagram_says_which_command_runs_it(tmp_
     tune = write(tmp_path, "diagram: d.yaml\nparameters: {k: [1, 2]}\n", "t.yaml")
     with pytest.raises(LoaderError, match="this is a tune file .* 'hybridsim tune'"):
         DiagramFile(tune)
+
+
+def test_a_parameter_set_with_every_value_that_uses_it_is_refused(tmp_path):
+    # k = 3 with g.K = 1 ran with K = 1: the k the user gave was silently lost
+    p = write(tmp_path, GOOD)
+    with pytest.raises(LoaderError, match=r"--set k: changes nothing: every value that uses \$k is set too \(g\.K\)"):
+        DiagramFile(p, {"k": 3.0, "g.K": 1.0})
+    both = write(tmp_path, GOOD.replace("  zoh:  {type: zoh, rate: 100}", "  zoh:  {type: zoh, rate: 100}\n"
+                                        "  h:    {type: gain, K: $k}").replace("  - g.y -> zoh.u", "  - g.y -> zoh.u\n  - src.y -> h.u"), "two.yaml")
+    diagram, _ = DiagramFile(both, {"k": 3.0, "g.K": 1.0}).build()  # h still takes k
+    assert diagram.blocks["h"].params[0][0][0] == 3.0 and diagram.blocks["g"].params[0][0][0] == 1.0

@@ -260,3 +260,14 @@ def test_a_bad_set_value_names_the_sweep_file_and_its_line(tmp_path, capsys):
     assert main(["check", str(p)]) == 2
     err = capsys.readouterr().err
     assert "s.yaml:3: in 'set': " in err and "set forse: no parameter 'forse' in 'params' (did you mean 'force'?)" in err
+
+
+def test_a_sweep_of_a_parameter_and_of_the_only_value_using_it_is_refused(tmp_path, capsys):
+    # four points in which the k column changed nothing (g.K: $k is swept too)
+    from conftest import GOOD
+
+    (tmp_path / "d.yaml").write_text(GOOD)
+    p = tmp_path / "s.yaml"
+    p.write_text("diagram: d.yaml\ngrid: {k: [1, 2], g.K: [3, 4]}\n")
+    assert main(["check", str(p)]) == 2
+    assert "the sweep's k: changes nothing: every value that uses $k is set too (g.K)" in capsys.readouterr().err
