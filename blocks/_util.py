@@ -34,12 +34,18 @@ def _a_string(value):
     return None
 
 
+def _has_none(value):
+    return value is None or isinstance(value, (list, tuple)) and any(_has_none(v) for v in value)
+
+
 def as_floats(value, name, what):
     """``value`` as a float array, or the error saying it must be ``what``: a bool, a string, or a
     list holding one (numpy would read '1e3' or 'inf' as numbers), or anything not numeric."""
     word = _a_string(value)
     if isinstance(value, bool) or word is not None:
         raise _not_a(what, value, name, word)
+    if _has_none(value):  # numpy reads None as nan
+        raise ParameterError(name, f"must be {what}, got {value!r} (null: a value left empty in YAML)")
     try:
         return np.asarray(value, dtype=float)
     except (TypeError, ValueError):

@@ -84,8 +84,11 @@ class OverridesMixin:
                 bname, blocks = path.block, self.data["blocks"]
                 if _is_subsystem(blocks.get(bname)) and len(path.parts) >= 2:
                     pname = path.inner  # ctrl.pid.Kp: the subsystem passes pid.Kp on
-                elif bname not in blocks or len(path.parts) > 2:
+                elif bname not in blocks:
                     self._fail(f"{self.origin} {key}: no block {bname!r}{closest(bname, blocks)}")
+                elif len(path.parts) > 2:
+                    self._fail(f"{self.origin} {key}: block {bname!r} is not a subsystem; "
+                               f"its parameters are set as {bname}.<parameter>")
                 else:
                     pname = path.name
                 if not isinstance(blocks[bname], dict):

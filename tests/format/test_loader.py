@@ -151,3 +151,13 @@ def test_a_parameter_set_with_every_value_that_uses_it_is_refused(tmp_path):
                                         "  h:    {type: gain, K: $k}").replace("  - g.y -> zoh.u", "  - g.y -> zoh.u\n  - src.y -> h.u"), "two.yaml")
     diagram, _ = DiagramFile(both, {"k": 3.0, "g.K": 1.0}).build()  # h still takes k
     assert diagram.blocks["h"].params[0][0][0] == 3.0 and diagram.blocks["g"].params[0][0][0] == 1.0
+
+
+def test_a_value_left_empty_and_a_path_into_a_plain_block_say_so(tmp_path):
+    # they said "must be finite, got [nan]" and "no block 'g' (did you mean 'g'?)"
+    p = write(tmp_path, GOOD)
+    with pytest.raises(DiagramError) as exc:
+        DiagramFile(p, {"g.K": None}).build()
+    assert "got None (null: a value left empty in YAML)" in "\n".join(exc.value.problems)
+    with pytest.raises(LoaderError, match=r"--set g\.x\.K: block 'g' is not a subsystem; its parameters are set as g\."):
+        DiagramFile(p, {"g.x.K": 3.0})
