@@ -29,9 +29,9 @@ def make_solver(sim):
                        atol=atol if not isinstance(atol, list) else _SIM["atol"], max_step=float(sim.get("max_step", _SIM["max_step"])))
 
 
-def _atol_vector(system, sim):
+def _atol_vector(system, sim, where=None):
     """Per-state absolute tolerances: ``atol`` given one per state, else a block's own where it
-    declares them and ``atol`` (a number) elsewhere."""
+    declares them and ``atol`` (a number) elsewhere. ``where``: 'file:line' (or the override) of it."""
     import numpy as np
 
     from hybridsim.errors import InputError
@@ -39,8 +39,8 @@ def _atol_vector(system, sim):
     given = sim.get("atol", _SIM["atol"])
     if isinstance(given, (list, tuple)):
         if len(given) != system.n_x:
-            raise InputError(f"simulation setting 'atol' has {len(given)} value(s); one per continuous "
-                             f"state needs {system.n_x} (or give one number)")
+            raise InputError(f"{where + ': ' if where else ''}simulation setting 'atol' has {len(given)} "
+                             f"value(s); one per continuous state needs {system.n_x} (or give one number)")
         return np.asarray(given, float)
     a = system.atol.copy()
     a[np.isnan(a)] = float(given)
@@ -122,7 +122,8 @@ def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
     sim = settings["simulation"]
     solver = make_solver(sim)
     if not isinstance(solver, tuple(FIXED_STEP.values())):  # scipy and CVODE: per-state tolerances
-        solver.atol = _atol_vector(system, sim)
+        locs = getattr(f.data.get("simulation"), "locs", None) or {}
+        solver.atol = _atol_vector(system, sim, str(locs.get("atol", f.path)))
     if log is None:
         log = list(settings["log"]) + list(settings["signals"].values())
     compiled = bool(sim.get("compiled", False))

@@ -2,7 +2,7 @@ import re
 
 import pytest
 
-from hybridsim.errors import DiagramError, LoaderError
+from hybridsim.errors import DiagramError, InputError, LoaderError
 from hybridsim.format import DiagramFile
 
 from conftest import GOOD, write
@@ -161,3 +161,16 @@ def test_a_value_left_empty_and_a_path_into_a_plain_block_say_so(tmp_path):
     assert "got None (null: a value left empty in YAML)" in "\n".join(exc.value.problems)
     with pytest.raises(LoaderError, match=r"--set g\.x\.K: block 'g' is not a subsystem; its parameters are set as g\."):
         DiagramFile(p, {"g.x.K": 3.0})
+
+
+def test_atol_of_the_wrong_length_names_its_line(tmp_path):
+    from hybridsim.format.build import build
+
+    p = write(tmp_path, GOOD.replace("simulation: {t_end: 0.2, log_period: 1.0e-2}",
+                                     "blocks_end: 0\nsimulation:\n  solver: radau\n  atol: [1.0e-6, 1.0e-6, 1.0e-6, 1.0e-6, 1.0e-6, 1.0e-6, 1.0e-6]")
+              .replace("blocks_end: 0\n", "").replace("  zoh:  {type: zoh, rate: 100}",
+                                                          "  zoh:  {type: zoh, rate: 100}\n  i: {type: integrator}")
+              .replace("  - g.y -> zoh.u", "  - g.y -> zoh.u\n  - g.y -> i.u"))
+    with pytest.raises(InputError, match=r"d\.yaml:14: simulation setting 'atol' has 7 value\(s\); one per "
+                                          r"continuous state needs \d"):
+        build(p)
