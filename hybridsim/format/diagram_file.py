@@ -2,6 +2,7 @@
 import copy
 import logging
 import os
+import re
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -22,6 +23,8 @@ from hybridsim.format.yamlio import _Dict
 TOP_KEYS = tables.keys(tables.DIAGRAM)
 _log = logging.getLogger("hybridsim")
 _SAID = set()  # notes already given in this process
+
+_BAD_PARAM = re.compile(r"[.\[\]\s:=$]")  # a parameter name as --set and $name spell it
 
 
 def _shape(kind):
@@ -75,6 +78,10 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
         self.description = str(data.get("description", ""))
         self.params = _Dict(data.get("params") or {})
         self.params.lines = getattr(data.get("params"), "lines", {}) or {}
+        for k in self.params:  # '$name' and --set name reach it: a plain word
+            if not isinstance(k, str) or not k or _BAD_PARAM.search(k):
+                self._fail(f"parameter name {k!r} may not be empty or contain '.', '[', ']', ':', '=', '$' "
+                           "or spaces ($name and --set name must reach it)", self.params.lines.get(k))
         self.overrides = {}  # every override applied, as given (a copy of the file is parsed with them)
         self.origin = ORIGIN.get()  # what messages call their source ("--set", a sweep's)
         self.apply(overrides or {})

@@ -174,3 +174,10 @@ def test_atol_of_the_wrong_length_names_its_line(tmp_path):
     with pytest.raises(InputError, match=r"d\.yaml:14: simulation setting 'atol' has 7 value\(s\); one per "
                                           r"continuous state needs \d"):
         build(p)
+
+
+@pytest.mark.parametrize("name", ["a.b", "", "x y", "k$"])
+def test_a_parameter_name_that_neither_dollar_nor_set_can_reach_is_refused(tmp_path, name):
+    p = write(tmp_path, f"params:\n  {name!r}: 1.0\nblocks:\n  c: {{type: constant, value: 1.0}}\n")
+    with pytest.raises(LoaderError, match=r"d\.yaml:2: parameter name .* may not be empty or contain"):
+        DiagramFile(p)
