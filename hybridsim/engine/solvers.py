@@ -113,7 +113,8 @@ class ExplicitRK(Solver):
     ``b_j(theta)`` in powers ``theta, theta^2, ...``); :mod:`hybridsim.engine.rk`
     takes the steps on arrays and :mod:`hybridsim.engine.rk_code` writes them out
     for the fused path, the same arithmetic. Discontinuities inside a step are
-    stepped over unless located as events.
+    stepped over unless located as events. ``step`` (s); ``scan`` (s): the longest
+    stretch between two checks of the event functions inside one step.
     """
 
     name = None
@@ -121,10 +122,12 @@ class ExplicitRK(Solver):
     #: a fixed step grid: switches without actions are stepped over unless asked to be located
     fixed_step = True
 
-    def __init__(self, step=1e-4):
+    def __init__(self, step=1e-4, scan=1e-3):
         if not step > 0:
             raise ValueError(f"{self.name} step must be positive, got {step!r}")
-        self.step = float(step)
+        if not scan > 0:
+            raise ValueError(f"scan must be positive, got {scan!r}")
+        self.step, self.scan = float(step), float(scan)
 
     def dense_weights(self, theta):
         """Dense-output weights ``(b_1(theta), ..., b_s(theta))``; ``theta`` a number or an array

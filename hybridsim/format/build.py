@@ -15,18 +15,20 @@ from hybridsim.format.diagram_file import DiagramFile
 def make_solver(sim):
     """Solver object from a diagram's ``simulation`` settings."""
     name = str(sim.get("solver", "rk4")).lower()
+    scan = float(sim.get("scan", _SIM["scan"]))
     if name in FIXED_STEP:
-        return FIXED_STEP[name](float(sim.get("step", _SIM["step"])))
+        return FIXED_STEP[name](float(sim.get("step", _SIM["step"])), scan=scan)
     if name == "cvode":
         from hybridsim.engine.cvode import CVode
 
         return CVode(rtol=float(sim.get("rtol", _SIM["rtol"])), atol=sim.get("atol", _SIM["atol"]),
-                     max_step=float(sim.get("max_step", _SIM["max_step"])))
+                     max_step=float(sim.get("max_step", _SIM["max_step"])), scan=scan)
     method = {"radau": "Radau", "bdf": "BDF", "lsoda": "LSODA", "rk45": "RK45",
               "rk23": "RK23", "dop853": "DOP853"}[name]
     atol = sim.get("atol", _SIM["atol"])
     return ScipySolver(method, rtol=float(sim.get("rtol", _SIM["rtol"])),
-                       atol=atol if not isinstance(atol, list) else _SIM["atol"], max_step=float(sim.get("max_step", _SIM["max_step"])))
+                       atol=atol if not isinstance(atol, list) else _SIM["atol"],
+                       max_step=float(sim.get("max_step", _SIM["max_step"])), scan=scan)
 
 
 def _atol_vector(system, sim, where=None):

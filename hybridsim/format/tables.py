@@ -75,6 +75,8 @@ SIMULATION = [
     Setting("max_step", Number(0, low_open=True, inf=True, unit="s"), float("inf"),
             "largest step of the scipy solvers"),
     Setting("log_period", _TIME, 0.0005, "interval of the logged rows"),
+    Setting("scan", _TIME, 1e-3, "longest stretch between two checks of the event functions inside one step "
+            "(a function that crosses and crosses back between two checks is missed); raise it for long runs"),
     Setting("max_state", _POS, 1e6, "a state larger than this in magnitude ends the run as diverged"),
     Setting("fused", Bool(), True, "evaluate the continuous blocks as one generated function"),
     Setting("compiled", Bool(), False, "run the whole loop compiled with numba (rk4; blocks need kernels)"),

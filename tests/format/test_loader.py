@@ -181,3 +181,17 @@ def test_a_parameter_name_that_neither_dollar_nor_set_can_reach_is_refused(tmp_p
     p = write(tmp_path, f"params:\n  {name!r}: 1.0\nblocks:\n  c: {{type: constant, value: 1.0}}\n")
     with pytest.raises(LoaderError, match=r"d\.yaml:2: parameter name .* may not be empty or contain"):
         DiagramFile(p)
+
+
+@pytest.mark.parametrize("solver", ["rk4", "radau", "cvode"])
+def test_scan_is_a_simulation_setting_every_solver_takes(tmp_path, solver):
+    # the event functions were checked every 1 ms on every solver, whatever the step: a limited
+    # integrator over 1025 s took 20-40 s, and nothing in a diagram could change it
+    from hybridsim.format.build import build
+
+    p = write(tmp_path, "blocks:\n  c: {type: constant, value: 1.0}\n  i: {type: integrator, K: 1.0e-4, upper: 1.0}\n"
+                        "wires: [c.y -> i.u]\nsimulation: {t_end: 1025, step: 1.0, log_period: 1.0, scan: 10}\n"
+                        "log: [i.y]\n")
+    _, sim, settings = build(p, solver=solver)
+    assert sim.solver.scan == 10.0 and sim.session(sim._context(None)[0]).lim.scan == 10.0
+    assert abs(sim.run(1025.0)["i.y"][-1, 0] - 0.1025) < 1e-9
