@@ -90,7 +90,9 @@ def to_period(value, what="period"):
             if not np.isfinite(v):
                 raise ValueError
             period = Fraction(v).limit_denominator(10**7)
-            if abs(float(period) - v) > 1e-12:
+            if abs(float(period) - v) > 1e-12 and 0.0 < v < 1e-3:  # a tiny period: the inverse of a rate
+                period = Fraction(1, max(1, round(1.0 / v)))
+            if abs(float(period) - v) > min(1e-12, 1e-9 * abs(v)):
                 raise RateError(
                     f"{what} {value!r} s is not a ratio of small integers; "
                     "give the rate in Hz (rate: 60) or the period as a fraction ('1/60')"

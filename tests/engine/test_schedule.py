@@ -79,3 +79,11 @@ def test_a_log_period_far_beyond_the_end_logs_the_start_and_the_end():
     assert n_last == 0
     n, due = s.hits(n_last)
     assert n.tolist() == [0] and s.time(n).tolist() == [0.0]
+
+
+def test_a_period_under_a_microsecond_is_its_exact_ratio():
+    # 1e-8 s was "not a ratio of small integers" (denominators stopped at 1e7)
+    from fractions import Fraction
+
+    assert to_period(1e-8) == Fraction(1, 10**8) and to_period(1e-10) == Fraction(1, 10**10)
+    assert to_period(1 / 60) == Fraction(1, 60) and to_period(0.0005) == Fraction(1, 2000)
