@@ -4,6 +4,7 @@
 expanded (each subsystem file read once), so a hierarchy that doubles at
 every level is refused in milliseconds, not after exponential work.
 """
+import logging
 import re
 from pathlib import Path
 
@@ -12,6 +13,8 @@ from hybridsim.errors import LoaderError, ParameterError, RateError
 from hybridsim.engine.registry import closest, lookup, parameters, types
 from hybridsim.format import tables
 from hybridsim.format.values import _has_nan, _is_subsystem, _references, subsystem_path
+
+_log = logging.getLogger("hybridsim")
 
 _BAD_NAME = re.compile(r"[.\[\]\s:=]")  # a '.' separates a subsystem's name from its blocks' names
 
@@ -178,6 +181,16 @@ class ExpandMixin:
         except LoaderError as exc:
             problems.append(f"{context}{spec.locs.get(next(iter(overrides), 'type'), here)}: in subsystem {bname!r}: {exc}")
             return None
+        unread = [k for k in sub.data if k not in tables.SUBSYSTEM_SECTIONS]
+        if unread and sub.data.get("inputs"):  # it never runs on its own: those sections are dead
+            k = unread[0]
+            problems.append(f"{context}{where}: in subsystem {bname!r}: {shown}:{sub.data.lines.get(k)}: section "
+                            f"{k!r} has no effect in a subsystem file that declares inputs (it never runs on its "
+                            f"own); only {', '.join(tables.SUBSYSTEM_SECTIONS)} are read")
+            return None
+        if unread:
+            _log.warning("%s: %s: %s ignored where it is used as a subsystem (only %s are read there)", where,
+                         shown, ", ".join(repr(k) for k in unread), ", ".join(tables.SUBSYSTEM_SECTIONS))
         # one table of each for the whole hierarchy
         sub.aliases, sub._cut, sub._broken = self.aliases, self._cut, self._broken
         inner = f"{context}in subsystem {prefix}{bname} ({where}): "

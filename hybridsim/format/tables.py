@@ -155,6 +155,9 @@ DIAGRAM = [
     Setting("outputs", MapOf(Signal()), {}, "a subsystem's outputs: {name: inner output}"),
 ]
 
+#: the sections read where a file is used as a subsystem; the others only where it runs on its own
+SUBSYSTEM_SECTIONS = ("extends", "name", "description", "params", "blocks", "wires", "inputs", "outputs")
+
 _VEC = Either(Number(), ListOf(Number()))
 _NONNEG_VEC = Either(Number(0), ListOf(Number(0)))
 _ROBOT = [

@@ -133,6 +133,24 @@ def test_a_subsystem_files_declared_ports_are_checked_where_they_are_declared(tm
     assert f"inner.yaml:{len(lines)}: {message}" in err and "in subsystem m (" in err, err
 
 
+def test_a_section_a_subsystem_file_never_reads_is_refused_or_noted(tmp_path, capsys, caplog):
+    # a subsystem with inputs never runs on its own: its 'simulation: {t_end: -5}' passed check, ignored
+    (tmp_path / "inner.yaml").write_text(INNER + "simulation: {t_end: -5}\n")
+    (tmp_path / "d.yaml").write_text("blocks:\n  c: {type: constant, value: 1.0}\n"
+                                     "  m: {type: subsystem, file: inner.yaml}\nwires: [c.y -> m.a, c.y -> m.b]\n")
+    assert main(["check", str(tmp_path / "d.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert "inner.yaml:8: section 'simulation' has no effect in a subsystem file that declares inputs" in err, err
+    # one without inputs may run on its own: there a note, and it runs
+    (tmp_path / "plant.yaml").write_text("blocks:\n  c: {type: constant, value: 2.0}\noutputs: {y: c.y}\n"
+                                         "simulation: {t_end: 0.5}\n")
+    (tmp_path / "e.yaml").write_text("blocks:\n  p: {type: subsystem, file: plant.yaml}\n  g: {type: gain}\n"
+                                     "wires: [p.y -> g.u]\n")
+    with caplog.at_level("WARNING", logger="hybridsim"):
+        assert main(["check", str(tmp_path / "e.yaml")]) == 0
+    assert "plant.yaml: 'simulation' ignored where it is used as a subsystem" in caplog.text
+
+
 def test_a_dot_in_a_block_name_is_refused(tmp_path, capsys):
     (tmp_path / "d.yaml").write_text("blocks:\n  a.b: {type: constant, value: 1.0}\n")
     assert main(["check", str(tmp_path / "d.yaml")]) == 2
