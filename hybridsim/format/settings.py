@@ -18,6 +18,15 @@ from hybridsim.format.values import _plain
 from hybridsim.format.yamlio import _Dict, _List
 
 _log = logging.getLogger("hybridsim")
+_noted = set()  # the notes given in this process: a file's settings are read more than once
+
+
+def _note(message, *args):
+    """A warning about a file's settings, once per process."""
+    text = message % args
+    if text not in _noted:
+        _noted.add(text)
+        _log.warning(text)
 
 
 def horizon_problems(diagram_blocks, sim, t_end, log_width=0, what="t_end"):
@@ -177,6 +186,10 @@ class SettingsMixin:
             why = horizon_problems(diagram.blocks.values(), sim, at, 0, "analysis at")
             if why:
                 raise LoaderError("; ".join(why), self.path, settings["analysis"]["_lines"].get("at"))
+            if at > sim["t_end"]:
+                _note("%s:%s: analysis at %g s is past t_end %g s: each linearization of analyze and "
+                             "report (one per rate, gain and case) simulates %g s first", self.path,
+                             settings["analysis"]["_lines"].get("at"), at, sim["t_end"], at)
 
     def _settings(self, params):
         simr, sim_lines, problems = self._section("simulation", params)
@@ -206,7 +219,7 @@ class SettingsMixin:
         simr["solver"] = simr["solver"].lower()
         step = simr.get("step") if simr["solver"] in tables.FIXED_STEP_SOLVERS else None
         if step is not None and step > simr["t_end"]:
-            _log.warning("%s: the step %g s is longer than t_end %g s: %s takes one step of %g s",
+            _note("%s: the step %g s is longer than t_end %g s: %s takes one step of %g s",
                          self.path, step, simr["t_end"], simr["solver"], simr["t_end"])
         return {
             "simulation": simr,

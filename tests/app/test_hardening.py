@@ -462,3 +462,9 @@ def test_a_changed_sweep_does_not_reuse_old_points(tmp_path, capsys):
     code, _, _ = run(capsys, "sweep", s, "-q", "-o", out, "--force")
     assert code == 0 and (out / "points.jsonl.old").exists()
     assert len((out / "points.jsonl").read_text().splitlines()) == 2
+
+
+def test_an_analysis_time_past_t_end_is_said_once(tmp_path, capsys):
+    # analyze ran 300 s in silence on a 0.3 s diagram linearized at 100 s
+    code, _, err = run(capsys, "check", write(tmp_path, GOOD + "analysis: {at: 100}\n"))
+    assert code == 0 and err.count("analysis at 100 s is past t_end 0.2 s") == 1
