@@ -172,7 +172,7 @@ class ExpandMixin:
                                 f"{closest(first, sub.data['blocks'])}")
                 return None
         try:
-            sub.apply(overrides)
+            sub.apply(overrides, cancelling=False)
             sub.command_line = False  # its overrides come from this subsystem block
             for key in overrides:  # an inner block's error names where the value came from
                 if "." in str(key):

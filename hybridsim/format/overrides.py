@@ -43,14 +43,16 @@ class OverridesMixin:
         except ValueError as exc:
             self._fail(f"{what or self.origin} {key}: {exc}")
 
-    def apply(self, overrides):
+    def apply(self, overrides, cancelling=True):
         """Apply ``{path: value}`` overrides in place (see class docstring).
 
         Setting a parameter that ``variants`` sweeps fixes it: that sweep ends.
         A path with an element index (``g.K[1]``) changes that element of the
         parameter's current value (from the file, else the block's default).
         A parameter set together with every value that uses it is refused: it
-        would change nothing.
+        would change nothing (unless ``cancelling`` is False: a subsystem block
+        passes its file's parameters on whether or not a user set the values
+        that use them).
         """
         used = _references({k: v for k, v in self.data.items() if k != "params"})
         replaced = {}  # parameter -> the overrides that replaced a value using it
@@ -101,7 +103,7 @@ class OverridesMixin:
         left = _references({k: v for k, v in self.data.items() if k != "params"})
         for key in overrides:
             name = str(key)
-            if name in replaced and name in used and name not in left:
+            if cancelling and name in replaced and name in used and name not in left:
                 self._fail(f"{self.origin} {key}: changes nothing: every value that uses ${name} is set too "
                            f"({', '.join(replaced[name])}); give one of them")
 
@@ -144,7 +146,7 @@ class OverridesMixin:
                 return self._number(ref, self._resolve(spec[pname], str(self.path), self.params))
             sub = type(self)(subsystem_path(spec, "."))  # the subsystem's own file, parsed alike
             sub.apply({k: self._resolve(v, str(self.path), self.params) for k, v in spec.items()
-                       if k not in ("type", "file")})
+                       if k not in ("type", "file")}, cancelling=False)
             return sub.param_value(pname)
         if "." in pname:
             raise LoaderError(f"{ref!r}: block {bname!r} is not a subsystem", self.path)
