@@ -472,23 +472,7 @@ def locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi):
             copy_into(w.xm, w.xn)
         if crossed_any(w.glo, w.ghi, w.dirs, w.fired):
             copy_into(w.xe, w.xm)
-            # bisection on the dense output: [lo, hi] in fractions of the step, to a thousandth of
-            # time_tol or adjacent times (an event up to time_tol late would start the next one
-            # that late: a chain of resets would drift by time_tol per event)
-            while (hi - lo) * h > 1e-3 * lim.time_tol:
-                mid = 0.5 * (lo + hi)
-                if not ta + lo * h < ta + mid * h < ta + hi * h:
-                    break
-                ops.dense(s, ta + mid * h, w.x, w, w.xm)
-                gl.zc(ta + mid * h, w.xm, w.gm, y, z, pf, pi)
-                mute(w.gm, w.muted)
-                if crossed_any(w.glo, w.gm, w.dirs, w.fired):
-                    hi = mid
-                    copy_into(w.xe, w.xm)
-                    copy_into(w.ghi, w.gm)
-                else:
-                    lo = mid
-                    copy_into(w.glo, w.gm)
+            lo, hi = bisect(ta, h, lo, hi, False, gl, ops, s, lim, w, y, z, pf, pi)
             crossed_any(w.glo, w.ghi, w.dirs, w.fired)
             early = False
             if lo > 0.0 and ops.restep(s, lo * h, w.x, w, gl, y, z, pf, pi, w.xm):
@@ -530,24 +514,38 @@ def fresh_crossing(ta, tb, lo, gl, ops, s, lim, w, y, z, pf, pi):
     if not crossed_any(w.g, w.gn, w.dirs, w.fired):
         copy_into(w.g, w.gn)
         return False, tb
-    hi = 1.0
     copy_into(w.xe, w.xn)
+    copy_into(w.glo, w.g)  # (none crossed from ta to lo on fresh steps: lo's functions are ta's side)
     copy_into(w.ghi, w.gn)
+    lo, hi = bisect(ta, h, lo, 1.0, True, gl, ops, s, lim, w, y, z, pf, pi)
+    crossed_any(w.glo, w.ghi, w.dirs, w.fired)
+    return True, (ta + hi * h if hi < 1.0 else tb)
+
+
+def bisect(ta, h, lo, hi, fresh, gl, ops, s, lim, w, y, z, pf, pi):
+    """Bisect [lo, hi] (fractions of the step [ta, ta + h]), where ``w.glo`` (the functions at lo)
+    and ``w.ghi`` (at hi) lie on either side of a crossing, on the step's dense output or on fresh
+    steps from ta (``fresh``), to a thousandth of time_tol or adjacent times (an event up to
+    time_tol late would start the next one that late: a chain of resets would drift by time_tol per
+    event). ``w.xe`` is left the state at hi; returns ``(lo, hi)``."""
     while (hi - lo) * h > 1e-3 * lim.time_tol:
         mid = 0.5 * (lo + hi)
         if not ta + lo * h < ta + mid * h < ta + hi * h:
             break
-        ops.restep(s, mid * h, w.x, w, gl, y, z, pf, pi, w.xm)
+        if fresh:
+            ops.restep(s, mid * h, w.x, w, gl, y, z, pf, pi, w.xm)
+        else:
+            ops.dense(s, ta + mid * h, w.x, w, w.xm)
         gl.zc(ta + mid * h, w.xm, w.gm, y, z, pf, pi)
         mute(w.gm, w.muted)
-        if crossed_any(w.g, w.gm, w.dirs, w.fired):
+        if crossed_any(w.glo, w.gm, w.dirs, w.fired):
             hi = mid
             copy_into(w.xe, w.xm)
             copy_into(w.ghi, w.gm)
         else:
             lo = mid
-    crossed_any(w.g, w.ghi, w.dirs, w.fired)
-    return True, (ta + hi * h if hi < 1.0 else tb)
+            copy_into(w.glo, w.gm)
+    return lo, hi
 
 
 def settle(t, gl, lim, w, out, y, z, pf, pi):
