@@ -25,6 +25,13 @@ PATHS = {
 }
 
 
+#: rk4 and heun on the generic, fused and compiled paths (arguments ``solver`` and ``path``)
+def on_fixed_step_paths(test):
+    paths = pytest.mark.parametrize("path", [{"fused": False}, {}, {"compiled": True}],
+                                    ids=["generic", "fused", "compiled"])
+    return paths(pytest.mark.parametrize("solver", ["rk4", "heun"])(test))
+
+
 def ball(solver, log_period=0.01, **kw):
     d = hs.Diagram("ball")
     d.add(lookup("bouncing_ball")("ball", g=G, e=E, h0=H0))
@@ -212,8 +219,7 @@ def test_a_switch_that_cannot_change_a_derivative_is_not_located(tmp_path):
         assert hs.simulate(path, solver=solver).meta["events"] == []
 
 
-@pytest.mark.parametrize("path", [{"fused": False}, {}, {"compiled": True}], ids=["generic", "fused", "compiled"])
-@pytest.mark.parametrize("solver", ["rk4", "heun"])
+@on_fixed_step_paths
 def test_a_step_on_the_fixed_grid_is_integrated_exactly_with_located_switches(tmp_path, solver, path):
     # the jump at 0.5 s is a step's end: its last stage saw the new value (0.500167 on rk4); located,
     # the step is taken again to just before it
@@ -225,8 +231,7 @@ def test_a_step_on_the_fixed_grid_is_integrated_exactly_with_located_switches(tm
 
 
 
-@pytest.mark.parametrize("path", [{"fused": False}, {}, {"compiled": True}], ids=["generic", "fused", "compiled"])
-@pytest.mark.parametrize("solver", ["rk4", "heun"])
+@on_fixed_step_paths
 def test_a_jump_at_a_sample_hit_or_at_the_end_is_integrated_exactly_with_located_switches(tmp_path, solver, path):
     # the step at 0.5 s falls on a 10 Hz zoh's hit: the crossing fires after the hit, and the hit
     # took the step's own state, whose last stage saw the jump (0.500167 on rk4, 0.5005 on heun)
@@ -255,8 +260,7 @@ log: [pid.u]
 """
 
 
-@pytest.mark.parametrize("path", [{"fused": False}, {}, {"compiled": True}], ids=["generic", "fused", "compiled"])
-@pytest.mark.parametrize("solver", ["rk4", "heun"])
+@on_fixed_step_paths
 @pytest.mark.parametrize("time", [0.02, 0.0195])
 def test_a_jump_at_or_inside_a_fixed_step_is_one_event_at_its_time(tmp_path, solver, path, time):
     # the PID's e = r - y sits at exactly 0 until the setpoint steps; the step's dense output, bent by
@@ -309,8 +313,7 @@ log: [hit.count]
 """
 
 
-@pytest.mark.parametrize("path", [{"fused": False}, {}, {"compiled": True}], ids=["generic", "fused", "compiled"])
-@pytest.mark.parametrize("solver", ["rk4", "heun"])
+@on_fixed_step_paths
 def test_a_crossing_a_hair_after_a_switch_is_acted_on_once(tmp_path, solver, path):
     # B = t crosses 0.1500000000000006 two ulps after the pulse falls at 0.15: the switch's state is
     # a fresh step to just before it, where B has not crossed, yet hit was acted on there (its dense
