@@ -30,6 +30,7 @@ everything else a point's numbers depend on (every file its runs read, ``set``,
 into the same folder is refused, or with ``restart`` started afresh (the old points kept as
 ``points.jsonl.old``). Every swept value is checked before any point runs.
 """
+import contextlib
 from pathlib import Path
 
 import numpy as np
@@ -77,6 +78,7 @@ class Sweep:
                 raise LoaderError(f"'{key}' must be true or false, got {data[key]!r}", self.path, lines[key])
         self.fixed = {str(k): v for k, v in (data.get("set") or {}).items()}
         self._set_lines = dict(getattr(data.get("set"), "lines", None) or {})
+        self._diagram_line = lines["diagram"]
         self.grid = dict(data.get("grid") or {})
         self.scale = dict(data.get("scale") or {})
         for key, axes in (("grid", self.grid), ("scale", self.scale)):
@@ -120,13 +122,22 @@ class Sweep:
             from hybridsim.format.overrides import overrides_from
 
             fixed = {**self.fixed, **({"simulation.compiled": True} if self.compiled else {})}
-            try:
+            with self._blaming_set():
                 with overrides_from("set"):
                     self._experiment = Experiment(self.diagram, **fixed)
-            except LoaderError as exc:  # a value of 'set': the sweep file's line, then the diagram's words
-                key = next((k for k in self.fixed if f"set {k}:" in str(exc)), None)
-                raise LoaderError(f"in 'set': {exc}", self.path, self._set_lines.get(key)) from None
         return self._experiment
+
+    @contextlib.contextmanager
+    def _blaming_set(self):
+        """Within: an input error is this file's, at the line of the 'set' value it names (the
+        diagram's words after it), else at 'diagram'."""
+        try:
+            yield
+        except InputError as exc:
+            key = next((k for k in self.fixed if f"set {k}:" in str(exc)), None)
+            if key is None:
+                raise LoaderError(f"'diagram': {exc}", self.path, self._diagram_line) from None
+            raise LoaderError(f"in 'set': {exc}", self.path, self._set_lines.get(key)) from None
 
     def _base_value(self, ref):
         """Value of a parameter or block parameter in the diagram with ``set`` (for scaling)."""
@@ -185,7 +196,8 @@ class Sweep:
         from hybridsim.format.overrides import overrides_from
 
         exp = self.experiment
-        check(exp.file)
+        with self._blaming_set():
+            check(exp.file)
         tries = [(k, v) for k, vals in self.grid.items() for v in vals]
         tries += [(k, (self._base_value(k) * float(v)).tolist()) for k, vals in self.scale.items() for v in vals]
         if self.random:

@@ -271,3 +271,14 @@ def test_a_sweep_of_a_parameter_and_of_the_only_value_using_it_is_refused(tmp_pa
     p.write_text("diagram: d.yaml\ngrid: {k: [1, 2], g.K: [3, 4]}\n")
     assert main(["check", str(p)]) == 2
     assert "the sweep's k: changes nothing: every value that uses $k is set too (g.K)" in capsys.readouterr().err
+
+
+def test_a_bad_block_value_in_set_and_a_sweep_as_the_diagram_name_the_sweep_file(tmp_path, capsys):
+    p = tmp_path / "s.yaml"
+    p.write_text(SMALL.replace("force: 5.0", "force: 5.0, ctrl.fpi.Ki: abc"))
+    assert main(["check", str(p)]) == 2
+    err = capsys.readouterr().err
+    assert "s.yaml:3: in 'set': " in err and "set ctrl.fpi.Ki: " in err, err
+    (tmp_path / "t.yaml").write_text(f"diagram: {p}\ngrid: {{force: [1, 2]}}\n")
+    assert main(["check", str(tmp_path / "t.yaml")]) == 2
+    assert "t.yaml:1: 'diagram': " in capsys.readouterr().err
