@@ -87,7 +87,7 @@ def _ports(f):
     from hybridsim.engine.diagram import Diagram
 
     d = Diagram(f.name, source=str(f.path))
-    f.aliases, f._cut, f._broken = {}, set(), set()
+    f.aliases, f._cut, f._broken, f._bad_ports = {}, set(), set(), set()
     ins, outs = f._expand(d, dict(f.params), "", (f.path.resolve(),), "")
     if d.problems:
         raise LoaderError("; ".join(d.problems[:3]), f.path)

@@ -139,6 +139,7 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
         self.aliases = {}
         self._cut = set()  # inputs whose wire was left out because its other end has a problem
         self._broken = set()  # flat names of the blocks and subsystems that had a problem
+        self._bad_ports = set()  # flat names of subsystem ports whose declaration had a problem
         self._expand(diagram, params, "", (self.path.resolve(),), "")
         problems += [p for p in diagram.check() if p not in problems
                      and not any(p.startswith(f"input {ref} (") for ref in self._cut)]

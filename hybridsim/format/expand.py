@@ -63,6 +63,8 @@ class ExpandMixin:
             srcs = self._endpoint(src, subs, prefix, 1, line, context, problems)
             dsts = self._endpoint(dst, subs, prefix, 0, line, context, problems)
             if srcs is None or dsts is None:
+                if dsts is not None:  # its source has a problem of its own: not this input's
+                    self._cut.update(dsts)
                 continue
             if any(self._dead(r) for r in srcs + dsts):
                 self._cut.update(dsts)  # a block at one end already has a problem: not this input's
@@ -85,6 +87,7 @@ class ExpandMixin:
                         why = self._port_problem(diagram, ref, prefix, section[:-1])
                         if why:
                             problems.append(f"{where}: {section[:-1]} {name!r}: {why}")
+                            self._bad_ports.add(prefix + name)  # the wires to it are not blamed again
                             got = None
                     if got is not None:
                         flat += got
@@ -98,6 +101,8 @@ class ExpandMixin:
         """Why the 'block.port' ``ref`` of this file is not one of its blocks' ``kind`` ports ("input",
         "output"), or None (a block that had a problem of its own is not blamed again)."""
         bname, pname = ref.split(".")
+        if "[" in pname:  # wires join whole ports
+            return f"{ref!r} is one element; a subsystem's port is a whole port (a demux block splits one)"
         block = diagram.blocks.get(prefix + bname)
         if block is None:
             if self._dead(prefix + ref):
@@ -124,6 +129,8 @@ class ExpandMixin:
             return [prefix + ref]
         ins, outs, sub_where = subs[bname]
         table = outs if output else ins
+        if pname not in table and prefix + ref in self._bad_ports:  # its declaration had the problem
+            return None
         if pname not in table:
             kind = "output" if output else "input"
             problems.append(f"{context}{line}: subsystem {bname!r} ({sub_where}) has no {kind} {pname!r}"
@@ -192,7 +199,7 @@ class ExpandMixin:
             _log.warning("%s: %s: %s ignored where it is used as a subsystem (only %s are read there)", where,
                          shown, ", ".join(repr(k) for k in unread), ", ".join(tables.SUBSYSTEM_SECTIONS))
         # one table of each for the whole hierarchy
-        sub.aliases, sub._cut, sub._broken = self.aliases, self._cut, self._broken
+        sub.aliases, sub._cut, sub._broken, sub._bad_ports = self.aliases, self._cut, self._broken, self._bad_ports
         inner = f"{context}in subsystem {prefix}{bname} ({where}): "
         ins, outs = sub._expand(diagram, dict(sub.params), f"{prefix}{bname}.", chain + (path,), inner)
         if self.files is not None:

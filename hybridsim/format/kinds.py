@@ -13,6 +13,7 @@ import re
 REF_SCHEMA = {"type": "string", "pattern": r"^\$[A-Za-z_][A-Za-z0-9_]*$", "description": "a name in 'params'"}
 #: 'block.port' or 'block.port[i]' (block may be 'sub.block')
 SIGNAL = re.compile(r"^([^\[\]\s]+)\.([^.\[\]\s]+)(?:\[(\d+)\])?$")
+PORT = re.compile(r"^([^\[\]\s]+)\.([^.\[\]\s]+)$")
 
 
 def _is_number(v):
@@ -115,6 +116,18 @@ class Signal(Kind):
 
     def schema(self):
         return {"type": "string", "pattern": SIGNAL.pattern}
+
+
+class Port(Signal):
+    """'block.port', a whole port (what a wire joins: a subsystem's declared inputs and outputs)."""
+
+    text = "a whole port 'block.port'"
+
+    def problem(self, v):
+        return None if isinstance(v, str) and PORT.match(v) else self._got(v)
+
+    def schema(self):
+        return {"type": "string", "pattern": PORT.pattern}
 
 
 class PathText(Kind):

@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 
 from hybridsim import limits
 from hybridsim.engine.registry import closest
-from hybridsim.format.kinds import REF_SCHEMA, Bool, Choice, Either, Kind, ListOf, MapOf, Number, PathText, Signal, Text
+from hybridsim.format.kinds import REF_SCHEMA, Bool, Choice, Either, Kind, ListOf, MapOf, Number, PathText, Port, Signal, Text
 
 # documented: the tables and functions (Setting's fields would shadow other names in the API pages)
 __all__ = ["SIMULATION", "SIGNALS", "METRICS", "PLOT", "ANALYSIS", "ANALYSIS_STEP", "SWEEP", "SWEEP_RANDOM", "DIAGRAM",
@@ -150,9 +150,9 @@ DIAGRAM = [
     Setting("variants", MapOf(ListOf(Kind())), {}, "a grid of runs: {name in params: [values]}"),
     Setting("plot", Record(PLOT, "plot"), {}, "the figure's title and panel names"),
     Setting("analysis", Record(ANALYSIS, "analysis"), {}, "settings of analyze and report"),
-    Setting("inputs", MapOf(Either(Signal(), ListOf(Signal()))), {},
+    Setting("inputs", MapOf(Either(Port(), ListOf(Port()))), {},
             "a subsystem's inputs: {name: inner input or [inputs]}"),
-    Setting("outputs", MapOf(Signal()), {}, "a subsystem's outputs: {name: inner output}"),
+    Setting("outputs", MapOf(Port()), {}, "a subsystem's outputs: {name: inner output}"),
 ]
 
 #: the sections read where a file is used as a subsystem; the others only where it runs on its own

@@ -119,6 +119,7 @@ def test_bad_subsystems_are_clear_errors(tmp_path, capsys, spec, message):
     ("outputs: {y: nope.y}", "output 'y': no block 'nope'"),
     ("outputs: {y: g.u}", "output 'y': block 'g' (Gain) has no output 'u'; its outputs: y"),
     ("inputs: {a: [s.u1, g.x], b: s.u2}", "input 'a': block 'g' (Gain) has no input 'x'; its inputs: u"),
+    ('outputs: {y: "g.y[0]"}', "output 'y': 'g.y[0]' is one element; a subsystem's port is a whole port"),
 ])
 def test_a_subsystem_files_declared_ports_are_checked_where_they_are_declared(tmp_path, capsys, ports, message):
     # an output naming no block passed check and ran (exit 0) while nothing wired it; wired, the error
@@ -127,10 +128,12 @@ def test_a_subsystem_files_declared_ports_are_checked_where_they_are_declared(tm
     lines = [line for line in INNER.splitlines() if not line.startswith(key)] + [ports]
     (tmp_path / "inner.yaml").write_text("\n".join(lines) + "\n")
     (tmp_path / "d.yaml").write_text("blocks:\n  c: {type: constant, value: 1.0}\n"
-                                     "  m: {type: subsystem, file: inner.yaml}\nwires: [c.y -> m.b]\n")
+                                     "  m: {type: subsystem, file: inner.yaml}\n  h: {type: gain}\n"
+                                     "wires: [c.y -> m.a, c.y -> m.b, m.y -> h.u]\n")
     assert main(["check", str(tmp_path / "d.yaml")]) == 2
     err = capsys.readouterr().err
     assert f"inner.yaml:{len(lines)}: {message}" in err and "in subsystem m (" in err, err
+    assert "1 problem(s)" in err, err  # not also the wire to it, nor the input that wire left unwired
 
 
 def test_a_section_a_subsystem_file_never_reads_is_refused_or_noted(tmp_path, capsys, caplog):
