@@ -82,7 +82,7 @@ def _size(n_bytes):
     return f"{n_bytes / 2**30:.3g} GiB" if n_bytes >= 2**30 else f"{n_bytes / 2**20:.3g} MiB"
 
 
-def run_size_problems(t_end, periods, log_period, step=None, log_width=0, solver="rk4"):
+def run_size_problems(t_end, periods, log_period, step=None, log_width=0, solver="rk4", scan=None):
     """Problems (strings) with the size of one run, or an empty list.
 
     Parameters
@@ -99,6 +99,8 @@ def run_size_problems(t_end, periods, log_period, step=None, log_width=0, solver
         Logged values per row (without time).
     solver : str
         Solver name (for the message).
+    scan : float, optional
+        Longest stretch between two checks of the event functions, s (where there are any).
     """
     out = []
     stops = sum(t_end / p for p in periods) + t_end / log_period
@@ -120,4 +122,8 @@ def run_size_problems(t_end, periods, log_period, step=None, log_width=0, solver
             out.append(f"{solver} step {step:g} s over t_end {t_end:g} s is {steps:.3g} steps; at "
                        f"most {get('MAX_STEPS'):.3g} are run: use a larger step or a shorter t_end"
                        + raise_hint("MAX_STEPS"))
+    if scan is not None and scan > 0 and t_end / scan > get("MAX_STEPS"):
+        out.append(f"scan {scan:g} s over t_end {t_end:g} s is {t_end / scan:.3g} checks of the event "
+                   f"functions; at most {get('MAX_STEPS'):.3g} are made: raise simulation.scan or shorten t_end"
+                   + raise_hint("MAX_STEPS"))
     return out

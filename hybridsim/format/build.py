@@ -7,6 +7,7 @@ when asked), :func:`check` builds every variant as a run would, without running,
 and :func:`simulate` runs one. The public API (:mod:`hybridsim.api`) re-exports them.
 """
 from hybridsim.engine.simulator import Simulator
+from hybridsim.errors import RateError
 from hybridsim.engine.solvers import FIXED_STEP, ScipySolver
 from hybridsim.format import tables
 from hybridsim.format.diagram_file import DiagramFile
@@ -138,11 +139,15 @@ def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
         why = problems(system, solver, located_events(system, solver, bool(sim.get("locate_switches", False))))
         if why:
             raise CompiledPathError("cannot use the compiled path: " + "; ".join(why))
-    simulator = Simulator(system, solver, log=log,
-                          log_period=sim.get("log_period", _SIM["log_period"]),
-                          max_state=sim.get("max_state", _SIM["max_state"]), fused=bool(sim.get("fused", _SIM["fused"])),
-                          compiled=compiled and not check_only,
-                          locate_switches=bool(sim.get("locate_switches", _SIM["locate_switches"])))
+    try:
+        simulator = Simulator(system, solver, log=log,
+                              log_period=sim.get("log_period", _SIM["log_period"]),
+                              max_state=sim.get("max_state", _SIM["max_state"]),
+                              fused=bool(sim.get("fused", _SIM["fused"])), compiled=compiled and not check_only,
+                              locate_switches=bool(sim.get("locate_switches", _SIM["locate_switches"])))
+    except RateError as exc:  # the log period's: its file and line (or its override)
+        locs = getattr(f.data.get("simulation"), "locs", None) or {}
+        raise RateError(f"{locs.get('log_period', f.path)}: simulation setting 'log_period': {exc}") from None
     return system, simulator, settings
 
 

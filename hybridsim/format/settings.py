@@ -33,8 +33,11 @@ def horizon_problems(diagram_blocks, sim, t_end, log_width=0, what="t_end"):
     """Budget problems of simulating to ``t_end`` with settings ``sim`` (see :mod:`hybridsim.limits`)."""
     step = sim.get("step", 1e-4) if sim.get("solver", "rk4") in tables.FIXED_STEP_SOLVERS else sim.get("max_step")
     periods = [float(b.period) for b in diagram_blocks if getattr(b, "period", None)]
+    events = any(getattr(b, "event_directions", None) for b in diagram_blocks)
     why = limits.run_size_problems(float(t_end), periods, float(sim.get("log_period", 0.0005)),
-                                   None if step is None else float(step), log_width, sim.get("solver", "rk4"))
+                                   None if step is None else float(step), log_width, sim.get("solver", "rk4"),
+                                   float(sim.get("scan", tables.defaults(tables.SIMULATION)["scan"]))
+                                   if events else None)
     if why and what != "t_end":
         why[0] = f"{what} {float(t_end):g} s: {why[0]}"
     return why
