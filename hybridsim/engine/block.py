@@ -221,6 +221,16 @@ class Block:
         run. Raises :class:`~hybridsim.errors.ParameterError` otherwise.
         """
         args, kwargs = self.__dict__.get("_init_args", ((), {"name": self.name}))
+        import inspect
+
+        sig = inspect.signature(type(self).__init__).parameters
+        known = [p for p in sig if p not in ("self", "name")]
+        open_ended = any(p.kind is p.VAR_KEYWORD for p in sig.values())  # it takes any keyword
+        for key in changes:
+            if key not in known and not open_ended:
+                hint = (f"a run-time value is the whole parameter: give {key.split('[')[0]!r} whole" if "[" in key
+                        else f"its parameters: {', '.join(known)}")
+                raise ParameterError(key, f"is not a parameter of block {self.name!r} ({type(self).__name__}); {hint}")
         try:
             new = type(self)(*args, **{**kwargs, **changes})
         except TypeError as exc:

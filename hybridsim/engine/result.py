@@ -48,7 +48,7 @@ class Result:
         return a[:, idx]
 
     def __contains__(self, ref):
-        return parse_signal(ref)[0] in self.signals
+        return isinstance(ref, str) and parse_signal(ref)[0] in self.signals
 
     def columns(self):
         """Column names: 'time' then 'block.port[i]' for every element."""

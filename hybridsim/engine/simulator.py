@@ -162,6 +162,8 @@ class Simulator:
         from concurrent.futures import ThreadPoolExecutor
 
         t_end = self._check_t_end(t_end)
+        if isinstance(param_sets, (Mapping, str)) or not hasattr(param_sets, "__iter__"):
+            raise InputError(f"param_sets is a list of {{'block.param': value}} mappings, got {param_sets!r}")
         tl = self._timeline(t_end)
         contexts = [self._context(p) for p in param_sets]  # bad params: raise here
 

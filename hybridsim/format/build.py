@@ -129,6 +129,8 @@ def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
         solver.atol = _atol_vector(system, sim, str(locs.get("atol", f.path)))
     if log is None:
         log = list(settings["log"]) + list(settings["signals"].values())
+    elif isinstance(log, str) or not all(isinstance(r, str) for r in _items(log)):
+        raise TypeError(f"log is a list of signals 'block.port' or 'block.port[i]', got {log!r}")
     compiled = bool(sim.get("compiled", False))
     if compiled and check_only:
         from hybridsim.engine.compiled import problems
@@ -149,6 +151,13 @@ def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
         locs = getattr(f.data.get("simulation"), "locs", None) or {}
         raise RateError(f"{locs.get('log_period', f.path)}: simulation setting 'log_period': {exc}") from None
     return system, simulator, settings
+
+
+def _items(value):
+    try:
+        return list(value)
+    except TypeError:
+        return [value]
 
 
 def check_analysis_branches(f):

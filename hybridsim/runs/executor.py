@@ -16,6 +16,12 @@ from hybridsim.errors import InputError
 DASK_TIMEOUT_S = 10
 
 
+def check_jobs(jobs):
+    """Refuse a number of processes that is not None or a whole number >= 1."""
+    if jobs is not None and (isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1):
+        raise InputError(f"jobs must be a whole number >= 1, got {jobs!r}")
+
+
 class Executor:
     """Runs calls serially (``jobs=1``), on ``jobs`` local processes, or on a Dask cluster.
 
@@ -33,8 +39,7 @@ class Executor:
     """
 
     def __init__(self, jobs=None, dask=None):
-        if jobs is not None and (isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1):
-            raise InputError(f"jobs must be a whole number >= 1, got {jobs!r}")
+        check_jobs(jobs)
         self.jobs = jobs or os.cpu_count() or 1
         self.dask = dask
         self._pool = self._client = None

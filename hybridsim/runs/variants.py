@@ -1,5 +1,5 @@
 """Every variant of a diagram file (its ``variants:`` section), with metrics: :func:`run_experiment`."""
-from hybridsim.runs.executor import Executor, using
+from hybridsim.runs.executor import Executor, check_jobs, using
 from hybridsim.runs.experiment import Experiment
 from hybridsim.runs.grid import point, point_key
 from hybridsim.runs.many import Failure, Simulate, run_many
@@ -20,6 +20,7 @@ def run_experiment(path_or_file, progress=False, jobs=None, executor=None, **ove
     points = [point(label={"variant": label}, key=point_key([k, label]), experiment=v)
               for k, (label, v) in enumerate(variants)]
     if executor is None:
+        check_jobs(jobs)
         executor = Executor(min(len(variants), jobs or Executor().jobs))
     with using(executor) as ex:
         got = run_many(exp, points, ex, measure=Simulate(progress=progress and len(variants) == 1),

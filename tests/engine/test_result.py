@@ -62,3 +62,21 @@ def test_the_api_refuses_a_variant_params_or_end_time_of_the_wrong_kind():
         sim.run("1")
     with pytest.raises(TypeError, match="a diagram file is a path"):
         hs.simulate(None)
+
+
+def test_the_api_refuses_logs_jobs_batches_and_run_time_params_of_the_wrong_kind():
+    import pytest
+
+    path = DIAGRAMS / "examples" / "msd_pid.yaml"
+    with pytest.raises(TypeError, match="log is a list of signals"):
+        hs.build(path, log=[5])
+    with pytest.raises(hs.InputError, match="jobs must be a whole number >= 1, got 1.5"):
+        hs.run(path, jobs=1.5)
+    _, sim, _ = hs.build(path)
+    with pytest.raises(hs.InputError, match="param_sets is a list of"):
+        sim.run_batch(0.1, {"pid.Kp": 1.0})
+    with pytest.raises(hs.InputError, match=r"'Kp\[0\]' is not a parameter of block 'pid' .*give 'Kp' whole"):
+        sim.run(0.1, params={"pid.Kp[0]": 2.0})
+    with pytest.raises(hs.InputError, match="'Kpp' is not a parameter of block 'pid' .*its parameters: Kp, Ki"):
+        sim.run(0.1, params={"pid.Kpp": 2.0})
+    assert 5 not in _res() and "plant.y" in _res()
