@@ -22,14 +22,15 @@ def check_file(path, **overrides):
     """
     from hybridsim.errors import InputError
     from hybridsim.format import parse_file
+    from hybridsim.format.yamlio import file_kind
 
     data, _ = parse_file(path)
-    if "diagram" not in data or "blocks" in data or "extends" in data:
+    kind = file_kind(data) or "diagram"  # (one showing no kind is read as a diagram, which says what is missing)
+    if kind == "diagram":
         f = load(path, **overrides)
         summary = check(f)
         check_analysis_branches(f)
         return {"kind": "diagram", **summary}
-    kind = "tune" if "parameters" in data or "objectives" in data else "sweep"
     if overrides:
         raise InputError(f"{path}: --set applies to a diagram; a {kind} file gives its diagram's values "
                          "in its own 'set' section")

@@ -18,7 +18,7 @@ from hybridsim.format.tables import Record
 from hybridsim.format.overrides import ORIGIN, OverridesMixin
 from hybridsim.format.settings import SettingsMixin
 from hybridsim.format.values import _plain
-from hybridsim.format.yamlio import _Dict
+from hybridsim.format.yamlio import _Dict, refuse_kind
 
 TOP_KEYS = tables.keys(tables.DIAGRAM)
 _log = logging.getLogger("hybridsim")
@@ -58,10 +58,7 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
         self.files = []  # this file and every file it extends, resolved
         data = read_merged(self.path, files=self.files)
         self.data = data
-        if "diagram" in data and "blocks" not in data:  # a sweep or tune file given where a diagram goes
-            kind = "tune" if "parameters" in data or "objectives" in data else "sweep"
-            self._fail(f"this is a {kind} file (it names a 'diagram' and has no 'blocks'), not a diagram; "
-                       f"run it with 'hybridsim {kind}'", data.lines["diagram"])
+        refuse_kind(data, "diagram", self.path)  # a sweep or tune file given where a diagram goes
         for key in data:
             if key not in TOP_KEYS:
                 self._fail(f"unknown section {key!r}{closest(key, TOP_KEYS)}; "

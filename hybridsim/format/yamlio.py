@@ -239,3 +239,26 @@ def plain(v):
     if isinstance(v, list):
         return [plain(x) for x in v]
     return v
+
+
+#: the command that runs each kind of file
+COMMANDS = {"diagram": "run", "sweep": "sweep", "tune": "tune"}
+
+
+def file_kind(data):
+    """What a parsed file is: "diagram" (it has 'blocks' or 'extends'), else "tune" (a 'diagram'
+    with 'parameters' or 'objectives'), else "sweep" (a 'diagram'); None when it shows none of these."""
+    if "blocks" in data or "extends" in data:
+        return "diagram"
+    if "diagram" not in data:
+        return None
+    return "tune" if "parameters" in data or "objectives" in data else "sweep"
+
+
+def refuse_kind(data, expected, path):
+    """LoaderError when ``data`` is another kind of file than ``expected``, naming the command for it."""
+    kind = file_kind(data)
+    if kind is not None and kind != expected:
+        line = (getattr(data, "lines", None) or {}).get("diagram", 1) if "diagram" in data else 1
+        raise LoaderError(f"this is a {kind} file, not a {expected} file; run it with "
+                          f"'hybridsim {COMMANDS[kind]}'", path, line)

@@ -39,6 +39,7 @@ from hybridsim import limits
 from hybridsim.errors import HybridsimError, InputError, LoaderError
 from hybridsim.files import locked_output_dir
 from hybridsim.format import parse_file
+from hybridsim.format.yamlio import refuse_kind
 from hybridsim.format.identity import check_sweep
 from hybridsim.runs.executor import Executor
 from hybridsim.runs.experiment import Experiment
@@ -56,6 +57,7 @@ class Sweep:
     def __init__(self, path):
         self.path = Path(path)
         data, _ = parse_file(self.path, what="a sweep file is a mapping with at least 'diagram'")
+        refuse_kind(data, "sweep", self.path)
         check_sweep(data, self.path)  # the sweep table; one parameter under two spellings refused
         if "diagram" not in data:
             raise LoaderError("a sweep file is a mapping with at least 'diagram'", self.path, 1)

@@ -32,6 +32,7 @@ from pathlib import Path
 from hybridsim import limits
 from hybridsim.errors import InputError, LoaderError
 from hybridsim.format import parse_file
+from hybridsim.format.yamlio import refuse_kind
 from hybridsim.tune.space import SCALES, Parameter
 
 TUNE_KEYS = ("diagram", "set", "variants", "parameters", "objectives", "constraints", "method", "compiled")
@@ -100,6 +101,7 @@ class TuneSpec:
         self.path = Path(path)
         data, _ = parse_file(self.path, what="a tune file is a mapping with 'diagram', 'parameters' and "
                                              "'objectives'")
+        refuse_kind(data, "tune", self.path)
         self.text = self.path.read_text()
         lines = data.lines
         for key in data:

@@ -135,11 +135,19 @@ def test_an_unknown_plot_setting_is_an_error_at_its_line(tmp_path):
 def test_a_sweep_or_tune_file_given_as_a_diagram_says_which_command_runs_it(tmp_path):
     # it said "unknown section 'diagram' (did you mean 'params'?)"
     sweep = write(tmp_path, "diagram: d.yaml\ngrid: {k: [1, 2]}\n", "s.yaml")
-    with pytest.raises(LoaderError, match=r"s\.yaml:1: this is a sweep file .* run it with 'hybridsim sweep'"):
+    with pytest.raises(LoaderError, match=r"s\.yaml:1: this is a sweep file, not a diagram file; run it with "
+                                          r"'hybridsim sweep'"):
         DiagramFile(sweep)
     tune = write(tmp_path, "diagram: d.yaml\nparameters: {k: [1, 2]}\n", "t.yaml")
-    with pytest.raises(LoaderError, match="this is a tune file .* 'hybridsim tune'"):
+    with pytest.raises(LoaderError, match="this is a tune file, not a diagram file; run it with 'hybridsim tune'"):
         DiagramFile(tune)
+    from hybridsim.runs.sweep import Sweep
+    from hybridsim.tune.spec import TuneSpec
+
+    with pytest.raises(LoaderError, match=r"d\.yaml:1: this is a diagram file, not a sweep file; run it with 'hybridsim run'"):
+        Sweep(write(tmp_path, GOOD))
+    with pytest.raises(LoaderError, match="this is a sweep file, not a tune file; run it with 'hybridsim sweep'"):
+        TuneSpec(sweep)
 
 
 def test_a_parameter_set_with_every_value_that_uses_it_is_refused(tmp_path):
