@@ -4,7 +4,6 @@
 expanded (each subsystem file read once), so a hierarchy that doubles at
 every level is refused in milliseconds, not after exponential work.
 """
-import logging
 import re
 from pathlib import Path
 
@@ -12,9 +11,7 @@ from hybridsim import limits
 from hybridsim.errors import LoaderError, ParameterError, RateError
 from hybridsim.engine.registry import closest, lookup, parameters, types
 from hybridsim.format import tables
-from hybridsim.format.values import _has_nan, _is_subsystem, _references, subsystem_path
-
-_log = logging.getLogger("hybridsim")
+from hybridsim.format.values import _has_nan, _is_subsystem, _references, note, subsystem_path
 
 _BAD_NAME = re.compile(r"[.\[\]\s:=]")  # a '.' separates a subsystem's name from its blocks' names
 
@@ -196,7 +193,7 @@ class ExpandMixin:
                             f"own); only {', '.join(tables.SUBSYSTEM_SECTIONS)} are read")
             return None
         if unread:
-            _log.warning("%s: %s: %s ignored where it is used as a subsystem (only %s are read there)", where,
+            note("%s: %s: %s ignored where it is used as a subsystem (only %s are read there)", where,
                          shown, ", ".join(repr(k) for k in unread), ", ".join(tables.SUBSYSTEM_SECTIONS))
         # one table of each for the whole hierarchy
         sub.aliases, sub._cut, sub._broken, sub._bad_ports = self.aliases, self._cut, self._broken, self._bad_ports

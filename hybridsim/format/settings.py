@@ -6,7 +6,6 @@ here, with its '$name' references resolved first; signals that name outputs
 built diagram, elements in range; the size of the run (and of the analysis's
 linearisation horizon) is checked before any work starts.
 """
-import logging
 
 from hybridsim import limits
 from hybridsim.errors import DiagramError, LoaderError
@@ -14,19 +13,10 @@ from hybridsim.engine.registry import closest, parameters
 from hybridsim.format import tables
 from hybridsim.format.kinds import SIGNAL
 from hybridsim.format.paths import SETTING_SECTIONS, OverrideLoc, ParamPath
-from hybridsim.format.values import _plain
+from hybridsim.format.values import _plain, note
 from hybridsim.format.yamlio import _Dict, _List
 
-_log = logging.getLogger("hybridsim")
-_noted = set()  # the notes given in this process: a file's settings are read more than once
 
-
-def _note(message, *args):
-    """A warning about a file's settings, once per process."""
-    text = message % args
-    if text not in _noted:
-        _noted.add(text)
-        _log.warning(text)
 
 
 def horizon_problems(diagram_blocks, sim, t_end, log_width=0, what="t_end"):
@@ -190,7 +180,7 @@ class SettingsMixin:
             if why:
                 raise LoaderError("; ".join(why), self.path, settings["analysis"]["_lines"].get("at"))
             if at > sim["t_end"]:
-                _note("%s:%s: analysis at %g s is past t_end %g s: each linearization of analyze and "
+                note("%s:%s: analysis at %g s is past t_end %g s: each linearization of analyze and "
                              "report (one per rate, gain and case) simulates %g s first", self.path,
                              settings["analysis"]["_lines"].get("at"), at, sim["t_end"], at)
 
@@ -222,7 +212,7 @@ class SettingsMixin:
         simr["solver"] = simr["solver"].lower()
         step = simr.get("step") if simr["solver"] in tables.FIXED_STEP_SOLVERS else None
         if step is not None and step > simr["t_end"]:
-            _note("%s: the step %g s is longer than t_end %g s: %s takes one step of %g s",
+            note("%s: the step %g s is longer than t_end %g s: %s takes one step of %g s",
                          self.path, step, simr["t_end"], simr["solver"], simr["t_end"])
         return {
             "simulation": simr,

@@ -1,10 +1,21 @@
 """Small helpers on diagram values: '$name' references, numbers, subsystem specs."""
+import logging
 import math
 import os
 from pathlib import Path
 
 from hybridsim.format.paths import OverrideLoc
 from hybridsim.format.yamlio import plain
+
+_noted = set()  # the notes given in this process: a file is read more than once per command
+
+
+def note(message, *args):
+    """A warning about a file (``message % args``) on the "hybridsim" logger, once per process."""
+    text = message % args
+    if text not in _noted:
+        _noted.add(text)
+        logging.getLogger("hybridsim").warning(text)
 
 def subsystem_path(spec, fallback):
     """The file a subsystem spec names, relative to the file that wrote its ``file:`` line.
