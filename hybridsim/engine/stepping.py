@@ -488,13 +488,14 @@ def locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi):
             if not early and hi < 1.0 and ops.restep(s, hi * h, w.x, w, gl, y, z, pf, pi, w.xm):
                 gl.zc(ta + hi * h, w.xm, w.gm, y, z, pf, pi)
                 mute(w.gm, w.muted)
-                if not crossed_any(w.glo, w.gm, w.dirs, w.fired):
-                    # the dense output crossed where a fresh step does not: a stage past a jump in
-                    # time (a source's step at the step's end) bent it; the crossing is where fresh
-                    # steps cross, after hi
+                if crossed_any(w.glo, w.gm, w.dirs, w.fired):
+                    copy_into(w.xe, w.xm)
+                    early = True
+                elif unmoved(w.g, w.gm, w.glo, w.ghi, w.dirs):
+                    # the dense output crossed where a fresh step has not even moved: a stage past a
+                    # jump in time (a source's step at the step's end) bent it; the crossing is where
+                    # fresh steps cross, after hi (one that moved keeps the dense output's crossing)
                     return fresh_crossing(ta, tb, hi, gl, ops, s, lim, w, y, z, pf, pi)
-                copy_into(w.xe, w.xm)
-                early = True
             if not early:  # the dense output's state and functions, then
                 crossed_any(w.glo, w.ghi, w.dirs, w.fired)
             # (else fired holds the functions crossed at the state acted on: one that crossed on the
@@ -504,6 +505,17 @@ def locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi):
         lo = hi
     copy_into(w.g, w.gn)
     return False, tb
+
+
+def unmoved(ga, gb, glo, ghi, dirs):
+    """True when every function that crossed from ``glo`` to ``ghi`` is the same in ``gb`` as in
+    ``ga`` (a fresh step from ta did not move it at all)."""
+    for i in range(glo.size):
+        d = dirs[i]
+        if (d >= 0 and glo[i] <= 0.0 and ghi[i] > 0.0) or (d <= 0 and glo[i] >= 0.0 and ghi[i] < 0.0):
+            if ga[i] != gb[i]:
+                return False
+    return True
 
 
 def fresh_crossing(ta, tb, lo, gl, ops, s, lim, w, y, z, pf, pi):
