@@ -520,8 +520,8 @@ def unmoved(ga, gb, glo, ghi, dirs):
 
 def fresh_crossing(ta, tb, lo, gl, ops, s, lim, w, y, z, pf, pi):
     """The first crossing of the functions ``w.g`` at ``ta`` on fresh steps from ``ta`` (a fixed-step
-    stepper's restep), bisected on [ta + lo h, tb]; ``locate``'s answer. None when the step's end
-    has not crossed either."""
+    stepper's restep), bisected on [ta + lo h, tb]; ``locate``'s answer: ``(False, tb)`` when the
+    step's end has not crossed either."""
     h = tb - ta
     if not crossed_any(w.g, w.gn, w.dirs, w.fired):
         copy_into(w.g, w.gn)

@@ -110,24 +110,20 @@ class Signal(Kind):
     """'block.port' or 'block.port[i]' (the block and port are checked against the built diagram)."""
 
     text = "a signal 'block.port' or 'block.port[i]'"
+    pattern = SIGNAL
 
     def problem(self, v):
-        return None if isinstance(v, str) and SIGNAL.match(v) else self._got(v)
+        return None if isinstance(v, str) and self.pattern.match(v) else self._got(v)
 
     def schema(self):
-        return {"type": "string", "pattern": SIGNAL.pattern}
+        return {"type": "string", "pattern": self.pattern.pattern}
 
 
 class Port(Signal):
     """'block.port', a whole port (what a wire joins: a subsystem's declared inputs and outputs)."""
 
     text = "a whole port 'block.port'"
-
-    def problem(self, v):
-        return None if isinstance(v, str) and PORT.match(v) else self._got(v)
-
-    def schema(self):
-        return {"type": "string", "pattern": PORT.pattern}
+    pattern = PORT
 
 
 class PathText(Kind):
