@@ -1,0 +1,130 @@
+"""Generated Python on float locals: the values and statements :mod:`hybridsim.engine.inline` writes.
+
+A value is a *tree*: a float is a local's name or a literal (a string), a tuple
+a Python tuple of trees, a block's params a :class:`Record` of hoisted locals,
+an array param an :class:`Opaque` local. Statements are :class:`Assign` and
+:class:`If`; :func:`prune` drops what nothing reads, :func:`lines` writes them.
+"""
+import re
+
+_WORD = re.compile(r"[A-Za-z_]\w*")
+
+
+class NotInlinable(Exception):
+    """A kernel uses something the inliner does not write; the caller keeps the call."""
+
+
+class Record:
+    """A namedtuple's fields as trees (a block's params): read by name, index or unpacking."""
+
+    __slots__ = ("names", "items")
+
+    def __init__(self, names, items):
+        self.names, self.items = tuple(names), tuple(items)
+
+    def field(self, name):
+        if name not in self.names:
+            raise NotInlinable(f"no field {name!r}")
+        return self.items[self.names.index(name)]
+
+
+class Opaque:
+    """A value the inliner does not look into (an array param): only a kept call may take it."""
+
+    __slots__ = ("expr",)
+
+    def __init__(self, expr):
+        self.expr = expr
+
+
+class Assign:
+    __slots__ = ("target", "expr")
+
+    def __init__(self, target, expr):
+        self.target, self.expr = target, expr
+
+
+class If:
+    __slots__ = ("cond", "then", "orelse")
+
+    def __init__(self, cond, then, orelse):
+        self.cond, self.then, self.orelse = cond, then, orelse
+
+
+def is_leaf(tree):
+    return isinstance(tree, str)
+
+
+
+def source(tree):
+    """Python source building ``tree`` (tuples as displays)."""
+    if isinstance(tree, str):
+        return tree
+    if isinstance(tree, Opaque):
+        return tree.expr
+    if isinstance(tree, Record):
+        raise NotInlinable("a record passed whole")
+    return "(" + "".join(f"{source(t)}, " for t in tree) + ")"
+
+
+def param_tree(value, expr, name, out):
+    """The tree of a param ``value`` read as ``expr``: its numbers hoisted into locals named from
+    ``name`` (``out`` collects ``(local, expression)``)."""
+    if isinstance(value, tuple) and hasattr(value, "_fields"):
+        return Record(value._fields, (param_tree(v, f"{expr}.{f}", f"{name}_{f}", out)
+                                      for f, v in zip(value._fields, value)))
+    if isinstance(value, tuple):
+        return tuple(param_tree(v, f"{expr}[{k}]", f"{name}_{k}", out) for k, v in enumerate(value))
+    out.append((name, expr))
+    if isinstance(value, (bool, int, float)) or type(value).__module__ == "numpy" and getattr(value, "ndim", 1) == 0:
+        return name
+    return Opaque(name)
+
+
+def shape(value):
+    """What :func:`param_tree` depends on: field names, tuple lengths, scalar or not."""
+    if isinstance(value, tuple):
+        return (getattr(value, "_fields", None), tuple(shape(v) for v in value))
+    return isinstance(value, (bool, int, float)) or type(value).__module__ == "numpy" and getattr(value, "ndim", 1) == 0
+
+
+def names_in(expr):
+    return set(_WORD.findall(expr))
+
+
+def prune(stmts, live, keep=None):
+    """``stmts`` without the assignments nothing in ``live`` (names read later) needs, except
+    those to targets ``keep(target)`` is true of; returns ``(kept, names read by kept)``."""
+    kept = []
+    live = set(live)
+    for st in reversed(stmts):
+        if isinstance(st, Assign):
+            if st.target not in live and not (keep and keep(st.target)):
+                continue
+            live.discard(st.target)
+            live |= names_in(st.expr)
+            kept.append(st)
+        else:
+            then, la = prune(st.then, live, keep)
+            orelse, lb = prune(st.orelse, live, keep)
+            if not then and not orelse:
+                continue
+            live = la | lb | names_in(st.cond)
+            kept.append(If(st.cond, then, orelse))
+    kept.reverse()
+    return kept, live
+
+
+def lines(stmts, pad):
+    """The source lines of ``stmts`` indented by ``pad``."""
+    out = []
+    for st in stmts:
+        if isinstance(st, Assign):
+            out.append(f"{pad}{st.target} = {st.expr}")
+        else:
+            out.append(f"{pad}if {st.cond}:")
+            out += lines(st.then, pad + "    ") or [pad + "    pass"]
+            if st.orelse:
+                out.append(f"{pad}else:")
+                out += lines(st.orelse, pad + "    ")
+    return out

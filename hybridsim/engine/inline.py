@@ -1,0 +1,406 @@
+"""Kernels written into the fused path's source: calls replaced by their bodies, on float locals.
+
+A kernel (:mod:`hybridsim.engine.kernels`) called from generated Python costs a
+call, a tuple per port and an attribute read per parameter. :class:`Inliner`
+writes a kernel's body in place of the call instead, on the caller's locals:
+
+* values are *trees*: a float is a local's name or a literal, a tuple a Python
+  tuple of trees, a block's params a :class:`Record` of hoisted names;
+  indexing, slicing, unpacking and ``p.field`` are resolved while writing, so
+  no tuple is built at run time;
+* ``math`` functions, ``abs``, ``min``, ``max``, ``float``, ``int``, ``bool``
+  and the arithmetic, comparison and boolean operators are written as they
+  are; another :func:`~hybridsim.engine.kernels.kernel` is inlined in turn;
+* every assignment makes a new local (so equal expressions are computed once:
+  a kernel's ``math.cos(q1)`` and the next one's share a local), ``if`` blocks
+  merge what their branches assign, a ``return`` inside one takes the rest of
+  the function into both branches.
+
+Anything else (loops, arrays, methods, keyword arguments) raises
+:class:`NotInlinable` and the caller keeps the call. The operations are the
+kernel's own in its own order, so the numbers are the call's bit for bit
+(tests compare every block kernel this can write against its call).
+"""
+import ast
+import builtins
+import functools
+import inspect
+import math
+import re
+import textwrap
+import types
+
+from hybridsim.engine.floatcode import Assign, If, NotInlinable, Record
+from hybridsim.engine.kernels import marked
+
+#: the most statements one inlined call may write (a branch taking the rest of a function doubles it)
+MAX_STATEMENTS = 4000
+_DEPTH = 8
+_BUILTINS = {abs: "abs", min: "min", max: "max", float: "float", int: "int", bool: "bool"}
+_BINOPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.FloorDiv: "//", ast.Mod: "%",
+           ast.Pow: "**", ast.BitAnd: "&", ast.BitOr: "|", ast.BitXor: "^", ast.LShift: "<<", ast.RShift: ">>"}
+_UNARY = {ast.UAdd: "+", ast.USub: "-", ast.Not: "not ", ast.Invert: "~"}
+_COMPARE = {ast.Eq: "==", ast.NotEq: "!=", ast.Lt: "<", ast.LtE: "<=", ast.Gt: ">", ast.GtE: ">="}
+_SIMPLE = re.compile(r"[A-Za-z_]\w*|\d[\d.e+-]*|\(-\d[\d.e+-]*\)")
+
+
+_UNSET = object()  # a name assigned in one branch of an if only
+
+
+@functools.lru_cache(maxsize=None)
+def _parsed(fn):
+    try:
+        node = ast.parse(textwrap.dedent(inspect.getsource(fn))).body[0]
+    except (OSError, TypeError, SyntaxError):
+        raise NotInlinable(f"no source for {fn.__name__}") from None
+    if not isinstance(node, ast.FunctionDef):
+        raise NotInlinable(f"{fn.__name__} is not a plain def")
+    a = node.args
+    if a.vararg or a.kwarg or a.kwonlyargs or a.posonlyargs:
+        raise NotInlinable(f"{fn.__name__} takes more than positional arguments")
+    return node
+
+
+class Inliner:
+    """Writes kernel calls as statements on locals; :meth:`call` returns the result's tree.
+
+    ``fresh`` names the locals it makes (unique within one generated function).
+    """
+
+    def __init__(self, fresh, env):
+        self.fresh, self.genv = fresh, env  # genv: the generated module's globals (constants go there)
+        self.out = []
+        self.memo = {}  # expression -> the local holding it (within the current branch)
+        self.count = 0
+        self.kernels = {id(f) for f in marked()}
+
+    # -- statements --------------------------------------------------------------------------------
+    def emit(self, target, expr):
+        self.count += 1
+        if self.count > MAX_STATEMENTS:
+            raise NotInlinable("too many statements")
+        self.out.append(Assign(target, expr))
+
+    def simple(self, expr):
+        """A local (or literal) holding the scalar ``expr``; equal expressions share one."""
+        if _SIMPLE.fullmatch(expr):
+            return expr
+        if expr in self.memo:
+            return self.memo[expr]
+        name = self.fresh()
+        self.emit(name, expr)
+        self.memo[expr] = name
+        return name
+
+    def settle(self, tree):
+        """``tree`` with every leaf a local or a literal."""
+        if isinstance(tree, str):
+            return self.simple(tree)
+        if isinstance(tree, tuple):
+            return tuple(self.settle(t) for t in tree)
+        return tree
+
+    def call(self, fn, args, depth=0):
+        """Inline ``fn(*args)`` (trees); returns the result's tree."""
+        if id(fn) not in self.kernels or not isinstance(fn, types.FunctionType) or hasattr(fn, "compiled"):
+            raise NotInlinable(f"{getattr(fn, '__name__', fn)!r} is not a plain kernel")
+        if depth > _DEPTH:
+            raise NotInlinable("kernels nested too deep")
+        node = _parsed(fn)
+        names = [a.arg for a in node.args.args]
+        defaults = list(fn.__defaults__ or ())
+        if len(args) > len(names) or len(args) < len(names) - len(defaults):
+            raise NotInlinable(f"{fn.__name__} called with {len(args)} arguments")
+        env = dict(zip(names, args))
+        for n, v in zip(names[len(args):], defaults[len(defaults) - (len(names) - len(args)):]):
+            env[n] = self.constant(v)
+        frame = _Frame(self, fn, depth)
+        kind, value = frame.block(node.body, env)
+        if kind != "return":
+            raise NotInlinable(f"{fn.__name__} can end without a return")
+        return value
+
+    def constant(self, v):
+        if isinstance(v, bool):
+            return repr(v)
+        if isinstance(v, (int, float)) and math.isfinite(v):
+            return repr(v) if v >= 0 and not (isinstance(v, float) and math.copysign(1, v) < 0) else f"({v!r})"
+        if isinstance(v, (int, float)):
+            name = f"_c{len(self.genv)}"
+            self.genv[name] = v
+            return name
+        raise NotInlinable(f"constant {v!r}")
+
+    def branch(self, run):
+        """Run ``run()`` writing into a branch of its own: ``(its statements, its result)``."""
+        out, memo = self.out, self.memo
+        self.out, self.memo = [], dict(memo)
+        try:
+            result = run()
+            return self.out, result
+        finally:
+            self.out, self.memo = out, memo
+
+
+class _Frame:
+    """One inlined call: its function's names and the inliner it writes with."""
+
+    def __init__(self, inl, fn, depth):
+        self.inl, self.fn, self.depth = inl, fn, depth
+        free = fn.__code__.co_freevars
+        self.closure = {n: c.cell_contents for n, c in zip(free, fn.__closure__ or ())}
+
+    # -- statements --------------------------------------------------------------------------------
+    def block(self, stmts, env):
+        """Run ``stmts``: ``("return", tree)`` or ``("fall", env)``."""
+        for k, st in enumerate(stmts):
+            if isinstance(st, ast.Return):
+                if st.value is None:
+                    raise NotInlinable("a bare return")
+                return "return", self.inl.settle(self.value(st.value, env))
+            if isinstance(st, ast.Expr) and isinstance(st.value, ast.Constant):
+                continue  # a docstring
+            if isinstance(st, ast.Pass):
+                continue
+            if isinstance(st, ast.Assign):
+                if len(st.targets) != 1:
+                    raise NotInlinable("chained assignment")
+                self.bind(st.targets[0], self.value(st.value, env), env)
+            elif isinstance(st, ast.AugAssign):
+                if not isinstance(st.target, ast.Name):
+                    raise NotInlinable("augmented assignment to an item")
+                expr = ast.BinOp(ast.Name(st.target.id, ast.Load()), st.op, st.value)
+                self.bind(st.target, self.scalar(expr, env), env)
+            elif isinstance(st, ast.If):
+                if _returns(st):
+                    return self.split(st, stmts[k + 1:], env)
+                env = self.merge(st, env)
+            else:
+                raise NotInlinable(f"{type(st).__name__} statement")
+        return "fall", env
+
+    def bind(self, target, tree, env):
+        if isinstance(target, ast.Name):
+            env[target.id] = self.inl.settle(tree)
+        elif isinstance(target, ast.Tuple) and not any(isinstance(e, ast.Starred) for e in target.elts):
+            items = tree.items if isinstance(tree, Record) else tree
+            if not isinstance(items, tuple) or len(items) != len(target.elts):
+                raise NotInlinable("unpacking a value of another length")
+            for t, v in zip(target.elts, items):
+                self.bind(t, v, env)
+        else:
+            raise NotInlinable("assignment to an item or attribute")
+
+    def split(self, st, rest, env):
+        """An ``if`` with a return in it: each branch runs the rest of the function."""
+        cond = self.scalar(st.test, env)
+
+        def run(body):
+            def go():
+                kind, value = self.block(list(body) + list(rest), dict(env))
+                if kind != "return":
+                    raise NotInlinable("a path without a return")
+                return value
+            return self.inl.branch(go)
+
+        then, a = run(st.body)
+        orelse, b = run(st.orelse)
+        result = _join(self.inl, a, b, then, orelse)
+        self.inl.out.append(If(cond, then, orelse))
+        return "return", result
+
+    def merge(self, st, env):
+        """An ``if`` without returns: the names its branches set, merged into new locals."""
+        cond = self.scalar(st.test, env)
+
+        def run(body):
+            def go():
+                return self.block(body, dict(env))[1]
+            return self.inl.branch(go)
+
+        then, ea = run(st.body)
+        orelse, eb = run(st.orelse)
+        merged = dict(env)
+        for name in set(ea) | set(eb):
+            a, b = ea.get(name, _UNSET), eb.get(name, _UNSET)
+            if a is b or (isinstance(a, str) and a == b):
+                merged[name] = a
+            elif a is _UNSET or b is _UNSET:
+                merged[name] = _UNSET
+            else:
+                merged[name] = _join(self.inl, a, b, then, orelse)
+        self.inl.out.append(If(cond, then, orelse))
+        return merged
+
+    # -- expressions ---------------------------------------------------------------------------------
+    def lookup(self, name, env):
+        if name in env:
+            if env[name] is _UNSET:
+                raise NotInlinable(f"{name!r} set on one branch only")
+            return env[name]
+        if name in self.closure:
+            return self.object(self.closure[name])
+        if name in self.fn.__globals__:
+            return self.object(self.fn.__globals__[name])
+        if hasattr(builtins, name):
+            return self.object(getattr(builtins, name))
+        raise NotInlinable(f"unknown name {name!r}")
+
+    def object(self, v):
+        """A global or closure value as a tree (numbers), or the object itself (math, kernels)."""
+        if isinstance(v, (bool, int, float)):
+            return self.inl.constant(v)
+        if v is math or callable(v):
+            return _Object(v)
+        raise NotInlinable(f"global {v!r}")
+
+    def value(self, node, env):
+        """``node``'s tree."""
+        if isinstance(node, ast.Tuple):
+            if any(isinstance(e, ast.Starred) for e in node.elts):
+                raise NotInlinable("a starred item")
+            return tuple(self.value(e, env) for e in node.elts)
+        if isinstance(node, ast.Name):
+            v = self.lookup(node.id, env)
+            if isinstance(v, _Object):
+                raise NotInlinable(f"{node.id!r} used as a value")
+            return v
+        if isinstance(node, ast.Subscript):
+            return self.item(node, env)
+        if isinstance(node, ast.Attribute):
+            return self.attribute(node, env)
+        if isinstance(node, ast.Call):
+            return self.callee(node, env, False)
+        return self.scalar(node, env)
+
+    def attribute(self, node, env):
+        if isinstance(node.value, ast.Name) and node.value.id not in env:
+            obj = self.lookup(node.value.id, env)
+            if isinstance(obj, _Object) and obj.v is math:
+                v = getattr(math, node.attr, None)
+                if isinstance(v, float):
+                    return self.inl.constant(v)
+                raise NotInlinable(f"math.{node.attr} as a value")
+        base = self.value(node.value, env)
+        if isinstance(base, Record):
+            return base.field(node.attr)
+        raise NotInlinable(f"attribute {node.attr!r}")
+
+    def item(self, node, env):
+        base = self.value(node.value, env)
+        items = base.items if isinstance(base, Record) else base
+        if not isinstance(items, tuple):
+            raise NotInlinable("indexing a value that is not a tuple")
+        s = node.slice
+        if isinstance(s, ast.Slice):
+            bounds = [None if b is None else _int(b) for b in (s.lower, s.upper, s.step)]
+            return items[slice(*bounds)]
+        k = _int(s)
+        if not -len(items) <= k < len(items):
+            raise NotInlinable("index out of range")
+        return items[k]
+
+    def callee(self, node, env, conditional):
+        """A call: a kernel inlined (its tree), or the source of a math or builtin call."""
+        if node.keywords:
+            raise NotInlinable("keyword arguments")
+        f = node.func
+        if isinstance(f, ast.Attribute) and isinstance(f.value, ast.Name) and f.value.id not in env:
+            obj = self.lookup(f.value.id, env)
+            if isinstance(obj, _Object) and obj.v is math and callable(getattr(math, f.attr, None)):
+                return f"math.{f.attr}(" + ", ".join(self.scalar(a, env, conditional) for a in node.args) + ")"
+            raise NotInlinable("a method or a module other than math")
+        if not isinstance(f, ast.Name):
+            raise NotInlinable("calling an expression")
+        obj = self.lookup(f.id, env)
+        if not isinstance(obj, _Object):
+            raise NotInlinable(f"calling {f.id!r}")
+        fn = obj.v
+        if getattr(fn, "__module__", None) == "math" and getattr(math, fn.__name__, None) is fn:
+            return f"math.{fn.__name__}(" + ", ".join(self.scalar(a, env, conditional) for a in node.args) + ")"
+        if fn in _BUILTINS:  # of numbers only (min / max of a tuple: the call is kept)
+            return f"{_BUILTINS[fn]}(" + ", ".join(self.scalar(a, env, conditional) for a in node.args) + ")"
+        if conditional:
+            raise NotInlinable("a kernel called inside a conditional expression")
+        args = [self.inl.settle(self.value(a, env)) for a in node.args]
+        return self.inl.call(fn, args, self.depth + 1)
+
+    def scalar(self, node, env, conditional=False):
+        """Source of the scalar ``node``, fully parenthesized; a math call outside a conditional part
+        is put in a local first (shared by equal calls)."""
+        sc = self.scalar
+        if isinstance(node, ast.Constant):
+            if isinstance(node.value, bool) or isinstance(node.value, (int, float)) and not isinstance(node.value, complex):
+                return repr(node.value)
+            raise NotInlinable(f"constant {node.value!r}")
+        if isinstance(node, ast.BinOp):
+            op = _BINOPS.get(type(node.op))
+            if op is None:
+                raise NotInlinable(f"operator {type(node.op).__name__}")
+            return f"({sc(node.left, env, conditional)} {op} {sc(node.right, env, conditional)})"
+        if isinstance(node, ast.UnaryOp):
+            return f"({_UNARY[type(node.op)]}{sc(node.operand, env, conditional)})"
+        if isinstance(node, ast.BoolOp):
+            op = " and " if isinstance(node.op, ast.And) else " or "
+            first = sc(node.values[0], env, conditional)
+            return "(" + op.join([first] + [sc(v, env, True) for v in node.values[1:]]) + ")"
+        if isinstance(node, ast.Compare):
+            if any(type(o) not in _COMPARE for o in node.ops):
+                raise NotInlinable("is / in comparisons")
+            parts = [sc(node.left, env, conditional)]
+            for k, (o, c) in enumerate(zip(node.ops, node.comparators)):  # a chain stops at the first False
+                parts += [_COMPARE[type(o)], sc(c, env, conditional or k > 0)]
+            return "(" + " ".join(parts) + ")"
+        if isinstance(node, ast.IfExp):
+            test = sc(node.test, env, conditional)
+            return f"({sc(node.body, env, True)} if {test} else {sc(node.orelse, env, True)})"
+        if isinstance(node, ast.Call):
+            v = self.callee(node, env, conditional)
+            if isinstance(v, str) and not conditional:
+                return self.inl.simple(v)
+        elif isinstance(node, (ast.Name, ast.Subscript, ast.Attribute)):
+            v = self.value(node, env)
+        else:
+            raise NotInlinable(f"{type(node).__name__} expression")
+        if not isinstance(v, str):
+            raise NotInlinable("a tuple where a number is needed")
+        return v
+
+
+class _Object:
+    """A global that is not a number: the math module, a function."""
+
+    __slots__ = ("v",)
+
+    def __init__(self, v):
+        self.v = v
+
+
+def _int(node):
+    v = node.value if isinstance(node, ast.Constant) else None
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub) and isinstance(node.operand, ast.Constant):
+        v = -node.operand.value
+    if not isinstance(v, int) or isinstance(v, bool):
+        raise NotInlinable("an index that is not a whole-number literal")
+    return v
+
+
+def _returns(node):
+    return any(isinstance(n, ast.Return) for n in ast.walk(node))
+
+
+def _join(inl, a, b, then, orelse):
+    """The trees ``a`` (set by the statements ``then``) and ``b`` (``orelse``) as one: a new local
+    for each leaf that differs, assigned at the end of both branches."""
+    if isinstance(a, str) and isinstance(b, str):
+        if a == b:
+            return a
+        name = inl.fresh()
+        then.append(Assign(name, a))
+        orelse.append(Assign(name, b))
+        return name
+    if isinstance(a, Record) and a is b:
+        return a
+    if isinstance(a, tuple) and isinstance(b, tuple) and len(a) == len(b):
+        return tuple(_join(inl, x, y, then, orelse) for x, y in zip(a, b))
+    raise NotInlinable("branches giving values of different shapes")
