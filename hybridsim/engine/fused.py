@@ -4,21 +4,29 @@ When every block the right-hand side evaluates has pure ``kernels``
 (:mod:`hybridsim.engine.kernels`) and the solver is a fixed-step explicit
 Runge-Kutta method (:class:`~hybridsim.engine.solvers.ExplicitRK`), the simulator
 generates (once per system) functions that integrate between sample hits on
-plain Python floats: kernels are called with tuples, wires are local
-variables, the method's stages are written out element by element
-(:mod:`hybridsim.engine.rk_code`), held inputs are tuples read once per interval.
-No graph walking, buffers or small numpy arrays on the inner loop (when the
+plain Python floats: the method's stages are written out element by element
+(:mod:`hybridsim.engine.rk_code`), each stage's right-hand side is the blocks'
+kernels written in place on float locals where they can be, called where not
+(:mod:`hybridsim.engine.fused_code`, :mod:`hybridsim.engine.inline`), wires
+are local variables, params and held inputs are read once per interval. When
+every block has kernels, a hit's output pass is generated the same way. No
+graph walking, buffers or small numpy arrays on the inner loop (when the
 kernels themselves use none).
 
 It performs exactly the operations of the generic path in the same order, so
 both give the same numbers (a test checks it bit for bit); the generic path
 remains the reference. Discontinuities are stepped over.
 """
+import math
+
 import numpy as np
 
 from hybridsim.engine import stepping
 from hybridsim.engine.kernels import gives
-from hybridsim.engine.rk_code import tuple_source, unrolled_lines
+from hybridsim.engine.fused_code import StageWriter, hit_eligible, hit_source
+from hybridsim.engine.glue import first_bad_block
+from hybridsim.engine.floatcode import shape
+from hybridsim.engine.rk_code import inlined_lines, tuple_source
 from hybridsim.engine.solvers import ExplicitRK
 
 
@@ -39,16 +47,23 @@ def has_kernels(block):
             and (not block.n_discrete or gives(k, "update")))
 
 
-def build(system, method, located=None):
-    """The generated functions of ``system`` for ``method`` (an ExplicitRK): a :class:`Fused`."""
-    source, env, held = rk_source(system, method, params_arg=True, located=located)
+def build(system, method, located=None, params=None):
+    """The generated functions of ``system`` for ``method`` (an ExplicitRK): a :class:`Fused`
+    (``params``: the blocks' params whose shapes the source reads, default the system's)."""
+    params = tuple(b.params for b in system.blocks) if params is None else tuple(params)
+    source, env, held, stage = rk_source(system, method, params_arg=True, located=located, block_params=params)
+    hit = None
+    if hit_eligible(system):
+        text, hit = hit_source(system, env, params)
+        source += "\n\n\n" + text
     code = compile(source, f"<fused rhs of {system.name}>", "exec")
     exec(code, env)  # noqa: S102 - our own generated source, no user text in it
-    return Fused(system, method, env, held, source)
+    return Fused(system, method, env, held, source, stage, hit, located, params)
 
 
-def rk_source(system, method, params_arg=False, located=None):
-    """Source of ``rhs`` and ``advance`` for ``system``: ``(source, env, held_ports)``.
+def rk_source(system, method, params_arg=False, located=None, block_params=None):
+    """Source of ``rhs`` and ``advance`` for ``system``: ``(source, env, held_ports, stage)``
+    (``stage`` the :class:`_Stage` that wrote the steps: which blocks it wrote in place).
 
     ``env`` maps the names the source uses to the kernels (``out3``, ``der5``)
     and, unless ``params_arg``, to the blocks' params (``P3``). With
@@ -61,7 +76,7 @@ def rk_source(system, method, params_arg=False, located=None):
     on_path = set(path)
     held = sysm.plan.held_ports()
     held_index = {port: k for k, port in enumerate(held)}
-    env = {"empty": np.empty}
+    env = {"empty": np.empty, "math": math}
     extra = ", P" if params_arg else ""
     lines = [f"def rhs(t, X, H{extra}):"]
 
@@ -101,12 +116,13 @@ def rk_source(system, method, params_arg=False, located=None):
         lines.append(f"    d{i} = der{i}({params(i)}, t, {state(i)}, {tuple_source(args)})")
         parts += [f"d{i}[{j}]" for j in range(sysm.blocks[i].n_continuous)]
     lines.append(f"    return {tuple_source(parts)}")
-    lines += [""] + unrolled_lines(method, n, "rhs", extra)
+    stage = StageWriter(sysm, held_index, env, params_arg, block_params)
+    lines += [""] + inlined_lines(method, n, stage, stage.hoist, extra)
     located = sysm.action_events if located is None else located
     if located and all(event_kernels(sysm.blocks[i]) for i in located):
         outputs = [line for line in lines[1:] if line.startswith("    o")]
         lines += [""] + _event_lines(sysm, located, outputs, params, arg, state, env, extra)
-    return "\n".join(lines), env, held
+    return "\n".join(lines), env, held, stage
 
 
 def event_kernels(block):
@@ -172,14 +188,35 @@ class Fused:
     generated ones (when every located block gives them as kernels).
     """
 
-    def __init__(self, system, method, env, held, source):
+    def __init__(self, system, method, env, held, source, stage, hit_writer, located, params):
         self.system, self.method, self.env, self.held, self.source = system, method, env, held, source
+        self.stage, self.hit_writer, self.located = stage, hit_writer, located
         self.advance, self.step_stages, self.dense_at = env["advance"], env["step_stages"], env["dense_at"]
-        self.zc, self.act = env.get("zc"), env.get("act")
+        self.zc, self.act, self.hit = env.get("zc"), env.get("act"), env.get("hit")
+        self.shape = shape(params)
+        self._other = {}  # params of another shape (tuple lengths, fields): their own build
 
     def machinery(self, ctx, glue):
         """``(glue, ops, state)`` for a run of ``ctx``; ``glue`` the generic glue it completes."""
+        key = shape(ctx.params)
+        if key != self.shape:  # the source reads the params by their shape
+            if key not in self._other:
+                self._other[key] = build(self.system, self.method, self.located, ctx.params)
+            return self._other[key].machinery(ctx, glue)
         s = FusedState(self, ctx)
+        if self.hit is not None:
+            hit, plan, checked = self.hit, self.system.plan, {}
+            discrete = self.system.discrete
+
+            def outputs_glue(t, x, y, z, pf, pi, due, k):
+                row = due[k]
+                ctx.ywire[:] = hit(t, x.tolist(), ctx.z.tolist(), ctx.ywire.tolist(), row.tolist(), s.P)
+                key = row.tobytes()
+                if key not in checked:
+                    checked[key] = plan.hit_checked(frozenset(discrete[j] for j in np.flatnonzero(row)))
+                return first_bad_block(ctx, checked[key])
+
+            glue = glue._replace(outputs=outputs_glue)
         if self.zc is not None:
             zc, act = self.zc, self.act
 

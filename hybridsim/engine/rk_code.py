@@ -6,9 +6,9 @@ floating-point operations in the same order:
 
 * :func:`array_source` - the stepping core's stepper on arrays, element by
   element (the generic path runs it in Python, the compiled core compiles it);
-* :func:`unrolled_lines` - the same expressions written out element by
-  element on tuples of floats (``advance``), for the fused (Python) and
-  compiled (numba) paths.
+* :func:`inlined_lines` - the same expressions written out element by
+  element on float locals (``advance``), with the right-hand side written into
+  each stage, for the fused (Python) path.
 
 A stage's state is ``X + (h_a1 * k1 + h_a2 * k2 + ...)`` over the stage's
 non-zero coefficients, each coefficient times ``h`` computed once per call
@@ -16,7 +16,7 @@ non-zero coefficients, each coefficient times ``h`` computed once per call
 ``theta`` in [0, 1) of the step ``X + h * (w1 * k1 + ...)`` with the weights
 ``w = method.dense_weights(theta)`` computed once by the caller.
 """
-
+import re
 
 #: the most items one generated tuple display holds: CPython builds a longer one through a
 #: list, which numba's bytecode reader does not always take (AssertionError in its peephole)
@@ -254,51 +254,59 @@ def array_source(method, glue_steps=False):
     return "import math\n\n\n" + "\n".join(L)
 
 
-def unrolled_lines(method, n, rhs, extra=""):
-    """Source lines of ``advance`` and ``advance_obs`` on tuples of ``n`` floats.
+def inline_names(line):
+    return set(re.findall(r"[A-Za-z_]\w*", line))
 
-    ``rhs`` is the name of the right-hand side ``rhs(t, X, H{extra})``.
-    ``advance(t0, h, ka, kb, X, H{extra})`` takes steps ``ka .. kb - 1`` of
-    size ``h`` from ``t0`` (step ``k`` starts at ``t0 + k * h``) and returns
-    the final state; ``advance_obs(t0, h, ka, kb, X, H, kobs, w{extra})``
-    takes the same steps and returns ``(X_end, X_obs, X_dense)``: for step
-    ``kobs`` also the state at its start and at the fraction given by the
-    dense-output weights ``w`` inside it (one call per log point).
+
+def inlined_lines(method, n, stage, hoist, extra=""):
+    """Source lines of ``advance``, ``step_stages`` and ``dense_at`` on ``n`` float locals.
+
+    ``stage(t, xs)`` gives a stage's derivatives: ``(lines at no indent, names)`` for the time named
+    ``t`` and the state's names ``xs``; ``hoist(lines)`` the lines to put before the steps (the
+    params and held inputs those lines read). ``advance(t0, h, ka, kb, X, H{extra})`` takes steps
+    ``ka .. kb - 1`` of size ``h`` from ``t0`` (step ``k`` starts at ``t0 + k * h``) and returns
+    the final state (a tuple); ``step_stages(t, h, X, H{extra})`` takes one step and returns it
+    with its stages; ``dense_at(X, K, h, w)`` is the state inside that step at the dense-output
+    weights ``w``.
     """
+    X = [f"X_{j}" for j in range(n)]
+
+    def body(pad):
+        out = []
+        for i, (c, row) in enumerate(zip(method.c, method.A)):
+            terms = _terms(row)
+            xs = X if not terms else [f"S_{j}" for j in range(n)]
+            out += [f"{pad}S_{j} = {_combo(method, terms, f'_{j}')}" for j in range(n) if terms]
+            tt = _time(method, c)
+            code, ds = stage("t" if tt == "t" else "ts", xs)
+            if tt != "t" and any("ts" in inline_names(line) for line in code):
+                out.append(f"{pad}ts = {tt}")
+            out += [pad + line for line in code]
+            out += [f"{pad}k{i + 1}_{j} = {d}" for j, d in enumerate(ds)]
+        return out
+
     def tup(expr):
         return tuple_source(expr(f"[{j}]") for j in range(n))
 
-    body = []
-    for i, (c, row) in enumerate(zip(method.c, method.A)):
-        terms = _terms(row)
-        state = "X" if not terms else tup(lambda e, terms=terms: _combo(method, terms, e))
-        body.append(f"k{i + 1} = {rhs}({_time(method, c)}, {state}, H{extra})")
-    final = tup(lambda e: _result(method, e))
+    def flat(expr):
+        return re.sub(r"\b(X|k\d+)\[(\d+)\]", r"\1_\2", expr)
+
+    scaled = _scaled_lines(method, "    ")
+    unpack = "    " + ", ".join(X) + ", = X"
+    loop = body("        ")
+    lines = [f"def advance(t0, h, ka, kb, X, H{extra}):"]
+    lines += [line for line in hoist(loop)] + scaled + [unpack,
+              "    for k in range(ka, kb):",
+              "        t = t0 + k * h"] + loop
+    lines += [f"        X_{j} = {flat(_result(method, f'[{j}]'))}" for j in range(n)]
+    lines += [f"    return {tuple_source(X)}", ""]
+    one = body("    ")
+    ks = tuple_source(tuple_source(f"k{i + 1}_{j}" for j in range(n)) for i in range(len(method.c)))
+    lines += [f"def step_stages(t, h, X, H{extra}):"] + hoist(one) + scaled + [unpack] + one
+    lines += [f"    return {flat(tup(lambda e: _result(method, e)))}, ({ks})", ""]
     used = _dense_terms(method)
     dense = tup(lambda e: f"X{e} + h * (" + " + ".join(f"w[{j}] * k{j + 1}{e}" for j in used) + ")")
-    scaled = _scaled_lines(method, "    ")
-    lines = [f"def advance(t0, h, ka, kb, X, H{extra}):"] + scaled + [
-             "    for k in range(ka, kb):",
-             "        t = t0 + k * h"]
-    lines += ["        " + b for b in body]
-    lines += [f"        X = {final}", "    return X", ""]
-    lines += [f"def advance_obs(t0, h, ka, kb, X, H, kobs, w{extra}):"] + scaled + [
-              "    Xs = X",
-              "    Xo = X",
-              "    for k in range(ka, kb):",
-              "        t = t0 + k * h"]
-    lines += ["        " + b for b in body]
-    lines += ["        if k == kobs:",
-              "            Xs = X",
-              f"            Xo = {dense}",
-              f"        X = {final}",
-              "    return X, Xs, Xo", ""]
-    # one step that keeps its stages, and the dense output from them: the same expressions
-    ks = tuple_source(f"k{i + 1}" for i in range(len(method.c)))
-    lines += [f"def step_stages(t, h, X, H{extra}):"] + scaled
-    lines += ["    " + b for b in body]
-    lines += [f"    return {final}, {ks}", "",
-              "def dense_at(X, K, h, w):",
+    lines += ["def dense_at(X, K, h, w):",
               "    " + ", ".join(f"k{i + 1}" for i in range(len(method.c))) + ", = K",
               f"    return {dense}"]
     return lines

@@ -12,7 +12,10 @@ from conftest import DIAGRAMS, ROOT, integrator_without_kernels
     (DIAGRAMS / "fig9_force_and_position.yaml", {"rate": 120, "t_end": 0.4}),
     (DIAGRAMS / "fig8_receding_surface.yaml", {"t_end": 1.2}),
     (ROOT / "tests" / "data" / "smooth_contact.yaml", {}),
-], ids=["fig9", "fig8-moving-surface", "damped"])
+    # three rates, one with an offset, a delay's held output read before the block computes it
+    (ROOT / "tests" / "data" / "every_kernel_block.yaml", {}),
+    (ROOT / "tests" / "data" / "library_blocks.yaml", {}),
+], ids=["fig9", "fig8-moving-surface", "damped", "every-kernel-block", "library"])
 def test_fused_equals_generic(path, extra):
     assert hs.build(path, **extra)[1]._fused is not None
     a = hs.simulate(path, fused=True, **extra)

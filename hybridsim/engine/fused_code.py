@@ -1,0 +1,197 @@
+"""The fused path's generated Python: a diagram's equations on float locals, kernels written in place.
+
+:class:`StageWriter` writes one Runge-Kutta stage's right-hand side (the
+blocks on the path, then the derivatives) for
+:func:`~hybridsim.engine.rk_code.inlined_lines`; :func:`hit_source` writes a
+sample hit's output pass. Both write each block's kernel in place where
+:mod:`hybridsim.engine.inline` can, and call it where it cannot (numpy,
+loops); the params' numbers and the held inputs are locals read once per
+call of the generated function (:meth:`BlockWriter.hoist`).
+"""
+from hybridsim.engine import floatcode, inline
+from hybridsim.engine.block import Block
+from hybridsim.engine.rk_code import tuple_source
+
+
+class BlockWriter:
+    """What both writers share: the blocks' params as trees of hoisted locals, and
+    :meth:`write`, a block's kernel in place or called. ``inlined`` / ``called`` name the blocks."""
+
+    def __init__(self, sysm, env, blocks, params_arg=True, params=None):
+        self.sysm, self.env = sysm, env
+        params = [b.params for b in sysm.blocks] if params is None else params
+        self.hoists = {}  # local -> the expression it holds
+        self.trees = {}
+        for i in blocks:
+            out = []
+            p = params[i]
+            whole = f"P[{i}]" if params_arg else f"P{i}"
+            if not params_arg:
+                env[f"P{i}"] = p
+            self.trees[i] = floatcode.param_tree(p, whole, f"P{i}", out)
+            self.hoists.update(out)
+            self.hoists[f"P_{i}"] = whole  # the whole params, for a kept call
+        self.inlined, self.called = set(), set()
+
+    def hoist(self, lines, pad="    "):
+        """The lines setting the hoisted locals that ``lines`` read."""
+        read = set().union(*(floatcode.names_in(line) for line in lines)) if lines else set()
+        return [f"{pad}{name} = {expr}" for name, expr in self.hoists.items() if name in read]
+
+    def inliner(self):
+        count = iter(range(10 ** 9))
+        return inline.Inliner(lambda: f"v{next(count)}", self.env)
+
+    def write(self, inl, i, what, t, state, inputs, widths):
+        """Block ``i``'s kernel ``what`` at ``t`` on the trees ``state`` and ``inputs``, written in
+        place, else called: the tree of its result (one tuple per port for ``output``, a tuple of
+        ``widths`` numbers otherwise)."""
+        kern = self.sysm.blocks[i].kernels
+        f = getattr(kern, what)
+        mark, memo = len(inl.out), dict(inl.memo)
+        if f is not None:
+            try:
+                r = inl.call(f, [self.trees[i], t, state, inputs])
+                if _fits(r, widths):
+                    self.inlined.add(i)
+                    return r
+            except floatcode.NotInlinable:
+                pass
+            del inl.out[mark:]
+            inl.memo = memo
+        self.called.add(i)
+        name = inl.fresh()
+        into = ""
+        if f is None:  # output_into: the arrays it fills, as Block.output gives them
+            f, into = kern.output_into, ", " + tuple_source(f"empty({w})" for w in widths)
+        fname = f"{what[:3]}{i}"
+        self.env[fname] = f
+        call = f"{fname}(P_{i}, {t}, {floatcode.source(state)}, {floatcode.source(inputs)}{into})"
+        inl.out.append(floatcode.Assign(name, call))
+        if what == "output":
+            return tuple(tuple(inl.simple(f"{name}[{o}][{j}]") for j in range(w)) for o, w in enumerate(widths))
+        return tuple(inl.simple(f"{name}[{j}]") for j in range(widths))
+
+
+class StageWriter(BlockWriter):
+    """One stage's right-hand side: ``self(t, xs)`` gives ``(lines, derivative names)``."""
+
+    def __init__(self, sysm, held_index, env, params_arg, params=None):
+        super().__init__(sysm, env, sorted(set(sysm.rhs_path) | set(sysm.stateful)), params_arg, params)
+        self.held = {}
+        for (a, o), k in held_index.items():
+            w = sysm.blocks[a].outputs[o].width
+            self.held[(a, o)] = tuple(f"H{k}_{j}" for j in range(w))
+            self.hoists.update({f"H{k}_{j}": f"H[{k}][{j}]" for j in range(w)})
+
+    def __call__(self, t, xs):
+        sysm = self.sysm
+        inl = self.inliner()
+        outs, done = {}, set()
+        on_path = set(sysm.rhs_path)
+
+        def inputs(i):
+            args = []
+            for k, (a, o) in enumerate(sysm.sources[i]):
+                if a in on_path and a in done:
+                    args.append(outs[a][o])
+                elif a in on_path:  # produced later: this output does not depend on it
+                    args.append(("0.0",) * sysm.blocks[i].inputs[k].width)
+                else:
+                    args.append(self.held[(a, o)])
+            return tuple(args)
+
+        def state(i):
+            s = sysm.xslices[i]
+            return tuple(xs[s.start:s.stop]) if s is not None else ()
+
+        for i in sorted(on_path):
+            outs[i] = self.write(inl, i, "output", t, state(i), inputs(i), [p.width for p in sysm.blocks[i].outputs])
+            done.add(i)
+        done = on_path
+        ds = []
+        for i in sysm.stateful:
+            ds += list(self.write(inl, i, "derivatives", t, state(i), inputs(i), sysm.blocks[i].n_continuous))
+        ds = [d if floatcode.is_leaf(d) else inl.simple(d) for d in ds]
+        kept, _ = floatcode.prune(inl.out, set(ds))
+        return floatcode.lines(kept, ""), ds
+
+
+def hit_eligible(system):
+    """True when every block of the hit computes its outputs by its kernels (Block.output)."""
+    return all(not b.outputs or (b.kernels is not None and type(b).output is Block.output
+                                 and (b.kernels.output is not None or b.kernels.output_into is not None))
+               for b in system.blocks)
+
+
+def hit_source(system, env, params=None):
+    """Source of ``hit(t, X, Z, Y, D, P)``: a hit's output pass, as ``ctx.evaluate(plan.hit_pass(due))``
+    computes it, on floats: ``X`` the continuous state (a sequence), ``Z`` the discrete state,
+    ``Y`` the outputs (a list, updated in place), ``D`` the due row (a discrete block computes its
+    outputs when due, else keeps them), ``P`` the blocks' params."""
+    sysm = system
+    w = BlockWriter(sysm, env, [i for i, _ in sysm.plan.hit_sequence()], True, params)
+    inl = w.inliner()
+    yoff, k = [], 0
+    for b in sysm.blocks:
+        yoff.append([])
+        for p in b.outputs:
+            yoff[-1].append(k)
+            k += p.width
+    zoff, k = [], 0
+    for b in sysm.blocks:
+        zoff.append(k)
+        k += b.n_discrete
+    current = {}  # (block, port) -> the tree of its value now (a port not yet read: Y)
+    col = {i: c for c, i in enumerate(sysm.discrete)}
+
+    def read(a, o):
+        if (a, o) not in current:
+            names = []
+            for j in range(sysm.blocks[a].outputs[o].width):
+                names.append(inl.fresh())
+                inl.out.append(floatcode.Assign(names[-1], f"Y[{yoff[a][o] + j}]"))
+            current[(a, o)] = tuple(names)
+        return current[(a, o)]
+
+    def state(i):
+        s = sysm.xslices[i]
+        if s is not None:
+            return tuple(f"X_{j}" for j in range(s.start, s.stop))
+        return tuple(f"Z_{zoff[i] + j}" for j in range(sysm.blocks[i].n_discrete))
+
+    for i, disc in sysm.plan.hit_sequence():
+        b = sysm.blocks[i]
+        if not b.outputs:
+            continue
+        inputs = tuple(read(a, o) for a, o in sysm.sources[i])
+        outer, memo = inl.out, dict(inl.memo)
+        if disc:
+            inl.out = []
+        r = w.write(inl, i, "output", "t", state(i), inputs, [p.width for p in b.outputs])
+        for o, port in enumerate(r):
+            for j, v in enumerate(port):
+                inl.out.append(floatcode.Assign(f"Y[{yoff[i][o] + j}]", v))
+            current[(i, o)] = port
+        if disc:  # computed when due; later blocks read what Y then holds
+            branch, inl.out, inl.memo = inl.out, outer, memo
+            outer.append(floatcode.If(f"D[{col[i]}]", branch, []))
+            for o in range(len(b.outputs)):
+                current.pop((i, o))
+    n_x, n_z = sysm.n_x, sum(b.n_discrete for b in sysm.blocks)
+    body = floatcode.lines(floatcode.prune(inl.out, (), lambda target: target.startswith("Y["))[0], "    ")
+    head = ["def hit(t, X, Z, Y, D, P):"] + w.hoist(body)
+    if n_x:
+        head.append("    " + ", ".join(f"X_{j}" for j in range(n_x)) + ", = X")
+    if n_z:
+        head.append("    " + ", ".join(f"Z_{j}" for j in range(n_z)) + ", = Z")
+    return "\n".join(head + body + ["    return Y"]), w
+
+
+def _fits(tree, widths):
+    """True when ``tree`` has the shape of a kernel's result: a tuple of ``widths[k]`` numbers per
+    port (``widths`` a list), or of ``widths`` numbers (an int)."""
+    if isinstance(widths, int):
+        return isinstance(tree, tuple) and len(tree) == widths and all(floatcode.is_leaf(v) for v in tree)
+    return (isinstance(tree, tuple) and len(tree) == len(widths)
+            and all(_fits(port, w) for port, w in zip(tree, widths)))
