@@ -51,9 +51,46 @@ class If:
         self.cond, self.then, self.orelse = cond, then, orelse
 
 
+class Array:
+    """A float64 or bool array param of at most :data:`SMALL` elements: its ``shape`` and its
+    elements as a nested tuple of hoisted locals (``rows``)."""
+
+    __slots__ = ("shape", "rows")
+
+    def __init__(self, shape, rows):
+        self.shape, self.rows = shape, rows
+
+
+class Out:
+    """An array a kernel writes (``output_into``'s ports, ``update_into``'s state): its elements'
+    trees so far, ``None`` where not yet written."""
+
+    __slots__ = ("items",)
+
+    def __init__(self, width):
+        self.items = [None] * width
+
+    def value(self):
+        if any(v is None for v in self.items):
+            raise NotInlinable("an element of an output array left unwritten")
+        return tuple(self.items)
+
+
+#: the largest array param whose elements are written as locals
+SMALL = 64
+
+
 def is_leaf(tree):
     return isinstance(tree, str)
 
+
+def snapshot(tree):
+    """``tree`` with each :class:`Out` replaced by the tuple it holds now (a returned value)."""
+    if isinstance(tree, Out):
+        return tree.value()
+    if isinstance(tree, tuple):
+        return tuple(snapshot(t) for t in tree)
+    return tree
 
 
 def source(tree):
@@ -70,6 +107,8 @@ def source(tree):
 def param_tree(value, expr, name, out):
     """The tree of a param ``value`` read as ``expr``: its numbers hoisted into locals named from
     ``name`` (``out`` collects ``(local, expression)``)."""
+    while any(n.startswith(name) for n, _ in out):  # a field named like another's element
+        name += "_"
     if isinstance(value, tuple) and hasattr(value, "_fields"):
         return Record(value._fields, (param_tree(v, f"{expr}.{f}", f"{name}_{f}", out)
                                       for f, v in zip(value._fields, value)))
@@ -78,13 +117,37 @@ def param_tree(value, expr, name, out):
     out.append((name, expr))
     if isinstance(value, (bool, int, float)) or type(value).__module__ == "numpy" and getattr(value, "ndim", 1) == 0:
         return name
+    if _small(value):  # its elements as Python numbers (tolist: the same values), read once
+        out[-1] = (name, f"{expr}.tolist()")
+
+        def rows(prefix, shp):
+            if len(shp) == 1:
+                return tuple(f"{prefix}_{k}" for k in range(shp[0]))
+            return tuple(rows(f"{prefix}_{k}", shp[1:]) for k in range(shp[0]))
+
+        for idx in _indices(value.shape):
+            out.append((f"{name}_" + "_".join(map(str, idx)), name + "".join(f"[{k}]" for k in idx)))
+        return Array(value.shape, rows(name, value.shape))
     return Opaque(name)
 
 
+def _small(value):
+    return (type(value).__module__ == "numpy" and getattr(value, "ndim", 0) in (1, 2)
+            and value.size <= SMALL and value.dtype.kind in "fb" and value.dtype.itemsize in (1, 8))
+
+
+def _indices(shape):
+    if len(shape) == 1:
+        return [(k,) for k in range(shape[0])]
+    return [(i, j) for i in range(shape[0]) for j in range(shape[1])]
+
+
 def shape(value):
-    """What :func:`param_tree` depends on: field names, tuple lengths, scalar or not."""
+    """What :func:`param_tree` depends on: field names, tuple lengths, scalar, small array or not."""
     if isinstance(value, tuple):
         return (getattr(value, "_fields", None), tuple(shape(v) for v in value))
+    if _small(value):
+        return (value.shape, value.dtype.kind)
     return isinstance(value, (bool, int, float)) or type(value).__module__ == "numpy" and getattr(value, "ndim", 1) == 0
 
 

@@ -23,7 +23,8 @@ import numpy as np
 
 from hybridsim.engine import stepping
 from hybridsim.engine.kernels import gives
-from hybridsim.engine.fused_code import StageWriter, hit_eligible, hit_source
+from hybridsim.engine.fused_code import StageWriter, hit_eligible, hit_source, update_eligible, update_source
+from hybridsim.engine.finite import all_finite
 from hybridsim.engine.glue import first_bad_block
 from hybridsim.engine.floatcode import shape
 from hybridsim.engine.rk_code import inlined_lines, tuple_source
@@ -55,6 +56,9 @@ def build(system, method, located=None, params=None):
     hit = None
     if hit_eligible(system):
         text, hit = hit_source(system, env, params)
+        source += "\n\n\n" + text
+    text = update_source(system, env, params)[0] if update_eligible(system) else None
+    if text is not None:
         source += "\n\n\n" + text
     code = compile(source, f"<fused rhs of {system.name}>", "exec")
     exec(code, env)  # noqa: S102 - our own generated source, no user text in it
@@ -192,7 +196,7 @@ class Fused:
         self.system, self.method, self.env, self.held, self.source = system, method, env, held, source
         self.stage, self.hit_writer, self.located = stage, hit_writer, located
         self.advance, self.step_stages, self.dense_at = env["advance"], env["step_stages"], env["dense_at"]
-        self.zc, self.act, self.hit = env.get("zc"), env.get("act"), env.get("hit")
+        self.zc, self.act, self.hit, self.update = env.get("zc"), env.get("act"), env.get("hit"), env.get("update")
         self.shape = shape(params)
         self._other = {}  # params of another shape (tuple lengths, fields): their own build
 
@@ -204,9 +208,9 @@ class Fused:
                 self._other[key] = build(self.system, self.method, self.located, ctx.params)
             return self._other[key].machinery(ctx, glue)
         s = FusedState(self, ctx)
+        discrete = self.system.discrete
         if self.hit is not None:
             hit, plan, checked = self.hit, self.system.plan, {}
-            discrete = self.system.discrete
 
             def outputs_glue(t, x, y, z, pf, pi, due, k):
                 row = due[k]
@@ -217,6 +221,20 @@ class Fused:
                 return first_bad_block(ctx, checked[key])
 
             glue = glue._replace(outputs=outputs_glue)
+        if self.update is not None:
+            update, order = self.update, self.system.plan.update_order
+
+            def update_glue(t, x, y, z, pf, pi, due, k):
+                row = due[k]
+                ctx.z[:] = update(t, x.tolist(), ctx.z.tolist(), ctx.ywire.tolist(), row.tolist(), s.P)
+                if all_finite(ctx.z):
+                    return -1
+                for i in order(discrete[j] for j in np.flatnonzero(row)):  # the first, as the generic path
+                    if not np.isfinite(ctx.xd[i]).all():
+                        return i
+                return -1
+
+            glue = glue._replace(update=update_glue)
         if self.zc is not None:
             zc, act = self.zc, self.act
 

@@ -8,9 +8,14 @@ sample hit's output pass. Both write each block's kernel in place where
 loops); the params' numbers and the held inputs are locals read once per
 call of the generated function (:meth:`BlockWriter.hoist`).
 """
+import re
+
 from hybridsim.engine import floatcode, inline
 from hybridsim.engine.block import Block
 from hybridsim.engine.rk_code import tuple_source
+
+
+_MATH = re.compile(r"\bmath\.(\w+)\(")
 
 
 class BlockWriter:
@@ -34,8 +39,16 @@ class BlockWriter:
         self.inlined, self.called = set(), set()
 
     def hoist(self, lines, pad="    "):
-        """The lines setting the hoisted locals that ``lines`` read."""
+        """The lines setting the hoisted locals that ``lines`` read (``lines`` call ``math.f`` as
+        ``math_f``, a local: one name lookup less per call)."""
+        for k, line in enumerate(lines):
+            for f in set(_MATH.findall(line)):
+                self.hoists[f"math_{f}"] = f"math.{f}"
+            lines[k] = _MATH.sub(r"math_\1(", line)
         read = set().union(*(floatcode.names_in(line) for line in lines)) if lines else set()
+        for name, expr in reversed(list(self.hoists.items())):  # an array's elements read its list
+            if name in read:
+                read |= floatcode.names_in(expr)
         return [f"{pad}{name} = {expr}" for name, expr in self.hoists.items() if name in read]
 
     def inliner(self):
@@ -49,9 +62,13 @@ class BlockWriter:
         kern = self.sysm.blocks[i].kernels
         f = getattr(kern, what)
         mark, memo = len(inl.out), dict(inl.memo)
-        if f is not None:
+        into = getattr(kern, what + "_into", None) if f is None else None
+        if f is not None or into is not None:
             try:
-                r = inl.call(f, [self.trees[i], t, state, inputs])
+                args = [self.trees[i], t, state, inputs]
+                if into is not None:  # the arrays it writes, as elements
+                    args.append(tuple(floatcode.Out(w) for w in widths) if what == "output" else floatcode.Out(widths))
+                r = inl.call(f or into, args)
                 if _fits(r, widths):
                     self.inlined.add(i)
                     return r
@@ -117,6 +134,65 @@ class StageWriter(BlockWriter):
         return floatcode.lines(kept, ""), ds
 
 
+def update_eligible(system):
+    """True when every discrete block updates its state by its kernels (Block.update)."""
+    return all(not b.n_discrete or (b.kernels is not None and type(b).update is Block.update
+                                    and (b.kernels.update is not None or b.kernels.update_into is not None))
+               for b in system.blocks)
+
+
+def update_source(system, env, params=None):
+    """Source of ``update(t, X, Z, Y, D, P)``: the new discrete states after a hit (``Z``, a list,
+    updated in place), as ``plan.updates`` computes them: each due block's update from its state
+    and the outputs ``Y`` the hit left; ``(None, None)`` when no block has a discrete state."""
+    sysm = system
+    due = [i for i in sysm.plan.update_order(sysm.discrete) if sysm.blocks[i].n_discrete]
+    if not due:
+        return None, None
+    w = BlockWriter(sysm, env, due, True, params)
+    inl = w.inliner()
+    yoff, zoff = _offsets(sysm)
+    col = {i: c for c, i in enumerate(sysm.discrete)}
+    for i in due:
+        b = sysm.blocks[i]
+        outer, memo = inl.out, dict(inl.memo)
+        inl.out = []
+        inputs = tuple(tuple(_read(inl, f"Y[{yoff[a][o] + j}]") for j in range(sysm.blocks[a].outputs[o].width))
+                       for a, o in sysm.sources[i])
+        state = tuple(f"Z_{zoff[i] + j}" for j in range(b.n_discrete))
+        r = w.write(inl, i, "update", "t", state, inputs, b.n_discrete)
+        inl.out += [floatcode.Assign(f"Z[{zoff[i] + j}]", v) for j, v in enumerate(r)]
+        branch, inl.out, inl.memo = inl.out, outer, memo
+        outer.append(floatcode.If(f"D[{col[i]}]", branch, []))
+    body = floatcode.lines(floatcode.prune(inl.out, (), lambda target: target.startswith("Z["))[0], "    ")
+    n_z = sum(b.n_discrete for b in sysm.blocks)
+    head = ["def update(t, X, Z, Y, D, P):"] + w.hoist(body)
+    head.append("    " + ", ".join(f"Z_{j}" for j in range(n_z)) + ", = Z")
+    return "\n".join(head + body + ["    return Z"]), w
+
+
+def _offsets(sysm):
+    """Where each block's outputs start in the flat outputs, and its discrete state in the flat state."""
+    yoff, k = [], 0
+    for b in sysm.blocks:
+        yoff.append([])
+        for p in b.outputs:
+            yoff[-1].append(k)
+            k += p.width
+    zoff, k = [], 0
+    for b in sysm.blocks:
+        zoff.append(k)
+        k += b.n_discrete
+    return yoff, zoff
+
+
+def _read(inl, expr):
+    """A fresh local holding ``expr`` now (a value another statement may change later)."""
+    name = inl.fresh()
+    inl.out.append(floatcode.Assign(name, expr))
+    return name
+
+
 def hit_eligible(system):
     """True when every block of the hit computes its outputs by its kernels (Block.output)."""
     return all(not b.outputs or (b.kernels is not None and type(b).output is Block.output
@@ -132,26 +208,14 @@ def hit_source(system, env, params=None):
     sysm = system
     w = BlockWriter(sysm, env, [i for i, _ in sysm.plan.hit_sequence()], True, params)
     inl = w.inliner()
-    yoff, k = [], 0
-    for b in sysm.blocks:
-        yoff.append([])
-        for p in b.outputs:
-            yoff[-1].append(k)
-            k += p.width
-    zoff, k = [], 0
-    for b in sysm.blocks:
-        zoff.append(k)
-        k += b.n_discrete
+    yoff, zoff = _offsets(sysm)
     current = {}  # (block, port) -> the tree of its value now (a port not yet read: Y)
     col = {i: c for c, i in enumerate(sysm.discrete)}
 
     def read(a, o):
         if (a, o) not in current:
-            names = []
-            for j in range(sysm.blocks[a].outputs[o].width):
-                names.append(inl.fresh())
-                inl.out.append(floatcode.Assign(names[-1], f"Y[{yoff[a][o] + j}]"))
-            current[(a, o)] = tuple(names)
+            width = sysm.blocks[a].outputs[o].width
+            current[(a, o)] = tuple(_read(inl, f"Y[{yoff[a][o] + j}]") for j in range(width))
         return current[(a, o)]
 
     def state(i):

@@ -30,11 +30,13 @@ import re
 import textwrap
 import types
 
-from hybridsim.engine.floatcode import Assign, If, NotInlinable, Record
-from hybridsim.engine.kernels import marked
+from hybridsim.engine.floatcode import Array, Assign, If, NotInlinable, Out, Record, snapshot
+from hybridsim.engine.kernels import marked, unroll
 
 #: the most statements one inlined call may write (a branch taking the rest of a function doubles it)
 MAX_STATEMENTS = 4000
+#: the most turns of a loop written out
+MAX_LOOP = 64
 _DEPTH = 8
 _BUILTINS = {abs: "abs", min: "min", max: "max", float: "float", int: "int", bool: "bool"}
 _BINOPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.FloorDiv: "//", ast.Mod: "%",
@@ -72,6 +74,7 @@ class Inliner:
         self.out = []
         self.memo = {}  # expression -> the local holding it (within the current branch)
         self.count = 0
+        self.branches = 0  # how deep in if-branches the writing is (no array writes there)
         self.kernels = {id(f) for f in marked()}
 
     # -- statements --------------------------------------------------------------------------------
@@ -135,11 +138,13 @@ class Inliner:
         """Run ``run()`` writing into a branch of its own: ``(its statements, its result)``."""
         out, memo = self.out, self.memo
         self.out, self.memo = [], dict(memo)
+        self.branches += 1
         try:
             result = run()
             return self.out, result
         finally:
             self.out, self.memo = out, memo
+            self.branches -= 1
 
 
 class _Frame:
@@ -157,24 +162,32 @@ class _Frame:
             if isinstance(st, ast.Return):
                 if st.value is None:
                     raise NotInlinable("a bare return")
-                return "return", self.inl.settle(self.value(st.value, env))
+                return "return", self.inl.settle(snapshot(self.value(st.value, env)))
             if isinstance(st, ast.Expr) and isinstance(st.value, ast.Constant):
                 continue  # a docstring
             if isinstance(st, ast.Pass):
                 continue
             if isinstance(st, ast.Assign):
-                if len(st.targets) != 1:
-                    raise NotInlinable("chained assignment")
-                self.bind(st.targets[0], self.value(st.value, env), env)
+                tree = self.value(st.value, env)
+                for target in st.targets:  # a = b = 0.0: each name the same value
+                    self.bind(target, tree, env)
             elif isinstance(st, ast.AugAssign):
-                if not isinstance(st.target, ast.Name):
-                    raise NotInlinable("augmented assignment to an item")
-                expr = ast.BinOp(ast.Name(st.target.id, ast.Load()), st.op, st.value)
+                expr = ast.BinOp(_load(st.target), st.op, st.value)
                 self.bind(st.target, self.scalar(expr, env), env)
             elif isinstance(st, ast.If):
+                known = _literal(self.scalar(st.test, env))
+                if known is not None:  # decided while writing (a loop's index, a width)
+                    stmts = list(st.body if known else st.orelse) + list(stmts[k + 1:])
+                    return self.block(stmts, env)
                 if _returns(st):
                     return self.split(st, stmts[k + 1:], env)
                 env = self.merge(st, env)
+            elif isinstance(st, ast.For):
+                if st.orelse or any(isinstance(n, (ast.Break, ast.Continue, ast.Return)) for n in ast.walk(st)):
+                    raise NotInlinable("a loop with break, continue, return or else")
+                for item in self.items(st.iter, env):
+                    self.bind(st.target, item, env)
+                    kind, env = self.block(st.body, env)
             else:
                 raise NotInlinable(f"{type(st).__name__} statement")
         return "fall", env
@@ -182,6 +195,12 @@ class _Frame:
     def bind(self, target, tree, env):
         if isinstance(target, ast.Name):
             env[target.id] = self.inl.settle(tree)
+        elif isinstance(target, ast.Subscript):  # an element of an array the kernel writes
+            base = self.value(target.value, env)
+            if not isinstance(base, Out) or self.inl.branches:
+                raise NotInlinable("writing an item other than an output array's, or in a branch")
+            k = self.index(target.slice, env, len(base.items))
+            base.items[k] = self.inl.simple(self.scalar_of(tree))
         elif isinstance(target, ast.Tuple) and not any(isinstance(e, ast.Starred) for e in target.elts):
             items = tree.items if isinstance(tree, Record) else tree
             if not isinstance(items, tuple) or len(items) != len(target.elts):
@@ -284,21 +303,66 @@ class _Frame:
         base = self.value(node.value, env)
         if isinstance(base, Record):
             return base.field(node.attr)
+        if isinstance(base, Array) and node.attr in ("shape", "size", "ndim"):
+            size = 1
+            for n in base.shape:
+                size *= n
+            return {"shape": tuple(map(repr, base.shape)), "size": repr(size), "ndim": repr(len(base.shape))}[node.attr]
         raise NotInlinable(f"attribute {node.attr!r}")
 
     def item(self, node, env):
         base = self.value(node.value, env)
-        items = base.items if isinstance(base, Record) else base
+        s = node.slice
+        if isinstance(base, Array) and isinstance(s, ast.Tuple) and len(s.elts) == len(base.shape) == 2:
+            i, j = (self.index(e, env, n) for e, n in zip(s.elts, base.shape))
+            return base.rows[i][j]
+        if isinstance(base, Out):
+            v = base.items[self.index(s, env, len(base.items))]
+            if v is None:
+                raise NotInlinable("reading an output element not yet written")
+            return v
+        items = base.items if isinstance(base, Record) else base.rows if isinstance(base, Array) else base
         if not isinstance(items, tuple):
             raise NotInlinable("indexing a value that is not a tuple")
-        s = node.slice
         if isinstance(s, ast.Slice):
-            bounds = [None if b is None else _int(b) for b in (s.lower, s.upper, s.step)]
+            bounds = [None if b is None else self.whole(b, env) for b in (s.lower, s.upper, s.step)]
             return items[slice(*bounds)]
-        k = _int(s)
-        if not -len(items) <= k < len(items):
+        return items[self.index(s, env, len(items))]
+
+    def index(self, node, env, n):
+        k = self.whole(node, env)
+        if not -n <= k < n:
             raise NotInlinable("index out of range")
-        return items[k]
+        return k
+
+    def whole(self, node, env):
+        """An integer known while writing: a literal, a loop's index, a width."""
+        v = _literal(self.scalar(node, env))
+        if not isinstance(v, int) or isinstance(v, bool):
+            raise NotInlinable("an index not known while writing")
+        return v
+
+    def items(self, node, env):
+        """What a ``for`` loop runs over, known while writing: ``range`` of integers, a tuple, an
+        array's rows, ``unroll(tuple)``."""
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and not node.keywords:
+            fn = self.lookup(node.func.id, env)
+            fn = fn.v if isinstance(fn, _Object) else None
+            if fn is range:
+                items = [repr(k) for k in range(*(self.whole(a, env) for a in node.args))]
+                return _capped(items)
+            if fn is unroll and len(node.args) == 1:
+                node = node.args[0]
+        tree = self.value(node, env)
+        tree = tree.rows if isinstance(tree, Array) else tree.items if isinstance(tree, Record) else tree
+        if not isinstance(tree, tuple):
+            raise NotInlinable("a loop over a value not known while writing")
+        return _capped(list(tree))
+
+    def scalar_of(self, tree):
+        if not isinstance(tree, str):
+            raise NotInlinable("a tuple where a number is needed")
+        return tree
 
     def callee(self, node, env, conditional):
         """A call: a kernel inlined (its tree), or the source of a math or builtin call."""
@@ -318,6 +382,12 @@ class _Frame:
         fn = obj.v
         if getattr(fn, "__module__", None) == "math" and getattr(math, fn.__name__, None) is fn:
             return f"math.{fn.__name__}(" + ", ".join(self.scalar(a, env, conditional) for a in node.args) + ")"
+        if fn is len and len(node.args) == 1:
+            v = self.value(node.args[0], env)
+            v = v.rows if isinstance(v, Array) else v.items if isinstance(v, (Record, Out)) else v
+            if isinstance(v, (tuple, list)):
+                return repr(len(v))
+            raise NotInlinable("len of a number")
         if fn in _BUILTINS:  # of numbers only (min / max of a tuple: the call is kept)
             return f"{_BUILTINS[fn]}(" + ", ".join(self.scalar(a, env, conditional) for a in node.args) + ")"
         if conditional:
@@ -337,9 +407,9 @@ class _Frame:
             op = _BINOPS.get(type(node.op))
             if op is None:
                 raise NotInlinable(f"operator {type(node.op).__name__}")
-            return f"({sc(node.left, env, conditional)} {op} {sc(node.right, env, conditional)})"
+            return _fold(f"({sc(node.left, env, conditional)} {op} {sc(node.right, env, conditional)})")
         if isinstance(node, ast.UnaryOp):
-            return f"({_UNARY[type(node.op)]}{sc(node.operand, env, conditional)})"
+            return _fold(f"({_UNARY[type(node.op)]}{sc(node.operand, env, conditional)})")
         if isinstance(node, ast.BoolOp):
             op = " and " if isinstance(node.op, ast.And) else " or "
             first = sc(node.values[0], env, conditional)
@@ -350,7 +420,7 @@ class _Frame:
             parts = [sc(node.left, env, conditional)]
             for k, (o, c) in enumerate(zip(node.ops, node.comparators)):  # a chain stops at the first False
                 parts += [_COMPARE[type(o)], sc(c, env, conditional or k > 0)]
-            return "(" + " ".join(parts) + ")"
+            return _fold("(" + " ".join(parts) + ")")
         if isinstance(node, ast.IfExp):
             test = sc(node.test, env, conditional)
             return f"({sc(node.body, env, True)} if {test} else {sc(node.orelse, env, True)})"
@@ -376,13 +446,49 @@ class _Object:
         self.v = v
 
 
-def _int(node):
-    v = node.value if isinstance(node, ast.Constant) else None
-    if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub) and isinstance(node.operand, ast.Constant):
-        v = -node.operand.value
-    if not isinstance(v, int) or isinstance(v, bool):
-        raise NotInlinable("an index that is not a whole-number literal")
-    return v
+def _load(target):
+    """``target`` (a name or an item) read, for ``target op= value``."""
+    node = ast.Subscript(target.value, target.slice, ast.Load()) if isinstance(target, ast.Subscript) \
+        else ast.Name(getattr(target, "id", ""), ast.Load())
+    if not isinstance(target, (ast.Name, ast.Subscript)):
+        raise NotInlinable("augmented assignment to an attribute")
+    return node
+
+
+_LITERAL_ONLY = re.compile(r"[\d.e+\-*/%()<>=! ]+|True|False|\(-?\d[\d.e+-]*\)")
+
+
+def _literal(expr):
+    """The value of ``expr`` when it is a literal (an int, a bool, a float), else None."""
+    if expr in ("True", "False"):
+        return expr == "True"
+    try:
+        v = ast.literal_eval(expr)
+    except (ValueError, SyntaxError, TypeError):
+        return None
+    return v if isinstance(v, (int, float, bool)) else None
+
+
+def _fold(expr):
+    """``expr`` computed now when it has no name in it (``k > 0`` with ``k`` a loop's count):
+    Python computes it the same now as at run time."""
+    if not _LITERAL_ONLY.fullmatch(expr) or "e" in expr.replace("e-", "").replace("e+", ""):
+        return expr
+    try:
+        v = eval(expr, {"__builtins__": {}})  # noqa: S307 - digits and operators only (checked above)
+    except (ArithmeticError, ValueError, OverflowError):
+        return expr  # raises at run time as it would have
+    if isinstance(v, bool) or isinstance(v, int):
+        return repr(v) if v >= 0 or isinstance(v, bool) else f"({v!r})"
+    if isinstance(v, float) and math.isfinite(v):
+        return repr(v) if v > 0 or (v == 0 and math.copysign(1, v) > 0) else f"({v!r})"
+    return expr
+
+
+def _capped(items):
+    if len(items) > MAX_LOOP:
+        raise NotInlinable("a loop of more than MAX_LOOP turns")
+    return items
 
 
 def _returns(node):
@@ -392,6 +498,8 @@ def _returns(node):
 def _join(inl, a, b, then, orelse):
     """The trees ``a`` (set by the statements ``then``) and ``b`` (``orelse``) as one: a new local
     for each leaf that differs, assigned at the end of both branches."""
+    if a is b:
+        return a
     if isinstance(a, str) and isinstance(b, str):
         if a == b:
             return a
