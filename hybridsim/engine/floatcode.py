@@ -5,6 +5,8 @@ a Python tuple of trees, a block's params a :class:`Record` of hoisted locals,
 an array param an :class:`Opaque` local. Statements are :class:`Assign` and
 :class:`If`; :func:`prune` drops what nothing reads, :func:`lines` writes them.
 """
+import ast
+import math
 import re
 
 _WORD = re.compile(r"[A-Za-z_]\w*")
@@ -149,6 +151,36 @@ def shape(value):
     if _small(value):
         return (value.shape, value.dtype.kind)
     return isinstance(value, (bool, int, float)) or type(value).__module__ == "numpy" and getattr(value, "ndim", 1) == 0
+
+
+_LITERAL_ONLY = re.compile(r"[\d.e+\-*/%()<>=! ]+|True|False|\(-?\d[\d.e+-]*\)")
+
+
+def literal(expr):
+    """The value of ``expr`` when it is a literal (an int, a bool, a float), else None."""
+    if expr in ("True", "False"):
+        return expr == "True"
+    try:
+        v = ast.literal_eval(expr)
+    except (ValueError, SyntaxError, TypeError):
+        return None
+    return v if isinstance(v, (int, float, bool)) else None
+
+
+def fold(expr):
+    """``expr`` computed now when it has no name in it (``k > 0`` with ``k`` a loop's count):
+    Python computes it the same now as at run time."""
+    if not _LITERAL_ONLY.fullmatch(expr) or "e" in expr.replace("e-", "").replace("e+", ""):
+        return expr
+    try:
+        v = eval(expr, {"__builtins__": {}})  # noqa: S307 - digits and operators only (checked above)
+    except (ArithmeticError, ValueError, OverflowError):
+        return expr  # raises at run time as it would have
+    if isinstance(v, bool) or isinstance(v, int):
+        return repr(v) if v >= 0 or isinstance(v, bool) else f"({v!r})"
+    if isinstance(v, float) and math.isfinite(v):
+        return repr(v) if v > 0 or (v == 0 and math.copysign(1, v) > 0) else f"({v!r})"
+    return expr
 
 
 def names_in(expr):

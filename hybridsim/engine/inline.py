@@ -16,8 +16,15 @@ writes a kernel's body in place of the call instead, on the caller's locals:
   merge what their branches assign, a ``return`` inside one takes the rest of
   the function into both branches.
 
-Anything else (loops, arrays, methods, keyword arguments) raises
-:class:`NotInlinable` and the caller keeps the call. The operations are the
+* a ``for`` loop over something known while writing (``range`` of literals or
+  widths, a tuple, an array param's rows, ``unroll(u)``) is written out turn
+  by turn; an expression of literals only is computed while writing (so
+  ``if k > 0`` on a loop's count picks its branch); small float array params
+  (:class:`~hybridsim.engine.floatcode.Array`) and the arrays an ``_into``
+  kernel writes (:class:`~hybridsim.engine.floatcode.Out`) are locals per element.
+
+Anything else (numpy calls, ``while``, methods, keyword arguments, writing an
+array inside a branch) raises :class:`NotInlinable` and the caller keeps the call. The operations are the
 kernel's own in its own order, so the numbers are the call's bit for bit
 (tests compare every block kernel this can write against its call).
 """
@@ -30,7 +37,7 @@ import re
 import textwrap
 import types
 
-from hybridsim.engine.floatcode import Array, Assign, If, NotInlinable, Out, Record, snapshot
+from hybridsim.engine.floatcode import Array, Assign, If, NotInlinable, Out, Record, fold, literal, snapshot
 from hybridsim.engine.kernels import marked, unroll
 
 #: the most statements one inlined call may write (a branch taking the rest of a function doubles it)
@@ -175,7 +182,7 @@ class _Frame:
                 expr = ast.BinOp(_load(st.target), st.op, st.value)
                 self.bind(st.target, self.scalar(expr, env), env)
             elif isinstance(st, ast.If):
-                known = _literal(self.scalar(st.test, env))
+                known = literal(self.scalar(st.test, env))
                 if known is not None:  # decided while writing (a loop's index, a width)
                     stmts = list(st.body if known else st.orelse) + list(stmts[k + 1:])
                     return self.block(stmts, env)
@@ -337,7 +344,7 @@ class _Frame:
 
     def whole(self, node, env):
         """An integer known while writing: a literal, a loop's index, a width."""
-        v = _literal(self.scalar(node, env))
+        v = literal(self.scalar(node, env))
         if not isinstance(v, int) or isinstance(v, bool):
             raise NotInlinable("an index not known while writing")
         return v
@@ -407,9 +414,9 @@ class _Frame:
             op = _BINOPS.get(type(node.op))
             if op is None:
                 raise NotInlinable(f"operator {type(node.op).__name__}")
-            return _fold(f"({sc(node.left, env, conditional)} {op} {sc(node.right, env, conditional)})")
+            return fold(f"({sc(node.left, env, conditional)} {op} {sc(node.right, env, conditional)})")
         if isinstance(node, ast.UnaryOp):
-            return _fold(f"({_UNARY[type(node.op)]}{sc(node.operand, env, conditional)})")
+            return fold(f"({_UNARY[type(node.op)]}{sc(node.operand, env, conditional)})")
         if isinstance(node, ast.BoolOp):
             op = " and " if isinstance(node.op, ast.And) else " or "
             first = sc(node.values[0], env, conditional)
@@ -420,7 +427,7 @@ class _Frame:
             parts = [sc(node.left, env, conditional)]
             for k, (o, c) in enumerate(zip(node.ops, node.comparators)):  # a chain stops at the first False
                 parts += [_COMPARE[type(o)], sc(c, env, conditional or k > 0)]
-            return _fold("(" + " ".join(parts) + ")")
+            return fold("(" + " ".join(parts) + ")")
         if isinstance(node, ast.IfExp):
             test = sc(node.test, env, conditional)
             return f"({sc(node.body, env, True)} if {test} else {sc(node.orelse, env, True)})"
@@ -453,36 +460,6 @@ def _load(target):
     if not isinstance(target, (ast.Name, ast.Subscript)):
         raise NotInlinable("augmented assignment to an attribute")
     return node
-
-
-_LITERAL_ONLY = re.compile(r"[\d.e+\-*/%()<>=! ]+|True|False|\(-?\d[\d.e+-]*\)")
-
-
-def _literal(expr):
-    """The value of ``expr`` when it is a literal (an int, a bool, a float), else None."""
-    if expr in ("True", "False"):
-        return expr == "True"
-    try:
-        v = ast.literal_eval(expr)
-    except (ValueError, SyntaxError, TypeError):
-        return None
-    return v if isinstance(v, (int, float, bool)) else None
-
-
-def _fold(expr):
-    """``expr`` computed now when it has no name in it (``k > 0`` with ``k`` a loop's count):
-    Python computes it the same now as at run time."""
-    if not _LITERAL_ONLY.fullmatch(expr) or "e" in expr.replace("e-", "").replace("e+", ""):
-        return expr
-    try:
-        v = eval(expr, {"__builtins__": {}})  # noqa: S307 - digits and operators only (checked above)
-    except (ArithmeticError, ValueError, OverflowError):
-        return expr  # raises at run time as it would have
-    if isinstance(v, bool) or isinstance(v, int):
-        return repr(v) if v >= 0 or isinstance(v, bool) else f"({v!r})"
-    if isinstance(v, float) and math.isfinite(v):
-        return repr(v) if v > 0 or (v == 0 and math.copysign(1, v) > 0) else f"({v!r})"
-    return expr
 
 
 def _capped(items):

@@ -21,14 +21,17 @@ class Result:
     ``result.t`` is the time vector (s); ``result["block.port"]`` an array of
     shape (len(t), width); ``result["block.port[i]"]`` one element as a 1-D
     array. ``meta`` holds the diagram name, solver, wall time and the number
-    of sample hits of each discrete block; ``context`` the final state.
+    of sample hits of each discrete block; ``context`` the final state;
+    ``aliases`` other names of logged signals (a subsystem's output
+    ``ctrl.tau`` for the inner block's ``ctrl.sum.y``).
     """
 
-    def __init__(self, t, signals, meta=None, context=None):
+    def __init__(self, t, signals, meta=None, context=None, aliases=None):
         self.t = np.asarray(t, float)
         self.signals = dict(signals)
         self.meta = dict(meta or {})
         self.context = context
+        self.aliases = {a: r for a, r in (aliases or {}).items() if r in self.signals}
 
     def __getitem__(self, ref):
         if not isinstance(ref, str):
@@ -37,8 +40,9 @@ class Result:
             base, idx = parse_signal(ref)
         except ValueError:
             raise KeyError(f"{ref!r} is not 'block.port' or 'block.port[i]'") from None
+        base = self.aliases.get(base, base)
         if base not in self.signals:
-            raise KeyError(f"{base!r} was not logged{closest(base, self.signals)}; "
+            raise KeyError(f"{base!r} was not logged{closest(base, list(self.signals) + list(self.aliases))}; "
                            f"logged: {', '.join(self.signals) or 'nothing'}")
         a = self.signals[base]
         if idx is None:
@@ -48,7 +52,10 @@ class Result:
         return a[:, idx]
 
     def __contains__(self, ref):
-        return isinstance(ref, str) and parse_signal(ref)[0] in self.signals
+        if not isinstance(ref, str):
+            return False
+        base = parse_signal(ref)[0]
+        return self.aliases.get(base, base) in self.signals
 
     def columns(self):
         """Column names: 'time' then 'block.port[i]' for every element."""

@@ -70,13 +70,18 @@ class Simulator:
         reset (stick/slip, contact make/break) and restart the step grid
         there, as events with resets always are (default False: stepped over;
         the variable-step solvers always locate them).
+    aliases : dict, optional
+        Other names of logged outputs, ``{"ctrl.tau": "ctrl.sum.y"}``: a result answers to
+        both (:class:`~hybridsim.engine.result.Result`).
     """
 
     def __init__(self, system, solver=None, log=(), log_period=0.0005,
-                 max_state=1e6, progress=False, fused=True, compiled=False, locate_switches=False):
+                 max_state=1e6, progress=False, fused=True, compiled=False, locate_switches=False, aliases=None):
         from hybridsim.engine.block import to_period
 
-        self._made = dict(log=log, log_period=log_period, max_state=max_state, locate_switches=locate_switches)
+        self._made = dict(log=log, log_period=log_period, max_state=max_state, locate_switches=locate_switches,
+                          aliases=aliases)
+        self.aliases = dict(aliases or {})
         self.system = system
         self.solver = solver or RK4()
         self.log_period = to_period(log_period, "log period")
@@ -303,7 +308,7 @@ class Simulator:
                 "stopped": None if stopped is None else
                 {"t": stopped.t, "block": stopped.block, "reason": stopped.reason},
                 "wall_time_s": wall, "hits": hits, "events": list(ctx.events)}
-        return Result(np.array(times), signals, meta, context=ctx)
+        return Result(np.array(times), signals, meta, context=ctx, aliases=self.aliases)
 
 
 class Session:

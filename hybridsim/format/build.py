@@ -131,6 +131,8 @@ def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
         log = list(settings["log"]) + list(settings["signals"].values())
     elif isinstance(log, str) or not all(isinstance(r, str) for r in _items(log)):
         raise TypeError(f"log is a list of signals 'block.port' or 'block.port[i]', got {log!r}")
+    else:  # a subsystem's output named as 'sub.port', as in the file's log
+        log = [f._alias(r) for r in log]
     compiled = bool(sim.get("compiled", False))
     if compiled and check_only:
         from hybridsim.engine.compiled import problems
@@ -146,7 +148,8 @@ def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
                               log_period=sim.get("log_period", _SIM["log_period"]),
                               max_state=sim.get("max_state", _SIM["max_state"]),
                               fused=bool(sim.get("fused", _SIM["fused"])), compiled=compiled and not check_only,
-                              locate_switches=bool(sim.get("locate_switches", _SIM["locate_switches"])))
+                              locate_switches=bool(sim.get("locate_switches", _SIM["locate_switches"])),
+                              aliases=f.aliases)
     except RateError as exc:  # the log period's: its file and line (or its override)
         locs = getattr(f.data.get("simulation"), "locs", None) or {}
         raise RateError(f"{locs.get('log_period', f.path)}: simulation setting 'log_period': {exc}") from None

@@ -57,6 +57,17 @@ def test_a_subsystem_two_levels_deep_is_flattened_with_dotted_names(nested):
     assert res["m.lag.y[0]"][-1] != 0.0
 
 
+def test_a_result_answers_to_a_subsystems_port_names(nested):
+    res = hs.simulate(nested)
+    assert "m.p" in res and np.array_equal(res["m.p"], res["m.in1.g.y"])  # the file logs m.p
+    assert np.array_equal(res["m.q[0]"], res["m.lag.y[0]"])
+    with pytest.raises(KeyError, match="did you mean 'm.p'"):
+        res["m.pp"]
+    # a log given to the API names the ports as the file may
+    res = hs.simulate(nested, log=["m.p", "integ.y"])
+    assert list(res.signals) == ["m.in1.g.y", "integ.y"] and res["m.p"].shape == (res.t.size, 1)
+
+
 @pytest.mark.slow
 def test_a_nested_subsystem_runs_identically_on_every_path(nested):
     generic = hs.simulate(nested, fused=False)
