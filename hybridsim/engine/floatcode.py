@@ -40,17 +40,29 @@ class Opaque:
 
 
 class Assign:
-    __slots__ = ("target", "expr")
+    """``target = expr``; ``owner`` the block whose code it is (a comment on its line)."""
 
-    def __init__(self, target, expr):
-        self.target, self.expr = target, expr
+    __slots__ = ("target", "expr", "owner")
+
+    def __init__(self, target, expr, owner=None):
+        self.target, self.expr, self.owner = target, expr, owner
 
 
 class If:
-    __slots__ = ("cond", "then", "orelse")
+    __slots__ = ("cond", "then", "orelse", "owner")
 
-    def __init__(self, cond, then, orelse):
-        self.cond, self.then, self.orelse = cond, then, orelse
+    def __init__(self, cond, then, orelse, owner=None):
+        self.cond, self.then, self.orelse, self.owner = cond, then, orelse, owner
+
+
+def own(stmts, owner):
+    """Mark the statements in ``stmts`` that have no owner as ``owner``'s."""
+    for st in stmts:
+        if st.owner is None:
+            st.owner = owner
+        if isinstance(st, If):
+            own(st.then, owner)
+            own(st.orelse, owner)
 
 
 class Array:
@@ -106,21 +118,23 @@ def source(tree):
     return "(" + "".join(f"{source(t)}, " for t in tree) + ")"
 
 
-def param_tree(value, expr, name, out):
+def param_tree(value, expr, name, out, floats=None):
     """The tree of a param ``value`` read as ``expr``: its numbers hoisted into locals named from
-    ``name`` (``out`` collects ``(local, expression)``)."""
+    ``name`` (``out`` collects ``(local, expression)``, ``floats`` the locals that hold a Python float)."""
+    floats = set() if floats is None else floats
     while any(n.startswith(name) for n, _ in out):  # a field named like another's element
         name += "_"
     if isinstance(value, tuple) and hasattr(value, "_fields"):
-        return Record(value._fields, (param_tree(v, f"{expr}.{f}", f"{name}_{f}", out)
+        return Record(value._fields, (param_tree(v, f"{expr}.{f}", f"{name}_{f}", out, floats)
                                       for f, v in zip(value._fields, value)))
     if isinstance(value, tuple):
-        return tuple(param_tree(v, f"{expr}[{k}]", f"{name}_{k}", out) for k, v in enumerate(value))
+        return tuple(param_tree(v, f"{expr}[{k}]", f"{name}_{k}", out, floats) for k, v in enumerate(value))
     out.append((name, expr))
     if isinstance(value, (bool, int, float)) or type(value).__module__ == "numpy" and getattr(value, "ndim", 1) == 0:
+        if type(value) is float:
+            floats.add(name)
         return name
-    if _small(value):  # its elements as Python numbers (tolist: the same values), read once
-        out[-1] = (name, f"{expr}.tolist()")
+    if _small(value):  # its elements as locals (numpy's float64: the kernel's own arithmetic)
 
         def rows(prefix, shp):
             if len(shp) == 1:
@@ -128,14 +142,23 @@ def param_tree(value, expr, name, out):
             return tuple(rows(f"{prefix}_{k}", shp[1:]) for k in range(shp[0]))
 
         for idx in _indices(value.shape):
-            out.append((f"{name}_" + "_".join(map(str, idx)), name + "".join(f"[{k}]" for k in idx)))
+            out.append((f"{name}_" + "_".join(map(str, idx)), f"{name}[{', '.join(map(str, idx))}]"))
         return Array(value.shape, rows(name, value.shape))
     return Opaque(name)
 
 
+def narrow(value):
+    """True when ``value`` (a param) holds a numpy number narrower than float64 (float32, complex):
+    with it, a kernel's arithmetic on Python floats rounds otherwise than on float64 arrays."""
+    if isinstance(value, tuple):
+        return any(narrow(v) for v in value)
+    kind = getattr(getattr(value, "dtype", None), "kind", None)
+    return kind == "c" or kind == "f" and value.dtype.itemsize < 8
+
+
 def _small(value):
     return (type(value).__module__ == "numpy" and getattr(value, "ndim", 0) in (1, 2)
-            and value.size <= SMALL and value.dtype.kind in "fb" and value.dtype.itemsize in (1, 8))
+            and value.size <= SMALL and value.dtype == "float64")
 
 
 def _indices(shape):
@@ -170,21 +193,74 @@ def literal(expr):
 def fold(expr):
     """``expr`` computed now when it has no name in it (``k > 0`` with ``k`` a loop's count):
     Python computes it the same now as at run time."""
-    if not _LITERAL_ONLY.fullmatch(expr) or "e" in expr.replace("e-", "").replace("e+", ""):
+    if (not _LITERAL_ONLY.fullmatch(expr) or "e" in expr.replace("e-", "").replace("e+", "")
+            or "**" in expr or "<<" in expr):  # powers and shifts: no telling how big
         return expr
     try:
         v = eval(expr, {"__builtins__": {}})  # noqa: S307 - digits and operators only (checked above)
     except (ArithmeticError, ValueError, OverflowError):
         return expr  # raises at run time as it would have
-    if isinstance(v, bool) or isinstance(v, int):
-        return repr(v) if v >= 0 or isinstance(v, bool) else f"({v!r})"
+    if isinstance(v, bool):
+        return repr(v)
+    if isinstance(v, int):
+        return expr if abs(v) > 2 ** 53 else repr(v) if v >= 0 else f"({v!r})"
     if isinstance(v, float) and math.isfinite(v):
         return repr(v) if v > 0 or (v == 0 and math.copysign(1, v) > 0) else f"({v!r})"
     return expr
 
 
+_OWNER = re.compile(r"# b(\d+)\s*$")
+
+
+def owner_of(line):
+    """The block index a generated ``line`` marks as its code's (:func:`lines`), or None."""
+    m = _OWNER.search(line or "")
+    return int(m.group(1)) if m else None
+
+
 def names_in(expr):
     return set(_WORD.findall(expr))
+
+
+_MAY_RAISE = re.compile(r"/|%|\*\*|<<|>>|[\w)\]]\(")  # division, powers, shifts, calls
+
+
+def is_float(expr, floats):
+    """True when ``expr`` surely gives a Python float (``floats``: locals that hold one): a float
+    literal, such a local, arithmetic with one, a math function that returns floats, float()."""
+    try:
+        node = ast.parse(expr, mode="eval").body
+    except SyntaxError:
+        return False
+    return _floaty(node, floats)
+
+
+_FLOAT_MATH = {"sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh", "asinh",
+               "acosh", "atanh", "exp", "expm1", "log", "log1p", "log2", "log10", "sqrt", "hypot", "copysign",
+               "fabs", "fmod", "pow", "degrees", "radians", "erf", "erfc", "gamma", "lgamma", "ldexp", "cbrt",
+               "exp2", "remainder"}
+
+
+def _floaty(node, floats):
+    if isinstance(node, ast.Constant):
+        return type(node.value) is float
+    if isinstance(node, ast.Name):
+        return node.id in floats
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+        return _floaty(node.operand, floats)
+    if isinstance(node, ast.BinOp) and isinstance(node.op, (ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Mod,
+                                                            ast.FloorDiv)):
+        return _floaty(node.left, floats) or _floaty(node.right, floats)
+    if isinstance(node, ast.IfExp):
+        return _floaty(node.body, floats) and _floaty(node.orelse, floats)
+    if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
+        name, args = node.func.id, node.args
+        if name == "float" or name.startswith("math_") and name[5:] in _FLOAT_MATH:
+            return True
+        return name in ("abs", "min", "max") and bool(args) and all(_floaty(a, floats) for a in args)
+    if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute):
+        return getattr(node.func.value, "id", "") == "math" and node.func.attr in _FLOAT_MATH
+    return False
 
 
 def prune(stmts, live, keep=None):
@@ -194,8 +270,8 @@ def prune(stmts, live, keep=None):
     live = set(live)
     for st in reversed(stmts):
         if isinstance(st, Assign):
-            if st.target not in live and not (keep and keep(st.target)):
-                continue
+            if st.target not in live and not (keep and keep(st.target)) and not _MAY_RAISE.search(st.expr):
+                continue  # read by nothing, and cannot raise (an error the generic path gives stays)
             live.discard(st.target)
             live |= names_in(st.expr)
             kept.append(st)
@@ -205,19 +281,21 @@ def prune(stmts, live, keep=None):
             if not then and not orelse:
                 continue
             live = la | lb | names_in(st.cond)
-            kept.append(If(st.cond, then, orelse))
+            kept.append(If(st.cond, then, orelse, st.owner))
     kept.reverse()
     return kept, live
 
 
 def lines(stmts, pad):
-    """The source lines of ``stmts`` indented by ``pad``."""
+    """The source lines of ``stmts`` indented by ``pad``, each ending in ``# b<owner>`` when it
+    has one (:func:`owner_of` reads it back from a traceback's line)."""
     out = []
     for st in stmts:
+        mark = "" if st.owner is None else f"  # b{st.owner}"
         if isinstance(st, Assign):
-            out.append(f"{pad}{st.target} = {st.expr}")
+            out.append(f"{pad}{st.target} = {st.expr}{mark}")
         else:
-            out.append(f"{pad}if {st.cond}:")
+            out.append(f"{pad}if {st.cond}:{mark}")
             out += lines(st.then, pad + "    ") or [pad + "    pass"]
             if st.orelse:
                 out.append(f"{pad}else:")

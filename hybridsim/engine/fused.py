@@ -17,18 +17,23 @@ It performs exactly the operations of the generic path in the same order, so
 both give the same numbers (a test checks it bit for bit); the generic path
 remains the reference. Discontinuities are stepped over.
 """
+import linecache
+import logging
 import math
 
 import numpy as np
 
 from hybridsim.engine import stepping
 from hybridsim.engine.kernels import gives
-from hybridsim.engine.fused_code import StageWriter, hit_eligible, hit_source, update_eligible, update_source
+from hybridsim.engine.fused_code import (StageWriter, hit_eligible, hit_source, probe_kept, update_eligible,
+                                         update_source)
 from hybridsim.engine.finite import all_finite
 from hybridsim.engine.glue import first_bad_block
 from hybridsim.engine.floatcode import shape
 from hybridsim.engine.rk_code import inlined_lines, tuple_source
 from hybridsim.engine.solvers import ExplicitRK
+
+_log = logging.getLogger(__name__)
 
 
 def eligible(system, solver):
@@ -50,19 +55,34 @@ def has_kernels(block):
 
 def build(system, method, located=None, params=None):
     """The generated functions of ``system`` for ``method`` (an ExplicitRK): a :class:`Fused`
-    (``params``: the blocks' params whose shapes the source reads, default the system's)."""
+    (``params``: the blocks' params whose shapes the source reads, default the system's), or None
+    when a kernel the generated code calls does not give on tuples what it gives on arrays."""
     params = tuple(b.params for b in system.blocks) if params is None else tuple(params)
     source, env, held, stage = rk_source(system, method, params_arg=True, located=located, block_params=params)
-    hit = None
+    hit = update = None
     if hit_eligible(system):
         text, hit = hit_source(system, env, params)
         source += "\n\n\n" + text
-    text = update_source(system, env, params)[0] if update_eligible(system) else None
+    text, update = update_source(system, env, params) if update_eligible(system) else (None, None)
     if text is not None:
         source += "\n\n\n" + text
-    code = compile(source, f"<fused rhs of {system.name}>", "exec")
+    kept = set().union(*(w.kept for w in (stage, hit, update) if w is not None))
+    bad = probe_kept(system, kept)
+    if bad:
+        _log.info("the fused path is not used: block(s) %s give other numbers when their kernels are called "
+                  "on tuples of floats than on arrays", ", ".join(repr(system.blocks[i].name) for i in bad))
+        return None
+    global _BUILDS
+    _BUILDS += 1
+    filename = f"<fused {system.name} {_BUILDS}>"
+    linecache.cache[filename] = (len(source), None, source.splitlines(True), filename)  # tracebacks show it
+    env["__blocks__"] = system.blocks  # a line's "# b<i>" names the block whose code it is
+    code = compile(source, filename, "exec")
     exec(code, env)  # noqa: S102 - our own generated source, no user text in it
     return Fused(system, method, env, held, source, stage, hit, located, params)
+
+
+_BUILDS = 0  # generated modules so far (each its own file name)
 
 
 def rk_source(system, method, params_arg=False, located=None, block_params=None):
@@ -206,6 +226,9 @@ class Fused:
         if key != self.shape:  # the source reads the params by their shape
             if key not in self._other:
                 self._other[key] = build(self.system, self.method, self.located, ctx.params)
+            if self._other[key] is None:  # those params' kernels: the generic path
+                ops, s = self.method.stepper()
+                return glue, ops, s
             return self._other[key].machinery(ctx, glue)
         s = FusedState(self, ctx)
         discrete = self.system.discrete

@@ -26,6 +26,7 @@ class BlockWriter:
         self.sysm, self.env = sysm, env
         params = [b.params for b in sysm.blocks] if params is None else params
         self.hoists = {}  # local -> the expression it holds
+        self.floats = set()  # hoisted locals that hold Python floats
         self.trees = {}
         for i in blocks:
             out = []
@@ -33,10 +34,11 @@ class BlockWriter:
             whole = f"P[{i}]" if params_arg else f"P{i}"
             if not params_arg:
                 env[f"P{i}"] = p
-            self.trees[i] = floatcode.param_tree(p, whole, f"P{i}", out)
+            self.trees[i] = floatcode.param_tree(p, whole, f"P{i}", out, self.floats)
             self.hoists.update(out)
             self.hoists[f"P_{i}"] = whole  # the whole params, for a kept call
         self.inlined, self.called = set(), set()
+        self.kept = set()  # (block, kernel) of the calls kept: probe_kept checks them
 
     def hoist(self, lines, pad="    "):
         """The lines setting the hoisted locals that ``lines`` read (``lines`` call ``math.f`` as
@@ -51,19 +53,31 @@ class BlockWriter:
                 read |= floatcode.names_in(expr)
         return [f"{pad}{name} = {expr}" for name, expr in self.hoists.items() if name in read]
 
-    def inliner(self):
+    def inliner(self, floats=()):
+        """An inliner whose known floats are the hoisted ones and ``floats``."""
         count = iter(range(10 ** 9))
-        return inline.Inliner(lambda: f"v{next(count)}", self.env)
+        inl = inline.Inliner(lambda: f"v{next(count)}", self.env)
+        inl.floats |= self.floats | set(floats)
+        return inl
 
     def write(self, inl, i, what, t, state, inputs, widths):
         """Block ``i``'s kernel ``what`` at ``t`` on the trees ``state`` and ``inputs``, written in
         place, else called: the tree of its result (one tuple per port for ``output``, a tuple of
         ``widths`` numbers otherwise)."""
+        mark = len(inl.out)
+        r = self._write(inl, i, what, t, state, inputs, widths)
+        floatcode.own(inl.out[mark:], i)
+        if what == "output":  # as a wire holds them: floats (an int or a bool output, rounded)
+            return tuple(tuple(inl.as_float(v) for v in port) for port in r)
+        return r
+
+    def _write(self, inl, i, what, t, state, inputs, widths):
         kern = self.sysm.blocks[i].kernels
         f = getattr(kern, what)
         mark, memo = len(inl.out), dict(inl.memo)
+        inl.count = 0  # each kernel's own budget
         into = getattr(kern, what + "_into", None) if f is None else None
-        if f is not None or into is not None:
+        if (f is not None or into is not None) and (i, what) not in self.kept:  # a kernel that failed once fails again
             try:
                 args = [self.trees[i], t, state, inputs]
                 if into is not None:  # the arrays it writes, as elements
@@ -75,15 +89,17 @@ class BlockWriter:
             except floatcode.NotInlinable:
                 pass
             del inl.out[mark:]
-            inl.memo = memo
+            inl.memo, inl.count = memo, 0
         self.called.add(i)
+        self.kept.add((i, what))
         name = inl.fresh()
-        into = ""
-        if f is None:  # output_into: the arrays it fills, as Block.output gives them
-            f, into = kern.output_into, ", " + tuple_source(f"empty({w})" for w in widths)
+        arrays = ""
+        if f is None:  # output_into / update_into: the arrays it fills, as Block.output / update give them
+            f = into
+            arrays = ", " + (tuple_source(f"empty({w})" for w in widths) if what == "output" else f"empty({widths})")
         fname = f"{what[:3]}{i}"
         self.env[fname] = f
-        call = f"{fname}(P_{i}, {t}, {floatcode.source(state)}, {floatcode.source(inputs)}{into})"
+        call = f"{fname}(P_{i}, {t}, {floatcode.source(state)}, {floatcode.source(inputs)}{arrays})"
         inl.out.append(floatcode.Assign(name, call))
         if what == "output":
             return tuple(tuple(inl.simple(f"{name}[{o}][{j}]") for j in range(w)) for o, w in enumerate(widths))
@@ -103,7 +119,7 @@ class StageWriter(BlockWriter):
 
     def __call__(self, t, xs):
         sysm = self.sysm
-        inl = self.inliner()
+        inl = self.inliner(list(xs) + [n for port in self.held.values() for n in port] + [t])
         outs, done = {}, set()
         on_path = set(sysm.rhs_path)
 
@@ -150,7 +166,7 @@ def update_source(system, env, params=None):
     if not due:
         return None, None
     w = BlockWriter(sysm, env, due, True, params)
-    inl = w.inliner()
+    inl = w.inliner([f"Z_{j}" for j in range(sum(b.n_discrete for b in sysm.blocks))] + ["t"])
     yoff, zoff = _offsets(sysm)
     col = {i: c for c, i in enumerate(sysm.discrete)}
     for i in due:
@@ -190,6 +206,7 @@ def _read(inl, expr):
     """A fresh local holding ``expr`` now (a value another statement may change later)."""
     name = inl.fresh()
     inl.out.append(floatcode.Assign(name, expr))
+    inl.floats.add(name)  # Y and Z are lists of the wires' floats
     return name
 
 
@@ -207,7 +224,8 @@ def hit_source(system, env, params=None):
     outputs when due, else keeps them), ``P`` the blocks' params."""
     sysm = system
     w = BlockWriter(sysm, env, [i for i, _ in sysm.plan.hit_sequence()], True, params)
-    inl = w.inliner()
+    inl = w.inliner([f"X_{j}" for j in range(sysm.n_x)] + [f"Z_{j}" for j in range(sum(b.n_discrete for b in sysm.blocks))]
+                    + ["t"])
     yoff, zoff = _offsets(sysm)
     current = {}  # (block, port) -> the tree of its value now (a port not yet read: Y)
     col = {i: c for c, i in enumerate(sysm.discrete)}
@@ -259,3 +277,45 @@ def _fits(tree, widths):
         return isinstance(tree, tuple) and len(tree) == widths and all(floatcode.is_leaf(v) for v in tree)
     return (isinstance(tree, tuple) and len(tree) == len(widths)
             and all(_fits(port, w) for port, w in zip(tree, widths)))
+
+
+def probe_kept(system, kept):
+    """The blocks of ``kept`` (``(block, "output" | "derivatives" | "update")``) whose kernels,
+    called as the generated code calls them (tuples of floats in, one sequence of the port's
+    width per port out), do not give what the block's own method gives on arrays at the initial
+    state (as the wires hold it), or break the shape the generated code reads; and every block
+    whose params hold a number narrower than float64 (:func:`~.floatcode.narrow`)."""
+    import numpy as np
+
+    bad = [i for i, b in enumerate(system.blocks) if floatcode.narrow(b.params)]
+    if bad or not kept:
+        return bad
+    ctx = system.create_context()
+    for i, what in sorted(kept):
+        b = system.blocks[i]
+        s = system.xslices[i]
+        x = ctx.xc[s] if s is not None else ctx.xd[i]
+        u = ctx.u[i]
+        widths = [p.width for p in b.outputs] if what == "output" else \
+            [b.n_continuous] if what == "derivatives" else [b.n_discrete]
+        try:
+            want = getattr(b, what)(0.0, x.copy(), [a.copy() for a in u])
+            want = [np.broadcast_to(np.asarray(v, float), (w,)) for v, w in zip(want if what == "output" else [want], widths)]
+        except Exception:  # noqa: BLE001 - the method raises here: the run tells, on either path
+            continue
+        k = b.kernels
+        f = getattr(k, what) or getattr(k, what + "_into")
+        args = [b.params, 0.0, tuple(x.tolist()), tuple(tuple(a.tolist()) for a in u)]
+        if getattr(k, what) is None:
+            args.append(tuple(np.empty(w) for w in widths) if what == "output" else np.empty(widths[0]))
+        try:
+            got = f(*args)
+            got = got if what == "output" else [got]
+            same = len(got) == len(widths) and all(
+                len(port) == w and np.array_equal(np.array([float(port[j]) for j in range(w)]), v, equal_nan=True)
+                for port, w, v in zip(got, widths, want))
+        except Exception:  # noqa: BLE001 - raises on tuples but not on arrays
+            same = False
+        if not same:
+            bad.append(i)
+    return bad

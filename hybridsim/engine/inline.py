@@ -37,7 +37,7 @@ import re
 import textwrap
 import types
 
-from hybridsim.engine.floatcode import Array, Assign, If, NotInlinable, Out, Record, fold, literal, snapshot
+from hybridsim.engine.floatcode import Array, Assign, If, NotInlinable, Out, Record, fold, is_float, literal, snapshot
 from hybridsim.engine.kernels import marked, unroll
 
 #: the most statements one inlined call may write (a branch taking the rest of a function doubles it)
@@ -80,16 +80,31 @@ class Inliner:
         self.fresh, self.genv = fresh, env  # genv: the generated module's globals (constants go there)
         self.out = []
         self.memo = {}  # expression -> the local holding it (within the current branch)
-        self.count = 0
+        self.count = 0  # statements written and executed while writing (a bound on the work)
         self.branches = 0  # how deep in if-branches the writing is (no array writes there)
         self.kernels = {id(f) for f in marked()}
+        self.floats = set()  # locals known to hold a Python float (a block's output needs no float())
 
     # -- statements --------------------------------------------------------------------------------
-    def emit(self, target, expr):
-        self.count += 1
+    def tick(self, n=1):
+        self.count += n
         if self.count > MAX_STATEMENTS:
             raise NotInlinable("too many statements")
+
+    def emit(self, target, expr):
+        self.tick()
         self.out.append(Assign(target, expr))
+        if is_float(expr, self.floats):
+            self.floats.add(target)
+
+    def as_float(self, leaf):
+        """``leaf`` as the float a wire holds (``float(leaf)`` unless known to be one already)."""
+        if is_float(leaf, self.floats):
+            return leaf
+        v = literal(leaf)
+        if v is not None and abs(v) <= 2 ** 53:
+            return self.constant(float(v))
+        return self.simple(f"float({leaf})")
 
     def simple(self, expr):
         """A local (or literal) holding the scalar ``expr``; equal expressions share one."""
@@ -112,7 +127,8 @@ class Inliner:
 
     def call(self, fn, args, depth=0):
         """Inline ``fn(*args)`` (trees); returns the result's tree."""
-        if id(fn) not in self.kernels or not isinstance(fn, types.FunctionType) or hasattr(fn, "compiled"):
+        if (id(fn) not in self.kernels or not isinstance(fn, types.FunctionType) or hasattr(fn, "compiled")
+                or hasattr(fn, "__wrapped__")):  # a decorated kernel: its source is not what runs
             raise NotInlinable(f"{getattr(fn, '__name__', fn)!r} is not a plain kernel")
         if depth > _DEPTH:
             raise NotInlinable("kernels nested too deep")
@@ -131,13 +147,17 @@ class Inliner:
         return value
 
     def constant(self, v):
-        if isinstance(v, bool):
+        """A number as a literal (plain bool, int up to 2**53, finite float), else as a name the
+        generated module holds (numpy scalars keep their type, infinities their value)."""
+        if type(v) is bool:
             return repr(v)
-        if isinstance(v, (int, float)) and math.isfinite(v):
-            return repr(v) if v >= 0 and not (isinstance(v, float) and math.copysign(1, v) < 0) else f"({v!r})"
+        if type(v) is int and abs(v) <= 2 ** 53 or type(v) is float and math.isfinite(v):
+            return repr(v) if v >= 0 and not (type(v) is float and math.copysign(1, v) < 0) else f"({v!r})"
         if isinstance(v, (int, float)):
             name = f"_c{len(self.genv)}"
             self.genv[name] = v
+            if type(v) is float:
+                self.floats.add(name)
             return name
         raise NotInlinable(f"constant {v!r}")
 
@@ -159,13 +179,13 @@ class _Frame:
 
     def __init__(self, inl, fn, depth):
         self.inl, self.fn, self.depth = inl, fn, depth
-        free = fn.__code__.co_freevars
-        self.closure = {n: c.cell_contents for n, c in zip(free, fn.__closure__ or ())}
+        self.closure = dict(zip(fn.__code__.co_freevars, fn.__closure__ or ()))  # name -> cell
 
     # -- statements --------------------------------------------------------------------------------
     def block(self, stmts, env):
         """Run ``stmts``: ``("return", tree)`` or ``("fall", env)``."""
         for k, st in enumerate(stmts):
+            self.inl.tick()
             if isinstance(st, ast.Return):
                 if st.value is None:
                     raise NotInlinable("a bare return")
@@ -265,7 +285,10 @@ class _Frame:
                 raise NotInlinable(f"{name!r} set on one branch only")
             return env[name]
         if name in self.closure:
-            return self.object(self.closure[name])
+            try:
+                return self.object(self.closure[name].cell_contents)
+            except ValueError:  # a cell never assigned
+                raise NotInlinable(f"{name!r} has no value yet") from None
         if name in self.fn.__globals__:
             return self.object(self.fn.__globals__[name])
         if hasattr(builtins, name):
@@ -390,6 +413,8 @@ class _Frame:
         if getattr(fn, "__module__", None) == "math" and getattr(math, fn.__name__, None) is fn:
             return f"math.{fn.__name__}(" + ", ".join(self.scalar(a, env, conditional) for a in node.args) + ")"
         if fn is len and len(node.args) == 1:
+            if conditional and _calls(node.args[0]):
+                raise NotInlinable("a call inside a conditional expression")
             v = self.value(node.args[0], env)
             v = v.rows if isinstance(v, Array) else v.items if isinstance(v, (Record, Out)) else v
             if isinstance(v, (tuple, list)):
@@ -436,6 +461,8 @@ class _Frame:
             if isinstance(v, str) and not conditional:
                 return self.inl.simple(v)
         elif isinstance(node, (ast.Name, ast.Subscript, ast.Attribute)):
+            if conditional and _calls(node):  # f(x)[0] in a branch of an expression: not written first
+                raise NotInlinable("a call inside a conditional expression")
             v = self.value(node, env)
         else:
             raise NotInlinable(f"{type(node).__name__} expression")
@@ -468,6 +495,10 @@ def _capped(items):
     return items
 
 
+def _calls(node):
+    return any(isinstance(n, ast.Call) for n in ast.walk(node))
+
+
 def _returns(node):
     return any(isinstance(n, ast.Return) for n in ast.walk(node))
 
@@ -481,8 +512,11 @@ def _join(inl, a, b, then, orelse):
         if a == b:
             return a
         name = inl.fresh()
+        inl.tick(2)
         then.append(Assign(name, a))
         orelse.append(Assign(name, b))
+        if is_float(a, inl.floats) and is_float(b, inl.floats):
+            inl.floats.add(name)
         return name
     if isinstance(a, Record) and a is b:
         return a

@@ -161,6 +161,9 @@ def plugin_fault(exc):
         if mod.split(".")[0] in PLUGIN_MODULES and not _is_ours(mod):
             hit = f
             break
+        written = _written_in_place(f, exc)
+        if written is not None:
+            return written if isinstance(written, PluginFault) else None
     if hit is None:
         return None
     code = hit.tb_frame.f_code
@@ -172,6 +175,33 @@ def plugin_fault(exc):
     text = str(exc).splitlines()[0] if str(exc) else ""
     return PluginFault(f"plugin {mod!r}: {who} raised {type(exc).__name__}: {text} "
                        f"(in {code.co_name}, {code.co_filename}:{hit.tb_lineno})", plugin=mod, block=name)
+
+
+def _written_in_place(tb, exc):
+    """For a frame of the fused path's generated code (:mod:`hybridsim.engine.fused`): a
+    :class:`~hybridsim.errors.PluginFault` when the line that raised is a plugin block's kernel
+    written in place, True when it is a library block's, else None (not such a frame)."""
+    import linecache
+
+    from hybridsim.engine.floatcode import owner_of
+    from hybridsim.errors import PluginFault
+
+    blocks = tb.tb_frame.f_globals.get("__blocks__")
+    if blocks is None:
+        return None
+    code = tb.tb_frame.f_code
+    i = owner_of(linecache.getline(code.co_filename, tb.tb_lineno))
+    if i is None or i >= len(blocks):
+        return True
+    block = blocks[i]
+    mod = type(block).__module__
+    if mod.split(".")[0] not in PLUGIN_MODULES or _is_ours(mod):
+        return True
+    text = str(exc).splitlines()[0] if str(exc) else ""
+    tname = getattr(type(block), "type_name", type(block).__name__)
+    return PluginFault(f"plugin {mod!r}: block {block.name!r} ({tname}) raised {type(exc).__name__}: {text} "
+                       f"(in its kernels, written in place on the fused path at {code.co_filename}:{tb.tb_lineno}; "
+                       "'simulation: {fused: false}' runs them as written)", plugin=mod, block=block.name)
 
 
 def types():
