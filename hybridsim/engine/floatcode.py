@@ -2,14 +2,22 @@
 
 A value is a *tree*: a float is a local's name or a literal (a string), a tuple
 a Python tuple of trees, a block's params a :class:`Record` of hoisted locals,
-an array param an :class:`Opaque` local. Statements are :class:`Assign` and
-:class:`If`; :func:`prune` drops what nothing reads, :func:`lines` writes them.
+an array param an :class:`Array` of locals (or an :class:`Opaque` one), an
+array a kernel fills an :class:`Out`. Statements are :class:`Assign` and
+:class:`If`; a :class:`Writer` collects them, :func:`prune` drops what nothing
+reads and nothing could raise, :func:`lines` writes them, each marked with the
+block whose code it is.
 """
 import ast
 import math
 import re
 
 _WORD = re.compile(r"[A-Za-z_]\w*")
+
+
+#: the most statements one kernel may write (a branch taking the rest of a function doubles it)
+MAX_STATEMENTS = 4000
+_SIMPLE = re.compile(r"[A-Za-z_]\w*|\d[\d.e+-]*|\(-\d[\d.e+-]*\)")
 
 
 class NotInlinable(Exception):
@@ -301,3 +309,85 @@ def lines(stmts, pad):
                 out.append(f"{pad}else:")
                 out += lines(st.orelse, pad + "    ")
     return out
+
+
+class Writer:
+    """Statements on float locals being written (``out``), with what they know: equal expressions
+    share a local (``memo``), which locals hold Python floats (``floats``), how much was written
+    (``count``, bounded by :data:`MAX_STATEMENTS`). ``fresh`` names the locals it makes (unique
+    within one generated function); ``genv`` is the generated module's globals (constants go there).
+    """
+
+    def __init__(self, fresh, env):
+        self.fresh, self.genv = fresh, env  # genv: the generated module's globals (constants go there)
+        self.out = []
+        self.memo = {}  # expression -> the local holding it (within the current branch)
+        self.count = 0  # statements written and executed while writing (a bound on the work)
+        self.branches = 0  # how deep in if-branches the writing is (no array writes there)
+        self.floats = set()  # locals known to hold a Python float (a block's output needs no float())
+
+    def tick(self, n=1):
+        self.count += n
+        if self.count > MAX_STATEMENTS:
+            raise NotInlinable("too many statements")
+
+    def emit(self, target, expr):
+        self.tick()
+        self.out.append(Assign(target, expr))
+        if is_float(expr, self.floats):
+            self.floats.add(target)
+
+    def as_float(self, leaf):
+        """``leaf`` as the float a wire holds (``float(leaf)`` unless known to be one already)."""
+        if is_float(leaf, self.floats):
+            return leaf
+        v = literal(leaf)
+        if v is not None and abs(v) <= 2 ** 53:
+            return self.constant(float(v))
+        return self.simple(f"float({leaf})")
+
+    def simple(self, expr):
+        """A local (or literal) holding the scalar ``expr``; equal expressions share one."""
+        if _SIMPLE.fullmatch(expr):
+            return expr
+        if expr in self.memo:
+            return self.memo[expr]
+        name = self.fresh()
+        self.emit(name, expr)
+        self.memo[expr] = name
+        return name
+
+    def settle(self, tree):
+        """``tree`` with every leaf a local or a literal."""
+        if isinstance(tree, str):
+            return self.simple(tree)
+        if isinstance(tree, tuple):
+            return tuple(self.settle(t) for t in tree)
+        return tree
+
+    def constant(self, v):
+        """A number as a literal (plain bool, int up to 2**53, finite float), else as a name the
+        generated module holds (numpy scalars keep their type, infinities their value)."""
+        if type(v) is bool:
+            return repr(v)
+        if type(v) is int and abs(v) <= 2 ** 53 or type(v) is float and math.isfinite(v):
+            return repr(v) if v >= 0 and not (type(v) is float and math.copysign(1, v) < 0) else f"({v!r})"
+        if isinstance(v, (int, float)):
+            name = f"_c{len(self.genv)}"
+            self.genv[name] = v
+            if type(v) is float:
+                self.floats.add(name)
+            return name
+        raise NotInlinable(f"constant {v!r}")
+
+    def branch(self, run):
+        """Run ``run()`` writing into a branch of its own: ``(its statements, its result)``."""
+        out, memo = self.out, self.memo
+        self.out, self.memo = [], dict(memo)
+        self.branches += 1
+        try:
+            result = run()
+            return self.out, result
+        finally:
+            self.out, self.memo = out, memo
+            self.branches -= 1

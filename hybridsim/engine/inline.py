@@ -33,15 +33,13 @@ import builtins
 import functools
 import inspect
 import math
-import re
 import textwrap
 import types
 
-from hybridsim.engine.floatcode import Array, Assign, If, NotInlinable, Out, Record, fold, is_float, literal, snapshot
+from hybridsim.engine.floatcode import (Array, Assign, If, NotInlinable, Out, Record, Writer, fold, is_float, literal,
+                                         snapshot)
 from hybridsim.engine.kernels import marked, unroll
 
-#: the most statements one inlined call may write (a branch taking the rest of a function doubles it)
-MAX_STATEMENTS = 4000
 #: the most turns of a loop written out
 MAX_LOOP = 64
 _DEPTH = 8
@@ -50,7 +48,6 @@ _BINOPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.FloorDiv
            ast.Pow: "**", ast.BitAnd: "&", ast.BitOr: "|", ast.BitXor: "^", ast.LShift: "<<", ast.RShift: ">>"}
 _UNARY = {ast.UAdd: "+", ast.USub: "-", ast.Not: "not ", ast.Invert: "~"}
 _COMPARE = {ast.Eq: "==", ast.NotEq: "!=", ast.Lt: "<", ast.LtE: "<=", ast.Gt: ">", ast.GtE: ">="}
-_SIMPLE = re.compile(r"[A-Za-z_]\w*|\d[\d.e+-]*|\(-\d[\d.e+-]*\)")
 
 
 _UNSET = object()  # a name assigned in one branch of an if only
@@ -70,60 +67,13 @@ def _parsed(fn):
     return node
 
 
-class Inliner:
-    """Writes kernel calls as statements on locals; :meth:`call` returns the result's tree.
-
-    ``fresh`` names the locals it makes (unique within one generated function).
-    """
+class Inliner(Writer):
+    """A :class:`~hybridsim.engine.floatcode.Writer` that writes kernel calls as statements:
+    :meth:`call` returns the result's tree."""
 
     def __init__(self, fresh, env):
-        self.fresh, self.genv = fresh, env  # genv: the generated module's globals (constants go there)
-        self.out = []
-        self.memo = {}  # expression -> the local holding it (within the current branch)
-        self.count = 0  # statements written and executed while writing (a bound on the work)
-        self.branches = 0  # how deep in if-branches the writing is (no array writes there)
+        super().__init__(fresh, env)
         self.kernels = {id(f) for f in marked()}
-        self.floats = set()  # locals known to hold a Python float (a block's output needs no float())
-
-    # -- statements --------------------------------------------------------------------------------
-    def tick(self, n=1):
-        self.count += n
-        if self.count > MAX_STATEMENTS:
-            raise NotInlinable("too many statements")
-
-    def emit(self, target, expr):
-        self.tick()
-        self.out.append(Assign(target, expr))
-        if is_float(expr, self.floats):
-            self.floats.add(target)
-
-    def as_float(self, leaf):
-        """``leaf`` as the float a wire holds (``float(leaf)`` unless known to be one already)."""
-        if is_float(leaf, self.floats):
-            return leaf
-        v = literal(leaf)
-        if v is not None and abs(v) <= 2 ** 53:
-            return self.constant(float(v))
-        return self.simple(f"float({leaf})")
-
-    def simple(self, expr):
-        """A local (or literal) holding the scalar ``expr``; equal expressions share one."""
-        if _SIMPLE.fullmatch(expr):
-            return expr
-        if expr in self.memo:
-            return self.memo[expr]
-        name = self.fresh()
-        self.emit(name, expr)
-        self.memo[expr] = name
-        return name
-
-    def settle(self, tree):
-        """``tree`` with every leaf a local or a literal."""
-        if isinstance(tree, str):
-            return self.simple(tree)
-        if isinstance(tree, tuple):
-            return tuple(self.settle(t) for t in tree)
-        return tree
 
     def call(self, fn, args, depth=0):
         """Inline ``fn(*args)`` (trees); returns the result's tree."""
@@ -145,33 +95,6 @@ class Inliner:
         if kind != "return":
             raise NotInlinable(f"{fn.__name__} can end without a return")
         return value
-
-    def constant(self, v):
-        """A number as a literal (plain bool, int up to 2**53, finite float), else as a name the
-        generated module holds (numpy scalars keep their type, infinities their value)."""
-        if type(v) is bool:
-            return repr(v)
-        if type(v) is int and abs(v) <= 2 ** 53 or type(v) is float and math.isfinite(v):
-            return repr(v) if v >= 0 and not (type(v) is float and math.copysign(1, v) < 0) else f"({v!r})"
-        if isinstance(v, (int, float)):
-            name = f"_c{len(self.genv)}"
-            self.genv[name] = v
-            if type(v) is float:
-                self.floats.add(name)
-            return name
-        raise NotInlinable(f"constant {v!r}")
-
-    def branch(self, run):
-        """Run ``run()`` writing into a branch of its own: ``(its statements, its result)``."""
-        out, memo = self.out, self.memo
-        self.out, self.memo = [], dict(memo)
-        self.branches += 1
-        try:
-            result = run()
-            return self.out, result
-        finally:
-            self.out, self.memo = out, memo
-            self.branches -= 1
 
 
 class _Frame:
