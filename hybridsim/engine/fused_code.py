@@ -3,10 +3,12 @@
 :class:`StageWriter` writes one Runge-Kutta stage's right-hand side (the
 blocks on the path, then the derivatives) for
 :func:`~hybridsim.engine.rk_code.inlined_lines`; :func:`hit_source` writes a
-sample hit's output pass. Both write each block's kernel in place where
-:mod:`hybridsim.engine.inline` can, and call it where it cannot (numpy,
-loops); the params' numbers and the held inputs are locals read once per
-call of the generated function (:meth:`BlockWriter.hoist`).
+sample hit's output pass, :func:`update_source` its discrete updates. Each
+writes a block's kernel in place where :mod:`hybridsim.engine.inline` can and
+calls it where it cannot (numpy); the params' numbers and the held inputs are
+locals read once per call of the generated function
+(:meth:`BlockWriter.hoist`). :func:`probe_kept` checks, before a run, that the
+kernels called give on tuples of floats what their blocks give on arrays.
 """
 import re
 
