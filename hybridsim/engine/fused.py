@@ -85,6 +85,17 @@ def build(system, method, located=None, params=None):
 _BUILDS = 0  # generated modules so far (each its own file name)
 
 
+def raised_in_generated_code(exc):
+    """True when ``exc`` was raised while the fused path's generated code ran (by it, or by a
+    kernel it called)."""
+    tb = exc.__traceback__
+    while tb is not None:
+        if "__blocks__" in tb.tb_frame.f_globals:
+            return True
+        tb = tb.tb_next
+    return False
+
+
 def rk_source(system, method, params_arg=False, located=None, block_params=None):
     """Source of ``rhs`` and ``advance`` for ``system``: ``(source, env, held_ports, stage)``
     (``stage`` the :class:`_Stage` that wrote the steps: which blocks it wrote in place).

@@ -21,6 +21,8 @@ import time as _time
 from collections.abc import Mapping
 from numbers import Real
 
+import logging
+
 import numpy as np
 
 from hybridsim.engine import events as _events
@@ -34,6 +36,9 @@ from hybridsim.errors import DiagramError, InputError, SimulationError, StopRequ
 
 #: events whose times and blocks a run keeps for ``meta["events"]``
 MAX_EVENT_LOG = 200_000
+
+
+_log = logging.getLogger(__name__)
 
 
 class Simulator:
@@ -214,8 +219,25 @@ class Simulator:
         return Session(self, ctx, rows, numbers)
 
     def _run(self, ctx, tl, t_end, progress=None, numbers=None):
-        if self._compiled is None:
+        if self._compiled is None and self._fused is None:
             return self._walk(ctx, tl, t_end, progress)
+        if self._compiled is None:
+            start = ctx.xc.copy(), ctx.z.copy(), ctx.ywire.copy()
+            try:
+                return self._walk(ctx, tl, t_end, progress)
+            except (ArithmeticError, ValueError) as exc:
+                from hybridsim.engine.fused import raised_in_generated_code
+
+                if not raised_in_generated_code(exc):
+                    raise
+                # Python floats raised where the generic path's float64 arrays give inf or nan
+                # (1 / 0.0, an overflow): the same run on the generic path gives the answer, or its error
+                _log.info("the fused path raised %s: %s; the run is repeated on the generic path",
+                          type(exc).__name__, exc)
+                ctx.xc[:], ctx.z[:], ctx.ywire[:] = start
+                ctx.t, ctx.events, ctx.stopped = 0.0, None, None
+                twin = Simulator(self.system, self.solver, fused=False, **self._made)
+                return twin._walk(ctx, tl, t_end, progress)
         # a kernel that raises inside compiled code: numba prints it as "ignored" and the run goes on
         blocks, raised = list(ctx.blocks), []
         from hybridsim.engine.compiled import caught_unraisable
