@@ -40,6 +40,10 @@ def heatmaps(rows, axes, outdir):
         return
     df = pd.DataFrame(rows)
     xa, ya = axes[0], axes[1]
+    for a in (xa, ya):  # an axis of lists (or lists and numbers): its values as labels, in their order
+        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in df[a]):
+            labels = list(dict.fromkeys(_label(v) for v in df[a]))
+            df[a] = pd.Categorical([_label(v) for v in df[a]], categories=labels, ordered=True)
     from hybridsim.analysis.metrics import headline
 
     metrics = [m for m in headline() if m in df][:3]
@@ -47,10 +51,10 @@ def heatmaps(rows, axes, outdir):
         return
     fig, axs = plt.subplots(1, len(metrics), figsize=(4.6 * len(metrics), 3.8), squeeze=False)
     for ax, m in zip(axs[0], metrics):
-        piv = df[df["status"] == "ok"].groupby([ya, xa])[m].mean().unstack(xa).astype(float)
+        piv = df[df["status"] == "ok"].groupby([ya, xa], observed=True)[m].mean().unstack(xa).astype(float)
         im = ax.imshow(piv.values, origin="lower", aspect="auto", cmap="viridis")
-        ax.set_xticks(range(len(piv.columns)), [f"{v:g}" for v in piv.columns])
-        ax.set_yticks(range(len(piv.index)), [f"{v:g}" for v in piv.index])
+        ax.set_xticks(range(len(piv.columns)), [_tick(v) for v in piv.columns])
+        ax.set_yticks(range(len(piv.index)), [_tick(v) for v in piv.index])
         ax.set_xlabel(xa)
         ax.set_ylabel(ya)
         ax.set_title(m, fontsize=9)
@@ -67,10 +71,18 @@ def heatmaps(rows, axes, outdir):
     plt.close(fig)
 
 
+def _label(v):
+    return str(list(v)) if isinstance(v, (list, tuple)) else str(v)
+
+
+def _tick(v):
+    return f"{v:g}" if isinstance(v, (int, float)) and not isinstance(v, bool) else str(v)
+
+
 def _index_of_one(values, axis):
     if not axis.endswith("*"):
         return None
     for k, v in enumerate(values):
-        if abs(float(v) - 1.0) < 1e-12:
+        if isinstance(v, (int, float)) and abs(float(v) - 1.0) < 1e-12:
             return k
     return None

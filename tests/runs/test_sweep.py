@@ -282,3 +282,16 @@ def test_a_bad_block_value_in_set_and_a_sweep_as_the_diagram_name_the_sweep_file
     (tmp_path / "t.yaml").write_text(f"diagram: {p}\ngrid: {{force: [1, 2]}}\n")
     assert main(["check", str(tmp_path / "t.yaml")]) == 2
     assert "t.yaml:1: 'diagram': " in capsys.readouterr().err
+
+
+def test_a_heat_map_over_an_axis_of_lists_and_numbers_labels_them(tmp_path):
+    # a grid axis mixing a number and a list ended the sweep in "unhashable type" (exit 70) after
+    # every point had run
+    from hybridsim.analysis.metrics import headline
+    from hybridsim.runs.table import heatmaps
+
+    metric = headline()[0]
+    rows = [{"ctrl.fpi.Kp": kp, "Kr": kr, "status": "ok", metric: float(k)}
+            for k, (kp, kr) in enumerate([(0.4, 9e5), ([0.2, 0.3], 9e5), (0.4, 5e5), ([0.2, 0.3], 5e5)])]
+    heatmaps(rows, ["ctrl.fpi.Kp", "Kr"], tmp_path)
+    assert (tmp_path / "heatmap.png").stat().st_size > 5000
