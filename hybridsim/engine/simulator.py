@@ -232,7 +232,7 @@ class Simulator:
                     raise
                 # Python floats raised where the generic path's float64 arrays give inf or nan
                 # (1 / 0.0, an overflow): the same run on the generic path gives the answer, or its error
-                _log.info("the fused path raised %s: %s; the run is repeated on the generic path",
+                _log.debug("the fused path raised %s: %s; the run is repeated on the generic path",
                           type(exc).__name__, exc)
                 ctx.xc[:], ctx.z[:], ctx.ywire[:] = start
                 ctx.t, ctx.events, ctx.stopped = 0.0, None, None

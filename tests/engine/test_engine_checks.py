@@ -383,21 +383,17 @@ def raising_output(p, t, x, u):
 Raising.kernels = Kernels(output=raising_output)
 
 
-@register("root_of_gap")
-class RootOfGap(Block):
-    def __init__(self, name="r", limit=0.2):
-        super().__init__(name)
-        self.params = (float(limit),)
-        self.declare_input("u", 1)
-        self.declare_output("y", 1)
+@register("factorial_past")
+class FactorialPast(Raising):
+    """Raising's ports and limit; its kernel fails in a math call, not by a raise."""
 
 
 @kernel
-def root_of_gap_output(p, t, x, u):
-    return ((math.sqrt(p[0] - u[0][0]),),)  # math domain error past the limit
+def factorial_past_output(p, t, x, u):
+    return ((math.factorial(u[0][0]) if u[0][0] > p[0] else 0.0,),)  # TypeError: not a whole number
 
 
-RootOfGap.kernels = Kernels(output=root_of_gap_output)
+FactorialPast.kernels = Kernels(output=factorial_past_output)
 '''
 
 
@@ -438,15 +434,15 @@ def test_a_kernel_that_raises_on_the_compiled_path_is_named_as_on_the_python_pat
 def test_a_plugin_kernel_that_raises_where_it_is_written_in_place_is_the_plugins_fault(odd_plugin, capsys, path):
     # on the fused path the kernel's body runs inside the generated code: its error was "a bug in
     # hybridsim" (exit 70) with a traceback through that code
-    p = write(odd_plugin, "blocks:\n  s: {type: ramp}\n  b: {type: root_of_gap, limit: 0.2}\n  i: {type: integrator}\n"
+    p = write(odd_plugin, "blocks:\n  s: {type: ramp}\n  b: {type: factorial_past, limit: 0.2}\n  i: {type: integrator}\n"
                           "wires: [s.y -> b.u, b.y -> i.u]\nsimulation: {t_end: 0.5}\nlog: [i.y]\n")
     sets = {"generic": ["--set", "simulation.fused=false"], "fused": []}[path]
     code = main(["run", str(p), "--plugin", "oddblocks", "-q", "-o", str(odd_plugin / "out")] + sets)
     _, err = capsys.readouterr()
-    assert code == 6 and "plugin 'oddblocks'" in err and "raised ValueError: math domain error" in err
+    assert code == 6 and "plugin 'oddblocks'" in err and "raised TypeError" in err
     assert "Traceback" not in err
     if path == "fused":
-        assert "block 'b' (root_of_gap) raised" in err and "written in place" in err
+        assert "block 'b' (factorial_past) raised" in err and "written in place" in err
 
 
 class _Spike(hs.Block):
