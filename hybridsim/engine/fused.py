@@ -17,6 +17,7 @@ It performs exactly the operations of the generic path in the same order, so
 both give the same numbers (a test checks it bit for bit); the generic path
 remains the reference. Discontinuities are stepped over.
 """
+import collections
 import linecache
 import logging
 import math
@@ -76,6 +77,9 @@ def build(system, method, located=None, params=None):
     _BUILDS += 1
     filename = f"<fused {system.name} {_BUILDS}>"
     linecache.cache[filename] = (len(source), None, source.splitlines(True), filename)  # tracebacks show it
+    _SHOWN.append(filename)
+    if len(_SHOWN) > 256:  # a long sweep builds many: the oldest sources leave the cache
+        linecache.cache.pop(_SHOWN.popleft(), None)
     env["__blocks__"] = system.blocks  # a line's "# b<i>" names the block whose code it is
     code = compile(source, filename, "exec")
     exec(code, env)  # noqa: S102 - our own generated source, no user text in it
@@ -83,6 +87,7 @@ def build(system, method, located=None, params=None):
 
 
 _BUILDS = 0  # generated modules so far (each its own file name)
+_SHOWN = collections.deque()  # their file names in linecache, oldest first
 
 
 def raised_in_generated_code(exc):
