@@ -20,6 +20,7 @@ import re
 
 from hybridsim.engine import rk_code
 from hybridsim.engine.fused import event_sizes
+from hybridsim.engine.fused_code import offsets
 from hybridsim.engine.kernels import marked
 
 
@@ -28,17 +29,7 @@ class _Writer:
 
     def __init__(self, system, layout, env):
         self.sysm, self.layout, self.env = system, layout, env
-        b = system.blocks
-        self.yoff, k = [], 0
-        for blk in b:
-            self.yoff.append([])
-            for p in blk.outputs:
-                self.yoff[-1].append(k)
-                k += p.width
-        self.zoff, k = [], 0
-        for blk in b:
-            self.zoff.append(k)
-            k += blk.n_discrete
+        self.yoff, self.zoff = offsets(system)
 
     def params(self, i):
         return f"P{i}"

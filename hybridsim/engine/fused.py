@@ -59,7 +59,7 @@ def build(system, method, located=None, params=None):
     (``params``: the blocks' params whose shapes the source reads, default the system's), or None
     when a kernel the generated code calls does not give on tuples what it gives on arrays."""
     params = tuple(b.params for b in system.blocks) if params is None else tuple(params)
-    source, env, held, stage = rk_source(system, method, params_arg=True, located=located, block_params=params)
+    source, env, held, stage = rk_source(system, method, located=located, block_params=params)
     hit = update = None
     if hit_eligible(system):
         text, hit = hit_source(system, env, params)
@@ -101,14 +101,13 @@ def raised_in_generated_code(exc):
     return False
 
 
-def rk_source(system, method, params_arg=False, located=None, block_params=None):
+def rk_source(system, method, located=None, block_params=None):
     """Source of ``rhs`` and ``advance`` for ``system``: ``(source, env, held_ports, stage)``
-    (``stage`` the :class:`_Stage` that wrote the steps: which blocks it wrote in place).
+    (``stage`` the :class:`~.fused_code.StageWriter` that wrote the steps: which blocks it wrote
+    in place).
 
-    ``env`` maps the names the source uses to the kernels (``out3``, ``der5``)
-    and, unless ``params_arg``, to the blocks' params (``P3``). With
-    ``params_arg`` both functions take the params of every block as one more
-    argument ``P`` (indexed by block), as the compiled path needs.
+    ``env`` maps the names the source uses to the kernels (``out3``, ``der5``); the functions take
+    the params of every block as their last argument ``P`` (indexed by block).
     """
     sysm = system
     path = sorted(set(sysm.rhs_path))
@@ -117,14 +116,11 @@ def rk_source(system, method, params_arg=False, located=None, block_params=None)
     held = sysm.plan.held_ports()
     held_index = {port: k for k, port in enumerate(held)}
     env = {"empty": np.empty, "math": math}
-    extra = ", P" if params_arg else ""
+    extra = ", P"
     lines = [f"def rhs(t, X, H{extra}):"]
 
     def params(i):
-        if params_arg:
-            return f"P[{i}]"
-        env[f"P{i}"] = sysm.blocks[i].params
-        return f"P{i}"
+        return f"P[{i}]"
 
     def arg(i, a, o, k, done):
         if a in on_path and a in done:
@@ -156,7 +152,7 @@ def rk_source(system, method, params_arg=False, located=None, block_params=None)
         lines.append(f"    d{i} = der{i}({params(i)}, t, {state(i)}, {tuple_source(args)})")
         parts += [f"d{i}[{j}]" for j in range(sysm.blocks[i].n_continuous)]
     lines.append(f"    return {tuple_source(parts)}")
-    stage = StageWriter(sysm, held_index, env, params_arg, block_params)
+    stage = StageWriter(sysm, held_index, env, block_params)
     lines += [""] + inlined_lines(method, n, stage, stage.hoist, extra)
     located = sysm.action_events if located is None else located
     if located and all(event_kernels(sysm.blocks[i]) for i in located):

@@ -24,7 +24,7 @@ class BlockWriter:
     """What both writers share: the blocks' params as trees of hoisted locals, and
     :meth:`write`, a block's kernel in place or called. ``inlined`` / ``called`` name the blocks."""
 
-    def __init__(self, sysm, env, blocks, params_arg=True, params=None):
+    def __init__(self, sysm, env, blocks, params=None):
         self.sysm, self.env = sysm, env
         params = [b.params for b in sysm.blocks] if params is None else params
         self.hoists = {}  # local -> the expression it holds
@@ -33,9 +33,7 @@ class BlockWriter:
         for i in blocks:
             out = []
             p = params[i]
-            whole = f"P[{i}]" if params_arg else f"P{i}"
-            if not params_arg:
-                env[f"P{i}"] = p
+            whole = f"P[{i}]"
             self.trees[i] = floatcode.param_tree(p, whole, f"P{i}", out, self.floats)
             self.hoists.update(out)
             self.hoists[f"P_{i}"] = whole  # the whole params, for a kept call
@@ -115,8 +113,8 @@ class BlockWriter:
 class StageWriter(BlockWriter):
     """One stage's right-hand side: ``self(t, xs)`` gives ``(lines, derivative names)``."""
 
-    def __init__(self, sysm, held_index, env, params_arg, params=None):
-        super().__init__(sysm, env, sorted(set(sysm.rhs_path) | set(sysm.stateful)), params_arg, params)
+    def __init__(self, sysm, held_index, env, params=None):
+        super().__init__(sysm, env, sorted(set(sysm.rhs_path) | set(sysm.stateful)), params)
         self.held = {}
         for (a, o), k in held_index.items():
             w = sysm.blocks[a].outputs[o].width
@@ -171,9 +169,9 @@ def update_source(system, env, params=None):
     due = [i for i in sysm.plan.update_order(sysm.discrete) if sysm.blocks[i].n_discrete]
     if not due:
         return None, None
-    w = BlockWriter(sysm, env, due, True, params)
+    w = BlockWriter(sysm, env, due, params)
     inl = w.inliner([f"Z_{j}" for j in range(sum(b.n_discrete for b in sysm.blocks))] + ["t"])
-    yoff, zoff = _offsets(sysm)
+    yoff, zoff = offsets(sysm)
     col = {i: c for c, i in enumerate(sysm.discrete)}
     for i in due:
         b = sysm.blocks[i]
@@ -193,7 +191,7 @@ def update_source(system, env, params=None):
     return "\n".join(head + body + ["    return Z"]), w
 
 
-def _offsets(sysm):
+def offsets(sysm):
     """Where each block's outputs start in the flat outputs, and its discrete state in the flat state."""
     yoff, k = [], 0
     for b in sysm.blocks:
@@ -229,10 +227,10 @@ def hit_source(system, env, params=None):
     ``Y`` the outputs (a list, updated in place), ``D`` the due row (a discrete block computes its
     outputs when due, else keeps them), ``P`` the blocks' params."""
     sysm = system
-    w = BlockWriter(sysm, env, [i for i, _ in sysm.plan.hit_sequence()], True, params)
+    w = BlockWriter(sysm, env, [i for i, _ in sysm.plan.hit_sequence()], params)
     inl = w.inliner([f"X_{j}" for j in range(sysm.n_x)] + [f"Z_{j}" for j in range(sum(b.n_discrete for b in sysm.blocks))]
                     + ["t"])
-    yoff, zoff = _offsets(sysm)
+    yoff, zoff = offsets(sysm)
     current = {}  # (block, port) -> the tree of its value now (a port not yet read: Y)
     col = {i: c for c, i in enumerate(sysm.discrete)}
 
