@@ -103,18 +103,33 @@ def glue_source(system, log_path, located, layout, method):
     sig = "(t, x, y, z, pf, pi, due, row)"
     fns = []
 
-    # the hit: outputs of every block not discrete and of the due discrete ones
+    # the hit's output pass (op 0) and the log path (op 2) in one body: the log path's blocks run in
+    # both, the others only in op 0 (the due discrete ones only when due); a block run only in op 0
+    # is read from y after its group, where op 2 finds the value it holds between hits
     hit = [i for i, _ in sysm.plan.hit_sequence()]
+    logged = set(log_path)
     L = [f"def outputs{sig}:"] + wr.param_lines(hit)
-    local = set()
+    local, group = set(), None  # group: the blocks of the open ``if op == 0:``
     for i, disc in sysm.plan.hit_sequence():
-        if disc:
-            body = wr.evaluate(i, "        ", local, store=True) + wr.check(i, "        ")
-            local.discard(i)  # held when not due: later blocks read it from y
-            if body:
-                L += [f"    if due[row, {due_col[i]}]:"] + body
-        else:
+        if i in logged:
+            if group is not None:
+                local -= group
+                group = None
             L += wr.evaluate(i, "    ", local, store=True) + wr.check(i, "    ")
+            continue
+        pad = "            " if disc else "        "
+        body = wr.evaluate(i, pad, local, store=True) + wr.check(i, pad)
+        if not body:
+            continue
+        if group is None:
+            L.append("    if op == 0:")
+            group = set()
+        if disc:
+            local.discard(i)  # held when not due: later blocks read it from y
+            L += [f"        if due[row, {due_col[i]}]:"] + body
+        else:
+            group.add(i)
+            L += body
     L.append("    return -1")
     fns.append(L)
 
@@ -169,16 +184,15 @@ def glue_source(system, log_path, located, layout, method):
     # located events: their functions and actions
     sizes = event_sizes(sysm, located) if located else []
     lines, local = rhs_outputs() if located else ([], set())  # no located events: nothing to compute
-    L = ["def zc(t, x, g, y, z, pf, pi):"] + (wr.param_lines(path + list(located)) + lines if located else [])
-    c = 0
-    for i, m in zip(located, sizes):
-        f = wr.kernel(i, "zero_crossings")
-        L.append(f"    e{i} = {f}(P{i}, t, {wr.state(i)}, {wr.inputs(i, local)})")
-        L += [f"    g[{c + j}] = e{i}[{j}]" for j in range(m)]
-        c += m
-    if not located:
-        L.append("    pass")
-    fns.append(L)
+    if located:  # without, the shared stub (glue_stubs.zc)
+        L = ["def zc(t, x, g, y, z, pf, pi):"] + wr.param_lines(path + list(located)) + lines
+        c = 0
+        for i, m in zip(located, sizes):
+            f = wr.kernel(i, "zero_crossings")
+            L.append(f"    e{i} = {f}(P{i}, t, {wr.state(i)}, {wr.inputs(i, local)})")
+            L += [f"    g[{c + j}] = e{i}[{j}]" for j in range(m)]
+            c += m
+        fns.append(L)
     L = ["def act(t, x, xn, fired, y, z, pf, pi):"] + (wr.param_lines(path + list(located)) + lines if located else [])
     L += [f"    for k in range({sysm.n_x}):", "        xn[k] = x[k]"]
     c = 0
@@ -196,16 +210,7 @@ def glue_source(system, log_path, located, layout, method):
     L.append("    return 0")
     fns.append(L)
 
-    # the log path, at a log point between hits (its outputs stored for the log's columns)
-    L = ["def observe(t, x, y, z, pf, pi):"] + wr.param_lines(log_path)
-    local = set()
-    for i in log_path:
-        L += wr.evaluate(i, "    ", local, store=True) + wr.check(i, "    ")
-    L.append("    return -1")
-    fns.append(L)
-    fns.append(["def next_time(t, x, y, z, pf, pi):", "    return np.inf"])
-    fns.append(["def timed(t, x, xn, y, z, pf, pi):", "    return 0"])
-    fns.append(["def stepped(t, x, y, z, pf, pi):", "    return 0"])
+    # no time events or step hooks on this path: next_time, timed and stepped are glue_stubs'
 
     # the output pass, the updates and the log path as one function told which by ``op`` (HIT_OPS):
     # called only at hits and log points, and compiled once they link their kernels once, not thrice
@@ -216,12 +221,12 @@ def glue_source(system, log_path, located, layout, method):
     def hoisted(line):
         return _PARAM_LINE.match(line) and ".reshape(" not in line
 
-    params = {line for name in HIT_OPS for line in named[name][1:] if hoisted(line)}
+    params = {line for name in _HIT_FUNCTIONS for line in named[name][1:] if hoisted(line)}
     hit = [f"def hit(op, {sig[1:-1]}):"] + sorted(params, key=lambda line: int(_PARAM_LINE.match(line).group(1)))
-    for k, name in enumerate(HIT_OPS):
-        hit += [f"    {'if' if k == 0 else 'elif'} op == {k}:"] + ["    " + line for line in named[name][1:]
-                                                                   if not hoisted(line)]
-    fns = [f for name, f in named.items() if name not in HIT_OPS] + [hit + ["    return -1"]]
+    hit += [f"    if op == {HIT_OPS.index('update')}:"] + ["    " + line for line in named["update"][1:]
+                                                           if not hoisted(line)]
+    hit += [line for line in named["outputs"][1:] if not hoisted(line)]
+    fns = [f for name, f in named.items() if name not in _HIT_FUNCTIONS] + [hit]
     # the core passes each array as its data pointer (one word, not numba's seven-field array
     # struct); the glue views it with the sizes known here
     n_y = sum(p.width for b in sysm.blocks for p in b.outputs)
@@ -243,8 +248,10 @@ def glue_source(system, log_path, located, layout, method):
     return head + body + "\n", env
 
 
-#: the functions ``hit`` holds, by its argument ``op`` (0, 1, 2)
+#: what ``hit`` does, by its argument ``op`` (0, 1, 2): the output pass, the updates, the log path
 HIT_OPS = ("outputs", "update", "observe")
+#: the generated functions ``hit`` is written from (the output pass holds the log path)
+_HIT_FUNCTIONS = ("outputs", "update")
 #: a line building block i's params at a function's top level (``_Writer.param_lines``)
 _PARAM_LINE = re.compile(r"^    P(\d+) = ")
 

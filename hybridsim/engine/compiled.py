@@ -22,6 +22,7 @@ or step hooks. :func:`problems` says what a diagram lacks.
 """
 import contextlib
 import ctypes
+import functools
 import hashlib
 import importlib.util
 import inspect
@@ -300,12 +301,24 @@ def _load(source, env, name, system=None):
             # the output pass, updates and log path are one function, compiled once (codegen.HIT_OPS)
             names = {k: "hit" if k in HIT_OPS else k for k in Glue._fields}
             made = {n: cfunc(types[k].signature, cache=True)(getattr(module, n)) for k, n in names.items()
-                    if k == n or k == HIT_OPS[0]}
+                    if (k == n or k == HIT_OPS[0]) and hasattr(module, n)}
+            made.update({k: f for k, f in _stubs().items() if k not in made})
             glue = Glue(*(_Address(made[names[k]]) for k in Glue._fields))
     except NumbaError as exc:
         raise CompiledPathError(_compile_failure(exc, name, system)) from None
     _loaded[key] = glue
     return glue
+
+
+@functools.lru_cache(maxsize=None)
+def _stubs():
+    """:mod:`~hybridsim.engine.glue_stubs` compiled (once per machine, then from numba's cache)."""
+    from numba import cfunc
+    from hybridsim.engine import glue_stubs
+
+    native.use_cache_dir()
+    types = native.types()["glue"]
+    return {k: cfunc(types[k].signature, cache=True)(getattr(glue_stubs, k)) for k in glue_stubs.FIELDS}
 
 
 class _Address:

@@ -20,8 +20,9 @@ SMOOTH = ROOT / "tests" / "data" / "smooth_contact.yaml"
     (ROOT / "tests" / "data" / "every_kernel_block.yaml", {}),
     (ROOT / "tests" / "data" / "discrete_only.yaml", {}),
     (ROOT / "tests" / "data" / "library_blocks.yaml", {}),
+    (ROOT / "tests" / "data" / "held_before_logged.yaml", {}),
 ], ids=["fig9-friction", "fig8-moving-surface", "damped-log-at-ticks", "fig9-two-rates-odd-log",
-        "every-kernel-block", "discrete-only", "standard-library"])
+        "every-kernel-block", "discrete-only", "standard-library", "held-before-logged"])
 @pytest.mark.slow
 def test_compiled_equals_generic(path, extra):
     a = hs.simulate(path, compiled=True, **extra)
