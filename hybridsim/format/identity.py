@@ -12,9 +12,10 @@ import hashlib
 import json
 import re
 import sys
+import weakref
 from pathlib import Path
 
-from hybridsim.errors import LoaderError
+from hybridsim.errors import HybridsimError, LoaderError
 from hybridsim.format import tables
 from hybridsim.format.paths import ParamPath
 
@@ -109,6 +110,22 @@ def run_files(f, built=None):
     files |= block_files(built.blocks.values())
     files |= plugin_files()
     return sorted(files)
+
+
+_FILE_IDENTITY = weakref.WeakKeyDictionary()
+
+
+def file_identity(f):
+    """:func:`identity` of :func:`run_files` of DiagramFile ``f``, hashed once per parsed file (a
+    worker that kept an experiment built from other contents builds it anew)."""
+    got = _FILE_IDENTITY.get(f)
+    if got is None:
+        try:
+            files = run_files(f)
+        except HybridsimError:  # it does not build: the files it names still say which it is
+            files = {Path(p).resolve() for p in f.files} | set(f.subsystem_files())
+        got = _FILE_IDENTITY[f] = identity(files)
+    return got
 
 
 def identity(files, extra=None):

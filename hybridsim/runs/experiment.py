@@ -71,9 +71,13 @@ class Experiment:
         return exp
 
     def __reduce__(self):  # what it was made from: a worker builds it once (see _kept)
+        from hybridsim.format.identity import file_identity
+
         if self._given:  # a parsed file given, not a path: it travels itself
             return _of_file, (self.file, self.variant, self.records)
-        return _kept, (str(self.path), self.variant, self.overrides, self.records)
+        # with the contents of the files it reads: a worker that outlives a sweep (Dask) must not
+        # answer an edited diagram or subsystem with what it built from the old one
+        return _kept, (str(self.path), self.variant, self.overrides, self.records, file_identity(self.file))
 
     # -- what it is built into ----------------------------------------------------------------
     @property
@@ -242,10 +246,11 @@ class Experiment:
         return cl
 
 
-def _kept(path, variant, overrides, records):
-    """The experiment of (path, variant, overrides, records) this process built before, or a new one
-    (kept: the last :data:`KEPT`)."""
-    tag = json.dumps([path, variant, overrides, records], sort_keys=True, default=str)
+def _kept(path, variant, overrides, records, files):
+    """The experiment of (path, variant, overrides, records) this process built before from the same
+    file contents (``files``: :func:`~hybridsim.format.identity.file_identity`), or a new one (kept:
+    the last :data:`KEPT`)."""
+    tag = json.dumps([path, variant, overrides, records, files], sort_keys=True, default=str)
     exp = _KEPT.pop(tag, None)
     if exp is None:
         exp = Experiment(path, variant, **overrides).recording(records)

@@ -60,3 +60,21 @@ def test_analyze_takes_an_experiment():
         b = an.analyze(Experiment(FIG9), sweeps=False)
     assert b["growth"] == a["growth"] and b["branch"] == a["branch"] == {"friction": False}
     assert b["cases"] == a["cases"]
+
+
+def test_a_worker_that_kept_an_experiment_builds_an_edited_subsystem_anew(tmp_path):
+    # a long-lived worker (Dask) keeps what it built; an edited subsystem file is another experiment
+    import pickle
+
+    sub = tmp_path / "sub.yaml"
+    top = tmp_path / "top.yaml"
+    sub.write_text("name: sub\nblocks:\n  k: {type: constant, value: 1.0}\noutputs: {y: k.y}\n")
+    top.write_text("name: top\nblocks:\n  s: {type: subsystem, file: sub.yaml}\n  i: {type: integrator}\n"
+                   "wires: [s.y -> i.u]\nlog: [i.y]\nsimulation: {t_end: 1.0, solver: rk4, step: 0.01}\n")
+    first = pickle.loads(pickle.dumps(Experiment(top)))  # as a worker gets it
+    assert first.run().table()[-1, 1] == pytest.approx(1.0)
+    sub.write_text("name: sub\nblocks:\n  k: {type: constant, value: 3.0}\noutputs: {y: k.y}\n")
+    again = pickle.loads(pickle.dumps(Experiment(top)))
+    assert again is not first
+    assert again.run().table()[-1, 1] == pytest.approx(3.0)
+    assert pickle.loads(pickle.dumps(Experiment(top))) is again  # unchanged files: the kept one
