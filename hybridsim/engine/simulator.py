@@ -120,7 +120,7 @@ class Simulator:
         self.located = _events.located_events(system, self.solver, locate_switches)
         self._timelines = {}
         self._step_checked = False
-        self._compiled = self._fused = None
+        self._compiled = self._fused = self._twin = None
         if compiled:
             from hybridsim.engine.compiled import CompiledGlue
 
@@ -216,9 +216,27 @@ class Simulator:
     def session(self, ctx, rows=0, numbers=None):
         """A :class:`Session`: the stepping core set up to advance ``ctx`` (``rows``: log rows it
         may write; ``numbers``: its params as the compiled path flattened them, if it has)."""
+        if not self._fits(ctx):
+            return Session(self._generic(), ctx, rows)
         return Session(self, ctx, rows, numbers)
 
+    def _fits(self, ctx):
+        """True when this simulator's path can run ``ctx``: the generic path runs any context, the
+        fused and compiled paths those whose blocks have the kernels the code was written from (an
+        exported FMU's input blocks, or a parameter that changes a block's kernels, do not)."""
+        if self._compiled is None and self._fused is None:
+            return True
+        return all(a is b or a.kernels == b.kernels for a, b in zip(ctx.blocks, self.system.blocks))
+
+    def _generic(self):
+        """This simulator on the generic path (made once)."""
+        if self._twin is None:
+            self._twin = Simulator(self.system, self.solver, fused=False, **self._made)
+        return self._twin
+
     def _run(self, ctx, tl, t_end, progress=None, numbers=None):
+        if not self._fits(ctx):
+            return self._generic()._run(ctx, tl, t_end, progress)
         if self._compiled is None and self._fused is None:
             return self._walk(ctx, tl, t_end, progress)
         if self._compiled is None:
@@ -236,8 +254,7 @@ class Simulator:
                           type(exc).__name__, exc)
                 ctx.xc[:], ctx.z[:], ctx.ywire[:] = start
                 ctx.t, ctx.events, ctx.stopped = 0.0, None, None
-                twin = Simulator(self.system, self.solver, fused=False, **self._made)
-                return twin._walk(ctx, tl, t_end, progress)
+                return self._generic()._walk(ctx, tl, t_end, progress)
         # a kernel that raises inside compiled code: numba prints it as "ignored" and the run goes on
         blocks, raised = list(ctx.blocks), []
         from hybridsim.engine.compiled import caught_unraisable
@@ -251,8 +268,7 @@ class Simulator:
         if not raised:
             return res
         # the same run on the Python path says which block raised what (or names its non-finite output)
-        twin = Simulator(self.system, self.solver, fused=False, **self._made)
-        twin._walk(Context(self.system, blocks), tl, t_end, False)
+        self._generic()._walk(Context(self.system, blocks), tl, t_end, False)
         exc = raised[0].exc_value
         raise SimulationError(f"a block's compiled kernel raised {type(exc).__name__}: {exc} (on the Python "
                               "path the same run went through)")
