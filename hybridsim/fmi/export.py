@@ -26,7 +26,7 @@ import tempfile
 import uuid
 from pathlib import Path
 
-from hybridsim.errors import FMUError, LoaderError
+from hybridsim.errors import FMUError, InputError, LoaderError
 from hybridsim.fmi.slave import INTERFACE
 
 WRAPPER = "hybridsim_fmu.yaml"
@@ -89,8 +89,8 @@ def _ports(f):
     d = Diagram(f.name, source=str(f.path))
     f.aliases, f._cut, f._broken, f._bad_ports = {}, set(), set(), set()
     ins, outs = f._expand(d, dict(f.params), "", (f.path.resolve(),), "")
-    if d.problems:
-        raise LoaderError("; ".join(d.problems[:3]), f.path)
+    if d.problems:  # each names its file and line
+        raise InputError("; ".join(d.problems[:3]))
     inputs = []
     for name, refs in ins.items():
         b, p = refs[0].rsplit(".", 1)
@@ -110,6 +110,34 @@ def _param_value(name, value, where):
         return [float(v) for v in value]
     raise FMUError(f"{where}: parameter {name!r} = {value!r} cannot be an FMU parameter "
                    "(numbers, Booleans, text and lists of numbers can)")
+
+
+def _blank_section(path, key):
+    """Blank the lines of top-level ``key`` in the YAML file ``path`` (the other lines keep their numbers)."""
+    import yaml
+
+    text = path.read_text()
+    try:
+        node = yaml.compose(text)
+    except yaml.YAMLError:
+        return  # the build that follows says what is wrong
+    if not isinstance(node, yaml.MappingNode):
+        return
+    lines = text.splitlines(keepends=True)
+    for k, v in node.value:
+        if k.value == key:
+            first, last = k.start_mark.line, v.end_mark.line - (v.end_mark.column == 0)
+            for n in range(first, min(last, len(lines) - 1) + 1):
+                lines[n] = "\n"
+    path.write_text("".join(lines))
+
+
+def _unstaged(message, stage, root):
+    """``message`` with the staged copies' paths as the user's files (the wrapper's own place dropped)."""
+    wrapper = re.escape(str(stage / WRAPPER)) + r"(:\d+)?"
+    message = re.sub(wrapper + r": (in subsystem 'sub': )?", "", message)
+    message = re.sub(r"in subsystem sub \(" + wrapper + r"\): ", "", message)
+    return message.replace(str(stage) + os.sep, str(root) + os.sep)
 
 
 def _identifier(name):
@@ -188,7 +216,8 @@ def export_fmu(diagram, out, fmi=2, name=None):
             dst = stage / p.relative_to(root)
             dst.parent.mkdir(parents=True, exist_ok=True)
             shutil.copy(p, dst)
-        if is_sub:
+        if is_sub:  # its simulation section is the wrapper's (a subsystem may not have one)
+            _blank_section(stage / main, "simulation")
             inputs, outputs = _ports(f)
             blocks = {f"in_{n}": {"type": "constant", "value": start} for n, _, start in inputs}
             blocks["sub"] = {"type": "subsystem", "file": main, **{k: f"${k}" for k, _ in params}}
@@ -202,7 +231,10 @@ def export_fmu(diagram, out, fmi=2, name=None):
             entry = WRAPPER
         else:
             inputs, entry = [], main
-        _, sim_, settings = api.build(stage / entry, check_only=True)  # fails here, not in the FMU
+        try:
+            _, sim_, settings = api.build(stage / entry, check_only=True)  # fails here, not in the FMU
+        except InputError as exc:  # in the user's files' names
+            raise InputError(_unstaged(str(exc), stage, root)) from None
         system = sim_.system
         if not is_sub:
             refs = list(settings["log"]) + list(settings["signals"].values())

@@ -227,3 +227,45 @@ def test_the_controller_keeps_its_own_rate_whatever_the_communication_step(fmus)
         got = r["tau[1]"][on]
         assert np.max(np.abs(got - [want[int(round(x))] for x in k[on]])) < 1e-12, h
     assert np.ptp(base["tau[1]"]) > 0.1  # the integrators move it
+
+
+def test_a_subsystem_with_its_own_solver_and_a_continuous_state_exports_and_steps(tmp_path):
+    """The subsystem's ``simulation`` section is the FMU's solver; its input drives a first-order lag
+    integrated inside doStep: y = u (1 - e^(-t / tau))."""
+    import math
+
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    from hybridsim.fmi.export import export_fmu
+
+    f = tmp_path / "lag.yaml"
+    f.write_text("name: lag\nblocks:\n  lag: {type: first_order, tau: 0.2, initial: 0.0}\n"
+                 "inputs: {x: lag.u}\noutputs: {y: lag.y}\nsimulation:\n  solver: heun\n  step: 1.0e-3\n")
+    path = str(export_fmu(f, tmp_path / "lag.fmu"))
+    md = read_model_description(path)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier)
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    try:
+        fmu.setReal([vr["x"]], [2.0])
+        for k in range(10):
+            fmu.doStep(k * 0.1, 0.1)
+        y = fmu.getReal([vr["y"]])[0]
+    finally:
+        fmu.terminate()
+        fmu.freeInstance()
+    assert y == pytest.approx(2.0 * (1.0 - math.exp(-1.0 / 0.2)), abs=1e-6)
+
+
+def test_an_error_inside_an_exported_subsystem_names_the_users_file(tmp_path, capsys):
+    f = tmp_path / "sub.yaml"
+    f.write_text("name: sub\nblocks:\n  g: {type: gain, K: 2.0}\n  h: {type: gain, K: 1.0}\n"
+                 "wires: [g.y -> h.nope]\ninputs: {u: g.u}\noutputs: {y: h.y}\nsimulation: {solver: rk4, step: 1.0e-3}\n")
+    assert main(["fmu", "export", str(f), "-o", str(tmp_path / "s.fmu")]) == 2
+    err = capsys.readouterr().err
+    assert f"{f}:5" in err and "no input 'nope'" in err
+    assert "hybridsim-export" not in err and "hybridsim_fmu.yaml" not in err
