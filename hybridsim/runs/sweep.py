@@ -94,6 +94,9 @@ class Sweep:
         self.random = data.get("random")
         if self.random is not None:
             self._check_random(self.random, lines["random"])
+        #: the line of each swept name (what an error about its values points at)
+        self._lines = {name: sec.lines[name] for sec in (data.get("grid"), data.get("scale"),
+                                                          (self.random or {}).get("ranges")) if sec for name in sec}
         self.traces = bool(data.get("traces", False))
         self.stability = bool(data.get("stability", False))
         self.compiled = False  # every run compiled (``simulation.compiled: true``; not in the identity)
@@ -147,16 +150,21 @@ class Sweep:
             f = self.experiment.file
             if "." not in ref:
                 if ref not in f.params:
-                    raise InputError(f"{self.path}: sweep: no parameter {ref!r} in {self.diagram.name}")
+                    raise LoaderError(f"cannot scale {ref!r}: no parameter {ref!r} in {self.diagram.name}",
+                                      self.path, self._lines.get(ref))
                 self._base[ref] = np.asarray(f.params[ref], float)
             else:
                 try:
                     self._base[ref] = f.param_value(ref)  # a subsystem's parameter reads its file
                 except (HybridsimError, KeyError, ValueError, TypeError) as exc:
-                    raise InputError(f"{self.path}: sweep: cannot scale {ref!r}: {exc}") from None
+                    from hybridsim.format.build import check
+
+                    with self._blaming_set():  # a diagram that does not build says what is wrong itself
+                        check(f)
+                    raise LoaderError(f"cannot scale {ref!r}: {exc}", self.path, self._lines.get(ref)) from None
             if not np.all(np.isfinite(self._base[ref])):  # inf times any factor: one point under many names
-                raise InputError(f"{self.path}: sweep: cannot scale {ref!r}: its value is "
-                                 f"{self._base[ref].tolist()!r}, not finite; sweep it with 'grid' instead")
+                raise LoaderError(f"cannot scale {ref!r}: its value is {self._base[ref].tolist()!r}, not "
+                                  "finite; sweep it with 'grid' instead", self.path, self._lines.get(ref))
         return self._base[ref]
 
     def axes(self):
@@ -211,7 +219,7 @@ class Sweep:
                 with overrides_from("the sweep's"):
                     check(load(self.diagram, **{**self.fixed, key: value}))
             except InputError as exc:
-                raise InputError(f"{self.path}: swept value {key} = {value!r}: {exc}") from None
+                raise LoaderError(f"swept value {key} = {value!r}: {exc}", self.path, self._lines.get(key)) from None
         together = {}  # one value of every swept name at once: names that cancel each other (a parameter
         for key, value in tries:  # and every block value that uses it) are refused by the diagram file
             together.setdefault(key, value)

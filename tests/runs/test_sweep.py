@@ -167,9 +167,26 @@ def test_a_bad_swept_value_stops_the_sweep_before_any_run(tmp_path):
     p = tmp_path / "bad.yaml"
     p.write_text(f"diagram: {DIAGRAMS / 'fig7_force_steps.yaml'}\n"
                  "grid: {ctrl.fpi.Kp: [[0.4, 0.3], [0.1, 0.2, 0.3]]}\n")
-    with pytest.raises(InputError, match=r"swept value ctrl.fpi.Kp = \[0.1, 0.2, 0.3\]"):
+    with pytest.raises(InputError, match=r"bad.yaml:2: swept value ctrl.fpi.Kp = \[0.1, 0.2, 0.3\]"):
         sw.run_sweep(p, tmp_path / "o", jobs=1, progress=False)
     assert not (tmp_path / "o" / "points.jsonl").exists()
+
+
+def test_a_scaled_subsystem_parameter_of_a_broken_diagram_reports_the_diagram(tmp_path):
+    from hybridsim.errors import InputError
+
+    (tmp_path / "sub.yaml").write_text("name: sub\nparams: {k: 1.0}\nblocks:\n  g: {type: gain, K: $k}\n"
+                                       "inputs: {u: g.u}\noutputs: {y: g.y}\n")
+    (tmp_path / "d.yaml").write_text("blocks:\n  c: {type: constant, value: 1.0}\n"
+                                     "  s: {type: subsystem, file: sub.yaml, kk: 2.0}\n"
+                                     "wires: [c.y -> s.u]\nsimulation: {t_end: 0.1}\n")
+    p = tmp_path / "s.yaml"
+    p.write_text("diagram: d.yaml\nscale:\n  s.g.K: [0.5, 1.0]\n")
+    with pytest.raises(InputError, match=r"d.yaml:3: subsystem 's' \(sub.yaml\) has no parameter 'kk'"):
+        sw.run_sweep(p, tmp_path / "o", jobs=1, progress=False)
+    p.write_text("diagram: d.yaml\nscale:\n  nosuch: [0.5, 1.0]\n")
+    with pytest.raises(InputError, match=r"s.yaml:3: cannot scale 'nosuch'"):
+        sw.Sweep(p).points()
 
 
 def test_a_parameter_that_is_not_finite_is_not_scaled(tmp_path):
