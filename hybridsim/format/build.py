@@ -176,6 +176,11 @@ def check_analysis_branches(f):
     lines = cfg.get("_lines", {})
     branches = [("set", "", cfg.get("set") or {})]
     branches += [("cases", name, {**(cfg.get("set") or {}), **ov}) for name, ov in (cfg.get("cases") or {}).items()]
+    branches += [("compare", name, {**(cfg.get("set") or {}), **ov})
+                 for name, ov in (cfg.get("compare") or {}).items() if isinstance(ov, dict)]
+    step = cfg.get("step") if isinstance(cfg.get("step"), dict) else {}
+    if step.get("set"):
+        branches.append(("step", "", {**(cfg.get("set") or {}), **step["set"]}))
     # the sweeps' extremes: the lowest and highest servo rate, each gain at the smallest and largest scale
     rates, scales, base = cfg.get("rates") or [], cfg.get("scales") or [], cfg.get("set") or {}
     if rates and cfg.get("rate_param", "rate") in f.params:

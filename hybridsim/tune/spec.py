@@ -300,7 +300,19 @@ class TuneSpec:
         logged = {str(ref).split("[")[0] for ref in settings["log"]}
         t_end = float(settings["simulation"]["t_end"])
         measured = _metric_names(settings, t_end)
+        points = (settings.get("analysis") or {}).get("points") or {}
+        hidden = [b.name for b in diagram.blocks.values() if getattr(b, "hidden_state", False)]
         for q in self.objectives + self.constraints:
+            if q.source == "analysis" and hidden:  # what a linearization would say, before any point runs
+                self._fail(f"analysis {q.analysis!r}: block(s) {', '.join(map(repr, hidden))} keep their state "
+                           "inside (a Co-Simulation FMU), where no linearization reaches it", q.line)
+            if q.source == "analysis" and q.loop is not None:
+                ref = str(points.get(q.loop, q.loop))
+                m = SIGNAL.match(ref)
+                block = diagram.blocks.get(m.group(1)) if m else None
+                if block is None or not any(p.name == m.group(2) for p in block.outputs):
+                    self._fail(f"loop {q.loop!r}: neither a name in {self.diagram.name}'s analysis.points "
+                               f"({', '.join(points) or 'none'}) nor an output block.port[i] of it", q.line)
             if q.source == "metric" and measured is not None and q.metric not in measured:
                 self._fail(f"metric {q.metric!r}: the runs of {self.diagram.name} measure "
                            f"{', '.join(sorted(measured)) or 'no metric'} (its signals and metrics sections say "

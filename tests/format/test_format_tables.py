@@ -236,6 +236,8 @@ def test_check_refuses_an_analysis_gain_that_is_not_a_number_with_its_line(tmp_p
     ("{set: {g.K: abc}}", "analysis set ({'g.K': 'abc'})"),
     ("{cases: {big: {g.K: [1, 2]}}}", "analysis cases big"),
     ("{set: {simulation.solver: foo}}", "unknown solver 'foo'"),
+    ("{step: {input: c.y, output: g.y, set: {c.nosuch: 1}}}", "analysis step"),
+    ("{compare: {big: {g.Kx: 2}}}", "analysis compare big"),
 ])
 def test_check_builds_the_analysis_branches_as_analyze_does(tmp_path, capsys, section, message):
     from hybridsim.app.cli import main
