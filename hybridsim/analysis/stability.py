@@ -37,6 +37,7 @@ def settings_of(f):
     """The diagram's analysis settings, checked against their table, over the defaults."""
     cfg = f.analysis_settings()
     cfg.pop("_lines", None)
+    cfg.pop("_locs", None)
     return cfg
 
 

@@ -173,7 +173,6 @@ def check_analysis_branches(f):
     if not f.data.get("analysis") or f.path is None:
         return
     cfg = f.analysis_settings()
-    lines = cfg.get("_lines", {})
     branches = [("set", "", cfg.get("set") or {})]
     branches += [("cases", name, {**(cfg.get("set") or {}), **ov}) for name, ov in (cfg.get("cases") or {}).items()]
     branches += [("compare", name, {**(cfg.get("set") or {}), **ov})
@@ -199,7 +198,8 @@ def check_analysis_branches(f):
             with overrides_from("the analysis section's"):
                 build(load(f.path, **{**f.overrides, **ov}), check_only=True)
         except InputError as exc:
-            raise LoaderError(f"analysis {key} {name}".rstrip() + f" ({ov}): {exc}", f.path, lines.get(key)) from None
+            raise LoaderError(f"analysis {key} {name}".rstrip() + f" ({ov}): {exc}",
+                              cfg.get("_locs", {}).get(key, f.path)) from None
 
 
 def check(path_or_file, **overrides):

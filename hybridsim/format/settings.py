@@ -83,8 +83,9 @@ class SettingsMixin:
         """
         params = dict(self.params) if params is None else params
         cfg, lines, problems = self._section("analysis", params)
+        locs = self._locs("analysis")
         if not problems:
-            line = lambda k: f"{self.path}:{lines.get(k)}"  # noqa: E731
+            line = lambda k: locs.get(k, str(self.path))  # noqa: E731
             for key in ("set", "cases", "compare"):
                 groups = {"": cfg.get(key, {})} if key == "set" else cfg.get(key, {})
                 for name, ov in groups.items():
@@ -104,8 +105,16 @@ class SettingsMixin:
         out.update({k: v for k, v in cfg.items() if v is not None})
         if isinstance(out.get("step"), dict):
             out["step"] = {**tables.defaults(tables.ANALYSIS_STEP), **out["step"]}
-        out["_lines"] = lines
+        out["_lines"], out["_locs"] = lines, locs
         return out
+
+    def _locs(self, name):
+        """``{key: "file:line"}`` of section ``name``'s keys (the file that gave each: this one or one
+        it extends)."""
+        raw = self.data.get(name)
+        lines = getattr(raw, "lines", None) or {}
+        locs = getattr(raw, "locs", None) or {}
+        return {k: str(locs.get(k) or f"{self.path}:{lines.get(k)}") for k in (raw or {})}
 
     def _check_refs(self, diagram, settings):
         """Every log entry, signal and analysis signal names an output (and an element in range).
@@ -114,20 +123,21 @@ class SettingsMixin:
         log = self.data.get("log") or _List()
         items = [(ref, (log.locs[k] if getattr(log, "locs", None) else str(self.path)), "log entry")
                  for k, ref in enumerate(settings["log"])]
-        items += [(ref, f"{self.path}:{settings['signal_lines'].get(role)}", f"signal {role!r}")
+        sig_locs = self._locs("signals")
+        items += [(ref, sig_locs.get(role, str(self.path)), f"signal {role!r}")
                   for role, ref in settings["signals"].items()]
         an = settings.get("analysis") or {}
-        an_lines = an.get("_lines", {})
-        items += [(self._alias(ref), f"{self.path}:{an_lines.get('points')}", f"analysis point {name!r}")
+        an_locs = an.get("_locs", {})
+        items += [(self._alias(ref), an_locs.get("points", str(self.path)), f"analysis point {name!r}")
                   for name, ref in (an.get("points") or {}).items()]
         if isinstance(an.get("step"), dict):
-            items += [(self._alias(an["step"][k]), f"{self.path}:{an_lines.get('step')}", f"analysis step {k}")
+            items += [(self._alias(an["step"][k]), an_locs.get("step", str(self.path)), f"analysis step {k}")
                       for k in ("input", "output") if k in an["step"]]
         problems, logged = [], {}
         for gname, ref in (an.get("gains") or {}).items():  # a gain names a parameter of a built block
             bname, _, pname = str(ref).rpartition(".")
             block = diagram.blocks.get(bname)
-            where = f"{self.path}:{an_lines.get('gains')}: analysis gain {gname!r} {ref!r}"
+            where = f"{an_locs.get('gains', self.path)}: analysis gain {gname!r} {ref!r}"
             if block is None:
                 problems.append(f"{where}: no block {bname!r}{closest(bname, diagram.blocks)}")
                 continue
@@ -177,12 +187,12 @@ class SettingsMixin:
         at = (settings.get("analysis") or {}).get("at")
         if at:
             why = horizon_problems(diagram.blocks.values(), sim, at, 0, "analysis at")
+            where = settings["analysis"]["_locs"].get("at", str(self.path))
             if why:
-                raise LoaderError("; ".join(why), self.path, settings["analysis"]["_lines"].get("at"))
+                raise LoaderError("; ".join(why), where)
             if at > sim["t_end"]:
-                note("%s:%s: analysis at %g s is past t_end %g s: each linearization of analyze and "
-                             "report (one per rate, gain and case) simulates %g s first", self.path,
-                             settings["analysis"]["_lines"].get("at"), at, sim["t_end"], at)
+                note("%s: analysis at %g s is past t_end %g s: each linearization of analyze and "
+                     "report (one per rate, gain and case) simulates %g s first", where, at, sim["t_end"], at)
 
     def _settings(self, params):
         simr, sim_lines, problems = self._section("simulation", params)

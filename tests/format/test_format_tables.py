@@ -300,3 +300,16 @@ def test_a_bad_swept_value_is_named_as_the_sweeps_not_as_set(tmp_path, capsys):
         s.write_text(f"diagram: {d}\ngrid: {{{key}: [1.0, .inf]}}\n")
         code, err = run(capsys, "check", str(s))
         assert code == 2 and where in err and "--set" not in err, err
+
+
+def test_an_analysis_line_from_an_extended_file_names_that_file(tmp_path, capsys):
+    from hybridsim.app.cli import main
+
+    base = tmp_path / "base.yaml"
+    base.write_text("blocks:\n  c: {type: constant, value: 1.0}\n  g: {type: gain, K: 2.0}\nwires: [c.y -> g.u]\n"
+                    "simulation: {t_end: 0.01}\nanalysis:\n  gains: {k: g.K}\n")
+    child = tmp_path / "child.yaml"
+    child.write_text("extends: base.yaml\nblocks:\n  g: {type: saturation}\n")  # g has no K now
+    assert main(["check", str(child)]) == 2
+    err = capsys.readouterr().err
+    assert f"{base}:7: analysis gain 'k' 'g.K'" in err, err
