@@ -203,12 +203,16 @@ class ExpandMixin:
             self.files.extend(f for f in sub.files if f not in self.files)
         return ins, outs, where
 
-    def _set_origin(self, value):
-        """' (the value of $k, from --set k)' where ``value`` refers to parameters set by an override."""
-        if not getattr(self, "command_line", True):
-            return ""
-        named = sorted(n for n in _references(value) if n in getattr(self, "overrides", {}))
-        return "".join(f" (the value of ${n}, from {self.origin} {n})" for n in named)
+    def _set_origin(self, value, where=None):
+        """' (the value of $k, from --set k)' where ``value`` refers to parameters set by an override,
+        ' (the value of $k, from child.yaml:3)' where by a file other than ``where``'s (file:line)."""
+        refs = sorted(_references(value))
+        overrides = getattr(self, "overrides", {}) if getattr(self, "command_line", True) else {}
+        out = "".join(f" (the value of ${n}, from {self.origin} {n})" for n in refs if n in overrides)
+        locs = getattr(self.data.get("params"), "locs", None) or {}
+        here = str(where or "").rpartition(":")[0]
+        return out + "".join(f" (the value of ${n}, from {locs[n]})" for n in refs
+                             if n not in overrides and n in locs and here and str(locs[n]).rpartition(":")[0] != here)
 
     def _make_block(self, diagram, bname, spec, params, prefix, context):
         """Construct one block from its spec and add it as ``prefix + bname`` (problems noted)."""
@@ -253,12 +257,12 @@ class ExpandMixin:
                 if why:
                     problems.append(f"{context}{spec.locs[pname]}: block {bname!r} ({tname}): parameter {pname!r} "
                                     + (why if why.startswith("must") else f"must be {by_key[pname].kind.text}: {why}")
-                                    + self._set_origin(pval))
+                                    + self._set_origin(pval, spec.locs[pname]))
                     bad = True
                     continue
             if _has_nan(kwargs[pname]):
                 problems.append(f"{context}{spec.locs[pname]}: block {bname!r} ({tname}): parameter "
-                                f"{pname!r} is not a number (NaN)" + self._set_origin(pval))
+                                f"{pname!r} is not a number (NaN)" + self._set_origin(pval, spec.locs[pname]))
                 bad = True
         for r in required:
             if r not in kwargs and not bad:
@@ -273,7 +277,7 @@ class ExpandMixin:
             problems.append(f"{context}{where}: block {bname!r} ({tname}): bad rate: {exc}")
         except ParameterError as exc:
             problems.append(f"{context}{spec.locs.get(exc.param, blocks.locs[bname])}: block {bname!r} ({tname}): {exc}"
-                            + self._set_origin(spec.get(exc.param)))
+                            + self._set_origin(spec.get(exc.param), spec.locs.get(exc.param)))
         except (ValueError, TypeError, ArithmeticError) as exc:
             problems.append(f"{here}: block {bname!r} ({tname}): {exc}")
         except Exception as exc:  # noqa: BLE001 - a plugin's constructor may raise anything: its fault

@@ -313,3 +313,15 @@ def test_an_analysis_line_from_an_extended_file_names_that_file(tmp_path, capsys
     assert main(["check", str(child)]) == 2
     err = capsys.readouterr().err
     assert f"{base}:7: analysis gain 'k' 'g.K'" in err, err
+
+
+def test_a_value_set_in_a_child_file_is_named_where_a_parent_block_uses_it(tmp_path, capsys):
+    from hybridsim.app.cli import main
+
+    (tmp_path / "base.yaml").write_text("params: {k: 1.0}\nblocks:\n  c: {type: constant, value: $k}\n"
+                                        "simulation: {t_end: 0.01}\n")
+    child = tmp_path / "child.yaml"
+    child.write_text("extends: base.yaml\nparams:\n  k: null\n")
+    assert main(["check", str(child)]) == 2
+    err = capsys.readouterr().err
+    assert "base.yaml:3: block 'c' (constant): parameter 'value'" in err and f"(the value of $k, from {child}:3)" in err, err
