@@ -167,7 +167,7 @@ def plugin_fault(exc):
     if hit is None:
         return None
     code = hit.tb_frame.f_code
-    block = hit.tb_frame.f_locals.get("self")
+    block = _block_of(frames[:frames.index(hit) + 1])
     name = getattr(block, "name", None)
     tname = getattr(type(block), "type_name", type(block).__name__) if block is not None else None
     who = f"block {name!r} ({tname})" if name is not None else "its code"
@@ -175,6 +175,19 @@ def plugin_fault(exc):
     text = str(exc).splitlines()[0] if str(exc) else ""
     return PluginFault(f"plugin {mod!r}: {who} raised {type(exc).__name__}: {text} "
                        f"(in {code.co_name}, {code.co_filename}:{hit.tb_lineno})", plugin=mod, block=name)
+
+
+def _block_of(frames):
+    """The block the innermost of ``frames`` works for: a frame's ``self``, or a block the engine's
+    frame was evaluating (a kernel or helper function of a plugin has no ``self``)."""
+    from hybridsim.engine.block import Block
+
+    for f in reversed(frames):
+        local = f.tb_frame.f_locals
+        for name in ("self", "block", "blk", "b"):
+            if isinstance(local.get(name), Block):
+                return local[name]
+    return None
 
 
 def _written_in_place(tb, exc):
