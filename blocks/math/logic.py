@@ -62,7 +62,15 @@ def relational_output(p, t, x, u):
 
 @kernel
 def difference_crossings(p, t, x, u):
-    return np.asarray(u[0]) - np.asarray(u[1])
+    """u1 - u2, never zero where equality is one of the sides: there it is past zero on the side whose
+    output equality gives (<, >=: that of u1 > u2; <=, >: that of u1 < u2), as the output a stage sees."""
+    d = np.asarray(u[0]) - np.asarray(u[1])
+    op = p[0]
+    if op == 0.0 or op == 3.0:
+        return np.where(d == 0.0, 1e-300, d)
+    if op == 1.0 or op == 2.0:
+        return np.where(d == 0.0, -1e-300, d)
+    return d  # == and !=: equality is a value of its own
 
 
 @register("logical")

@@ -89,7 +89,10 @@ def switch_output(p, t, x, u):
 
 @kernel
 def switch_crossings(p, t, x, u):
-    return np.asarray(u[1]) - p[0]
+    """control - threshold, never zero: at the threshold it is past zero, on u1's side (a function
+    fires on leaving zero, and a stage at the threshold already passes u1)."""
+    d = np.asarray(u[1]) - p[0]
+    return np.where(d == 0.0, 1e-300, d)
 
 
 @register("product")

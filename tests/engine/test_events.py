@@ -249,6 +249,39 @@ def test_a_jump_at_a_sample_hit_or_at_the_end_is_integrated_exactly_with_located
     assert [names for _, names in r.meta["events"]] == [("r",)]  # the edge at 0.5 s; none at 0 or 1 s
 
 
+THRESHOLD = """name: threshold
+blocks:
+  c: {type: clock}
+  th: {type: constant, value: TH}
+  cmp: {type: relational, op: "OP"}
+  sw: {type: switch, threshold: TH}
+  one: {type: constant, value: 1.0}
+  zero: {type: constant, value: 0.0}
+  icmp: {type: integrator}
+  isw: {type: integrator}
+wires: [c.y -> cmp.u1, th.y -> cmp.u2, cmp.y -> icmp.u, one.y -> sw.u1, c.y -> sw.control, zero.y -> sw.u2,
+        sw.y -> isw.u]
+simulation: {t_end: 1.0, step: 1.0e-3, log_period: 0.01, locate_switches: true}
+log: [icmp.y, isw.y]
+"""
+
+
+@on_fixed_step_paths
+@pytest.mark.parametrize("op", ["<", "<=", ">", ">="])
+def test_a_comparison_whose_threshold_a_stage_lands_on_is_integrated_exactly(tmp_path, solver, path, op):
+    # t >= 0.37 with h = 1 ms: a step's end (0.37) or its middle stages (0.3705) land on the threshold,
+    # where the event function read zero, on the side before the crossing, while the output had
+    # already switched: one stage of the wrong value (0.6301667 on rk4 for the switch)
+    for th in (0.37, 0.3705):
+        f = tmp_path / "th.yaml"
+        f.write_text(THRESHOLD.replace("TH", str(th)).replace("OP", op))
+        r = hs.simulate(f, solver=solver, **path)
+        on = th if op in ("<", "<=") else 1.0 - th
+        got = r["icmp.y"][-1, 0], r["isw.y"][-1, 0]
+        assert abs(got[0] - on) < 1e-12 and abs(got[1] - (1.0 - th)) < 1e-12, (th, got)
+        assert [round(t, 12) for t, _ in r.meta["events"]] == [th]
+
+
 PID_AT_REST = """name: pidrest
 blocks:
   r: {type: step, initial: 0.0, final: 1.0, time: T}
