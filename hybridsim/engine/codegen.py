@@ -103,33 +103,21 @@ def glue_source(system, log_path, located, layout, method):
     sig = "(t, x, y, z, pf, pi, due, row)"
     fns = []
 
-    # the hit's output pass (op 0) and the log path (op 2) in one body: the log path's blocks run in
-    # both, the others only in op 0 (the due discrete ones only when due); a block run only in op 0
-    # is read from y after its group, where op 2 finds the value it holds between hits
-    hit = [i for i, _ in sysm.plan.hit_sequence()]
+    # the hit's output pass (op 0) and the log path (op 2) in one body (:func:`_pass_lines`); a long
+    # one in parts of HIT_PART blocks, each a function of its own called in turn
+    seq = sysm.plan.hit_sequence()
     logged = set(log_path)
-    L = [f"def outputs{sig}:"] + wr.param_lines(hit)
-    local, group = set(), None  # group: the blocks of the open ``if op == 0:``
-    for i, disc in sysm.plan.hit_sequence():
-        if i in logged:
-            if group is not None:
-                local -= group
-                group = None
-            L += wr.evaluate(i, "    ", local, store=True) + wr.check(i, "    ")
-            continue
-        pad = "            " if disc else "        "
-        body = wr.evaluate(i, pad, local, store=True) + wr.check(i, pad)
-        if not body:
-            continue
-        if group is None:
-            L.append("    if op == 0:")
-            group = set()
-        if disc:
-            local.discard(i)  # held when not due: later blocks read it from y
-            L += [f"        if due[row, {due_col[i]}]:"] + body
-        else:
-            group.add(i)
-            L += body
+    parts = [seq[k:k + HIT_PART] for k in range(0, len(seq), HIT_PART)] or [[]]
+    helpers = []  # the parts' functions (taking the hit's arguments)
+    if len(parts) == 1:
+        L = [f"def outputs{sig}:"] + wr.param_lines([i for i, _ in seq]) + _pass_lines(wr, seq, logged, due_col)
+    else:
+        L = [f"def outputs{sig}:"]
+        for c, part in enumerate(parts):
+            helpers.append([f"def hit_part{c}(op, {sig[1:-1]}):"] + wr.param_lines([i for i, _ in part])
+                           + _pass_lines(wr, part, logged, due_col) + ["    return -1"])
+            L += [f"    r = hit_part{c}(op, t, x_p, y_p, z_p, pf_p, pi_p, due_p, row)", "    if r >= 0:",
+                  "        return r"]
     L.append("    return -1")
     fns.append(L)
 
@@ -181,32 +169,68 @@ def glue_source(system, log_path, located, layout, method):
                 "        dx[at + k] = math.nan"])
     fns.append(rk_code.glue_steps_lines(method, "rhs_body", "rhs_params(pf_p, pi_p)"))
 
-    # located events: their functions and actions
+    # located events: their functions and actions; with many blocks, in parts of HIT_PART blocks (the
+    # path's outputs stored in y by path_part functions, the functions and actions reading them there)
     sizes = event_sizes(sysm, located) if located else []
-    lines, local = rhs_outputs() if located else ([], set())  # no located events: nothing to compute
+    starts = [sum(sizes[:k]) for k in range(len(sizes))]
+    long = bool(located) and len(path) + len(located) > HIT_PART
+    if long:
+        lines, local = [], set()
+        for c, k in enumerate(range(0, len(path), HIT_PART)):
+            part, done = path[k:k + HIT_PART], set()
+            body = [ln for i in part for ln in wr.evaluate(i, "    ", done, store=True)]
+            helpers.append([f"def path_part{c}(t, x, y, z, pf, pi):"] + wr.param_lines(part) + body + ["    return 0"])
+            lines.append(f"    path_part{c}(t, x_p, y_p, z_p, pf_p, pi_p)")
+    else:
+        lines, local = rhs_outputs() if located else ([], set())  # no located events: nothing to compute
+    groups = ([list(range(k, min(k + HIT_PART, len(located)))) for k in range(0, len(located), HIT_PART)]
+              if long else [list(range(len(located)))])
+
+    def zc_lines(group):
+        out = []
+        for n in group:
+            i, m, c = located[n], sizes[n], starts[n]
+            out.append(f"    e{i} = {wr.kernel(i, 'zero_crossings')}(P{i}, t, {wr.state(i)}, {wr.inputs(i, local)})")
+            out += [f"    g[{c + j}] = e{i}[{j}]" for j in range(m)]
+        return out
+
+    def act_lines(group):
+        out = []
+        for n in group:
+            i, m, c = located[n], sizes[n], starts[n]
+            s = sysm.xslices[i]
+            if sysm.blocks[i].kernels.event_action is None or s is None:  # a switch: it only restarts
+                continue
+            fired = _tuple(f"fired[{c + j}]" for j in range(m))
+            out += [f"    if {' or '.join(f'fired[{c + j}]' for j in range(m))}:",
+                    f"        a{i} = {wr.kernel(i, 'event_action')}(P{i}, t, {wr.state(i)}, {wr.inputs(i, local)}, {fired})"]
+            out += [f"        xn[{s.start + j}] = a{i}[{j}]" for j in range(s.stop - s.start)]
+        return out
+
     if located:  # without, the shared stub (glue_stubs.zc)
-        L = ["def zc(t, x, g, y, z, pf, pi):"] + wr.param_lines(path + list(located)) + lines
-        c = 0
-        for i, m in zip(located, sizes):
-            f = wr.kernel(i, "zero_crossings")
-            L.append(f"    e{i} = {f}(P{i}, t, {wr.state(i)}, {wr.inputs(i, local)})")
-            L += [f"    g[{c + j}] = e{i}[{j}]" for j in range(m)]
-            c += m
+        L = ["def zc(t, x, g, y, z, pf, pi):"] + lines
+        if long:
+            for c, group in enumerate(groups):
+                helpers.append([f"def zc_part{c}(t, x, g, y, z, pf, pi):"]
+                               + wr.param_lines([located[n] for n in group]) + zc_lines(group) + ["    return 0"])
+                L.append(f"    zc_part{c}(t, x_p, g_p, y_p, z_p, pf_p, pi_p)")
+        else:
+            L[1:1] = wr.param_lines(path + list(located))
+            L += zc_lines(groups[0])
         fns.append(L)
-    L = ["def act(t, x, xn, fired, y, z, pf, pi):"] + (wr.param_lines(path + list(located)) + lines if located else [])
+    L = ["def act(t, x, xn, fired, y, z, pf, pi):"] + lines
+    if located and not long:
+        L[1:1] = wr.param_lines(path + list(located))
     L += [f"    for k in range({sysm.n_x}):", "        xn[k] = x[k]"]
-    c = 0
-    for i, m in zip(located, sizes):
-        s = sysm.xslices[i]
-        if sysm.blocks[i].kernels.event_action is None or s is None:  # a switch: it only restarts
-            c += m
-            continue
-        f = wr.kernel(i, "event_action")
-        fired = _tuple(f"fired[{c + j}]" for j in range(m))
-        L += [f"    if {' or '.join(f'fired[{c + j}]' for j in range(m))}:",
-              f"        a{i} = {f}(P{i}, t, {wr.state(i)}, {wr.inputs(i, local)}, {fired})"]
-        L += [f"        xn[{s.start + j}] = a{i}[{j}]" for j in range(s.stop - s.start)]
-        c += m
+    if long:
+        for c, group in enumerate(groups):
+            body = act_lines(group)
+            if body:
+                helpers.append([f"def act_part{c}(t, x, xn, fired, y, z, pf, pi):"]
+                               + wr.param_lines([located[n] for n in group]) + body + ["    return 0"])
+                L.append(f"    act_part{c}(t, x_p, xn_p, fired_p, y_p, z_p, pf_p, pi_p)")
+    else:
+        L += act_lines(groups[0])
     L.append("    return 0")
     fns.append(L)
 
@@ -237,7 +261,7 @@ def glue_source(system, log_path, located, layout, method):
               "x": f"({sysm.n_x},)", "xn": f"({sysm.n_x},)", "dx": f"(at + {sysm.n_x},)", "y": f"({n_y},)",
               "z": f"({n_z},)", "pf": f"({layout.nf},)", "pi": f"({layout.ni},)", "g": f"({n_e},)",
               "fired": f"({n_e},)", "due": f"(row + 1, {len(sysm.discrete)})"}
-    fns = [rhs_fn] + [_viewing(f, shapes) for f in fns]
+    fns = [rhs_fn] + [_viewing(f, shapes) for f in helpers + fns]
     body = "\n\n\n".join("\n".join(f if len(f) > 1 else f + ["    pass"]) for f in fns)
     kernels = [f[1] if isinstance(f, tuple) else f for f in env.values() if callable(f) or isinstance(f, tuple)]
     stamp = _stamp(reachable(k for k in kernels if callable(k)))
@@ -246,6 +270,40 @@ def glue_source(system, log_path, located, layout, method):
             "import math\n\nimport numpy as np\nfrom numba import carray\n\n"
             "from hybridsim.engine.pointers import offset\n\n\n")
     return head + body + "\n", env
+
+
+#: the most blocks one generated function of the hit's output pass holds: numba's compile time grows
+#: faster than a function's length (80 blocks in one: 85 s, in parts of 30: 15 s), so a longer pass
+#: is cut into functions of this many blocks, called in turn (a part reads the ones before from y)
+HIT_PART = 32
+
+
+def _pass_lines(wr, seq, logged, due_col):
+    """The output pass (op 0) and the log path (op 2) over ``seq`` (``[(block, is_discrete)]``): the log
+    path's blocks run in both, the others only in op 0 (the due discrete ones only when due); a block
+    run only in op 0 is read from y after its group, where op 2 finds the value it holds between hits."""
+    L, local, group = [], set(), None  # group: the blocks of the open ``if op == 0:``
+    for i, disc in seq:
+        if i in logged:
+            if group is not None:
+                local -= group
+                group = None
+            L += wr.evaluate(i, "    ", local, store=True) + wr.check(i, "    ")
+            continue
+        pad = "            " if disc else "        "
+        body = wr.evaluate(i, pad, local, store=True) + wr.check(i, pad)
+        if not body:
+            continue
+        if group is None:
+            L.append("    if op == 0:")
+            group = set()
+        if disc:
+            local.discard(i)  # held when not due: later blocks read it from y
+            L += [f"        if due[row, {due_col[i]}]:"] + body
+        else:
+            group.add(i)
+            L += body
+    return L
 
 
 #: what ``hit`` does, by its argument ``op`` (0, 1, 2): the output pass, the updates, the log path

@@ -291,6 +291,8 @@ def _load(source, env, name, system=None):
     inner = dict(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
     module.rhs_params = njit(inline="always", **inner)(module.rhs_params)
     module.rhs_body = njit(inline="always", **inner)(module.rhs_body)
+    for part in [n for n in vars(module) if re.fullmatch(r"(hit|path|zc|act)_part\d+", n)]:  # a long diagram's
+        setattr(module, part, njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)(getattr(module, part)))
     types = native.types()["glue"]
     try:
         with warnings.catch_warnings(), native.compiling(f"glue_{key}"):

@@ -214,3 +214,51 @@ def test_a_compiled_context_starts_and_ends_as_the_generic_one():
     assert not sim._compiled.evaluate(numbers, 0.0, a, held=True)
     a.xc[:] = b.xc
     assert sim._compiled.evaluate(numbers, 0.0, a, held=True)
+
+
+@pytest.mark.slow
+def test_a_long_output_pass_is_compiled_in_parts_and_gives_the_same_numbers(tmp_path):
+    # the hit's output pass in two functions (codegen.HIT_PART); one function of 120 blocks took
+    # numba 100 s, growing with the square of its length
+    from hybridsim.engine.codegen import HIT_PART
+
+    n = HIT_PART + 4
+    blocks = ["  src: {type: sine, frequency: 3.0}", "  hold: {type: zoh, rate: 50}"]
+    wires = ["src.y -> hold.u", "hold.y -> g0.u"]
+    for k in range(n):
+        blocks.append(f"  g{k}: {{type: gain, K: {1.0 + 0.001 * k}}}")
+        if k:
+            wires.append(f"g{k - 1}.y -> g{k}.u")
+    blocks.append("  i: {type: integrator}")
+    wires += [f"g{n - 1}.y -> i.u"]
+    f = tmp_path / "long.yaml"
+    f.write_text("name: long\nblocks:\n" + "\n".join(blocks) + "\nwires: [" + ", ".join(wires) + "]\n"
+                 f"log: [i.y, g{n - 1}.y]\nsimulation: {{t_end: 0.3, step: 1.0e-3, log_period: 0.0037}}\n")
+    _, sim, _ = hs.build(f, **{"simulation.compiled": True})
+    assert "def hit_part1(" in sim._compiled.source
+    a = sim.run(0.3)
+    b = hs.simulate(f, fused=False)
+    assert np.array_equal(a.table(), b.table()) and a.table()[-1, 1] != 0.0
+
+
+@pytest.mark.slow
+def test_many_located_blocks_are_compiled_in_parts_and_give_the_same_events(tmp_path):
+    # 17 limited integrators on cosines: the event functions and actions in parts reading the path's
+    # outputs from y (one function of 40 such blocks took numba 24 s, growing with its square)
+    import math
+
+    blocks, wires = [], []
+    for k in range(17):
+        f = 1.0 + 0.01 * k
+        a = 0.6 / (2 * math.pi * f)
+        blocks += [f"  s{k}: {{type: cosine, frequency: {f}}}", f"  I{k}: {{type: integrator, upper: {a}, lower: {-a}}}"]
+        wires.append(f"s{k}.y -> I{k}.u")
+    p = tmp_path / "limits.yaml"
+    p.write_text("name: limits\nblocks:\n" + "\n".join(blocks) + "\nwires: [" + ", ".join(wires) + "]\n"
+                 "log: [I0.y, I16.y]\nsimulation: {t_end: 1.0, step: 1.0e-3, log_period: 0.01}\n")
+    _, sim, _ = hs.build(p, **{"simulation.compiled": True})
+    assert "def zc_part0(" in sim._compiled.source and "def act_part0(" in sim._compiled.source
+    a = sim.run(1.0)
+    b = hs.simulate(p, fused=False)
+    assert np.array_equal(a.table(), b.table())
+    assert a.meta["events"] == b.meta["events"] and len(a.meta["events"]) >= 34
