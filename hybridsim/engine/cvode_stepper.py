@@ -77,8 +77,12 @@ class CVodeStepper:
                 stepping.mute(out, w.muted)
 
         longest = min(s.max_step, s.scan) if e else s.max_step  # roots are looked for at step ends only
-        opts = dict(method=s.method, rtol=s.rtol, atol=s.atol, max_step=longest if np.isfinite(longest) else 0.0,
-                    max_num_steps=SWITCH_STEPS if w.switch.any() else MAX_STEPS)
+        # a step that cannot move t (a few of its float spacings) fails at once, as scipy's solvers do,
+        # instead of crawling to max_num_steps (a singularity: 1/(t - 0.5) took 77 s to fail)
+        tiny = 4.0 * np.spacing(max(abs(self.t0), abs(self.t1), 1.0))
+        opts = dict(method=s.method, rtol=s.rtol, atol=s.atol,
+                    max_step=longest if np.isfinite(longest) else np.finfo(float).max,  # (0 is refused with a min)
+                    max_num_steps=SWITCH_STEPS if w.switch.any() else MAX_STEPS, min_step=tiny)
         if e:
             roots.terminal = [True] * e
             roots.direction = [int(d) for d in w.dirs]

@@ -86,6 +86,18 @@ def test_a_failing_right_hand_side_is_a_simulation_error():
         CVode(rtol=1e-8).advance(lambda t, x: np.array([x[0] ** 2 * 1e6]), 0.0, 1.0, np.array([1.0]))
 
 
+def test_a_singularity_fails_at_once_at_a_step_that_cannot_move_t(tmp_path):
+    # y' = 1 / (t - 0.5): CVODE crawled toward 0.5 in steps of float spacings until max_num_steps
+    # (77 s); a step of a few spacings of t is now its minimum, and the run fails there
+    f = tmp_path / "sing.yaml"
+    f.write_text("blocks:\n  c: {type: clock}\n  h: {type: constant, value: 0.5}\n  one: {type: constant, value: 1.0}\n"
+                 "  d: {type: sum, signs: '+-'}\n  p: {type: product, ops: '*/'}\n  i: {type: integrator}\n"
+                 "wires: [c.y -> d.u1, h.y -> d.u2, one.y -> p.u1, d.y -> p.u2, p.y -> i.u]\n"
+                 "simulation: {t_end: 1.0, solver: cvode, log_period: 0.01}\nlog: [i.y]\n")
+    with pytest.raises(SimulationError, match="min step"):
+        hs.simulate(f)
+
+
 @pytest.fixture(scope="module")
 def plant(tmp_path_factory):
     from hybridsim.fmus.build import build_plant_fmu
