@@ -310,9 +310,12 @@ class TuneSpec:
                 ref = str(points.get(q.loop, q.loop))
                 m = SIGNAL.match(ref)
                 block = diagram.blocks.get(m.group(1)) if m else None
-                if block is None or not any(p.name == m.group(2) for p in block.outputs):
+                port = next((p for p in block.outputs if p.name == m.group(2)), None) if block else None
+                if port is None:
                     self._fail(f"loop {q.loop!r}: neither a name in {self.diagram.name}'s analysis.points "
                                f"({', '.join(points) or 'none'}) nor an output block.port[i] of it", q.line)
+                if m.group(3) is not None and int(m.group(3)) >= port.width:
+                    self._fail(f"loop {q.loop!r}: {m.group(1)}.{m.group(2)} has {port.width} element(s)", q.line)
             if q.source == "metric" and measured is not None and q.metric not in measured:
                 self._fail(f"metric {q.metric!r}: the runs of {self.diagram.name} measure "
                            f"{', '.join(sorted(measured)) or 'no metric'} (its signals and metrics sections say "

@@ -150,6 +150,8 @@ def test_pareto_front_by_hand():
     (PARAMS + "objectives:\n  - {analysis: phase_margin_deg, goal: max}\n", 8, "needs 'loop'"),
     (PARAMS + "objectives:\n  - {analysis: phase_margin_deg, loop: nosuchloop, goal: max}\n", 8,
      "loop 'nosuchloop': neither a name in msd_pid.yaml's analysis.points"),
+    (PARAMS + "objectives:\n  - {analysis: phase_margin_deg, loop: 'plant.y[3]', goal: max}\n", 8,
+     "loop 'plant.y[3]': plant.y has 1 element(s)"),
     (PARAMS + "objectives:\n" + SETTLE + "method: {name: simplex}\n", 9, "method 'simplex'"),
     (PARAMS + "objectives:\n" + SETTLE + "method: {name: tpe,\n  trials: 0}\n", 10, "trials must be"),
     (PARAMS + "objectives:\n" + SETTLE + "  - {metric: overshoot_pct, of: plant.y, goal: max}\n", 8,
