@@ -198,8 +198,12 @@ def check_analysis_branches(f):
             with overrides_from("the analysis section's"):
                 build(load(f.path, **{**f.overrides, **ov}), check_only=True)
         except InputError as exc:
-            raise LoaderError(f"analysis {key} {name}".rstrip() + f" ({ov}): {exc}",
-                              cfg.get("_locs", {}).get(key, f.path)) from None
+            where = cfg.get("_locs", {}).get(key, f.path)
+            if key in ("cases", "compare"):
+                where = f._locs("analysis", key).get(name, where)
+            elif key == "step":
+                where = f._locs("analysis", "step").get("set", where)
+            raise LoaderError(f"analysis {key} {name}".rstrip() + f" ({ov}): {exc}", where) from None
 
 
 def check(path_or_file, **overrides):

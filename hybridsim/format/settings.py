@@ -88,10 +88,14 @@ class SettingsMixin:
             line = lambda k: locs.get(k, str(self.path))  # noqa: E731
             for key in ("set", "cases", "compare"):
                 groups = {"": cfg.get(key, {})} if key == "set" else cfg.get(key, {})
+                entries = self._locs("analysis", key)
                 for name, ov in groups.items():
-                    problems += self._override_problems(ov, line(key), f"analysis {key} {name}".rstrip())
+                    where = entries.get(name, line(key)) if name else line(key)
+                    problems += self._override_problems(ov, where, f"analysis {key} {name}".rstrip())
             if isinstance(cfg.get("step"), dict):
-                problems += self._override_problems(cfg["step"].get("set", {}), line("step"), "analysis step set")
+                problems += self._override_problems(cfg["step"].get("set", {}),
+                                                    self._locs("analysis", "step").get("set", line("step")),
+                                                    "analysis step set")
             for gname, ref in cfg.get("gains", {}).items():
                 path = ParamPath.parse(ref)
                 if path.kind != "block" or path.block not in self.data["blocks"]:
@@ -108,13 +112,17 @@ class SettingsMixin:
         out["_lines"], out["_locs"] = lines, locs
         return out
 
-    def _locs(self, name):
-        """``{key: "file:line"}`` of section ``name``'s keys (the file that gave each: this one or one
-        it extends)."""
-        raw = self.data.get(name)
+    def _locs(self, *keys):
+        """``{key: "file:line"}`` of the keys of the mapping at ``keys`` (``"analysis", "step"``: the
+        step's keys), each in the file that gave it (this one or one it extends)."""
+        raw = self.data
+        for k in keys:
+            raw = raw.get(k) if isinstance(raw, dict) else None
+        if not isinstance(raw, dict):
+            return {}
         lines = getattr(raw, "lines", None) or {}
         locs = getattr(raw, "locs", None) or {}
-        return {k: str(locs.get(k) or f"{self.path}:{lines.get(k)}") for k in (raw or {})}
+        return {k: str(locs.get(k) or f"{self.path}:{lines.get(k)}") for k in raw}
 
     def _check_refs(self, diagram, settings):
         """Every log entry, signal and analysis signal names an output (and an element in range).
@@ -128,16 +136,18 @@ class SettingsMixin:
                   for role, ref in settings["signals"].items()]
         an = settings.get("analysis") or {}
         an_locs = an.get("_locs", {})
-        items += [(self._alias(ref), an_locs.get("points", str(self.path)), f"analysis point {name!r}")
-                  for name, ref in (an.get("points") or {}).items()]
+        point_locs, step_locs = self._locs("analysis", "points"), self._locs("analysis", "step")
+        items += [(self._alias(ref), point_locs.get(name, an_locs.get("points", str(self.path))),
+                   f"analysis point {name!r}") for name, ref in (an.get("points") or {}).items()]
         if isinstance(an.get("step"), dict):
-            items += [(self._alias(an["step"][k]), an_locs.get("step", str(self.path)), f"analysis step {k}")
-                      for k in ("input", "output") if k in an["step"]]
+            items += [(self._alias(an["step"][k]), step_locs.get(k, an_locs.get("step", str(self.path))),
+                       f"analysis step {k}") for k in ("input", "output") if k in an["step"]]
         problems, logged = [], {}
         for gname, ref in (an.get("gains") or {}).items():  # a gain names a parameter of a built block
             bname, _, pname = str(ref).rpartition(".")
             block = diagram.blocks.get(bname)
-            where = f"{an_locs.get('gains', self.path)}: analysis gain {gname!r} {ref!r}"
+            where = (f"{self._locs('analysis', 'gains').get(gname, an_locs.get('gains', self.path))}: "
+                     f"analysis gain {gname!r} {ref!r}")
             if block is None:
                 problems.append(f"{where}: no block {bname!r}{closest(bname, diagram.blocks)}")
                 continue

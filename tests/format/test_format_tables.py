@@ -325,3 +325,19 @@ def test_a_value_set_in_a_child_file_is_named_where_a_parent_block_uses_it(tmp_p
     assert main(["check", str(child)]) == 2
     err = capsys.readouterr().err
     assert "base.yaml:3: block 'c' (constant): parameter 'value'" in err and f"(the value of $k, from {child}:3)" in err, err
+
+
+def test_analysis_step_and_compare_errors_point_at_their_own_lines(tmp_path, capsys):
+    from hybridsim.app.cli import main
+
+    base = ("blocks:\n  c: {type: constant, value: 1.0}\n  g: {type: gain, K: 2.0}\nwires: [c.y -> g.u]\n"
+            "simulation: {t_end: 0.01}\nanalysis:\n  step:\n    input: c.y[0]\n    output: OUT\n    set: SET\n"
+            "  compare:\n    soft: {g.K: 1.0}\n    hard: HARD\n")
+    p = tmp_path / "a.yaml"
+    for text, where in [(base.replace("OUT", "g.y[0]").replace("SET", "{c.nosuch: 1}").replace("HARD", "{g.K: 3.0}"), 10),
+                        (base.replace("OUT", "g.yy[0]").replace("SET", "{}").replace("HARD", "{g.K: 3.0}"), 9),
+                        (base.replace("OUT", "g.y[0]").replace("SET", "{}").replace("HARD", "{g.Kx: 3.0}"), 13)]:
+        p.write_text(text)
+        assert main(["check", str(p)]) == 2
+        err = capsys.readouterr().err
+        assert f"{p}:{where}: " in err, (where, err)
