@@ -206,6 +206,8 @@ def export_fmu(diagram, out, fmi=2, name=None):
     f, files = _files(path)
     params = [(k, _param_value(k, v, path)) for k, v in f.params.items()]
     is_sub = bool(f.data.get("inputs") or f.data.get("outputs"))
+    if is_sub:  # its simulation section becomes the wrapper's: checked here, in its own file and line
+        f.check_section("simulation")
     root = Path(os.path.commonpath([p.parent for p in files]))
     main = path.resolve().relative_to(root).as_posix()
     cls = _identifier(name or f.name)
@@ -216,8 +218,9 @@ def export_fmu(diagram, out, fmi=2, name=None):
             dst = stage / p.relative_to(root)
             dst.parent.mkdir(parents=True, exist_ok=True)
             shutil.copy(p, dst)
-        if is_sub:  # its simulation section is the wrapper's (a subsystem may not have one)
-            _blank_section(stage / main, "simulation")
+        if is_sub:  # its simulation section (merged over what it extends) is the wrapper's
+            for p in f.files:
+                _blank_section(stage / Path(p).resolve().relative_to(root), "simulation")
             inputs, outputs = _ports(f)
             blocks = {f"in_{n}": {"type": "constant", "value": start} for n, _, start in inputs}
             blocks["sub"] = {"type": "subsystem", "file": main, **{k: f"${k}" for k, _ in params}}

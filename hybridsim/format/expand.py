@@ -188,7 +188,8 @@ class ExpandMixin:
         unread = [k for k in sub.data if k not in tables.SUBSYSTEM_SECTIONS]
         if unread and sub.data.get("inputs"):  # it never runs on its own: those sections are dead
             k = unread[0]
-            problems.append(f"{context}{where}: in subsystem {bname!r}: {shown}:{sub.data.lines.get(k)}: section "
+            loc = (getattr(sub.data, "locs", None) or {}).get(k) or f"{shown}:{sub.data.lines.get(k)}"
+            problems.append(f"{context}{where}: in subsystem {bname!r}: {loc}: section "
                             f"{k!r} has no effect in a subsystem file that declares inputs (it never runs on its "
                             f"own); only {', '.join(tables.SUBSYSTEM_SECTIONS)} are read")
             return None

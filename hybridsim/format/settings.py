@@ -75,6 +75,11 @@ class SettingsMixin:
                 out.append(f"{where}: {what}: no block {path.block!r}{closest(path.block, self.data['blocks'])}")
         return out
 
+    def check_section(self, name):
+        """Check section ``name`` (``simulation``, ``metrics``, ...) against its table with this file's
+        params; raises LoaderError at the file and line of its first problem."""
+        self._raise(self._section(name, dict(self.params))[2])
+
     def analysis_settings(self, params=None):
         """The ``analysis`` section checked against its table, '$' resolved, over the defaults.
 

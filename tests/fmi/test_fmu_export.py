@@ -269,3 +269,20 @@ def test_an_error_inside_an_exported_subsystem_names_the_users_file(tmp_path, ca
     err = capsys.readouterr().err
     assert f"{f}:5" in err and "no input 'nope'" in err
     assert "hybridsim-export" not in err and "hybridsim_fmu.yaml" not in err
+
+
+def test_a_subsystem_that_extends_one_with_a_simulation_section_exports(tmp_path, capsys):
+    """The merged simulation section is the FMU's (the extended file's section was refused, at the
+    child's path with the parent's line); a bad setting there is named at its file and line."""
+    from fmpy import read_model_description
+
+    (tmp_path / "base.yaml").write_text("name: base\nblocks:\n  lag: {type: first_order, tau: 0.2, initial: 0.0}\n"
+                                        "inputs: {x: lag.u}\noutputs: {y: lag.y}\nsimulation:\n  solver: heun\n"
+                                        "  step: 1.0e-2\n")
+    child = tmp_path / "child.yaml"
+    child.write_text("extends: base.yaml\nblocks:\n  lag: {tau: 0.1}\nsimulation: {step: 5.0e-3}\n")
+    assert main(["fmu", "export", str(child), "-o", str(tmp_path / "c.fmu")]) == 0
+    assert read_model_description(str(tmp_path / "c.fmu")).coSimulation is not None
+    child.write_text("extends: base.yaml\nsimulation:\n  solver: rk5\n")
+    assert main(["fmu", "export", str(child), "-o", str(tmp_path / "d.fmu")]) == 2
+    assert f"{child}:3: unknown solver 'rk5'" in capsys.readouterr().err
