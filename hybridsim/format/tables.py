@@ -288,8 +288,24 @@ def problems(table, data, section, path, lines=None, line0=None):
     out = []
     for msg, key in check_values(table, data, section):
         line = lines.get(key, line0) if key is not None else line0
+        if key is not None and isinstance(data, dict):
+            line = _entry_line(data.get(key), msg) or line
         out.append(f"{path}{f':{line}' if line else ''}: {msg}")
     return out
+
+
+def _entry_line(value, msg):
+    """The line of the deepest entry of a mapping-valued setting that ``msg`` names as ``'name':``,
+    or None."""
+    if not isinstance(value, dict):
+        return None
+    lines = getattr(value, "lines", None) or {}
+    named = [k for k in value if f"{str(k)!r}:" in msg]
+    for k in named:
+        inner = _entry_line(value[k], msg)
+        if inner:
+            return inner
+    return lines.get(named[0]) if named else None
 
 
 def section_schema(table):

@@ -312,3 +312,14 @@ def test_a_heat_map_over_an_axis_of_lists_and_numbers_labels_them(tmp_path):
             for k, (kp, kr) in enumerate([(0.4, 9e5), ([0.2, 0.3], 9e5), (0.4, 5e5), ([0.2, 0.3], 5e5)])]
     heatmaps(rows, ["ctrl.fpi.Kp", "Kr"], tmp_path)
     assert (tmp_path / "heatmap.png").stat().st_size > 5000
+
+
+@pytest.mark.parametrize("body, line", [("grid:\n  a.K: [1.0]\n  b.K: 5\n", 4),
+                                        ("random:\n  n: 2\n  ranges:\n    a.K: [1.0, 2.0]\n    b.K: [1.0, 2.0, 3.0]\n", 6)])
+def test_a_bad_entry_of_a_sweep_section_is_named_at_its_own_line(tmp_path, body, line):
+    from hybridsim.errors import InputError
+
+    p = tmp_path / "s.yaml"
+    p.write_text(f"diagram: {DIAGRAMS / 'fig7_force_steps.yaml'}\n" + body)
+    with pytest.raises(InputError, match=rf"s.yaml:{line}: .*'b.K'"):
+        sw.Sweep(p)
