@@ -187,10 +187,12 @@ class Sweep:
         seen = {}
         for i, p in enumerate(pts, 1):  # one point twice: two rows under one key, a resume that mixes them
             if p.key in seen:
-                raise InputError(f"{self.path}: points {seen[p.key]} and {i} are the same run "
-                                 f"({', '.join(f'{k} = {v!r}' for k, v in p.changes.items())}): a value listed "
-                                 "twice in 'grid', a 'random' range of zero width, or factors of a parameter "
-                                 "that is 0")
+                line = next((self._lines[k] for k in pts[seen[p.key] - 1].changes
+                             if k in self._lines and pts[seen[p.key] - 1].changes[k] == p.changes.get(k)), None)
+                raise LoaderError(f"points {seen[p.key]} and {i} are the same run "
+                                  f"({', '.join(f'{k} = {v!r}' for k, v in p.changes.items())}): a value listed "
+                                  "twice in 'grid', a 'random' range of zero width, or factors of a parameter "
+                                  "that is 0", self.path, line)
             seen[p.key] = i
         return pts
 

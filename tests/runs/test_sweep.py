@@ -211,7 +211,7 @@ def test_a_sweep_that_names_one_point_twice_is_refused(tmp_path, axes):
                  "simulation: {t_end: 0.1}\n")
     p = tmp_path / "s.yaml"
     p.write_text(f"diagram: d.yaml\n{axes}\n")
-    with pytest.raises(InputError, match="points 1 and 2 are the same run"):
+    with pytest.raises(InputError, match=r"s.yaml:2: points 1 and 2 are the same run"):
         sw.run_sweep(p, tmp_path / "o", jobs=1, progress=False)
 
 
