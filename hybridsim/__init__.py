@@ -38,4 +38,4 @@ __all__ = ["registry", "Block", "Diagram", "Simulator", "RK4", "Heun", "Explicit
            "build", "check", "from_control", "run", "run_experiment", "write_outputs", "HybridsimError", "InputError",
            "DiagramError", "LoaderError", "RateError", "ParameterError", "OutputError",
            "CompiledPathError", "PluginError", "SimulationError", "FMUError"]
-__version__ = "0.1.0"
+from hybridsim.version import __version__  # noqa: E402

@@ -187,7 +187,7 @@ def export_fmu(diagram, out, fmi=2, name=None):
     pathlib.Path
         ``out``.
     """
-    from hybridsim import __version__
+    from hybridsim.version import __version__
     from hybridsim.format import build as api
     from hybridsim.files import check_output_file
 

@@ -130,7 +130,7 @@ def file_identity(f):
 
 def identity(files, extra=None):
     """A hash of the contents of ``files``, hybridsim's version and the JSON of ``extra``."""
-    from hybridsim import __version__
+    from hybridsim.version import __version__
 
     h = hashlib.sha256()
     for p in sorted(Path(x) for x in files):
