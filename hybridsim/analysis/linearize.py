@@ -39,6 +39,17 @@ def start_outputs(system, ctx, t=0.0):
     system.plan.outputs(ctx, t, ctx.xc, due)
 
 
+def hidden_state(blocks):
+    """Why ``blocks`` cannot be linearized: those that keep their state inside (a Co-Simulation
+    FMU), named; or None."""
+    hidden = [b.name for b in blocks if getattr(b, "hidden_state", False)]
+    if not hidden:
+        return None
+    return (f"block(s) {', '.join(map(repr, hidden))} keep their state inside (a Co-Simulation FMU), "
+            "where no linearization can reach it; linearize the same model with its states in the "
+            "diagram (a Model Exchange FMU, or the blocks themselves)")
+
+
 class Linearization:
     """Linear models of a system about the state held in ``context`` at time ``t``.
 
@@ -70,12 +81,9 @@ class Linearization:
         self.yd_ports = [(i, o) for i in self.disc for o in range(len(sysm.blocks[i].outputs))]
         self.h_ports = sysm.plan.held_ports()
         self.fd_error = 0.0
-        hidden = [b.name for b in sysm.blocks if getattr(b, "hidden_state", False)]
+        hidden = hidden_state(sysm.blocks)
         if hidden:
-            raise LinearizationError(
-                f"block(s) {', '.join(map(repr, hidden))} keep their state inside (a Co-Simulation FMU), "
-                "where no linearization can reach it; linearize the same model with its states in the "
-                "diagram (a Model Exchange FMU, or the blocks themselves)")
+            raise LinearizationError(hidden)
         self._save()
 
     # -- packing -----------------------------------------------------------------

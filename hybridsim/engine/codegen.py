@@ -207,32 +207,28 @@ def glue_source(system, log_path, located, layout, method):
             out += [f"        xn[{s.start + j}] = a{i}[{j}]" for j in range(s.stop - s.start)]
         return out
 
-    if located:  # without, the shared stub (glue_stubs.zc)
-        L = ["def zc(t, x, g, y, z, pf, pi):"] + lines
-        if long:
-            for c, group in enumerate(groups):
-                helpers.append([f"def zc_part{c}(t, x, g, y, z, pf, pi):"]
-                               + wr.param_lines([located[n] for n in group]) + zc_lines(group) + ["    return 0"])
-                L.append(f"    zc_part{c}(t, x_p, g_p, y_p, z_p, pf_p, pi_p)")
-        else:
-            L[1:1] = wr.param_lines(path + list(located))
-            L += zc_lines(groups[0])
-        fns.append(L)
-    L = ["def act(t, x, xn, fired, y, z, pf, pi):"] + lines
-    if located and not long:
-        L[1:1] = wr.param_lines(path + list(located))
-    L += [f"    for k in range({sysm.n_x}):", "        xn[k] = x[k]"]
-    if long:
+    def in_parts(name, args, call, lines_of):
+        """The located blocks' lines in place, or, in a long diagram, calls of ``name``_part functions
+        of HIT_PART blocks each."""
+        if not long:
+            return lines_of(groups[0])
+        out = []
         for c, group in enumerate(groups):
-            body = act_lines(group)
+            body = lines_of(group)
             if body:
-                helpers.append([f"def act_part{c}(t, x, xn, fired, y, z, pf, pi):"]
-                               + wr.param_lines([located[n] for n in group]) + body + ["    return 0"])
-                L.append(f"    act_part{c}(t, x_p, xn_p, fired_p, y_p, z_p, pf_p, pi_p)")
-    else:
-        L += act_lines(groups[0])
-    L.append("    return 0")
-    fns.append(L)
+                helpers.append([f"def {name}_part{c}({args}):"] + wr.param_lines([located[n] for n in group])
+                               + body + ["    return 0"])
+                out.append(f"    {name}_part{c}({call})")
+        return out
+
+    head = wr.param_lines(path + list(located)) if located and not long else []
+    if located:  # without, the shared stub (glue_stubs.zc)
+        fns.append(["def zc(t, x, g, y, z, pf, pi):"] + head + lines
+                   + in_parts("zc", "t, x, g, y, z, pf, pi", "t, x_p, g_p, y_p, z_p, pf_p, pi_p", zc_lines))
+    fns.append(["def act(t, x, xn, fired, y, z, pf, pi):"] + head + lines
+               + [f"    for k in range({sysm.n_x}):", "        xn[k] = x[k]"]
+               + in_parts("act", "t, x, xn, fired, y, z, pf, pi", "t, x_p, xn_p, fired_p, y_p, z_p, pf_p, pi_p", act_lines)
+               + ["    return 0"])
 
     # no time events or step hooks on this path: next_time, timed and stepped are glue_stubs'
 
@@ -272,9 +268,9 @@ def glue_source(system, log_path, located, layout, method):
     return head + body + "\n", env
 
 
-#: the most blocks one generated function of the hit's output pass holds: numba's compile time grows
-#: faster than a function's length (80 blocks in one: 85 s, in parts of 30: 15 s), so a longer pass
-#: is cut into functions of this many blocks, called in turn (a part reads the ones before from y)
+#: the most blocks one generated function holds (the hit's output pass, the event functions, the
+#: actions): numba's compile time grows faster than a function's length, so a longer one is cut
+#: into functions of this many blocks, called in turn (a part reads the ones before it from y)
 HIT_PART = 32
 
 

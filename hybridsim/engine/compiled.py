@@ -291,7 +291,9 @@ def _load(source, env, name, system=None):
     inner = dict(cache=True, _nrt=False, no_cpython_wrapper=True, no_cfunc_wrapper=True)
     module.rhs_params = njit(inline="always", **inner)(module.rhs_params)
     module.rhs_body = njit(inline="always", **inner)(module.rhs_body)
-    for part in [n for n in vars(module) if re.fullmatch(r"(hit|path|zc|act)_part\d+", n)]:  # a long diagram's
+    # a long diagram's parts (codegen.HIT_PART), called, not inlined; with numba's reference counting,
+    # which the array views they pass to kernels that return them need
+    for part in [n for n in vars(module) if re.fullmatch(r"(hit|path|zc|act)_part\d+", n)]:
         setattr(module, part, njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)(getattr(module, part)))
     types = native.types()["glue"]
     try:

@@ -178,15 +178,13 @@ def plugin_fault(exc):
 
 
 def _block_of(frames):
-    """The block the innermost of ``frames`` works for: a frame's ``self``, or a block the engine's
-    frame was evaluating (a kernel or helper function of a plugin has no ``self``)."""
+    """The block the innermost of ``frames`` works for: the ``self`` of the innermost frame that has
+    a block as one (a plugin's kernel or helper function has none; the method that called it has)."""
     from hybridsim.engine.block import Block
 
     for f in reversed(frames):
-        local = f.tb_frame.f_locals
-        for name in ("self", "block", "blk", "b"):
-            if isinstance(local.get(name), Block):
-                return local[name]
+        if isinstance(f.tb_frame.f_locals.get("self"), Block):
+            return f.tb_frame.f_locals["self"]
     return None
 
 

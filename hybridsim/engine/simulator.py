@@ -17,11 +17,10 @@ equations:
 Ticks run at ``0 <= n * base < t_end``; the run ends with the state at
 ``t_end``.
 """
+import logging
 import time as _time
 from collections.abc import Mapping
 from numbers import Real
-
-import logging
 
 import numpy as np
 

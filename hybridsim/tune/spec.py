@@ -301,21 +301,19 @@ class TuneSpec:
         t_end = float(settings["simulation"]["t_end"])
         measured = _metric_names(settings, t_end)
         points = (settings.get("analysis") or {}).get("points") or {}
-        hidden = [b.name for b in diagram.blocks.values() if getattr(b, "hidden_state", False)]
+        from hybridsim.analysis.linearize import hidden_state
+
+        hidden = hidden_state(diagram.blocks.values())
         for q in self.objectives + self.constraints:
             if q.source == "analysis" and hidden:  # what a linearization would say, before any point runs
-                self._fail(f"analysis {q.analysis!r}: block(s) {', '.join(map(repr, hidden))} keep their state "
-                           "inside (a Co-Simulation FMU), where no linearization reaches it", q.line)
+                self._fail(f"analysis {q.analysis!r}: {hidden}", q.line)
             if q.source == "analysis" and q.loop is not None:
-                ref = str(points.get(q.loop, q.loop))
-                m = SIGNAL.match(ref)
-                block = diagram.blocks.get(m.group(1)) if m else None
-                port = next((p for p in block.outputs if p.name == m.group(2)), None) if block else None
-                if port is None:
-                    self._fail(f"loop {q.loop!r}: neither a name in {self.diagram.name}'s analysis.points "
-                               f"({', '.join(points) or 'none'}) nor an output block.port[i] of it", q.line)
-                if m.group(3) is not None and int(m.group(3)) >= port.width:
-                    self._fail(f"loop {q.loop!r}: {m.group(1)}.{m.group(2)} has {port.width} element(s)", q.line)
+                why = _port_problem(diagram, str(points.get(q.loop, q.loop)))
+                if why == "no such output":
+                    why = (f"neither a name in {self.diagram.name}'s analysis.points ({', '.join(points) or 'none'}) "
+                           "nor an output block.port[i] of it")
+                if why:
+                    self._fail(f"loop {q.loop!r}: {why}", q.line)
             if q.source == "metric" and measured is not None and q.metric not in measured:
                 self._fail(f"metric {q.metric!r}: the runs of {self.diagram.name} measure "
                            f"{', '.join(sorted(measured)) or 'no metric'} (its signals and metrics sections say "
@@ -327,20 +325,33 @@ class TuneSpec:
             for key, ref in (("of", q.signal), ("reference", q.reference)):
                 if ref is None:
                     continue
+                why = _port_problem(diagram, str(ref))
+                if why == "no such output":
+                    why = f"no output of that name in {self.diagram.name} (block.port or block.port[i])"
+                if why:
+                    self._fail(f"{key} {ref!r}: {why}", q.line)
                 m = SIGNAL.match(str(ref))
-                block = diagram.blocks.get(m.group(1)) if m else None
-                port = next((p for p in block.outputs if p.name == m.group(2)), None) if block else None
-                if port is None:
-                    self._fail(f"{key} {ref!r}: no output of that name in {self.diagram.name} (block.port or "
-                               "block.port[i])", q.line)
-                if m.group(3) is not None and int(m.group(3)) >= port.width:
-                    self._fail(f"{key} {ref!r}: {m.group(1)}.{m.group(2)} has {port.width} element(s)", q.line)
                 if logged and f"{m.group(1)}.{m.group(2)}" not in logged:
                     self._fail(f"{key} {ref!r}: not logged by {self.diagram.name} (add it to its 'log')", q.line)
 
     def _param_line(self, p):
         data, _ = parse_file(self.path)
         return data["parameters"].lines.get(p.path)
+
+
+def _port_problem(diagram, ref):
+    """What is wrong with signal ``ref`` (``block.port`` or ``block.port[i]``) of the built diagram:
+    "no such output", its element out of range, or None."""
+    from hybridsim.format.kinds import SIGNAL
+
+    m = SIGNAL.match(ref)
+    block = diagram.blocks.get(m.group(1)) if m else None
+    port = next((p for p in block.outputs if p.name == m.group(2)), None) if block else None
+    if port is None:
+        return "no such output"
+    if m.group(3) is not None and int(m.group(3)) >= port.width:
+        return f"{m.group(1)}.{m.group(2)} has {port.width} element(s)"
+    return None
 
 
 def _finite(v):
