@@ -65,7 +65,9 @@ def _sliding_hint(run, t, after_event):
     sliding, one that switched just before (``after_event``), or one nearest its surface; else ''."""
     muted = np.flatnonzero(run.w.muted)
     if muted.size:
-        return f". {_events.sliding_error(t, function_owner(run, muted[0]), muted.size > 1)}"
+        more = " (and others)" if muted.size > 1 else ""
+        return (f". Block {function_owner(run, muted[0])!r}{more} had switched more than {_events.MAX_REPEATS} "
+                f"times before it: the state slides along that switch. {_events.SLIDING_ADVICE}")
     log = run.event_log() if after_event else []
     if log and 0.0 <= t - log[-1][0] <= 1e-6:
         return (f". It failed just after {', '.join(log[-1][1])} switched at t={log[-1][0]:.9g} s; the state "

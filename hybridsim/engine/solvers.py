@@ -262,6 +262,20 @@ class ScipyStepper:
             direct_lu(self.ode)
 
 
+def fresh_jacobian(ode):
+    """Radau's or BDF's Jacobian evaluated again where the integration is. While a switch is muted
+    the right-hand side jumps across it; a Jacobian differenced across the jump (a state resting on
+    it) is huge and makes the Newton increments vanish, so that step after step is accepted on the
+    predictor alone, and scipy re-evaluates a Jacobian only when Newton fails."""
+    if hasattr(ode, "LU_real"):  # Radau (its differencing takes the right-hand side there)
+        ode.J = ode.jac(ode.t, ode.y, ode.f)
+        ode.LU_real = ode.LU_complex = None
+        ode.current_jac = True
+    else:
+        ode.J = ode.jac(ode.t, ode.y)
+        ode.LU = None
+
+
 def direct_lu(ode):
     """Radau's and BDF's dense LU factorisation and solve as LAPACK's getrf / getrs themselves:
     ``scipy.linalg.lu_solve`` checks its arguments' array namespace and device on every call,
@@ -296,6 +310,8 @@ def scipy_ops():
             if s.ode is None:
                 s.start(gl.rhs, y, z, pf, pi)
             ode = s.ode
+            if w.muted.any() and getattr(ode, "jac", None) is not None and hasattr(ode, "J"):
+                fresh_jacobian(ode)
             if s.solver.method == "LSODA":  # it says why it failed only as a warning: kept for the message
                 with warnings.catch_warnings(record=True) as said:
                     warnings.simplefilter("always")
