@@ -10,7 +10,9 @@ def add(sub):
                                    "cannot fail 'run' for a reason this could have seen. Given a sweep or tune "
                                    "file, check it as 'hybridsim sweep' / 'hybridsim tune' would before their "
                                    "first run: the file, its diagram with 'set', and every swept value (both ends "
-                                   "of each tuned parameter).")
+                                   "of each tuned parameter). A subsystem file (one with 'inputs:') is checked "
+                                   "as a diagram that uses it would run it, its inputs held at 0, its "
+                                   "'simulation:' section as an exported FMU's solver.")
     options.add_diagram(p)
     p.set_defaults(func=run)
 
@@ -25,6 +27,11 @@ def run(args):
     elif info["kind"] == "tune":
         print(f"{args.diagram}: OK - a tune file for {info['diagram']}, {info['parameters']} parameter(s), "
               f"method {info['method']}")
+    elif info["kind"] == "subsystem":
+        ports = lambda ps: ", ".join(f"{n} ({w})" for n, w in ps) or "none"  # noqa: E731
+        print(f"{args.diagram}: OK - a subsystem of {info['blocks']} blocks, {info['states']} continuous states, "
+              f"rates {', '.join(f'{r:g} Hz' for r in info['rates']) or 'none'}; inputs {ports(info['inputs'])}, "
+              f"outputs {ports(info['outputs'])} (checked with its inputs held at 0)")
     else:
         print(f"{args.diagram}: OK - {info['blocks']} blocks, {info['states']} continuous states, "
               f"rates {', '.join(f'{r:g} Hz' for r in info['rates']) or 'none'}, {info['runs']} run(s)")

@@ -19,17 +19,14 @@ An output read at a communication point ``t`` is the diagram's output at ``t``
 for the inputs set at ``t`` (direct feedthrough, as within a diagram).
 """
 import json
-import os
 import re
-import shutil
 import tempfile
 import uuid
 from pathlib import Path
 
-from hybridsim.errors import FMUError, InputError, LoaderError
+from hybridsim.errors import FMUError
 from hybridsim.fmi.slave import INTERFACE
-
-WRAPPER = "hybridsim_fmu.yaml"
+from hybridsim.format import standalone
 
 _SCRIPT = '''"""{description} -- an FMU exported by hybridsim {version} from {source}.
 
@@ -61,45 +58,15 @@ class {cls}({base}):
 '''
 
 
-def _files(path, seen=None):
-    """The diagram file, every file it extends and every subsystem file it uses, resolved."""
+def _no_fmu_blocks(paths):
+    """Refuse an fmu block in any of the diagram files ``paths`` (its FMU file would not travel)."""
     from hybridsim.format.diagram_file import DiagramFile
-    from hybridsim.format.values import _is_subsystem, subsystem_path
 
-    seen = [] if seen is None else seen
-    f = DiagramFile(path)
-    for p in f.files or [Path(path).resolve()]:
-        if Path(p).resolve() not in seen:
-            seen.append(Path(p).resolve())
-    for spec in (f.data.get("blocks") or {}).values():
-        if _is_subsystem(spec):
-            sub = subsystem_path(spec, Path(path).parent).resolve()
-            if sub not in seen:
-                _files(sub, seen)
-        elif isinstance(spec, dict) and spec.get("type") == "fmu":
-            raise FMUError(f"{path}: block type fmu inside an exported diagram is not supported "
-                           "(its FMU file would have to travel with it)")
-    return f, seen
-
-
-def _ports(f):
-    """(inputs, outputs) of subsystem file ``f``: [(name, width, start)], [(name, 'sub.port', width)]."""
-    from hybridsim.engine.diagram import Diagram
-
-    d = Diagram(f.name, source=str(f.path))
-    f.aliases, f._cut, f._broken, f._bad_ports = {}, set(), set(), set()
-    ins, outs = f._expand(d, dict(f.params), "", (f.path.resolve(),), "")
-    if d.problems:  # each names its file and line
-        raise InputError("; ".join(d.problems[:3]))
-    inputs = []
-    for name, refs in ins.items():
-        b, p = refs[0].rsplit(".", 1)
-        inputs.append((name, d.blocks[b].input_port(p).width, [0.0] * d.blocks[b].input_port(p).width))
-    outputs = []
-    for name, ref in outs.items():
-        b, p = ref.rsplit(".", 1)
-        outputs.append((name, f"sub.{name}", d.blocks[b].output_port(p).width))
-    return inputs, outputs
+    for p in paths:
+        for spec in (DiagramFile(p).data.get("blocks") or {}).values():
+            if isinstance(spec, dict) and spec.get("type") == "fmu":
+                raise FMUError(f"{p}: block type fmu inside an exported diagram is not supported "
+                               "(its FMU file would have to travel with it)")
 
 
 def _param_value(name, value, where):
@@ -110,34 +77,6 @@ def _param_value(name, value, where):
         return [float(v) for v in value]
     raise FMUError(f"{where}: parameter {name!r} = {value!r} cannot be an FMU parameter "
                    "(numbers, Booleans, text and lists of numbers can)")
-
-
-def _blank_section(path, key):
-    """Blank the lines of top-level ``key`` in the YAML file ``path`` (the other lines keep their numbers)."""
-    import yaml
-
-    text = path.read_text()
-    try:
-        node = yaml.compose(text)
-    except yaml.YAMLError:
-        return  # the build that follows says what is wrong
-    if not isinstance(node, yaml.MappingNode):
-        return
-    lines = text.splitlines(keepends=True)
-    for k, v in node.value:
-        if k.value == key:
-            first, last = k.start_mark.line, v.end_mark.line - (v.end_mark.column == 0)
-            for n in range(first, min(last, len(lines) - 1) + 1):
-                lines[n] = "\n"
-    path.write_text("".join(lines))
-
-
-def _unstaged(message, stage, root):
-    """``message`` with the staged copies' paths as the user's files (the wrapper's own place dropped)."""
-    wrapper = re.escape(str(stage / WRAPPER)) + r"(:\d+)?"
-    message = re.sub(wrapper + r": (in subsystem 'sub': )?", "", message)
-    message = re.sub(r"in subsystem sub \(" + wrapper + r"\): ", "", message)
-    return message.replace(str(stage) + os.sep, str(root) + os.sep)
 
 
 def _identifier(name):
@@ -203,41 +142,16 @@ def export_fmu(diagram, out, fmi=2, name=None):
         raise FMUError(f"exporting an FMI {fmi}.0 FMU needs {'pythonfmu' if fmi == 2 else 'pythonfmu3'}: "
                        f"pip install {'pythonfmu' if fmi == 2 else 'pythonfmu3'}") from None
     path = Path(diagram)
-    f, files = _files(path)
+    f, _ = standalone.files(path)
     params = [(k, _param_value(k, v, path)) for k, v in f.params.items()]
-    is_sub = bool(f.data.get("inputs") or f.data.get("outputs"))
-    if is_sub:  # its simulation section becomes the wrapper's: checked here, in its own file and line
-        f.check_section("simulation")
-    root = Path(os.path.commonpath([p.parent for p in files]))
-    main = path.resolve().relative_to(root).as_posix()
     cls = _identifier(name or f.name)
     out = Path(out)
     with tempfile.TemporaryDirectory(prefix="hybridsim-export-") as tmp:
-        stage = Path(tmp) / "diagram"
-        for p in files:
-            dst = stage / p.relative_to(root)
-            dst.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy(p, dst)
-        if is_sub:  # its simulation section (merged over what it extends) is the wrapper's
-            for p in f.files:
-                _blank_section(stage / Path(p).resolve().relative_to(root), "simulation")
-            inputs, outputs = _ports(f)
-            blocks = {f"in_{n}": {"type": "constant", "value": start} for n, _, start in inputs}
-            blocks["sub"] = {"type": "subsystem", "file": main, **{k: f"${k}" for k, _ in params}}
-            sim = {k: v for k, v in (f.data.get("simulation") or {}).items() if k != "t_end"}
-            wrapper = {"name": f.name, "params": {k: v for k, v in params},
-                       "blocks": blocks, "wires": [f"in_{n}.y -> sub.{n}" for n, _, _ in inputs],
-                       "log": [ref for _, ref, _ in outputs]}
-            if sim:
-                wrapper["simulation"] = sim
-            (stage / WRAPPER).write_text(json.dumps(wrapper, indent=1))  # JSON is YAML
-            entry = WRAPPER
-        else:
-            inputs, entry = [], main
-        try:
-            _, sim_, settings = api.build(stage / entry, check_only=True)  # fails here, not in the FMU
-        except InputError as exc:  # in the user's files' names
-            raise InputError(_unstaged(str(exc), stage, root)) from None
+        staged = standalone.Staged(path, Path(tmp) / "diagram", params)
+        _no_fmu_blocks(staged.paths)
+        stage, entry, is_sub = staged.stage, staged.entry, staged.subsystem
+        inputs, outputs = staged.inputs, staged.outputs
+        _, sim_, settings = staged.build()  # fails here, not in the FMU
         system = sim_.system
         if not is_sub:
             refs = list(settings["log"]) + list(settings["signals"].values())

@@ -205,3 +205,28 @@ def test_a_bad_inner_value_is_one_problem_that_names_the_users_set(tmp_path, cap
     assert main(["check", str(tmp_path / "d.yaml"), "--set", "m.g.K=[1, 2]"]) == 2
     err = capsys.readouterr().err
     assert "diagram has 1 problem(s)" in err and "--set m.g.K: block 'g' (gain): parameter 'K'" in err
+
+
+def test_check_of_a_subsystem_file_builds_it_as_a_diagram_using_it_would(nested, capsys):
+    # it exited 2, "its inputs are not wired": a subsystem could not be checked before its use
+    mid = nested.parent / "sub" / "middle.yaml"
+    mid.write_text(MIDDLE + "simulation: {solver: rk4, step: 1.0e-3}\n")
+    assert main(["check", str(mid)]) == 0
+    out = capsys.readouterr().out
+    assert "a subsystem of" in out and "inputs u (1), v (1), outputs p (1), q (1)" in out
+    from hybridsim.checking import check_file
+
+    info = check_file(mid, k=4.0)
+    assert info["kind"] == "subsystem" and info["states"] == 1 and info["outputs"] == [("p", 1), ("q", 1)]
+    # its errors at its own lines, overrides named as given, nothing of the staged copies shown
+    assert main(["check", str(mid), "--set", "lag.nope=1"]) == 2
+    err = capsys.readouterr().err
+    assert "--set lag.nope: block 'lag'" in err and "hybridsim-check" not in err
+    mid.write_text(MIDDLE.replace("in2.x]", "") + "simulation: {solver: rk4, step: -1.0}\n")
+    assert main(["check", str(mid)]) == 2
+    assert f"{mid}:9: simulation setting 'step' must be a positive" in capsys.readouterr().err
+    (nested.parent / "sub" / "inner.yaml").write_text(INNER.replace("K: $gain", "K: $gain, nope: 1"))
+    mid.write_text(MIDDLE)
+    assert main(["check", str(mid)]) == 2
+    err = capsys.readouterr().err
+    assert "inner.yaml:3: block 'g' (gain) has no parameter 'nope'" in err and "hybridsim-check" not in err
