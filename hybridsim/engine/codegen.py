@@ -5,7 +5,8 @@ output pass, the updates, the right-hand side, the event functions and actions, 
 over the run's flat arrays, the output pass, updates and log path as one function ``hit`` (they
 run only at hits and log points; compiled together, they link their kernels once), and the
 method's Runge-Kutta steps (``steps``), the stages in one loop with the right-hand side's body
-(``rhs_body``) inlined there once and its blocks' params (``rhs_params``) built once per call (the
+(``rhs_body``; a long one calls ``rhs_part`` functions) inlined there once and its blocks' params
+(``rhs_params``) built once per call (the
 compiled core takes every step and restep through ``steps``; its ``rhs`` is not called);
 :mod:`hybridsim.engine.compiled` compiles and caches them. Inside the right-hand side every
 signal element is a local float. Each kernel is a call of its own compiled version (cached
@@ -152,16 +153,41 @@ def glue_source(system, log_path, located, layout, method):
 
     # the right-hand side: its blocks' params built once per call of the steps (``rhs_params``), then
     # every signal a local in ``rhs_body`` (inlined into the steps; not viewed: it takes arrays)
-    lines, local = rhs_outputs()
+    def derivative_lines(blocks, local):
+        out = []
+        for i in blocks:
+            s = sysm.xslices[i]
+            out.append(f"    d{i} = {wr.kernel(i, 'derivatives')}(P{i}, t, {wr.state(i)}, {wr.inputs(i, local)})")
+            out += [f"    dx[at + {s.start + j}] = d{i}[{j}]" for j in range(s.stop - s.start)]
+        return out
+
+    def unpack(blocks):
+        return ", ".join(f"P{i}" for i in blocks) + ("," if len(blocks) == 1 else "")
+
     used = sorted(set(path + list(sysm.stateful)))
-    held = ", ".join(f"P{i}" for i in used) + ("," if len(used) == 1 else "")
-    fns.append(["def rhs_params(pf, pi):"] + wr.param_lines(used) + [f"    return ({held})"])
-    L = ["def rhs_body(t, x, dx, at, y, z, PP):"] + ([f"    {held} = PP"] if used else []) + lines
-    for i in sysm.stateful:
-        s = sysm.xslices[i]
-        f = wr.kernel(i, "derivatives")
-        L.append(f"    d{i} = {f}(P{i}, t, {wr.state(i)}, {wr.inputs(i, local)})")
-        L += [f"    dx[at + {s.start + j}] = d{i}[{j}]" for j in range(s.stop - s.start)]
+    units = [(i, False) for i in path] + [(i, True) for i in sysm.stateful]
+    rhs_parts = []
+    if len(units) <= HIT_PART:
+        lines, local = rhs_outputs()
+        held = unpack(used)
+        fns.append(["def rhs_params(pf, pi):"] + wr.param_lines(used) + [f"    return ({held})"])
+        L = ["def rhs_body(t, x, dx, at, y, z, PP):"] + ([f"    {held} = PP"] if used else []) + lines
+        L += derivative_lines(sysm.stateful, local)
+    else:  # a long one in parts of HIT_PART blocks (outputs, then derivatives), each called with its
+        # own params (PP[c]); a part stores its outputs in y, where the later parts read them
+        chunks = [units[k:k + HIT_PART] for k in range(0, len(units), HIT_PART)]
+        L = ["def rhs_body(t, x, dx, at, y, z, PP):"]
+        own = []
+        for c, chunk in enumerate(chunks):
+            blocks = sorted({i for i, _ in chunk})
+            done = set()
+            body = [ln for i, d in chunk if not d for ln in wr.evaluate(i, "    ", done, store=True)]
+            body += derivative_lines([i for i, d in chunk if d], done)
+            rhs_parts.append([f"def rhs_part{c}(t, x, dx, at, y, z, PP):", f"    {unpack(blocks)} = PP"] + body
+                             + ["    return 0"])
+            L.append(f"    rhs_part{c}(t, x, dx, at, y, z, PP[{c}])")
+            own.append(f"({unpack(blocks)})")
+        fns.append(["def rhs_params(pf, pi):"] + wr.param_lines(used) + [f"    return ({', '.join(own)},)"])
     rhs_fn = L + ["    pass"]
     # the compiled core takes every step, restep included, through ``steps`` and never calls ``rhs``
     # (compiling it would cost a copy of the right-hand side): NaN, should anything call it
@@ -257,7 +283,7 @@ def glue_source(system, log_path, located, layout, method):
               "x": f"({sysm.n_x},)", "xn": f"({sysm.n_x},)", "dx": f"(at + {sysm.n_x},)", "y": f"({n_y},)",
               "z": f"({n_z},)", "pf": f"({layout.nf},)", "pi": f"({layout.ni},)", "g": f"({n_e},)",
               "fired": f"({n_e},)", "due": f"(row + 1, {len(sysm.discrete)})"}
-    fns = [rhs_fn] + [_viewing(f, shapes) for f in helpers + fns]
+    fns = rhs_parts + [rhs_fn] + [_viewing(f, shapes) for f in helpers + fns]
     body = "\n\n\n".join("\n".join(f if len(f) > 1 else f + ["    pass"]) for f in fns)
     kernels = [f[1] if isinstance(f, tuple) else f for f in env.values() if callable(f) or isinstance(f, tuple)]
     stamp = _stamp(reachable(k for k in kernels if callable(k)))

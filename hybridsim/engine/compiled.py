@@ -293,7 +293,7 @@ def _load(source, env, name, system=None):
     module.rhs_body = njit(inline="always", **inner)(module.rhs_body)
     # a long diagram's parts (codegen.HIT_PART), called, not inlined; with numba's reference counting,
     # which the array views they pass to kernels that return them need
-    for part in [n for n in vars(module) if re.fullmatch(r"(hit|path|zc|act)_part\d+", n)]:
+    for part in [n for n in vars(module) if re.fullmatch(r"(hit|path|zc|act|rhs)_part\d+", n)]:
         setattr(module, part, njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)(getattr(module, part)))
     types = native.types()["glue"]
     try:

@@ -244,7 +244,8 @@ def test_a_long_output_pass_is_compiled_in_parts_and_gives_the_same_numbers(tmp_
 @pytest.mark.slow
 def test_many_located_blocks_are_compiled_in_parts_and_give_the_same_events(tmp_path):
     # 17 limited integrators on cosines: the event functions and actions in parts reading the path's
-    # outputs from y (one function of 40 such blocks took numba 24 s, growing with its square)
+    # outputs from y (one function of 40 such blocks took numba 24 s, growing with its square); the
+    # right-hand side of the Runge-Kutta steps likewise, its outputs stored in y by one part for the next
     import math
 
     blocks, wires = [], []
@@ -258,6 +259,7 @@ def test_many_located_blocks_are_compiled_in_parts_and_give_the_same_events(tmp_
                  "log: [I0.y, I16.y]\nsimulation: {t_end: 1.0, step: 1.0e-3, log_period: 0.01}\n")
     _, sim, _ = hs.build(p, **{"simulation.compiled": True})
     assert "def zc_part0(" in sim._compiled.source and "def act_part0(" in sim._compiled.source
+    assert "def rhs_part1(" in sim._compiled.source  # the right-hand side of the steps in parts too
     a = sim.run(1.0)
     b = hs.simulate(p, fused=False)
     assert np.array_equal(a.table(), b.table())
