@@ -48,8 +48,6 @@ def write_outputs(f, runs, settings, outdir, only_ours=False):
 
 def _file(source, overrides):
     """The DiagramFile of ``source`` (a path, or a DiagramFile whose overrides ``overrides`` extend)."""
-    if isinstance(source, DiagramFile):
-        return DiagramFile(source.path, {**source.overrides, **load_keys(overrides)}) if overrides else source
     return load(source, **overrides)
 
 

@@ -97,17 +97,23 @@ def check_plugin_blocks(system):
 
 
 def load(path, **overrides):
-    """Parse a diagram file, applying ``overrides``.
+    """Parse a diagram file (or take a parsed :class:`DiagramFile`), applying ``overrides``.
 
     Keys: a name in ``params`` (``rate=80``), a block parameter
     (``**{"arm.damping": [5, 50]}``), or a simulation setting (``t_end=1``).
+    A name that is both a parameter and a setting is the parameter, as with
+    ``--set``; the setting is then ``**{"simulation.step": 1e-3}``.
     """
-    return DiagramFile(path, load_keys(overrides))
+    if isinstance(path, DiagramFile):  # a parsed file: ``overrides`` over its own
+        return DiagramFile(path.path, {**path.overrides, **load_keys(overrides, path.params)}) if overrides else path
+    params = DiagramFile(path).params if any(k in SIMULATION_KEYS for k in overrides) else ()
+    return DiagramFile(path, load_keys(overrides, params))
 
 
-def load_keys(overrides):
-    """``overrides`` with a bare simulation setting (``t_end``) named as a path (``simulation.t_end``)."""
-    return {(f"simulation.{k}" if k in SIMULATION_KEYS else k): v for k, v in overrides.items()}
+def load_keys(overrides, params=()):
+    """``overrides`` with a bare simulation setting (``t_end``) named as a path (``simulation.t_end``),
+    unless it is one of ``params`` (a parameter of the diagram)."""
+    return {(f"simulation.{k}" if k in SIMULATION_KEYS and k not in params else k): v for k, v in overrides.items()}
 
 
 def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
@@ -118,7 +124,7 @@ def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
     ``log``: the signals to record, instead of the file's ``log`` and
     ``signals`` (e.g. only the signals metrics need).
     """
-    f = path_or_file if isinstance(path_or_file, DiagramFile) else load(path_or_file, **overrides)
+    f = load(path_or_file, **overrides)
     diagram, settings = f.build(variant)
     system = diagram.build()
     check_plugin_blocks(system)
@@ -215,7 +221,7 @@ def check(path_or_file, **overrides):
     ``rates`` (Hz, over all variants) and ``runs``. Raises the
     :class:`~hybridsim.errors.InputError` of the first bad variant.
     """
-    f = path_or_file if isinstance(path_or_file, DiagramFile) else load(path_or_file, **overrides)
+    f = load(path_or_file, **overrides)
     rates, system = set(), None
     variants = f.variants()
     for label, variant in variants:

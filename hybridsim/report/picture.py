@@ -220,10 +220,9 @@ def write_picture(path_or_file, output=None, expand=False, **overrides):
     """
     from hybridsim.format.build import load
     from hybridsim.files import atomic_file, check_output_file, default_output_file, safe_name
-    from hybridsim.format import DiagramFile
 
     plt = pyplot()
-    f = path_or_file if isinstance(path_or_file, DiagramFile) else load(path_or_file, **overrides)
+    f = load(path_or_file, **overrides)
     if output:
         out, note = check_output_file(output, image_formats()), None
     else:  # the default name: a file hybridsim did not write is kept, the next free name taken

@@ -203,3 +203,17 @@ def test_scan_is_a_simulation_setting_every_solver_takes(tmp_path, solver):
     _, sim, settings = build(p, solver=solver)
     assert sim.solver.scan == 10.0 and sim.session(sim._context(None)[0]).lim.scan == 10.0
     assert abs(sim.run(1025.0)["i.y"][-1, 0] - 0.1025) < 1e-9
+
+
+def test_a_keyword_that_is_a_parameter_and_a_setting_is_the_parameter_as_with_set(tmp_path):
+    # hs.simulate(path, step=2.0) changed simulation.step where the diagram has a param 'step' (the
+    # CLI's --set step=2.0 sets the param): the API now reads it as the CLI does
+    import hybridsim as hs
+
+    p = tmp_path / "clash.yaml"
+    p.write_text("params: {step: 1.0}\nblocks:\n  c: {type: constant, value: $step}\n  i: {type: integrator}\n"
+                 "wires: [c.y -> i.u]\nlog: [i.y]\nsimulation: {t_end: 1.0, solver: rk4, step: 1.0e-3}\n")
+    assert hs.simulate(p, step=2.0)["i.y"][-1] == pytest.approx(2.0, abs=1e-12)
+    assert hs.simulate(hs.load(p), step=3.0)["i.y"][-1] == pytest.approx(3.0, abs=1e-12)
+    r = hs.simulate(p, **{"simulation.step": 0.25, "t_end": 0.5})
+    assert r.t[-1] == 0.5 and r["i.y"][-1] == pytest.approx(0.5, abs=1e-12)
