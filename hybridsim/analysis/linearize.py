@@ -40,14 +40,65 @@ def start_outputs(system, ctx, t=0.0):
 
 
 def hidden_state(blocks):
-    """Why ``blocks`` cannot be linearized: those that keep their state inside (a Co-Simulation
-    FMU), named; or None."""
+    """Why ``blocks`` cannot be linearized by differences, each named with its reason (a block's
+    ``not_linearizable``: a Co-Simulation FMU keeps its state inside, a transport delay its dead time
+    in a buffer sampled at events); or None."""
     hidden = [b.name for b in blocks if getattr(b, "hidden_state", False)]
-    if not hidden:
-        return None
-    return (f"block(s) {', '.join(map(repr, hidden))} keep their state inside (a Co-Simulation FMU), "
-            "where no linearization can reach it; linearize the same model with its states in the "
-            "diagram (a Model Exchange FMU, or the blocks themselves)")
+    other = [(b.name, b.not_linearizable) for b in blocks if getattr(b, "not_linearizable", None)]
+    why = []
+    if hidden:
+        why.append(f"block(s) {', '.join(map(repr, hidden))} keep their state inside (a Co-Simulation FMU), "
+                   "where no linearization can reach it; linearize the same model with its states in the "
+                   "diagram (a Model Exchange FMU, or the blocks themselves)")
+    why += [f"block {name!r} {reason}" for name, reason in other]
+    return "; ".join(why) or None
+
+
+def linear_standins(system, context=None):
+    """``(system, context)`` with each block's linear stand-in (:meth:`Block.linear_standin
+    <hybridsim.engine.block.Block.linear_standin>`: a transport delay's Pade approximation) in its
+    place, or as given when no block has one. The context's numbers are carried over block by block;
+    a stand-in starts at its steady state for its input there, its output as it was."""
+    from hybridsim.engine.context import Context
+    from hybridsim.engine.diagram import Diagram
+    from hybridsim.engine.system import System
+    from hybridsim.errors import DiagramError
+
+    blocks = context.blocks if context is not None else system.blocks
+    standins = {i: s for i, b in enumerate(blocks) if (s := b.linear_standin()) is not None}
+    if not standins:
+        return system, context
+    d = Diagram(system.name, system.source)
+    new = [standins.get(i, b) for i, b in enumerate(blocks)]
+    for b in new:
+        d.add(b)
+    for i, ins in enumerate(system.sources):
+        for k, (a, o) in enumerate(ins):
+            d.connect(f"{new[a].name}.{new[a].outputs[o].name}", f"{new[i].name}.{new[i].inputs[k].name}")
+    try:
+        lin = System(d)
+    except DiagramError as exc:  # the stand-in feeds through where the block did not: a loop
+        names = ", ".join(repr(blocks[i].name) for i in standins)
+        raise LinearizationError(f"block(s) {names} cannot be replaced by their linear stand-in for analysis: "
+                                 f"{exc}") from None
+    if context is None:
+        return lin, None
+    ctx = Context(lin)
+    ctx.t = context.t
+    for j, b in enumerate(lin.blocks):
+        i = system.index[b.name]
+        for o in range(len(b.outputs)):
+            ctx.y[j][o][:] = context.y[i][o]
+        if i in standins:  # its state: the steady state for its input now
+            lin_x = b.initial_state(ctx.u[j]) if lin.xslices[j] is not None else None
+            if lin_x is not None:
+                ctx.xc[lin.xslices[j]] = lin_x
+            continue
+        if lin.xslices[j] is not None:
+            ctx.xc[lin.xslices[j]] = context.xc[system.xslices[i]]
+        if b.n_discrete:
+            ctx.xd[j][:] = context.xd[i]
+    return lin, ctx
 
 
 class Linearization:
@@ -67,6 +118,7 @@ class Linearization:
     """
 
     def __init__(self, system, context=None, t=0.0, rel_step=1e-6):
+        system, context = linear_standins(system, context)
         self.system = system
         fresh = context is None
         self.ctx = context or system.create_context()

@@ -192,13 +192,40 @@ def critical_scale(path, base, param, value, lo=1.0, hi=None, tol=0.01, at=None)
             hi *= 2
             if hi > 1e4:
                 return None
-    while hi / lo > 1 + tol:
-        mid = np.sqrt(lo * hi)
+    return _bisect(unstable, lo, hi, tol)
+
+
+def _bisect(unstable, stable_at, unstable_at, tol):
+    """The scale between ``stable_at`` and ``unstable_at`` (either side) where ``unstable`` turns,
+    to ``tol`` relative (geometric bisection)."""
+    a, b = stable_at, unstable_at
+    while max(a, b) / min(a, b) > 1 + tol:
+        mid = np.sqrt(a * b)
         if unstable(mid):
-            hi = mid
+            b = mid
         else:
-            lo = mid
-    return float(np.sqrt(lo * hi))
+            a = mid
+    return float(np.sqrt(a * b))
+
+
+def lower_scale(path, param, value, rows, tol=0.01, at=None):
+    """The scale of ``param`` below which a loop stable at x1 is unstable (a conditionally stable loop),
+    from the gain sweep's ``rows``: bisected between the largest unstable scale below 1 and the stable
+    one above it; None when the sweep shows none (or the loop is not stable at x1)."""
+    below = [r["scale"] for r in rows if r["scale"] < 1 and not r["stable"]]
+    if not below:
+        return None
+    exp = path
+
+    def unstable(s):
+        cl = exp.closed_loop({param: (value * s).tolist()}, at)
+        return cl is None or not cl.stable
+
+    if unstable(1.0):
+        return None
+    lo = max(below)
+    hi = min([r["scale"] for r in rows if lo < r["scale"] <= 1 and r["stable"]] + [1.0])
+    return _bisect(unstable, hi, lo, tol)
 
 
 def analyze(path, at=None, sweeps=True, **overrides):
@@ -266,9 +293,10 @@ def analyze(path, at=None, sweeps=True, **overrides):
     for gname, ref in cfg["gains"].items():
         value = param_value(f, ref)
         scaled = run_many(exp, Grid.scaled({ref: cfg["scales"]}, {ref: value}), measure=loops)
-        out["gains"][gname] = {"param": ref, "value": value.tolist(),
-                               "sweep": [_stability_row(cl, scale=s) for s, cl in zip(cfg["scales"], scaled)],
-                               "critical_scale": critical_scale(exp, {}, ref, value, at=at)}
+        rows = [_stability_row(cl, scale=s) for s, cl in zip(cfg["scales"], scaled)]
+        out["gains"][gname] = {"param": ref, "value": value.tolist(), "sweep": rows,
+                               "critical_scale": critical_scale(exp, {}, ref, value, at=at),
+                               "lower_scale": lower_scale(exp, ref, value, rows, at=at)}
     return out
 
 
@@ -304,9 +332,10 @@ def summary_lines(res):
         lines.append("  servo rate (Hz): " + "  ".join(
             f"{r['rate_hz']}:{_num(r['spectral_radius'], 3)}{'' if r['stable'] else '!'}" for r in res["rates"]))
     for name, d in res.get("gains", {}).items():
-        cs = d["critical_scale"]
-        lines.append(f"  {name} ({d['param']}): unstable from x{cs:.3g}" if cs else
-                     f"  {name} ({d['param']}): no stability boundary found in x1e-4..x1e4")
+        cs, low = d["critical_scale"], d.get("lower_scale")
+        said = ([f"unstable below x{low:.3g}"] if low else []) + ([f"unstable from x{cs:.3g}"] if cs else [])
+        lines.append(f"  {name} ({d['param']}): " + (" and ".join(said) if said else
+                                                      "no stability boundary found in x1e-4..x1e4"))
     lines.append(f"  (numbers are the {g}{' over one period' if sampled else ''} besides {at_one}; ! = not stable)")
     return lines
 

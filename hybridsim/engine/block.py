@@ -126,6 +126,9 @@ class Block:
     log_inputs = False
     #: the block's outputs may be NaN or infinite (else such an output stops the run)
     may_be_nonfinite = False
+    #: why a linearization by differences would not see this block's dynamics (its memory changes
+    #: only at events: a delay's buffer), or None; analysis refuses such a diagram with this reason
+    not_linearizable = None
     #: ``max_state`` bounds the discrete states (see :meth:`declare_discrete_state`)
     discrete_bounded = True
     #: the block's equations as pure functions f(p, t, x, u) (hybridsim.engine.kernels);
@@ -212,6 +215,11 @@ class Block:
         self.discrete_bounded = bool(bounded)
 
     # -- parameters at run time -------------------------------------------------
+    def linear_standin(self):
+        """A block with the same ports that analysis linearizes in this one's place (a transport
+        delay's Pade approximation), or None: this block itself."""
+        return None
+
     def with_params(self, **changes):
         """This block rebuilt with some constructor parameters changed.
 

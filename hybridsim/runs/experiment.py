@@ -18,8 +18,8 @@ from collections import OrderedDict
 
 import numpy as np
 
-from hybridsim.format.build import SIMULATION_KEYS, build, load
-from hybridsim.errors import HybridsimError, InputError, ParameterError
+from hybridsim.format.build import build, load, load_keys
+from hybridsim.errors import HybridsimError, InputError, ParameterError, SimulationError
 from hybridsim.format.settings import horizon_problems
 from hybridsim.analysis.linearize import Linearization, LinearizationError, start_outputs
 
@@ -50,7 +50,7 @@ class Experiment:
             self.path, self.file, self._given = path.path, path, True
             if overrides:
                 self.file = copy.deepcopy(path)
-                self.file.apply({(f"simulation.{k}" if k in SIMULATION_KEYS else k): v for k, v in overrides.items()})
+                self.file.apply(load_keys(overrides, path.params))
         else:
             self.path, self.file, self._given = path, load(path, **overrides), False
         self._start()
@@ -225,7 +225,12 @@ class Experiment:
         except ParameterError:  # a run-time change of structure (a width): build it instead
             exp, params = self.rebuilt(changes), {}
             ctx, t = exp.operating_point(None, at)
-        lin = Linearization(exp.system, ctx, t)
+        try:
+            lin = Linearization(exp.system, ctx, t)
+        except LinearizationError as exc:  # a block it cannot see: at the block's line
+            named = [n for n in exp.file._locs("blocks") if f"block {n!r}" in str(exc) or f"'{n}'" in str(exc)]
+            where = exp.file._locs("blocks")[named[0]] if named else str(self.path)
+            raise LinearizationError(f"{where}: {exc}") from None
         if exp is self and not params:
             self._at[at] = (lin, None)
         return lin
@@ -241,6 +246,10 @@ class Experiment:
             cl = lin.closed_loop()
         except (LinearizationError, np.linalg.LinAlgError):  # no finite model there (e.g. expm overflowed): no verdict
             return None
+        except SimulationError:  # a change (a scaled gain) whose run to ``at`` failed: no operating point
+            if changes and at:  # there, no verdict (the analysis's own point still fails loudly)
+                return None
+            raise
         if exp is self and not params:
             self._at[at] = (lin, cl)
         return cl

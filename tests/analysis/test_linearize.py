@@ -275,3 +275,74 @@ def test_a_co_simulation_fmu_is_refused_with_its_reason(tmp_path):
     with pytest.raises(LinearizationError, match="'plant' keep their state inside"):
         analysis.analyze(DIAGRAMS / "fig9_fmu_cs.yaml", sweeps=False, fmu=str(fmu))
     assert main(["analyze", str(DIAGRAMS / "fig9_fmu_cs.yaml"), "--set", f"fmu={fmu}"]) == 2
+
+
+DELAYED = """name: delayed
+blocks:
+  r: {type: step}
+  pi: {type: discrete_pid, Kp: 4.0, Ki: 2.0, rate: 10}
+  dly: {type: transport_delay, delay: 0.2}
+  plant: {type: transfer_function, num: [1.0], den: [1.0, 2.0, 0.0]}
+wires: [r.y -> pi.r, plant.y -> pi.y, pi.u -> dly.u, dly.y -> plant.u]
+simulation: {t_end: 5.0, solver: rk4, step: 1.0e-3}
+log: [plant.y]
+analysis:
+  points: {u: "pi.u[0]"}
+"""
+
+
+def test_a_transport_delay_is_linearized_as_its_pade_approximation(tmp_path):
+    # its buffer changes only at events: analysis saw it as constants, the loop as open (margins inf,
+    # "stable" at Kp = 8 too). Now its Pade approximation stands in: the 10 Hz loop equals
+    # python-control's c2d(zoh) of the plant times z^-2 (0.2 s is two periods; order 5 is exact to
+    # 1e-6 in the phase there)
+    from hybridsim.analysis.stability import analyze, linearization
+
+    p = tmp_path / "delayed.yaml"
+    p.write_text(DELAYED)
+    P = control.c2d(control.tf([1.0], [1.0, 2.0, 0.0]), 0.1) * control.tf([1.0], [1.0, 0.0, 0.0], 0.1)
+    for kp in (4.0, 8.0):
+        C = control.tf([kp + 2.0 * 0.1, -kp], [1.0, -1.0], 0.1)  # Kp + Ki T z / (z - 1) (forward Euler)
+        cl = linearization(p, **{"pi.Kp": kp}).closed_loop()
+        ref = np.max(np.abs(control.feedback(C * P, 1).poles()))
+        assert cl.growth == pytest.approx(ref, abs=2e-4)
+        assert cl.stable == (kp == 4.0)
+    res = analyze(p)
+    m = res["loops"]["u"]
+    gm, pm, _, _ = control.margin(control.tf([4.2, -4.0], [1.0, -1.0], 0.1) * P)  # at Kp = 4
+    assert m["gain_margin_db"] == pytest.approx(20 * np.log10(gm), abs=0.05)
+    assert m["phase_margin_deg"] == pytest.approx(pm, abs=0.2)
+
+
+def test_a_conditionally_stable_gain_reports_its_lower_boundary(tmp_path):
+    # PI 4 + 2/s around 1/(s (s + 2)): s^3 + 2 s^2 + Kp s + Ki is stable for 2 Kp > Ki, i.e. Kp above
+    # x0.25 of 4; the boundary search walked up only ("no stability boundary found")
+    from hybridsim.analysis.stability import analyze, summary_lines
+
+    p = tmp_path / "cond.yaml"
+    p.write_text("name: cond\nblocks:\n  r: {type: step}\n  pi: {type: pid, Kp: 4.0, Ki: 2.0}\n"
+                 "  plant: {type: transfer_function, num: [1.0], den: [1.0, 2.0, 0.0]}\n"
+                 "wires: [r.y -> pi.r, plant.y -> pi.y, pi.u -> plant.u]\nlog: [plant.y]\n"
+                 "analysis:\n  points: {u: \"pi.u[0]\"}\n  gains: {Kp: pi.Kp, Ki: pi.Ki}\n")
+    res = analyze(p)
+    assert res["gains"]["Kp"]["lower_scale"] == pytest.approx(0.25, rel=0.01)
+    assert res["gains"]["Kp"]["critical_scale"] is None
+    assert res["gains"]["Ki"]["critical_scale"] == pytest.approx(4.0, rel=0.01)
+    assert res["gains"]["Ki"]["lower_scale"] is None
+    assert any("unstable below x0.25" in line for line in summary_lines(res))
+
+
+@pytest.mark.slow  # about twenty 30 s runs
+def test_a_gain_sweep_about_a_later_state_takes_a_diverging_scale_as_unstable(tmp_path):
+    # analyze --at 30 of a stable 10 Hz PI loop: the boundary search ran each scaled Kp for 30 s, and
+    # one that diverged ended the analysis (exit 3, "simulation diverged")
+    from hybridsim.analysis.stability import analyze
+
+    p = tmp_path / "later.yaml"
+    p.write_text("name: later\nblocks:\n  r: {type: step}\n  pi: {type: discrete_pid, Kp: 4.0, Ki: 2.0, rate: 10}\n"
+                 "  plant: {type: transfer_function, num: [1.0], den: [1.0, 2.0, 0.0]}\n"
+                 "wires: [r.y -> pi.r, plant.y -> pi.y, pi.u -> plant.u]\nlog: [plant.y]\n"
+                 "simulation: {t_end: 40.0, solver: rk4, step: 0.01}\n"
+                 "analysis:\n  points: {u: \"pi.u[0]\"}\n  gains: {Kp: pi.Kp}\n")
+    res = analyze(p, at=30.0)
+    assert res["stable"] and res["gains"]["Kp"]["critical_scale"] == pytest.approx(10.1, rel=0.02)
