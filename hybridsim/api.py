@@ -8,6 +8,7 @@
 :func:`hybridsim.runs.variants.run_experiment` (every variant of a file, with metrics).
 """
 import json
+import logging
 from pathlib import Path
 
 from hybridsim.files import atomic_dir, safe_name, unique_names
@@ -30,12 +31,20 @@ def write_outputs(f, runs, settings, outdir, only_ours=False):
         for r, stem in zip(runs, unique_names([r["label"] for r in runs], name)):
             r["csv"] = f"{stem}.csv"
             r["result"].to_csv(tmp / f"{stem}.csv")
-        fig = experiment_figure(f, runs, settings)
-        fig.savefig(tmp / f"{name}.png", dpi=130)
-        fig.savefig(tmp / f"{name}.svg")
         import matplotlib.pyplot as plt
 
-        plt.close(fig)
+        fig = None
+        try:
+            fig = experiment_figure(f, runs, settings)
+            fig.savefig(tmp / f"{name}.png", dpi=130)
+            fig.savefig(tmp / f"{name}.svg")
+        except (ValueError, OverflowError) as exc:  # values matplotlib cannot scale (near 1e308): the
+            logging.getLogger("hybridsim").warning(  # tables are written all the same
+                "%s: no figure drawn: matplotlib cannot draw these values (%s); the CSV has them", f.path, exc)
+            for ext in ("png", "svg"):
+                (tmp / f"{name}.{ext}").unlink(missing_ok=True)
+        finally:
+            plt.close(fig or "all")
         doc = {"diagram": f.name, "file": str(f.path), "description": f.description,
                "runs": [{"label": r["label"], "csv": r["csv"], "overrides": r["overrides"],
                          "solver": r["result"].meta["solver"], "metrics": r["metrics"],

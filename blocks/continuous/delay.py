@@ -62,7 +62,9 @@ class TransportDelay(Block):
         self.event_directions = (1,)
         self.declare_input("u", n)
         self.declare_output("y", n, depends_on=())
-        self.declare_continuous_state((N + 2) * n + 1)  # the ring of samples (slot-major), then their count
+        # the ring of samples (slot-major), then the time of the next sample (s): a count of samples
+        # would pass max_state (1e6) in a long run
+        self.declare_continuous_state((N + 2) * n + 1)
 
     def linear_standin(self):
         """Its (pade, pade) Pade approximation, which analysis linearizes in its place (the buffer's
@@ -73,7 +75,7 @@ class TransportDelay(Block):
         p = self.params
         x = np.zeros(p.slots * p.n + 1)
         x[:p.n] = np.asarray(u[0], float) if u is not None else 0.0  # sample 0: u(0)
-        x[-1] = 1.0
+        x[-1] = p.Ts
         return x
 
 
@@ -91,7 +93,7 @@ def transport_delay_output(p, t, x, u):
     s = t - p.tau
     if s < 0.0:
         return (p.initial.copy(),)
-    stored = int(xa[-1])  # samples 0 .. stored - 1, at times j Ts
+    stored = int(round(xa[-1] / p.Ts))  # samples 0 .. stored - 1, at times j Ts
     j = min(max(int(np.floor(s / p.Ts)), stored - p.slots), stored - 2)
     f = s / p.Ts - j
     a, b = (j % p.slots) * p.n, ((j + 1) % p.slots) * p.n
@@ -105,17 +107,17 @@ def transport_delay_derivatives(p, t, x, u):
 
 @kernel
 def transport_delay_crossings(p, t, x, u):
-    return (t - x[-1] * p.Ts,)  # rises through 0 at the next sample time
+    return (t - x[-1],)  # rises through 0 at the next sample time
 
 
 @kernel
 def transport_delay_event(p, t, x, u, fired):
     out = np.asarray(x).copy()
     if fired[0]:
-        k = int(out[-1])
+        k = int(round(out[-1] / p.Ts))
         a = (k % p.slots) * p.n
         out[a:a + p.n] = np.asarray(u[0])
-        out[-1] = k + 1.0
+        out[-1] = (k + 1) * p.Ts
     return out
 
 

@@ -151,6 +151,11 @@ class MathFunction(Block):
         self.declare_output("y", n)
 
 
+#: the largest arguments of exp and of sinh / cosh whose results are finite (math.exp raises above)
+EXP_MAX = 709.782712893384       # log(float max)
+SINH_MAX = 710.4758600739439     # log(2 float max)
+
+
 @kernel
 def apply_function(code, v):
     """FUNCTIONS[code] of the float v (the C library's, so every path gives the same bits). NaN gives
@@ -173,7 +178,7 @@ def apply_function(code, v):
     if c == 5:
         return math.atan(v)
     if c == 6:
-        return math.exp(v) if v < 709.0 else math.inf
+        return math.exp(v) if v <= EXP_MAX else math.inf
     if c == 7:
         return math.log(v) if v > 0.0 else (-math.inf if v == 0.0 else math.nan)
     if c == 8:
@@ -191,9 +196,9 @@ def apply_function(code, v):
     if c == 14:
         return math.tanh(v)
     if c == 15:
-        return math.sinh(v) if abs(v) < 710.0 else math.copysign(math.inf, v)
+        return math.sinh(v) if abs(v) <= SINH_MAX else math.copysign(math.inf, v)
     if c == 16:
-        return math.cosh(v) if abs(v) < 710.0 else math.inf
+        return math.cosh(v) if abs(v) <= SINH_MAX else math.inf
     if c == 17:
         return float(math.floor(v))
     if c == 18:
@@ -231,8 +236,9 @@ class Quantizer(Block):
 @kernel
 def quantizer_output(p, t, x, u):
     v = np.asarray(u[0]) / p[0]
-    if p[1] == 1.0:
-        return (p[0] * (np.sign(v) * np.floor(np.abs(v) + 0.5)),)
+    if p[1] == 1.0:  # v - trunc(v) is exact (floor(abs(v) + 0.5) took 0.49999999999999994 to 1)
+        w = np.trunc(v)
+        return (p[0] * (w + np.where(np.abs(v - w) >= 0.5, np.sign(v), 0.0)),)
     return (p[0] * np.round(v),)
 
 

@@ -1,4 +1,5 @@
 """``hybridsim run``: simulate every variant; write CSV, the figure and metrics.json."""
+from pathlib import Path
 import sys
 
 from hybridsim.app import options
@@ -50,4 +51,5 @@ def show(done):
         if stopped:
             print(f"  {head}: note: block {stopped['block']!r} ended the run at t={stopped['t']:.6g} s "
                   f"({stopped['reason']}); the results go up to then")
-    print(f"wrote {done['outdir']}/ (CSV, {safe_name(f.name)}.png/.svg, metrics.json)")
+    figure = f", {safe_name(f.name)}.png/.svg" if (Path(done["outdir"]) / f"{safe_name(f.name)}.png").exists() else ""
+    print(f"wrote {done['outdir']}/ (CSV{figure}, metrics.json)")

@@ -75,3 +75,12 @@ def test_transport_delay_default_buffer_is_64_samples_per_delay():
     bound = (tau / 64) ** 2 / 8 * (2 * np.pi) ** 2  # 1.1e-4; 20 samples would give 1.1e-3
     err = check("transport_delay, default buffer", "generic", res["d.y[0]"], ref, bound)
     assert err > bound / 10  # the bound is tight: a finer buffer would pass far below it
+
+
+def test_a_long_run_of_a_transport_delay_is_not_taken_for_divergence():
+    # its count of samples was a state: past 1e6 samples (156 s of a 0.01 s delay) it tripped
+    # max_state, "diverged"; the state is now the next sample's time
+    blocks = [block("sine", "s", amplitude=1.0, frequency=1.0), block("transport_delay", "d", delay=0.01, buffer=4)]
+    res = run("generic", blocks, [("s.y", "d.u")], 3.0, ["d.y"], step=1e-3, max_state=100.0)
+    assert len(res.meta["events"]) >= 1199
+    assert abs(res["d.y[0]"][-1] - np.sin(2 * np.pi * (res.t[-1] - 0.01))) < 1e-4

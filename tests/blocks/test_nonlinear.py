@@ -42,6 +42,10 @@ def test_math_function_outside_its_domain_gives_nan_not_an_exception():
     assert out(MathFunction(function="log"), 0.0)[0] == -math.inf
     with pytest.raises(hs.ParameterError, match="must be one of"):
         MathFunction(function="eval")
+    # finite up to the largest arguments math takes (exp of 709.5 was inf, sinh of 710 too)
+    for name, v in [("exp", 709.7), ("sinh", 710.4), ("sinh", -710.4), ("cosh", 710.4)]:
+        assert out(MathFunction(function=name), v)[0] == getattr(math, name)(v)
+    assert out(MathFunction(function="exp"), 709.8)[0] == math.inf
 
 
 def test_lookup_tables():
@@ -61,5 +65,8 @@ def test_quantizer_rounds_halves_to_even_or_away_from_zero():
     assert list(Quantizer(q=1.0).output(0, (), [np.array([2.5, -2.5, 3.5])])[0]) == [2.0, -2.0, 4.0]
     assert list(Quantizer(q=1.0, rounding="away").output(0, (), [np.array([2.5, -2.5, 3.5])])[0]) == [3.0, -3.0, 4.0]
     assert Quantizer(q=0.1, rounding="away").output(0, (), [np.array([0.26])])[0][0] == pytest.approx(0.3)
+    # below a half by one ulp, and 2^52 + 1: floor(abs(v) + 0.5) rounded them up
+    near = np.array([0.49999999999999994, -0.49999999999999994, 4503599627370497.0])
+    assert list(Quantizer(q=1.0, rounding="away").output(0, (), [near])[0]) == [0.0, 0.0, 4503599627370497.0]
     with pytest.raises(hs.ParameterError, match="rounding"):
         Quantizer(rounding="up")

@@ -48,3 +48,17 @@ def test_the_diagram_picture_keeps_every_box_and_wire_on_the_canvas(graphviz, mo
         arrows = [p for p in ax.patches if isinstance(p, FancyArrowPatch)]
         assert len(arrows) >= 20 and any(a.get_edgecolor()[0] > 0.7 for a in arrows)
     plt.close(fig)
+
+
+def test_values_matplotlib_cannot_scale_lose_the_figure_not_the_run(tmp_path, caplog):
+    # exp(709.5) is finite (1.4e308) but matplotlib's ticks overflow on it: the run ended in an
+    # internal error after simulating, writing nothing
+    from hybridsim.app.cli import main
+
+    p = tmp_path / "huge.yaml"
+    p.write_text("name: huge\nblocks:\n  c: {type: constant, value: [709.5, 709.7]}\n"
+                 "  e: {type: math_function, function: exp, width: 2}\nwires: [c.y -> e.u]\n"
+                 "simulation: {t_end: 0.01, log_period: 0.005}\nlog: [e.y]\n")
+    assert main(["run", str(p), "-o", str(tmp_path / "out")]) == 0
+    assert (tmp_path / "out" / "huge.csv").exists() and not (tmp_path / "out" / "huge.png").exists()
+    assert "no figure drawn" in caplog.text
