@@ -19,8 +19,8 @@ each step
 
 Time events (a block's ``next_event_time``) are stops hit exactly; blocks
 told of every accepted step (``after_step``) may ask for a step event or
-stop the run. Too many events before the next hit, or events piling up at
-one instant, is Zeno behaviour. A crossing within ``time_tol`` of the next
+stop the run. More than ``max_events`` events averaging under ``slide_step``
+s apart, or events piling up at one instant, is Zeno behaviour. A crossing within ``time_tol`` of the next
 hit fires just after it (the hit samples the value before; its log row is
 logged again after the event); one at the run's end is not acted on. A
 variable-step run whose steps shrink to nothing (sliding along a muted
@@ -46,7 +46,7 @@ OK = 0
 DIVERGED = 1    # a continuous state not finite or beyond max_state: status[1] = state index
 BAD_OUTPUT = 2  # a block output not finite: status[1] = block index
 BAD_UPDATE = 3  # a discrete state not finite: status[1] = block index
-ZENO = 4        # more than max_events events before the next hit
+ZENO = 4        # more than max_events events, on average under slide_step s apart
 STALLED = 5     # max_stalls events in a row within 10 time_tol of each other
 CHATTER = 6     # an event iteration that does not settle
 STOPPED = 7     # a block asked to end the run (its request is kept by the glue)
@@ -92,6 +92,12 @@ def first_sign_change(a, b, dirs):
         if d == 0 and a[i] * b[i] < 0.0 and not near:
             return i
     return -1
+
+
+def accumulating(count, span, lim):
+    """Whether ``count`` events in ``span`` s accumulate (Zeno): on average under ``slide_step`` apart.
+    Events further apart (a delay's buffer sampled for minutes) start a new count."""
+    return span < count * lim.slide_step
 
 
 def first_bad(x, max_state):
@@ -212,6 +218,7 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
         w.muted[i] = False
         w.repeats[i] = 0
     count = 0
+    since = t0  # when the count of events began (a new count starts after max_events spaced out)
     stalls = 0
     tol = lim.time_tol
     at_hit = located
@@ -232,9 +239,14 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
             if te <= t0 + tol:  # due now (an event just before it brought the run to it): act at once
                 count += 1
                 stalls += 1
-                if count > lim.max_events or stalls > lim.max_stalls:
-                    fail(out, ZENO if count > lim.max_events else STALLED, count, j, t0)
-                    return ZENO if count > lim.max_events else STALLED
+                if count > lim.max_events:
+                    if accumulating(count, t0 - since, lim):
+                        fail(out, ZENO, count, j, t0)
+                        return ZENO
+                    count, since = 0, t0
+                if stalls > lim.max_stalls:
+                    fail(out, STALLED, stalls, j, t0)
+                    return STALLED
                 code = time_event(t0, gl, lim, w, out, y, z, pf, pi, j)
                 if code != OK:
                     return code
@@ -373,8 +385,10 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
             stalls = stalls + 1 if t_ev - t0 <= 10.0 * tol else 0
             log_event(out, t_ev, w.fired, w.owner)
             if count > lim.max_events:
-                fail(out, ZENO, count, j, t_ev)
-                return ZENO
+                if accumulating(count, t_ev - since, lim):
+                    fail(out, ZENO, count, j, t_ev)
+                    return ZENO
+                count, since = 0, t_ev
             if stalls > lim.max_stalls:
                 fail(out, STALLED, stalls, j, t_ev)
                 return STALLED

@@ -55,6 +55,25 @@ def test_a_zeno_ball_stops_with_a_clear_message(name):
         ball(make(), **kw).run(5.0)
 
 
+@pytest.mark.parametrize("name", ["rk4-generic", "rk4-fused", "rk4-compiled", "rk45"])
+def test_many_events_spread_over_a_long_run_are_not_zeno(name, monkeypatch):
+    # a transport delay samples its input every delay / buffer s for as long as the run lasts: with
+    # no sample hit in the diagram, MAX_EVENTS of them (100,000: 15.6 s of a 0.01 s delay) ended the
+    # run as "Zeno". Here with the cap at 300: 600 events 1 ms apart run; the ball still stops
+    from hybridsim.engine import events
+
+    monkeypatch.setattr(events, "MAX_EVENTS", 300)
+    make, kw = PATHS[name]
+    d = hs.Diagram("delayed")
+    d.add(lookup("sine")("s", frequency=1.0))
+    d.add(lookup("transport_delay")("d", delay=0.004, buffer=4))
+    d.connect("s.y", "d.u")
+    res = hs.Simulator(d.build(), make(), log=["d.y"], log_period=0.01, **kw).run(0.6)
+    assert len(res.meta["events"]) >= 599
+    with pytest.raises(SimulationError, match=r"events accumulate at t=4\.0637"):
+        ball(make(), **kw).run(5.0)
+
+
 @pytest.mark.slow
 def test_the_fixed_step_paths_agree_bit_for_bit_with_events():
     runs = [ball(hs.RK4(1e-3), **kw).run(3.9) for kw in ({"fused": False}, {}, {"compiled": True})]
