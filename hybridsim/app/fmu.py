@@ -24,8 +24,8 @@ def add(sub):
                                      "its params the FMU's parameters; inside, the diagram runs with its own "
                                      "solver and rates. The FMU needs a Python with hybridsim installed.")
     fe.add_argument("diagram", help="the diagram or subsystem file (.yaml)")
-    fe.add_argument("-o", "--output", default="diagram.fmu", metavar="FILE",
-                    help="the FMU to write (default diagram.fmu)")
+    fe.add_argument("-o", "--output", metavar="FILE",
+                    help="the FMU to write (default: the diagram file's name with .fmu, in the current folder)")
     fe.add_argument("--fmi", type=int, choices=(2, 3), default=2, help="FMI version: 2 (the default) or 3")
     fe.set_defaults(func=export)
     fm.set_defaults(func=lambda a: (fm.print_help(), 2)[1])
@@ -46,7 +46,9 @@ def export(args):
     """Do the command: one call of the Python API, its result printed; returns the exit status."""
     from hybridsim.fmi.export import export_fmu
 
-    out = export_fmu(args.diagram, args.output, fmi=args.fmi)
+    from pathlib import Path
+
+    out = export_fmu(args.diagram, args.output or f"{Path(args.diagram).stem}.fmu", fmi=args.fmi)
     print(f"wrote {out} (FMI {args.fmi}.0 Co-Simulation; it runs the diagram with hybridsim, "
           "which the importing Python must have installed)")
     return 0

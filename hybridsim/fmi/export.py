@@ -62,21 +62,42 @@ def _no_fmu_blocks(paths):
     """Refuse an fmu block in any of the diagram files ``paths`` (its FMU file would not travel)."""
     from hybridsim.format.diagram_file import DiagramFile
 
+    from hybridsim.errors import LoaderError
+
     for p in paths:
-        for spec in (DiagramFile(p).data.get("blocks") or {}).values():
+        f = DiagramFile(p)
+        for name, spec in (f.data.get("blocks") or {}).items():
             if isinstance(spec, dict) and spec.get("type") == "fmu":
-                raise FMUError(f"{p}: block type fmu inside an exported diagram is not supported "
-                               "(its FMU file would have to travel with it)")
+                raise LoaderError(f"block {name!r}: block type fmu inside an exported diagram is not supported "
+                                  "(its FMU file would have to travel with it)", f._locs("blocks").get(name, p))
 
 
-def _param_value(name, value, where):
+def _param_value(name, value, f):
     if isinstance(value, (bool, int, float, str)):
         return value
     if isinstance(value, list) and value and all(isinstance(v, (int, float)) and not isinstance(v, bool)
                                                  for v in value):
         return [float(v) for v in value]
-    raise FMUError(f"{where}: parameter {name!r} = {value!r} cannot be an FMU parameter "
-                   "(numbers, Booleans, text and lists of numbers can)")
+    from hybridsim.errors import LoaderError
+
+    raise LoaderError(f"parameter {name!r} = {value!r} cannot be an FMU parameter "
+                      "(numbers, Booleans, text and lists of numbers can)", f._locs("params").get(name, f.path))
+
+
+def _unique_names(f, inputs, outputs, params, fmi, path):
+    """Refuse two FMU variables of one name (a parameter and a port, or FMI 3.0's ``time``), at the line
+    of the second; an importer refuses such an FMU."""
+    from hybridsim.errors import LoaderError
+
+    seen = {"time": "FMI 3.0's independent variable"} if fmi == 3 else {}
+    named = ([(n, "parameter", "params") for n, _ in params] + [(n, "input", "inputs") for n, _, _ in inputs]
+             + [(n, "output", "outputs") for n, _, _ in outputs])
+    for name, kind, section in named:
+        if name in seen:
+            where = f._locs(section).get(name, str(path))
+            raise LoaderError(f"{kind} {name!r} would be an FMU variable of the same name as {seen[name]}: "
+                              "rename one", where)
+        seen[name] = f"{kind} {name!r}"
 
 
 def _identifier(name):
@@ -143,7 +164,7 @@ def export_fmu(diagram, out, fmi=2, name=None):
                        f"pip install {'pythonfmu' if fmi == 2 else 'pythonfmu3'}") from None
     path = Path(diagram)
     f, _ = standalone.files(path)
-    params = [(k, _param_value(k, v, path)) for k, v in f.params.items()]
+    params = [(k, _param_value(k, v, f)) for k, v in f.params.items()]
     cls = _identifier(name or f.name)
     out = Path(out)
     with tempfile.TemporaryDirectory(prefix="hybridsim-export-") as tmp:
@@ -156,11 +177,12 @@ def export_fmu(diagram, out, fmi=2, name=None):
         if not is_sub:
             refs = list(settings["log"]) + list(settings["signals"].values())
             outputs = []
-            for ref in dict.fromkeys(refs):
-                i, o = system.port_ref(ref.split("[")[0])
-                outputs.append((ref.split("[")[0].replace(".", "_"), ref.split("[")[0], system.blocks[i].outputs[o].width))
+            for port in dict.fromkeys(str(r).split("[")[0] for r in refs):  # a port once, however many elements named
+                i, o = system.port_ref(port)
+                outputs.append((port.replace(".", "_"), port, system.blocks[i].outputs[o].width))
         else:
             outputs = [(n, r, w) for (n, _, w), r in zip(outputs, settings["log"])]
+        _unique_names(f, inputs, outputs, params, fmi, path)
         (stage / INTERFACE).write_text(json.dumps({"diagram": entry, "inputs": inputs, "outputs": outputs,
                                                    "params": params, "source": str(path)}, indent=1))
         # the slave module's name is unique: the embedded interpreter of a process imports it once

@@ -34,6 +34,7 @@ class Engine:
         self.spec = json.loads((self.folder / INTERFACE).read_text())
         self.inputs = {name: np.array(start, float) for name, width, start in self.spec["inputs"]}
         self.params = {name: value for name, value in self.spec["params"]}
+        self.spec_params = dict(self.params)  # as exported (a whole number an int)
         self.stepper = None
         self._register()
 
@@ -81,8 +82,9 @@ class Engine:
                     el = f"{name}[{k + 1}]"
                     reg(var("Real", el, "parameter", self._param_getter(name, k), self._param_setter(name, k)))
             else:
-                typ = ("Boolean" if isinstance(value, bool) else "Integer" if isinstance(value, int)
-                       else "String" if isinstance(value, str) else "Real")
+                # a number is Real, a whole one too (Kp: 2 set to 2.5 by the importer); a whole value
+                # reaches the diagram as an int again (a width, a count): see _param_setter
+                typ = "Boolean" if isinstance(value, bool) else "String" if isinstance(value, str) else "Real"
                 reg(var(typ, name, "parameter", self._param_getter(name), self._param_setter(name)))
 
     def _input_getter(self, name, k):
@@ -99,14 +101,18 @@ class Engine:
         return lambda: float(self.stepper.outputs()[k]) if self.stepper is not None else 0.0
 
     def _param_getter(self, name, k=None):
-        return (lambda: self.params[name]) if k is None else (lambda: float(self.params[name][k]))
+        def scalar():
+            v = self.params[name]
+            return v if isinstance(v, (str, bool)) else float(v)
+        return scalar if k is None else (lambda: float(self.params[name][k]))
 
     def _param_setter(self, name, k=None):
         def setter(value):
             if self.stepper is not None:  # fixed: the diagram is built at exitInitializationMode
                 raise ValueError(f"parameter {name} is fixed: set it before exitInitializationMode")
             if k is None:
-                self.params[name] = value
+                whole = isinstance(self.spec_params[name], int) and not isinstance(value, bool)
+                self.params[name] = int(value) if whole and float(value).is_integer() else value
             else:
                 self.params[name] = list(self.params[name])
                 self.params[name][k] = float(value)

@@ -129,6 +129,11 @@ def _settable(var, value):
     if var.causality not in ("parameter", "input") and var.initial not in ("exact", "approx") and var.start is None:
         raise ParameterError("parameters", f"{var.name} is a {var.causality} variable of the FMU "
                                            f"(initial={var.initial}): it cannot be set")
+    whole = var.type in _INT_RANGE or var.type in _UINT_RANGE
+    for v in (value if isinstance(value, (list, tuple)) else [value]):
+        if whole and not isinstance(v, bool) and not float(v).is_integer():  # rounded, it was silently another
+            raise ParameterError("parameters", f"{var.name} is an {var.type} variable of the FMU: give a whole "
+                                               f"number, got {v!r}")
     for bound, bad in (("min", lambda v, b: v < b), ("max", lambda v, b: v > b)):
         b = getattr(var, bound, None)
         if b is not None and not isinstance(value, (list, tuple)):

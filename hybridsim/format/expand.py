@@ -8,7 +8,7 @@ import re
 from pathlib import Path
 
 from hybridsim import limits
-from hybridsim.errors import LoaderError, ParameterError, RateError
+from hybridsim.errors import FMUError, LoaderError, ParameterError, RateError
 from hybridsim.engine.registry import closest, lookup, parameters, types
 from hybridsim.format import tables
 from hybridsim.format.values import _has_nan, _is_subsystem, _references, note, subsystem_path
@@ -281,6 +281,9 @@ class ExpandMixin:
                             + self._set_origin(spec.get(exc.param), spec.locs.get(exc.param)))
         except (ValueError, TypeError, ArithmeticError) as exc:
             problems.append(f"{here}: block {bname!r} ({tname}): {exc}")
+        except FMUError as exc:  # an FMU that is missing or cannot serve: at the block's path (exit 4 still)
+            raise FMUError(f"{context}{spec.locs.get('path', blocks.locs[bname])}: block {bname!r} ({tname}): "
+                           f"{exc}") from None
         except Exception as exc:  # noqa: BLE001 - a plugin's constructor may raise anything: its fault
             from hybridsim.errors import PluginFault
             from hybridsim.engine.registry import _is_ours

@@ -55,8 +55,13 @@ def ports(f):
         raise InputError("; ".join(d.problems[:3]))
     inputs = []
     for name, refs in ins.items():
-        b, p = refs[0].rsplit(".", 1)
-        inputs.append((name, d.blocks[b].input_port(p).width, [0.0] * d.blocks[b].input_port(p).width))
+        widths = {r: d.blocks[r.rsplit(".", 1)[0]].input_port(r.rsplit(".", 1)[1]).width for r in refs}
+        if len(set(widths.values())) > 1:  # one outer input cannot feed both
+            where = f._locs("inputs").get(name, str(f.path))
+            raise InputError(f"{where}: input {name!r} feeds ports of different widths: "
+                             + ", ".join(f"{r} ({w} wide)" for r, w in widths.items()))
+        width = widths[refs[0]]
+        inputs.append((name, width, [0.0] * width))
     outputs = []
     for name, ref in outs.items():
         b, p = ref.rsplit(".", 1)

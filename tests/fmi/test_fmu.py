@@ -542,3 +542,17 @@ def test_an_fmu_file_replaced_on_disk_is_read_again(plant, vdp, tmp_path):
     assert "tau" in [p.name for p in FMUBlock("a", path=str(path), mode="me").inputs]
     shutil.copy(vdp, path)
     assert [p.name for p in FMUBlock("b", path=str(path), mode="me").outputs] == ["y"]
+
+
+def test_a_fractional_value_for_an_integer_parameter_is_refused_not_rounded():
+    # parameters: {Kp: 2.7} on an Integer parameter ran with 3, silently
+    from types import SimpleNamespace
+
+    from hybridsim.errors import ParameterError
+    from hybridsim.fmi.variables import _settable
+
+    var = SimpleNamespace(name="Kp", type="Integer", causality="parameter", variability="fixed", initial=None,
+                          start="2", min=None, max=None)
+    assert _settable(var, 3) == 3 and _settable(var, 3.0) == 3.0
+    with pytest.raises(ParameterError, match="Kp is an Integer variable of the FMU: give a whole number, got 2.7"):
+        _settable(var, 2.7)

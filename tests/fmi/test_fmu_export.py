@@ -179,7 +179,8 @@ def test_a_missing_diagram_is_a_clear_error(tmp_path, capsys):
 def test_a_diagram_with_an_fmu_inside_is_refused(tmp_path, capsys):
     code = main(["fmu", "export", str(DIAGRAMS / "fig9_fmu_cs.yaml"), "-o", str(tmp_path / "x.fmu")])
     err = capsys.readouterr().err
-    assert code == 4 and "block type fmu inside an exported diagram is not supported" in err
+    assert code == 2 and "block type fmu inside an exported diagram is not supported" in err
+    assert "fig9_fmu_cs.yaml:" in err  # at the block's line (bad input, not an FMU's failure)
 
 
 def test_a_bad_parameter_fails_initialization_in_the_fmus_own_words(fmus):
@@ -203,7 +204,7 @@ def test_a_bad_parameter_fails_initialization_in_the_fmus_own_words(fmus):
     fmu.instantiate(callbacks=cbs, loggingOn=True)
     fmu.setupExperiment(startTime=0.0)
     fmu.enterInitializationMode()
-    fmu.setInteger([vr["rate"]], [0])
+    fmu.setReal([vr["rate"]], [0.0])  # a number is a Real, a whole one too
     with pytest.raises(Exception):
         fmu.exitInitializationMode()
     assert any("cannot build the diagram" in m and "rate" in m for m in said), said
@@ -286,3 +287,32 @@ def test_a_subsystem_that_extends_one_with_a_simulation_section_exports(tmp_path
     child.write_text("extends: base.yaml\nsimulation:\n  solver: rk5\n")
     assert main(["fmu", "export", str(child), "-o", str(tmp_path / "d.fmu")]) == 2
     assert f"{child}:3: unknown solver 'rk5'" in capsys.readouterr().err
+
+
+def test_exported_variables_are_one_per_element_and_numbers_are_real(tmp_path, capsys, monkeypatch):
+    # a log naming elements exported the port once per element (fmpy: "integ_y[1]" is not unique); a
+    # whole-number param was an Integer, so Kp = 2.5 became 2; a param 'time' clashed with FMI 3.0's
+    import fmpy
+    from fmpy.validation import validate_fmu
+
+    closed = tmp_path / "closed.yaml"
+    closed.write_text("name: closed\nblocks:\n  c: {type: constant, value: [1.0, 2.0]}\n"
+                      "  integ: {type: integrator, width: 2}\nwires: [c.y -> integ.u]\n"
+                      "log: [\"integ.y[0]\", \"integ.y[1]\"]\nsimulation: {t_end: 1.0, step: 1.0e-3}\n")
+    sub = tmp_path / "scaled.yaml"
+    sub.write_text("name: scaled\nparams: {Kp: 2}\nblocks:\n  g: {type: gain, K: $Kp}\n"
+                   "inputs: {u: [g.u]}\noutputs: {y: g.y}\n")
+    monkeypatch.chdir(tmp_path)
+    assert main(["fmu", "export", str(closed)]) == 0 and main(["fmu", "export", str(sub)]) == 0
+    assert validate_fmu("closed.fmu") == []  # the default name: the diagram's own
+    r = fmpy.simulate_fmu("closed.fmu", stop_time=0.5, output_interval=0.1, output=["integ_y[2]"])
+    assert r["integ_y[2]"][-1] == pytest.approx(1.0, abs=1e-9)
+    r = fmpy.simulate_fmu("scaled.fmu", stop_time=0.1, output_interval=0.1, start_values={"Kp": 2.5, "u": 1.0})
+    assert r["y"][-1] == pytest.approx(2.5)
+    (tmp_path / "timed.yaml").write_text(sub.read_text().replace("Kp", "time"))
+    assert main(["fmu", "export", "timed.yaml", "--fmi", "3"]) == 2
+    assert "timed.yaml:2: parameter 'time' would be an FMU variable of the same name" in capsys.readouterr().err
+    (tmp_path / "wide.yaml").write_text("blocks:\n  h: {type: gain}\n  g: {type: gain, width: 2}\n"
+                                        "inputs: {u: [h.u, g.u]}\noutputs: {y: h.y}\n")
+    assert main(["check", "wide.yaml"]) == 2
+    assert "wide.yaml:4: input 'u' feeds ports of different widths" in capsys.readouterr().err
