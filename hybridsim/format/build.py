@@ -6,6 +6,7 @@ solver from the ``simulation`` settings, per-state tolerances, the compiled path
 when asked), :func:`check` builds every variant as a run would, without running,
 and :func:`simulate` runs one. The public API (:mod:`hybridsim.api`) re-exports them.
 """
+import re
 from hybridsim.engine.simulator import Simulator
 from hybridsim.errors import RateError
 from hybridsim.engine.solvers import FIXED_STEP, ScipySolver
@@ -126,7 +127,14 @@ def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
     """
     f = load(path_or_file, **overrides)
     diagram, settings = f.build(variant)
-    system = diagram.build()
+    try:
+        system = diagram.build()
+    except RateError as exc:  # rates with no small common tick: the file, and the line of each block named
+        locs = f._locs("blocks")
+        listing = re.search(r"\(([^)]*)\)", str(exc))  # "(z2 8.1 Hz, z 10 Hz)"
+        listed = {item.rsplit(" ", 2)[0].split(".")[0] for item in listing.group(1).split(", ")} if listing else set()
+        named = [f"{n} at {loc}" for n, loc in locs.items() if n in listed]
+        raise RateError(f"{f.path}: {exc}" + (f" (blocks: {', '.join(named)})" if named else "")) from None
     check_plugin_blocks(system)
     sim = settings["simulation"]
     solver = make_solver(sim)

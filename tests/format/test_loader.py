@@ -217,3 +217,14 @@ def test_a_keyword_that_is_a_parameter_and_a_setting_is_the_parameter_as_with_se
     assert hs.simulate(hs.load(p), step=3.0)["i.y"][-1] == pytest.approx(3.0, abs=1e-12)
     r = hs.simulate(p, **{"simulation.step": 0.25, "t_end": 0.5})
     assert r.t[-1] == 0.5 and r["i.y"][-1] == pytest.approx(0.5, abs=1e-12)
+
+
+def test_incommensurate_rates_name_the_file_and_each_blocks_line(tmp_path):
+    import hybridsim as hs
+
+    p = tmp_path / "rates.yaml"
+    p.write_text("blocks:\n  a: {type: constant}\n  z: {type: zoh, rate: 10}\n  z2: {type: zoh, period: 0.1234567}\n"
+                 "wires: [a.y -> z.u, a.y -> z2.u]\n")
+    with pytest.raises(InputError, match=rf"^{re.escape(str(p))}: sample rates are not commensurate .*"
+                                         rf"\(blocks: z at {re.escape(str(p))}:3, z2 at {re.escape(str(p))}:4\)"):
+        hs.check(p)
