@@ -178,10 +178,12 @@ class Memory(Block):
     width : int
 
     Ports: in ``u``, ``trigger``; out ``y``. The edges are located events, so y
-    is u at the exact edge time on every solver. Example: u = t, a pulse of
-    period 1 s on trigger: y = 0, 1, 2, ... held for a second each.
+    is u at the exact edge time on every solver. An edge goes from below 0.5 to
+    above: a trigger starting at 0.5 and rising is not one. Example: u = t, a
+    pulse of period 1 s on trigger: y = 0, 1, 2, ... held for a second each.
     """
 
+    init_needs_inputs = True
     not_linearizable = ("(memory) holds its output between trigger edges, events a linearization does not "
                         "see (the loop would look open there)")
 
@@ -190,24 +192,25 @@ class Memory(Block):
         n = count(width, "width")
         self.params = (n,)
         self.x0 = vector(initial, "initial", n)
-        self.event_directions = (1,)
+        self.event_directions = (0,)  # both ways: the side of 0.5 the trigger is on is followed
         self.declare_input("u", n)
         self.declare_input("trigger", 1)
         self.declare_output("y", n, depends_on=())
-        self.declare_continuous_state(n)
+        self.declare_continuous_state(n + 1)  # y, then the trigger's side of 0.5 (-1, 0 at the start on it, +1)
 
     def initial_state(self, u=None):
-        return self.x0.copy()
+        side = np.sign(float(np.asarray(u[1], float)[0]) - 0.5) if u is not None else 0.0
+        return np.concatenate((self.x0, [side]))
 
 
 @kernel
 def memory_output(p, t, x, u):
-    return (np.asarray(x) * 1.0,)
+    return (np.asarray(x)[:p[0]] * 1.0,)
 
 
 @kernel
 def memory_derivatives(p, t, x, u):
-    return np.zeros(p[0])
+    return np.zeros(p[0] + 1)
 
 
 @kernel
@@ -217,9 +220,14 @@ def memory_crossings(p, t, x, u):
 
 @kernel
 def memory_event(p, t, x, u, fired):
+    out = np.asarray(x) * 1.0
     if fired[0]:
-        return np.asarray(u[0]) * 1.0
-    return np.asarray(x) * 1.0
+        side = out[p[0]]
+        new = -side if side != 0.0 else float(np.sign(u[1][0] - 0.5))  # from the start on 0.5: no edge
+        if side < 0.0:  # from below to above: a rising edge
+            out[:p[0]] = np.asarray(u[0])
+        out[p[0]] = new
+    return out
 
 
 TransportDelay.kernels = Kernels(output=transport_delay_output, derivatives=transport_delay_derivatives,

@@ -150,40 +150,47 @@ class HitCrossing(Block):
     Outputs: ``count``, the crossings so far, and ``time``, the time (s) of the
     last one (-1 before the first). Every solver stops exactly at the crossing
     (it is an event with a reset of the block's own counters), as Simulink's
-    Hit Crossing forces the solver to step on it. Example: u = sin(2 pi t),
-    rising through 0: count 1, 2 at t = 1, 2 s.
+    Hit Crossing forces the solver to step on it. A crossing goes from one side
+    of ``offset`` to the other: u starting on it and leaving is not one.
+    Example: u = sin(2 pi t), rising through 0: count 1, 2 at t = 1, 2 s.
     """
+
+    init_needs_inputs = True
 
     def __init__(self, name="hit", offset=0.0, direction="either", width=1):
         super().__init__(name)
         dirs = {"rising": 1, "falling": -1, "either": 0}
         direction = choice(direction, "direction", tuple(dirs))
         n = count(width, "width")
-        self.params = HitParams(vector(offset, "offset", n), n)
-        self.event_directions = (dirs[direction],) * n
+        self.params = HitParams(vector(offset, "offset", n), n, float(dirs[direction]))
+        self.event_directions = (0,) * n  # both ways: the side u is on is followed (see hit_event)
         self.declare_input("u", n)
         self.declare_output("count", n, depends_on=())
         self.declare_output("time", n, depends_on=())
-        self.declare_continuous_state(2 * n)  # count, time of the last crossing (constant between)
+        # count, time of the last crossing, the side of offset u is on (-1, 0 at the start on it, +1)
+        self.declare_continuous_state(3 * n)
 
     def initial_state(self, u=None):
-        return np.concatenate((np.zeros(self.params.n), -np.ones(self.params.n)))
+        p = self.params
+        side = np.sign(np.asarray(u[0], float) - p.offset) if u is not None else np.zeros(p.n)
+        return np.concatenate((np.zeros(p.n), -np.ones(p.n), side))
 
 
 class HitParams(NamedTuple):
     offset: np.ndarray  # the level crossed, units of u
     n: int              # width
+    direction: float    # +1 rising, -1 falling, 0 either
 
 
 @kernel
 def hit_output(p, t, x, u):
     xa = np.asarray(x)
-    return xa[:p.n], xa[p.n:]
+    return xa[:p.n], xa[p.n:2 * p.n]
 
 
 @kernel
 def hit_derivatives(p, t, x, u):
-    return np.zeros(2 * p.n)
+    return np.zeros(3 * p.n)
 
 
 @kernel
@@ -194,10 +201,16 @@ def hit_crossings(p, t, x, u):
 @kernel
 def hit_event(p, t, x, u, fired):
     out = np.asarray(x).copy()
+    ua = np.asarray(u[0])
     for i in range(p.n):
         if fired[i]:
-            out[i] += 1.0
-            out[p.n + i] = t
+            side = out[2 * p.n + i]
+            # a crossing flips the side; from the start on offset, u leaving it takes a side, uncounted
+            new = -side if side != 0.0 else float(np.sign(ua[i] - p.offset[i]))
+            if side != 0.0 and (p.direction == 0.0 or p.direction == new):
+                out[i] += 1.0
+                out[p.n + i] = t
+            out[2 * p.n + i] = new
     return out
 
 

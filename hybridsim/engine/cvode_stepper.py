@@ -150,6 +150,18 @@ def leaving_sides(s, xn, w, gl, y, z, pf, pi):
         g0[i] = gn[i] if after[i] == 0.0 or gn[i] == 0.0 else after[i] * abs(gn[i])
 
 
+def left_zero(s, t, xn, w, gl, y, z, pf, pi):
+    """A function without a direction that sat exactly on 0 (not after its own event, as an FMU's
+    indicator does) and is off it at point ``t``: it crossed there (the core's rule: leaving 0
+    fires), which CVODE, skipping a root that starts on zero, did not report. In ``w.g`` it reads
+    as having come from the other side, so the core stops at the crossing it cannot locate."""
+    here = _zc(t, xn, np.empty(w.g.size), w, gl, y, z, pf, pi)
+    left = (w.g == 0.0) & (w.dirs == 0) & (here != 0.0)
+    if s.before_fired is not None:
+        left &= ~np.asarray(s.before_fired, bool)
+    w.g[left] = -here[left]
+
+
 def _rates(t, x, g, w, gl, y, z, pf, pi, step=None):
     """``(changes, t + dt, x(t + dt))``: how the event functions change over a step ``dt``
     (``step``, default ``LEAVE_STEP``, relative past t = 1 s) from (t, x), by the midpoint rule
@@ -263,6 +275,8 @@ def cvode_ops():
         # holding every point it returned (its step ends and the log times): the core need not look
         # again, unless one sat exactly on 0 at the last point
         s.num[stepping.ROOT] = 1.0 if root is not None else (-1.0 if s.fresh or s.watch else -2.0)
+        if root is None and s.watch and not s.fresh:
+            left_zero(s, t, xn, w, gl, y, z, pf, pi)
         if root is not None:  # the core reads w.g as the functions before the crossing
             refresh(s, x, w, gl, y, z, pf, pi, t_last)
         s.stale = s.stale or s.num[stepping.ROOT] < -1.5

@@ -52,6 +52,24 @@ def test_hit_crossing_counts_and_times_its_crossings(path):
     check("hit_crossing", path, res["up.time[0]"][-1], rise[-1], 1e-11)
 
 
+@pytest.mark.parametrize("path", PATHS)
+def test_a_signal_starting_on_the_level_crosses_it_only_from_one_side_to_the_other(path):
+    # sin(2 pi t) from 0: rising through 0 at 1 and 2 s, falling at 0.5, 1.5 s. Leaving 0 at the
+    # start counted as a crossing (count 1 from t = 0, time 9e-16); a memory whose trigger starts
+    # at 0.5 sampled at t = 0
+    blocks = [block("sine", "s"), block("hit_crossing", "up", direction="rising"),
+              block("hit_crossing", "down", direction="falling"), block("hit_crossing", "any"),
+              block("sine", "trg", amplitude=0.5, bias=0.5), block("clock", "c"), block("memory", "m", initial=-7.0)]
+    wires = [("s.y", "up.u"), ("s.y", "down.u"), ("s.y", "any.u"), ("trg.y", "m.trigger"), ("c.y", "m.u")]
+    res = run(path, blocks, wires, 2.2, ["up.count", "down.count", "any.count", "up.time", "m.y"])
+    t = res.t
+    check("hit_crossing", path, res["up.count[0]"], (t >= 1.0) * 1.0 + (t >= 2.0), 0.0)
+    check("hit_crossing", path, res["down.count[0]"], (t >= 0.5) * 1.0 + (t >= 1.5), 0.0)
+    check("hit_crossing", path, res["any.count[0]"], np.floor(2 * t + 1e-9), 0.0)
+    check("hit_crossing", path, res["up.time[0]"][-1], 2.0, 1e-11)
+    check("memory", path, res["m.y[0]"], np.where(t >= 1.0, np.where(t >= 2.0, 2.0, 1.0), -7.0), 1e-11)
+
+
 def test_relational_and_logical_refuse_unknown_operators():
     for name in ("relational", "logical"):
         with pytest.raises(Exception, match="op"):
