@@ -94,10 +94,20 @@ def first_sign_change(a, b, dirs):
     return -1
 
 
-def accumulating(count, span, lim):
-    """Whether ``count`` events in ``span`` s accumulate (Zeno): on average under ``slide_step`` apart.
-    Events further apart (a delay's buffer sampled for minutes) start a new count."""
-    return span < count * lim.slide_step
+def counted(count, stalls, since, t, lim, out, j):
+    """After an event at ``t``, the ``count``-th since ``since`` and the ``stalls``-th in a row within 10
+    time_tol: ``(status, count, since)``. ZENO when more than ``max_events`` average under
+    ``slide_step`` s apart, STALLED when more than ``max_stalls`` pile up (failed in ``out``); else OK,
+    the count started again after ``max_events`` spread out (a delay's buffer sampled for minutes)."""
+    if count > lim.max_events:
+        if t - since < count * lim.slide_step:
+            fail(out, ZENO, count, j, t)
+            return ZENO, count, since
+        count, since = 0, t
+    if stalls > lim.max_stalls:
+        fail(out, STALLED, stalls, j, t)
+        return STALLED, count, since
+    return OK, count, since
 
 
 def first_bad(x, max_state):
@@ -237,16 +247,10 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
         if lim.timed:
             te = gl.next_time(t0, x, y, z, pf, pi)
             if te <= t0 + tol:  # due now (an event just before it brought the run to it): act at once
-                count += 1
+                code, count, since = counted(count + 1, stalls + 1, since, t0, lim, out, j)
                 stalls += 1
-                if count > lim.max_events:
-                    if accumulating(count, t0 - since, lim):
-                        fail(out, ZENO, count, j, t0)
-                        return ZENO
-                    count, since = 0, t0
-                if stalls > lim.max_stalls:
-                    fail(out, STALLED, stalls, j, t0)
-                    return STALLED
+                if code != OK:
+                    return code
                 code = time_event(t0, gl, lim, w, out, y, z, pf, pi, j)
                 if code != OK:
                     return code
@@ -381,17 +385,11 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
             if tb >= stop:
                 break
         if event:
-            count += 1
             stalls = stalls + 1 if t_ev - t0 <= 10.0 * tol else 0
             log_event(out, t_ev, w.fired, w.owner)
-            if count > lim.max_events:
-                if accumulating(count, t_ev - since, lim):
-                    fail(out, ZENO, count, j, t_ev)
-                    return ZENO
-                count, since = 0, t_ev
-            if stalls > lim.max_stalls:
-                fail(out, STALLED, stalls, j, t_ev)
-                return STALLED
+            code, count, since = counted(count + 1, stalls, since, t_ev, lim, out, j)
+            if code != OK:
+                return code
             if lim.stepped and asked != STEP_EVENT:  # a located event ends a step too: its request joins
                 if gl.stepped(t_ev, w.xe, y, z, pf, pi) == STOP:
                     copy_into(x, w.xe)
