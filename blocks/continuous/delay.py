@@ -69,7 +69,7 @@ class TransportDelay(Block):
     def linear_standin(self):
         """Its (pade, pade) Pade approximation, which analysis linearizes in its place (the buffer's
         samples change only at events, which a linearization does not see)."""
-        return PadeDelay(self.name, self.params.tau, self.pade, self.params.n)
+        return PadeDelay(self.name, self.params.tau, self.pade, self.params.n, self.params.initial)
 
     def initial_state(self, u=None):
         p = self.params
@@ -123,12 +123,13 @@ def transport_delay_event(p, t, x, u, fired):
 
 class PadeDelay(Block):
     """The linear stand-in of a transport delay for analysis: per element, the (order, order) Pade
-    approximant of e^(-s tau) (``control.pade``) as a state-space model, started at its steady state
-    for its input. Not a block of the library: :meth:`TransportDelay.linear_standin` makes it."""
+    approximant of e^(-s tau) (``control.pade``) as a state-space model, started where its output is
+    the delay's (``initial`` at t = 0; see :meth:`state_for`). Not a block of the library:
+    :meth:`TransportDelay.linear_standin` makes it."""
 
     init_needs_inputs = True
 
-    def __init__(self, name, tau, order, width):
+    def __init__(self, name, tau, order, width, initial=None):
         import control
         from scipy.signal import tf2ss
 
@@ -136,15 +137,22 @@ class PadeDelay(Block):
         num, den = control.pade(tau, order)
         A, B, C, D = (np.atleast_2d(np.asarray(m, float)) for m in tf2ss(num, den))
         self.params = PadeParams(A, B.ravel(), C.ravel(), float(D[0, 0]), order, width)
+        self.y0 = None if initial is None else np.asarray(initial, float)
         self.declare_input("u", width)
         self.declare_output("y", width, depends_on=("u",) if D[0, 0] != 0.0 else ())
         self.declare_continuous_state(order * width)  # element-major
 
     def initial_state(self, u=None):
+        u0 = np.asarray(u[0], float) if u is not None else np.zeros(self.params.n)
+        return self.state_for(u0, u0 if self.y0 is None else self.y0)
+
+    def state_for(self, u, y):
+        """A state whose output is ``y`` for input ``u`` (per element): the steady state for ``u``
+        (output u) moved along C to ``y`` (the delay's output where the operating point has it)."""
         p = self.params
-        u0 = np.asarray(u[0], float) if u is not None else np.zeros(p.n)
-        x1 = -np.linalg.solve(p.A, p.B)  # the steady state for u = 1
-        return np.concatenate([x1 * v for v in u0])
+        x1 = -np.linalg.solve(p.A, p.B)  # the steady state for u = 1: output C x1 + D = 1
+        u, y = np.broadcast_to(np.asarray(u, float), (p.n,)), np.broadcast_to(np.asarray(y, float), (p.n,))
+        return np.concatenate([x1 * a + p.C * (b - a) / (p.C @ p.C) for a, b in zip(u, y)])
 
 
 class PadeParams(NamedTuple):

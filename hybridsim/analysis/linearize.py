@@ -58,7 +58,8 @@ def linear_standins(system, context=None):
     """``(system, context)`` with each block's linear stand-in (:meth:`Block.linear_standin
     <hybridsim.engine.block.Block.linear_standin>`: a transport delay's Pade approximation) in its
     place, or as given when no block has one. The context's numbers are carried over block by block;
-    a stand-in starts at its steady state for its input there, its output as it was."""
+    a stand-in's state is the one whose output is the block's there, for its input there
+    (``state_for``)."""
     from hybridsim.engine.context import Context
     from hybridsim.engine.diagram import Diagram
     from hybridsim.engine.system import System
@@ -89,10 +90,8 @@ def linear_standins(system, context=None):
         i = system.index[b.name]
         for o in range(len(b.outputs)):
             ctx.y[j][o][:] = context.y[i][o]
-        if i in standins:  # its state: the steady state for its input now
-            lin_x = b.initial_state(ctx.u[j]) if lin.xslices[j] is not None else None
-            if lin_x is not None:
-                ctx.xc[lin.xslices[j]] = lin_x
+        if i in standins:  # its state: one whose output is the block's there, for its input there
+            ctx.xc[lin.xslices[j]] = b.state_for(ctx.u[j][0], context.y[i][0])
             continue
         if lin.xslices[j] is not None:
             ctx.xc[lin.xslices[j]] = context.xc[system.xslices[i]]

@@ -25,7 +25,8 @@ def add(sub):
                                      "solver and rates. The FMU needs a Python with hybridsim installed.")
     fe.add_argument("diagram", help="the diagram or subsystem file (.yaml)")
     fe.add_argument("-o", "--output", metavar="FILE",
-                    help="the FMU to write (default: the diagram file's name with .fmu, in the current folder)")
+                    help="the FMU to write (default: the diagram file's name with .fmu, in the current folder; "
+                         "a file of that name hybridsim did not write is kept and NAME-2.fmu, ... is used)")
     fe.add_argument("--fmi", type=int, choices=(2, 3), default=2, help="FMI version: 2 (the default) or 3")
     fe.set_defaults(func=export)
     fm.set_defaults(func=lambda a: (fm.print_help(), 2)[1])
@@ -48,7 +49,14 @@ def export(args):
 
     from pathlib import Path
 
-    out = export_fmu(args.diagram, args.output or f"{Path(args.diagram).stem}.fmu", fmi=args.fmi)
+    from hybridsim.app.options import note
+    from hybridsim.files import default_output_file
+
+    target = args.output
+    if target is None:  # the diagram's own name, stepping aside from a file hybridsim did not write
+        target, why = default_output_file(f"{Path(args.diagram).stem}.fmu")
+        note(why)
+    out = export_fmu(args.diagram, target, fmi=args.fmi)
     print(f"wrote {out} (FMI {args.fmi}.0 Co-Simulation; it runs the diagram with hybridsim, "
           "which the importing Python must have installed)")
     return 0

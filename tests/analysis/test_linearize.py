@@ -346,3 +346,22 @@ def test_a_gain_sweep_about_a_later_state_takes_a_diverging_scale_as_unstable(tm
                  "analysis:\n  points: {u: \"pi.u[0]\"}\n  gains: {Kp: pi.Kp}\n")
     res = analyze(p, at=30.0)
     assert res["stable"] and res["gains"]["Kp"]["critical_scale"] == pytest.approx(10.1, rel=0.02)
+
+
+def test_a_delays_stand_in_gives_the_delays_output_at_the_operating_point(tmp_path):
+    # x' = 1 - x d with d a ramp delayed 1 s (initial 5 before): about t = 3 the Jacobian is -d(3) = -2,
+    # about t = 0 it is -5. The stand-in was started at the steady state for its input (-3, and 0:
+    # counted as an undriven integrator)
+    from hybridsim.analysis.stability import linearization
+
+    p = tmp_path / "prod.yaml"
+    p.write_text("blocks:\n  rp: {type: ramp}\n  dly: {type: transport_delay, delay: 1.0, pade: 2, initial: 5.0}\n"
+                 "  prod: {type: product}\n  neg: {type: gain, K: -1.0}\n"
+                 "  x: {type: transfer_function, num: [1.0], den: [1.0, 0.0]}\n  one: {type: constant}\n"
+                 "  s: {type: sum}\nwires: [rp.y -> dly.u, dly.y -> prod.u2, x.y -> prod.u1, prod.y -> neg.u,\n"
+                 "        neg.y -> s.u1, one.y -> s.u2, s.y -> x.u]\nlog: [x.y]\n"
+                 "simulation: {t_end: 4.0, solver: rk4, step: 1.0e-3}\n")
+    pade = control.tf(*control.pade(1.0, 2)).poles()  # the stand-in's own poles
+    for at, pole in ((None, -5.0), (3.0, -2.0)):
+        poles = linearization(p, at=at).closed_loop().poles
+        assert np.sort_complex(poles) == pytest.approx(np.sort_complex(np.append(pade, pole)), abs=1e-6), at
