@@ -208,24 +208,49 @@ def _bisect(unstable, stable_at, unstable_at, tol):
     return float(np.sqrt(a * b))
 
 
-def lower_scale(path, param, value, rows, tol=0.01, at=None):
-    """The scale of ``param`` below which a loop stable at x1 is unstable (a conditionally stable loop),
-    from the gain sweep's ``rows``: bisected between the largest unstable scale below 1 and the stable
-    one above it; None when the sweep shows none (or the loop is not stable at x1)."""
-    below = [r["scale"] for r in rows if r["scale"] < 1 and not r["stable"]]
-    if not below:
-        return None
-    exp = path
-
+def boundaries(exp, param, value, rows, tol=0.01, at=None, lo=1e-4, hi=1e4):
+    """The scales of ``param`` where the loop's stability changes, from the gain sweep's ``rows`` and
+    x1: each pair of neighbouring scales that differ is bisected to ``tol``, and past the sweep's ends
+    the walk goes on (doubling, halving) to ``hi`` / ``lo`` while the loop stays stable there.
+    Returns ``[{"scale", "unstable_above"}]`` in increasing scale (``unstable_above``: the loop is
+    unstable just above it). ``exp``: an :class:`~hybridsim.runs.experiment.Experiment`."""
     def unstable(s):
         cl = exp.closed_loop({param: (value * s).tolist()}, at)
         return cl is None or not cl.stable
 
-    if unstable(1.0):
-        return None
-    lo = max(below)
-    hi = min([r["scale"] for r in rows if lo < r["scale"] <= 1 and r["stable"]] + [1.0])
-    return _bisect(unstable, hi, lo, tol)
+    seen = {float(r["scale"]): not r["stable"] for r in rows}
+    seen.setdefault(1.0, unstable(1.0))
+    top, bottom = max(seen), min(seen)
+    while not seen[top] and top * 2 <= hi:  # stable at the sweep's top: walk up to where it is not
+        top *= 2
+        seen[top] = unstable(top)
+    while not seen[bottom] and bottom / 2 >= lo:
+        bottom /= 2
+        seen[bottom] = unstable(bottom)
+    scales = sorted(seen)
+    out = []
+    for a, b in zip(scales, scales[1:]):
+        if seen[a] != seen[b]:
+            stable_at, unstable_at = (b, a) if seen[a] else (a, b)
+            out.append({"scale": _bisect(unstable, stable_at, unstable_at, tol), "unstable_above": seen[b]})
+    return out
+
+
+def _nearest(bounds, unstable_above):
+    """The boundary of that kind nearest x1 (in ratio), or None."""
+    picked = [b["scale"] for b in bounds if b["unstable_above"] == unstable_above]
+    return min(picked, key=lambda s: abs(np.log(s)), default=None)
+
+
+def describe_boundaries(bounds):
+    """'unstable below x0.25 and unstable from x10.1' for :func:`boundaries`' list."""
+    words = []
+    for k, b in enumerate(bounds):
+        if b["unstable_above"]:
+            words.append(f"unstable from x{b['scale']:.3g}")
+        else:
+            words.append(f"{'unstable below' if k == 0 else 'stable again from'} x{b['scale']:.3g}")
+    return " and ".join(words) or "no stability boundary found in x1e-4..x1e4"
 
 
 def analyze(path, at=None, sweeps=True, **overrides):
@@ -294,9 +319,9 @@ def analyze(path, at=None, sweeps=True, **overrides):
         value = param_value(f, ref)
         scaled = run_many(exp, Grid.scaled({ref: cfg["scales"]}, {ref: value}), measure=loops)
         rows = [_stability_row(cl, scale=s) for s, cl in zip(cfg["scales"], scaled)]
-        out["gains"][gname] = {"param": ref, "value": value.tolist(), "sweep": rows,
-                               "critical_scale": critical_scale(exp, {}, ref, value, at=at),
-                               "lower_scale": lower_scale(exp, ref, value, rows, at=at)}
+        bounds = boundaries(exp, ref, value, rows, at=at)
+        out["gains"][gname] = {"param": ref, "value": value.tolist(), "sweep": rows, "boundaries": bounds,
+                               "critical_scale": _nearest(bounds, True), "lower_scale": _nearest(bounds, False)}
     return out
 
 
@@ -332,10 +357,7 @@ def summary_lines(res):
         lines.append("  servo rate (Hz): " + "  ".join(
             f"{r['rate_hz']}:{_num(r['spectral_radius'], 3)}{'' if r['stable'] else '!'}" for r in res["rates"]))
     for name, d in res.get("gains", {}).items():
-        cs, low = d["critical_scale"], d.get("lower_scale")
-        said = ([f"unstable below x{low:.3g}"] if low else []) + ([f"unstable from x{cs:.3g}"] if cs else [])
-        lines.append(f"  {name} ({d['param']}): " + (" and ".join(said) if said else
-                                                      "no stability boundary found in x1e-4..x1e4"))
+        lines.append(f"  {name} ({d['param']}): {describe_boundaries(d.get('boundaries', []))}")
     lines.append(f"  (numbers are the {g}{' over one period' if sampled else ''} besides {at_one}; ! = not stable)")
     return lines
 

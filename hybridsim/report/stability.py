@@ -227,9 +227,10 @@ def _page(data, figures, first_gain):
         return html.figure(figures[k], caption) if k in figures else ""
 
     rates = html.table(a.get("rates", []), ["rate_hz", "spectral_radius", "stable"])
-    gains = html.table([{"gain": g, "parameter": d["param"], "value": d["value"], "unstable below": d.get("lower_scale"),
-                         "unstable from": d["critical_scale"]} for g, d in a.get("gains", {}).items()],
-                       ["gain", "parameter", "value", "unstable below", "unstable from"])
+    gains = html.table([{"gain": g, "parameter": d["param"], "value": d["value"],
+                         "boundaries (scale of value)": an.describe_boundaries(d.get("boundaries", []))}
+                        for g, d in a.get("gains", {}).items()],
+                       ["gain", "parameter", "value", "boundaries (scale of value)"])
     cases = html.table([{"case": k, **v} for k, v in a.get("cases", {}).items()],
                        ["case", "set", "spectral_radius", "stable"])
     loops = html.table([{"loop": k, **v} for k, v in a.get("loops", {}).items()],

@@ -330,6 +330,11 @@ def test_a_conditionally_stable_gain_reports_its_lower_boundary(tmp_path):
     assert res["gains"]["Ki"]["critical_scale"] == pytest.approx(4.0, rel=0.01)
     assert res["gains"]["Ki"]["lower_scale"] is None
     assert any("unstable below x0.25" in line for line in summary_lines(res))
+    # unstable at x1 (Kp = 0.5): the boundary above it (x2) was not searched
+    p.write_text(p.read_text().replace("Kp: 4.0", "Kp: 0.5"))
+    res = analyze(p)
+    assert not res["stable"] and res["gains"]["Kp"]["lower_scale"] == pytest.approx(2.0, rel=0.01)
+    assert [b["unstable_above"] for b in res["gains"]["Kp"]["boundaries"]] == [False]
 
 
 @pytest.mark.slow  # about twenty 30 s runs
