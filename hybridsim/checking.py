@@ -28,8 +28,11 @@ def check_file(path, **overrides):
 
     data, _ = parse_file(path)
     kind = file_kind(data) or "diagram"  # (one showing no kind is read as a diagram, which says what is missing)
-    if kind == "diagram" and isinstance(data, dict) and data.get("inputs"):
-        return _check_subsystem(path, overrides)
+    if kind == "diagram" and isinstance(data, dict) and (data.get("inputs") or data.get("extends")):
+        from hybridsim.format.diagram_file import DiagramFile
+
+        if DiagramFile(path).data.get("inputs"):  # its own or from a file it extends
+            return _check_subsystem(path, overrides)
     if kind == "diagram":
         f = load(path, **overrides)
         summary = check(f)

@@ -94,7 +94,8 @@ def _unique_names(f, inputs, outputs, params, fmi, path):
              + [(n, "output", "outputs") for n, _, _ in outputs])
     for name, kind, section in named:
         if name in seen:
-            where = f._locs(section).get(name, str(path))
+            where = (f._locs(section).get(name) or (f._locs().get("log") if kind == "output" else None)
+                     or str(path))  # a closed diagram's outputs: its log
             raise LoaderError(f"{kind} {name!r} would be an FMU variable of the same name as {seen[name]}: "
                               "rename one", where)
         seen[name] = f"{kind} {name!r}"
@@ -165,6 +166,13 @@ def export_fmu(diagram, out, fmi=2, name=None):
     path = Path(diagram)
     f, _ = standalone.files(path)
     params = [(k, _param_value(k, v, f)) for k, v in f.params.items()]
+    own = [k for k, _ in params if k in standalone.OWN_KEYS and standalone.is_subsystem(f)]
+    if own:  # the FMU's parameter would set nothing
+        from hybridsim.errors import LoaderError
+
+        raise LoaderError(f"parameter {own[0]!r} cannot be an FMU parameter of a subsystem ('type' and 'file' are "
+                          "the subsystem block's own keys, so nothing passes it in): rename it",
+                          f._locs("params").get(own[0], path))
     cls = _identifier(name or f.name)
     out = Path(out)
     with tempfile.TemporaryDirectory(prefix="hybridsim-export-") as tmp:

@@ -186,13 +186,20 @@ class ExpandMixin:
             problems.append(f"{context}{spec.locs.get(next(iter(overrides), 'type'), here)}: in subsystem {bname!r}: {exc}")
             return None
         unread = [k for k in sub.data if k not in tables.SUBSYSTEM_SECTIONS]
-        if unread and sub.data.get("inputs"):  # it never runs on its own: those sections are dead
-            k = unread[0]
+        dead = [k for k in unread if k != "simulation"]  # (the solver of an FMU exported from it: noted)
+        if dead and sub.data.get("inputs"):  # it never runs on its own: those sections are dead
+            k = dead[0]
             loc = (getattr(sub.data, "locs", None) or {}).get(k) or f"{shown}:{sub.data.lines.get(k)}"
             problems.append(f"{context}{where}: in subsystem {bname!r}: {loc}: section "
                             f"{k!r} has no effect in a subsystem file that declares inputs (it never runs on its "
                             f"own); only {', '.join(tables.SUBSYSTEM_SECTIONS)} are read")
             return None
+        if "simulation" in unread and sub.data.get("inputs"):  # an exported FMU's solver: checked all the same
+            try:
+                sub.check_section("simulation")
+            except LoaderError as exc:
+                problems.append(f"{context}{where}: in subsystem {bname!r}: {exc}")
+                return None
         if unread:
             note("%s: %s: %s ignored where it is used as a subsystem (only %s are read there)", where,
                          shown, ", ".join(repr(k) for k in unread), ", ".join(tables.SUBSYSTEM_SECTIONS))

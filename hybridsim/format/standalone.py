@@ -18,6 +18,7 @@ from pathlib import Path
 from hybridsim.errors import InputError
 
 WRAPPER = "hybridsim_fmu.yaml"  # the wrapper's name in the staged folder (and in an exported FMU)
+OWN_KEYS = ("type", "file")  # a subsystem block's own keys: no parameter of that name can be set through it
 
 
 def files(path, seen=None):
@@ -53,6 +54,12 @@ def ports(f):
     ins, outs = f._expand(d, dict(f.params), "", (f.path.resolve(),), "")
     if d.problems:  # each names its file and line
         raise InputError("; ".join(d.problems[:3]))
+    for name in list(ins) + list(outs):  # a name that no wire can write ('u->') is no port
+        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", str(name)):
+            section = "inputs" if name in ins else "outputs"
+            where = f._locs(section).get(name, str(f.path))
+            raise InputError(f"{where}: {section[:-1]} {name!r}: a port's name is letters, digits and _ "
+                             "(not starting with a digit)")
     inputs = []
     for name, refs in ins.items():
         widths = {r: d.blocks[r.rsplit(".", 1)[0]].input_port(r.rsplit(".", 1)[1]).width for r in refs}
@@ -89,11 +96,16 @@ def blank_section(path, key):
     path.write_text("".join(lines))
 
 
-def unstaged(message, stage, root):
-    """``message`` with the staged copies' paths as the user's files (the wrapper's own place dropped)."""
+def unstaged(message, stage, root, ports=None):
+    """``message`` with the staged copies' paths as the user's files: the wrapper's own place dropped,
+    or, where it stands for a wire to an input (``wire (<wrapper>:17)``), ``ports`` (the file:line of
+    the subsystem's ``inputs:``); its block ``sub.`` named by the inner names alone."""
     wrapper = re.escape(str(stage / WRAPPER)) + r"(:\d+)?"
     message = re.sub(wrapper + r": (in subsystem 'sub': )?", "", message)
     message = re.sub(r"in subsystem sub \(" + wrapper + r"\): ", "", message)
+    if ports:
+        message = re.sub(wrapper, f"its inputs at {ports}", message)
+    message = re.sub(r"(?<![\w.])sub\.", "", message)
     return message.replace(str(stage) + os.sep, str(root) + os.sep)
 
 
@@ -129,7 +141,8 @@ class Staged:
             blank_section(self.stage / Path(p).resolve().relative_to(self.root), "simulation")
         self.inputs, self.outputs = ports(f)
         blocks = {f"in_{n}": {"type": "constant", "value": start} for n, _, start in self.inputs}
-        blocks["sub"] = {"type": "subsystem", "file": main, **{k: f"${k}" for k, _ in self.params}}
+        blocks["sub"] = {"type": "subsystem", "file": main,  # (a param named type or file keeps its value)
+                         **{k: f"${k}" for k, _ in self.params if k not in OWN_KEYS}}
         sim = {k: v for k, v in (f.data.get("simulation") or {}).items() if k != "t_end"}
         wrapper = {"name": f.name, "params": dict(self.params), "blocks": blocks,
                    "wires": [f"in_{n}.y -> sub.{n}" for n, _, _ in self.inputs],
@@ -139,18 +152,23 @@ class Staged:
         (self.stage / WRAPPER).write_text(json.dumps(wrapper, indent=1))  # JSON is YAML
         self.entry = WRAPPER
 
+    def unstaged(self, message):
+        """:func:`unstaged` for this staging."""
+        ports = self.file._locs().get("inputs") if self.subsystem else None
+        return unstaged(message, self.stage, self.root, ports)
+
     def build(self, **overrides):
         """``api.build(entry, check_only=True)``: (system, simulator, settings); an InputError from the
         copies names the user's files."""
         from hybridsim.format import build as api
 
         log = logging.getLogger("hybridsim")
-        mapped = _Unstaging(self.stage, self.root)
+        mapped = _Unstaging(self)
         log.addFilter(mapped)
         try:
             return api.build(self.stage / self.entry, check_only=True, **overrides)
         except InputError as exc:
-            raise InputError(unstaged(str(exc), self.stage, self.root)) from None
+            raise InputError(self.unstaged(str(exc))) from None
         finally:
             log.removeFilter(mapped)
 
@@ -158,10 +176,10 @@ class Staged:
 class _Unstaging(logging.Filter):
     """A filter that gives a warning about the staged copies in the user's paths."""
 
-    def __init__(self, stage, root):
+    def __init__(self, staged):
         super().__init__()
-        self.stage, self.root = stage, root
+        self.staged = staged
 
     def filter(self, record):
-        record.msg, record.args = unstaged(record.getMessage(), self.stage, self.root), ()
+        record.msg, record.args = self.staged.unstaged(record.getMessage()), ()
         return True

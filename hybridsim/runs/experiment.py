@@ -228,7 +228,7 @@ class Experiment:
         try:
             lin = Linearization(exp.system, ctx, t)
         except LinearizationError as exc:  # a block it cannot see: at the block's line
-            named = [n for n in exp.file._locs("blocks") if f"block {n!r}" in str(exc) or f"'{n}'" in str(exc)]
+            named = [n for n in exp.file._locs("blocks") if f"'{n}'" in str(exc) or f"'{n}." in str(exc)]
             where = exp.file._locs("blocks")[named[0]] if named else str(self.path)
             raise LinearizationError(f"{where}: {exc}") from None
         if exp is self and not params:

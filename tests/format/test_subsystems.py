@@ -148,13 +148,21 @@ def test_a_subsystem_files_declared_ports_are_checked_where_they_are_declared(tm
 
 
 def test_a_section_a_subsystem_file_never_reads_is_refused_or_noted(tmp_path, capsys, caplog):
-    # a subsystem with inputs never runs on its own: its 'simulation: {t_end: -5}' passed check, ignored
+    # a subsystem with inputs never runs on its own: its 'simulation: {t_end: -5}' passed check, ignored.
+    # That section is the solver of an FMU exported from it: checked where it is used, then noted
     (tmp_path / "inner.yaml").write_text(INNER + "simulation: {t_end: -5}\n")
     (tmp_path / "d.yaml").write_text("blocks:\n  c: {type: constant, value: 1.0}\n"
                                      "  m: {type: subsystem, file: inner.yaml}\nwires: [c.y -> m.a, c.y -> m.b]\n")
     assert main(["check", str(tmp_path / "d.yaml")]) == 2
     err = capsys.readouterr().err
-    assert "inner.yaml:8: section 'simulation' has no effect in a subsystem file that declares inputs" in err, err
+    assert "inner.yaml:8: simulation setting 't_end' must be" in err, err
+    (tmp_path / "inner.yaml").write_text(INNER + "simulation: {solver: heun, step: 1.0e-3}\n")
+    with caplog.at_level("WARNING", logger="hybridsim"):
+        assert main(["check", str(tmp_path / "d.yaml")]) == 0
+    assert "inner.yaml: 'simulation' ignored where it is used as a subsystem" in caplog.text
+    (tmp_path / "inner.yaml").write_text(INNER + "metrics: {}\n")
+    assert main(["check", str(tmp_path / "d.yaml")]) == 2
+    assert "section 'metrics' has no effect in a subsystem file that declares inputs" in capsys.readouterr().err
     # one without inputs may run on its own: there a note, and it runs
     (tmp_path / "plant.yaml").write_text("blocks:\n  c: {type: constant, value: 2.0}\noutputs: {y: c.y}\n"
                                          "simulation: {t_end: 0.5}\n")
