@@ -229,12 +229,12 @@ def memory_crossings(p, t, x, u):
 @kernel
 def memory_event(p, t, x, u, fired):
     out = np.asarray(x) * 1.0
-    if fired[0]:
-        side = out[p[0]]
-        new = -side if side != 0.0 else float(np.sign(u[1][0] - 0.5))  # from the start on 0.5: no edge
-        if side < 0.0:  # from below to above: a rising edge
+    if fired[0]:  # the side of 0.5 the trigger is on now: from below to above is a rising edge
+        side, new = out[p[0]], float(np.sign(u[1][0] - 0.5))
+        if side < 0.0 and new > 0.0:
             out[:p[0]] = np.asarray(u[0])
-        out[p[0]] = new
+        if new != 0.0:
+            out[p[0]] = new
     return out
 
 

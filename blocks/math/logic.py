@@ -204,13 +204,14 @@ def hit_event(p, t, x, u, fired):
     ua = np.asarray(u[0])
     for i in range(p.n):
         if fired[i]:
-            side = out[2 * p.n + i]
-            # a crossing flips the side; from the start on offset, u leaving it takes a side, uncounted
-            new = -side if side != 0.0 else float(np.sign(ua[i] - p.offset[i]))
-            if side != 0.0 and (p.direction == 0.0 or p.direction == new):
+            # the side u is on now; a crossing is a change from one side to the other (u leaving the
+            # level to the side it came from, or from the start on it, is none)
+            side, new = out[2 * p.n + i], float(np.sign(ua[i] - p.offset[i]))
+            if side != 0.0 and new != 0.0 and new != side and (p.direction == 0.0 or p.direction == new):
                 out[i] += 1.0
                 out[p.n + i] = t
-            out[2 * p.n + i] = new
+            if new != 0.0:
+                out[2 * p.n + i] = new
     return out
 
 

@@ -105,7 +105,7 @@ def unstaged(message, stage, root, ports=None):
     message = re.sub(r"in subsystem sub \(" + wrapper + r"\): ", "", message)
     if ports:
         message = re.sub(wrapper, f"its inputs at {ports}", message)
-    message = re.sub(r"(?<![\w.])sub\.", "", message)
+    message = re.sub(r"(^|[\s'\"(,;])sub\.", r"\1", message)  # a name 'sub.g.y', not a file sub.yaml
     return message.replace(str(stage) + os.sep, str(root) + os.sep)
 
 

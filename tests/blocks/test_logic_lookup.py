@@ -70,6 +70,22 @@ def test_a_signal_starting_on_the_level_crosses_it_only_from_one_side_to_the_oth
     check("memory", path, res["m.y[0]"], np.where(t >= 1.0, np.where(t >= 2.0, 2.0, 1.0), -7.0), 1e-11)
 
 
+@pytest.mark.parametrize("path", PATHS)
+def test_a_signal_that_sits_on_the_level_or_touches_it_and_turns_back_does_not_cross(path):
+    # saturation(sin 2 pi t, 0, 1) sits on 0 over [0.5, 1] and leaves it upward: never below 0, no
+    # crossing (it was counted, as a falling one too); 0.5 + that as a memory's trigger: no edge
+    blocks = [block("sine", "s"), block("saturation", "sat", lower=0.0, upper=1.0),
+              block("hit_crossing", "any"), block("hit_crossing", "down", direction="falling"),
+              block("constant", "half", value=0.5), block("sum", "trg"), block("clock", "c"),
+              block("memory", "m", initial=-7.0)]
+    wires = [("s.y", "sat.u"), ("sat.y", "any.u"), ("sat.y", "down.u"), ("sat.y", "trg.u1"), ("half.y", "trg.u2"),
+             ("trg.y", "m.trigger"), ("c.y", "m.u")]
+    res = run(path, blocks, wires, 2.2, ["any.count", "down.count", "m.y"])
+    check("hit_crossing", path, res["any.count[0]"], 0.0 * res.t, 0.0)
+    check("hit_crossing", path, res["down.count[0]"], 0.0 * res.t, 0.0)
+    check("memory", path, res["m.y[0]"], 0.0 * res.t - 7.0, 0.0)
+
+
 def test_relational_and_logical_refuse_unknown_operators():
     for name in ("relational", "logical"):
         with pytest.raises(Exception, match="op"):
