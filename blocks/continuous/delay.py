@@ -8,6 +8,7 @@ from typing import NamedTuple
 import numpy as np
 
 from hybridsim.engine.block import Block
+from hybridsim.errors import ParameterError
 from hybridsim.engine.kernels import Kernels, kernel
 from hybridsim.engine.registry import register
 
@@ -57,6 +58,10 @@ class TransportDelay(Block):
         super().__init__(name)
         n, N = count(width, "width"), count(buffer, "buffer")
         tau = scalar(delay, "delay", "positive")
+        if not tau / N >= 1e-9:  # its samples are events, located to 1e-12 s: 1e-16 s ran without any
+            raise ParameterError("delay", f"{tau:g} s over {N} samples puts them {tau / N:.3g} s apart: "
+                                 "they are events, which need at least 1e-9 s between them (a longer delay "
+                                 "or a smaller buffer)")
         self.params = DelayParams(tau, tau / N, N + 2, vector(initial, "initial", n), n)
         self.pade = count(pade, "pade")
         self.event_directions = (1,)

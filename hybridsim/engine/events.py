@@ -8,7 +8,7 @@ change is bisected on the step's dense output, the actions run (x+ = h(x-,
 u)) and run again while an action makes another function cross (at most
 :data:`MAX_ITERATIONS` times at one instant), and the integration restarts
 there. A block's time events (``next_event_time``) are stops hit exactly.
-More than :data:`MAX_EVENTS` events on average under :data:`SLIDE_STEP` s
+More than :data:`MAX_EVENTS` events on average under 1000 :data:`TIME_TOL`
 apart, or an iteration that does not settle, is Zeno or chattering behaviour: a
 :class:`~hybridsim.errors.SimulationError` that names the blocks.
 
@@ -27,7 +27,7 @@ from hybridsim.errors import SimulationError, StopRequest
 TIME_TOL = 1e-12
 #: actions at one instant before the iteration counts as chattering
 MAX_ITERATIONS = 100
-#: events, on average under SLIDE_STEP s apart, before the run counts as Zeno
+#: events, on average under 1000 TIME_TOL apart, before the run counts as Zeno
 MAX_EVENTS = 100_000
 #: events in a row, each within 10 TIME_TOL of the one before, before the run counts as Zeno
 MAX_STALLS = 50
@@ -153,7 +153,7 @@ class EventSet:
 
 def zeno_error(t, names, too_many, stalls):
     """The error for events that accumulate (every path raises this one)."""
-    what = (f"more than {MAX_EVENTS} events on average under {SLIDE_STEP:g} s apart" if too_many else
+    what = (f"more than {MAX_EVENTS} events on average under {1000 * TIME_TOL:g} s apart" if too_many else
             f"{stalls} events within {10 * TIME_TOL:g} s of each other")
     return SimulationError(f"events accumulate at t={t:.9g} s in block(s) {', '.join(names)}: {what} "
                            "(Zeno behaviour: a bouncing ball coming to rest, or a relay or switch that the "

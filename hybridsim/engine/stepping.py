@@ -19,8 +19,8 @@ each step
 
 Time events (a block's ``next_event_time``) are stops hit exactly; blocks
 told of every accepted step (``after_step``) may ask for a step event or
-stop the run. More than ``max_events`` events averaging under ``slide_step``
-s apart, or events piling up at one instant, is Zeno behaviour. A crossing within ``time_tol`` of the next
+stop the run. More than ``max_events`` events averaging under 1000 ``time_tol``
+apart, or events piling up at one instant, is Zeno behaviour. A crossing within ``time_tol`` of the next
 hit fires just after it (the hit samples the value before; its log row is
 logged again after the event); one at the run's end is not acted on. A
 variable-step run whose steps shrink to nothing (sliding along a muted
@@ -46,7 +46,7 @@ OK = 0
 DIVERGED = 1    # a continuous state not finite or beyond max_state: status[1] = state index
 BAD_OUTPUT = 2  # a block output not finite: status[1] = block index
 BAD_UPDATE = 3  # a discrete state not finite: status[1] = block index
-ZENO = 4        # more than max_events events, on average under slide_step s apart
+ZENO = 4        # more than max_events events, on average under 1000 time_tol apart
 STALLED = 5     # max_stalls events in a row within 10 time_tol of each other
 CHATTER = 6     # an event iteration that does not settle
 STOPPED = 7     # a block asked to end the run (its request is kept by the glue)
@@ -96,11 +96,12 @@ def first_sign_change(a, b, dirs):
 
 def counted(count, stalls, since, t, lim, out, j):
     """After an event at ``t``, the ``count``-th since ``since`` and the ``stalls``-th in a row within 10
-    time_tol: ``(status, count, since)``. ZENO when more than ``max_events`` average under
-    ``slide_step`` s apart, STALLED when more than ``max_stalls`` pile up (failed in ``out``); else OK,
-    the count started again after ``max_events`` spread out (a delay's buffer sampled for minutes)."""
+    time_tol: ``(status, count, since)``. ZENO when more than ``max_events`` average under 1000
+    time_tol (1e-9 s) apart, STALLED when more than ``max_stalls`` pile up (failed in ``out``); else
+    OK, the count started again after ``max_events`` spread out (a delay's buffer sampled for minutes,
+    every 0.8 us for a 50 us delay)."""
     if count > lim.max_events:
-        if t - since < count * lim.slide_step:
+        if t - since < count * 1000.0 * lim.time_tol:
             fail(out, ZENO, count, j, t)
             return ZENO, count, since
         count, since = 0, t

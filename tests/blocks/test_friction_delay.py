@@ -84,3 +84,13 @@ def test_a_long_run_of_a_transport_delay_is_not_taken_for_divergence():
     res = run("generic", blocks, [("s.y", "d.u")], 3.0, ["d.y"], step=1e-3, max_state=100.0)
     assert len(res.meta["events"]) >= 1199
     assert abs(res["d.y[0]"][-1] - np.sin(2 * np.pi * (res.t[-1] - 0.01))) < 1e-4
+
+
+def test_a_delay_of_microseconds_runs_and_one_shorter_than_its_events_can_be_is_refused():
+    # 50 us over 64 samples: events 0.78 us apart, evenly: it ended as "Zeno" (more than 100,000 events
+    # under 1e-6 s apart); 1e-16 s ran without any event and gave 292 for a sine of amplitude 1
+    blocks = [block("sine", "s", frequency=10.0), block("transport_delay", "d", delay=5e-5)]
+    res = run("compiled", blocks, [("s.y", "d.u")], 0.08, ["d.y"], step=1e-5, log_period=0.01)
+    assert abs(res["d.y[0]"][-1] - np.sin(2 * np.pi * 10 * (res.t[-1] - 5e-5))) < 1e-6
+    with pytest.raises(Exception, match="need at least 1e-9 s between them"):
+        block("transport_delay", "d", delay=1e-16)
