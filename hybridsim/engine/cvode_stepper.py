@@ -139,15 +139,20 @@ def leaving_sides(s, xn, w, gl, y, z, pf, pi):
     """Before the core checks the first point from a start: each event function that sits on its
     surface at the start gets, in ``w.g``, the side it leaves to, from its rate there. One that
     leaves to one side and is on the other at the point crossed back inside the step,
-    unreported (CVODE skips roots where a function starts on zero), so the core stops. One that
-    leaves along its surface (zero rate) is not checked."""
+    unreported (CVODE skips roots where a function starts on zero), so the core stops; so did one
+    flat at the start (zero rate: a dead zone's output) and off its surface at the point, unless it
+    sits there after its own event (an FMU's indicator)."""
     g0, gn = w.g, np.empty_like(w.g)
     on = np.flatnonzero(np.abs(g0) <= 1e-9 * np.abs(_zc(s.ta, xn, gn, w, gl, y, z, pf, pi)))
     if not on.size:
         return
     after = np.sign(_rates(s.t0, s.x0, g0, w, gl, y, z, pf, pi)[0])
+    own = np.zeros(g0.size, np.bool_) if s.before_fired is None else np.asarray(s.before_fired, bool)
     for i in on:
-        g0[i] = gn[i] if after[i] == 0.0 or gn[i] == 0.0 else after[i] * abs(gn[i])
+        if after[i] == 0.0 and gn[i] != 0.0 and not own[i]:  # flat at the start (a dead zone's output),
+            g0[i] = -gn[i]  # off its surface by the point: it left unreported, which the core stops at
+        else:
+            g0[i] = gn[i] if after[i] == 0.0 or gn[i] == 0.0 else after[i] * abs(gn[i])
 
 
 def left_zero(s, t, xn, w, gl, y, z, pf, pi):

@@ -334,3 +334,24 @@ def test_the_core_compares_event_functions_only_where_cvode_did_not(monkeypatch)
     res = hs.Simulator(d.build(), CVode(), log=["i.y"], log_period=0.0005).run(1.0)
     assert [round(t, 9) for t, _ in res.meta["events"]] == [0.050861297, 0.25]  # reach, leave (closed form)
     assert res.t.size == 2001 and 0 < len(calls) < 50
+
+
+def test_a_flat_function_leaving_zero_after_another_ones_event_is_not_lost():
+    # the dead zone's crossing function as above, beside a hit_crossing on the sine itself, whose event
+    # at the start restarted CVODE: the flat function, zero rate at that start, left 0 before CVODE's
+    # first point and every one of its crossings was lost (counts 0, exit 0)
+    from hybridsim.engine.registry import lookup
+
+    d = hs.Diagram("dz2")
+    d.add(lookup("sine")("s", frequency=1.0))
+    d.add(lookup("dead_zone")("dz", lower=-0.5, upper=0.5))
+    d.add(lookup("hit_crossing")("h"))
+    d.add(lookup("hit_crossing")("hx"))
+    for a, b in (("s.y", "dz.u"), ("dz.y", "h.u"), ("s.y", "hx.u")):
+        d.connect(a, b)
+    try:
+        res = hs.Simulator(d.build(), CVode(), log=["h.count"], log_period=0.1).run(2.2)
+    except SimulationError as exc:
+        assert "stepped over a crossing of block 'h'" in str(exc)
+    else:
+        assert res["h.count"][-1, 0] == 4
