@@ -50,6 +50,7 @@ class Gain(Block):
 
     def __init__(self, name="gain", K=1.0, width=1):
         super().__init__(name)
+        width = count(width, "width")
         self.params = (matrix(K, "K", width),)
         self.declare_input("u", width)
         self.declare_output("y", width)

@@ -70,3 +70,11 @@ def test_quantizer_rounds_halves_to_even_or_away_from_zero():
     assert list(Quantizer(q=1.0, rounding="away").output(0, (), [near])[0]) == [0.0, 0.0, 4503599627370497.0]
     with pytest.raises(hs.ParameterError, match="rounding"):
         Quantizer(rounding="up")
+
+
+def test_a_gain_of_a_fractional_width_is_a_parameter_error():
+    # the width reached numpy through K's matrix first: "'float' object cannot be interpreted as an integer"
+    from hybridsim.blocks.math.signals import Gain
+
+    with pytest.raises(hs.ParameterError, match="'width' must be a whole number, got 2.5"):
+        Gain(K=3.0, width=2.5)
