@@ -74,8 +74,11 @@ class Result:
         with atomic_file(path, "w") as fh:
             w = csv.writer(fh)
             w.writerow(self.columns())
-            for row in self.table():
-                w.writerow([f"{v:.10g}" for v in row])
+            table = self.table()
+            with np.errstate(invalid="ignore"):
+                near_max = bool(np.any(np.isfinite(table) & (np.abs(table) >= 1.7976931e308)))
+            for row in table:  # (near the largest float, all digits: see _text)
+                w.writerow([_text(v) for v in row] if near_max else [f"{v:.10g}" for v in row])
 
     def to_dataframe(self):
         """All logged data as a pandas DataFrame indexed by time (s), columns as in :meth:`columns`.
@@ -124,3 +127,10 @@ class Result:
         axes[-1].set_xlabel("time (s)")
         fig.tight_layout()
         return fig
+
+
+def _text(v):
+    """A CSV number: 10 significant digits, all 17 where 10 would read back as another kind of number
+    (1.7976931348e308 rounds up past the largest float, to inf)."""
+    short = f"{v:.10g}"
+    return short if abs(v) < 1.7976931e308 or not np.isfinite(v) else repr(float(v))

@@ -1,5 +1,6 @@
 """Results in notebooks: a DataFrame, a plot; a diagram shows itself as SVG."""
 import numpy as np
+import pytest
 
 import hybridsim as hs
 from conftest import DIAGRAMS
@@ -80,3 +81,17 @@ def test_the_api_refuses_logs_jobs_batches_and_run_time_params_of_the_wrong_kind
     with pytest.raises(hs.InputError, match="'Kpp' is not a parameter of block 'pid' .*its parameters: Kp, Ki"):
         sim.run(0.1, params={"pid.Kpp": 2.0})
     assert 5 not in _res() and "plant.y" in _res()
+
+
+def test_a_csv_reads_back_a_value_near_the_largest_float_as_finite(tmp_path):
+    # 1.7976931348622732e308 written with 10 digits is 1.797693135e+308: inf when read back
+    import hybridsim as hs
+
+    p = tmp_path / "huge.yaml"
+    p.write_text("blocks:\n  c: {type: constant, value: [709.782712893384, 1.0]}\n"
+                 "  e: {type: math_function, function: exp, width: 2}\nwires: [c.y -> e.u]\nlog: [e.y]\n"
+                 "simulation: {t_end: 0.01, log_period: 0.005}\n")
+    hs.simulate(p).to_csv(tmp_path / "huge.csv")
+    back = np.genfromtxt(tmp_path / "huge.csv", delimiter=",", skip_header=1)
+    assert np.isfinite(back).all() and back[-1, 1] == np.exp(709.782712893384)
+    assert back[-1, 2] == pytest.approx(np.e, abs=1e-9)  # the others as ever, 10 digits
