@@ -119,7 +119,8 @@ def margins(L):
     python-control's polynomial method first; where its crossovers do not lie
     on L's own frequency response (it loses accuracy on high-order loops, e.g.
     a 6-DOF arm's with its many modes), the margins of the response sampled
-    on a dense grid up to Nyquist.
+    on a dense grid up to Nyquist; where it finds no crossover, the grid's
+    where it finds one (a slow integrator's gain crossover it misses).
     """
     import warnings
 
@@ -128,6 +129,12 @@ def margins(L):
         gm, pm, _, wg, wp, _ = control.stability_margins(L)
         if L.dt and not _margins_hold(L, gm, pm, wg, wp):
             gm, pm, wg, wp = _grid_margins(L)
+        elif L.dt and not (np.isfinite(gm) and np.isfinite(pm)):  # a crossover it did not find (an
+            ggm, gpm, gwg, gwp = _grid_margins(L)  # integrator's |L| crossing 1 at 0.012 Hz): the grid's
+            if not np.isfinite(pm) and np.isfinite(gpm):
+                pm, wp = gpm, gwp
+            if not np.isfinite(gm) and np.isfinite(ggm):
+                gm, wg = ggm, gwg
     dt = L.dt
     to_hz = (lambda w: None if w is None or not np.isfinite(w) else float(w / (2 * np.pi)))
     return {

@@ -370,3 +370,19 @@ def test_a_delays_stand_in_gives_the_delays_output_at_the_operating_point(tmp_pa
     for at, pole in ((None, -5.0), (3.0, -2.0)):
         poles = linearization(p, at=at).closed_loop().poles
         assert np.sort_complex(poles) == pytest.approx(np.sort_complex(np.append(pade, pole)), abs=1e-6), at
+
+
+def test_a_gain_crossover_python_control_misses_is_found_on_the_response():
+    # K (z - 0.8)/(z - 1) around c2d(4/(s^2 + 2 s + 4), 50 ms), K = 0.0195: |L| crosses 1 at 0.0124 Hz
+    # (the integrator), which control.stability_margins misses: "phase margin inf" for a stable loop
+    from hybridsim.analysis.stability import margins
+
+    P = control.c2d(control.tf([4.0], [1.0, 2.0, 4.0]), 0.05)
+    L = 0.0195 * control.tf([1.0, -0.8], [1.0, -1.0], 0.05) * P
+    w = np.linspace(1e-4, 1.0, 200001)  # rad/s: the crossing, by a dense look of our own
+    mag = np.abs(np.ravel(L(np.exp(1j * w * 0.05))))
+    wc = w[np.argmin(np.abs(mag - 1.0))]
+    pm = 180.0 + np.degrees(np.angle(complex(np.ravel(L(np.exp(1j * wc * 0.05)))[0])))
+    m = margins(L)
+    assert m["phase_margin_deg"] == pytest.approx(pm, abs=0.01)
+    assert m["gain_crossover_hz"] == pytest.approx(wc / (2 * np.pi), rel=1e-3)
