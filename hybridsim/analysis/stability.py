@@ -218,7 +218,8 @@ def _bisect(unstable, stable_at, unstable_at, tol):
 def boundaries(exp, param, value, rows, tol=0.01, at=None, lo=1e-4, hi=1e4):
     """The scales of ``param`` where the loop's stability changes, from the gain sweep's ``rows`` and
     x1: each pair of neighbouring scales that differ is bisected to ``tol``, and past the sweep's ends
-    the walk goes on (doubling, halving) to ``hi`` / ``lo`` while the loop stays stable there.
+    the walk goes on (doubling, halving) to ``hi`` / ``lo`` while the loop stays stable there (both
+    ways while it is unstable at every scale, to the first stable one).
     Returns ``[{"scale", "unstable_above"}]`` in increasing scale (``unstable_above``: the loop is
     unstable just above it). ``exp``: an :class:`~hybridsim.runs.experiment.Experiment`."""
     def unstable(s):
@@ -234,6 +235,14 @@ def boundaries(exp, param, value, rows, tol=0.01, at=None, lo=1e-4, hi=1e4):
     while not seen[bottom] and bottom / 2 >= lo:
         bottom /= 2
         seen[bottom] = unstable(bottom)
+    if all(seen.values()):  # unstable at every scale of the sweep: look for a stable one beyond it
+        while all(seen.values()) and (bottom / 2 >= lo or top * 2 <= hi):
+            if bottom / 2 >= lo:
+                bottom /= 2
+                seen[bottom] = unstable(bottom)
+            if top * 2 <= hi and seen[bottom]:
+                top *= 2
+                seen[top] = unstable(top)
     scales = sorted(seen)
     out = []
     for a, b in zip(scales, scales[1:]):

@@ -335,6 +335,10 @@ def test_a_conditionally_stable_gain_reports_its_lower_boundary(tmp_path):
     res = analyze(p)
     assert not res["stable"] and res["gains"]["Kp"]["lower_scale"] == pytest.approx(2.0, rel=0.01)
     assert [b["unstable_above"] for b in res["gains"]["Kp"]["boundaries"]] == [False]
+    # unstable at every scale of its sweep (Kp = 0.1, x0.5 .. x2): the boundary at x10 lies beyond it
+    p.write_text(p.read_text().replace("Kp: 0.5", "Kp: 0.1").replace("gains:", "scales: [0.5, 1, 2]\n  gains:"))
+    res = analyze(p)
+    assert res["gains"]["Kp"]["lower_scale"] == pytest.approx(10.0, rel=0.01)
 
 
 @pytest.mark.slow  # about twenty 30 s runs
