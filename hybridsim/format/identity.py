@@ -151,7 +151,7 @@ def sweep_identity(sweep):
     files = set(run_files(f))
     axes = [sweep.fixed, sweep.grid, sweep.scale, (sweep.random or {}).get("ranges", {})]
     files |= named_files(axes, sweep.path.parent, sweep.diagram.parent)
-    return identity(files, {"set": sweep.fixed, "stability": sweep.stability})
+    return identity(files, {"set": sweep.fixed, "stability": sweep.stability, "traces": bool(sweep.traces)})
 
 
 def check_sweep(data, path):

@@ -234,7 +234,7 @@ class Sweep:
     def fingerprint(self):
         """The identity of everything a point's numbers depend on besides its own overrides: every file
         the runs read (diagram, extends, subsystems, URDFs and meshes, FMUs, plugins, files named
-        in the sweep), ``set``, ``stability`` and hybridsim's version (:mod:`hybridsim.format.identity`)."""
+        in the sweep), ``set``, ``stability``, ``traces`` and hybridsim's version (:mod:`hybridsim.format.identity`)."""
         from hybridsim.format.identity import sweep_identity
 
         return sweep_identity(self)
@@ -323,7 +323,7 @@ def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False,
     with ex, locked_output_dir(outdir) as outdir:  # one sweep per folder at a time
         store = Store(outdir, fp, "points.jsonl", "sweep-manifest.json", "sweep",
                       "a file its runs read (the diagram, a file it extends, a subsystem, URDF, FMU, plugin or "
-                      "a file the sweep names), 'set', 'stability' or the hybridsim version changed",
+                      "a file the sweep names), 'set', 'stability', 'traces' or the hybridsim version changed",
                       restart, {"sweep": str(sw.path), "diagram": str(sw.diagram)})
         traces = None
         if sw.traces:

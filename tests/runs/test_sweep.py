@@ -64,6 +64,19 @@ def test_resume_runs_only_the_missing_points(sweep_file, tmp_path):
     pd.testing.assert_frame_equal(table(out / "sweep.csv"), table(tmp_path / "o" / "sweep.csv"))
 
 
+def test_asking_for_traces_on_a_resumed_sweep_is_a_changed_sweep(sweep_file, tmp_path):
+    # 'traces: true' added after a sweep: its points were read back, no run wrote a CSV, exit 0 with
+    # an empty traces/ folder
+    from hybridsim.errors import InputError
+
+    out = tmp_path / "o"
+    sweep_file.write_text(SMALL.replace("stability: true", "stability: false").replace("[60, 120]", "[60]"))
+    sw.run_sweep(sweep_file, out, jobs=1, progress=False)
+    sweep_file.write_text(sweep_file.read_text() + "traces: true\n")
+    with pytest.raises(InputError, match="'traces'"):
+        sw.run_sweep(sweep_file, out, jobs=1, progress=False)
+
+
 def test_failing_point_is_recorded_not_fatal(tmp_path, capsys):
     p = tmp_path / "f.yaml"
     p.write_text(f"""
