@@ -274,9 +274,11 @@ class TuneSpec:
             with overrides_from("the tune file's"):
                 f = load(self.diagram, **self.fixed)
                 check(f)
-        except InputError as exc:
-            raise InputError(f"{self.path}: the diagram with 'set': {exc}") from None
-        self._check_signals(*f.build())
+        except InputError as exc:  # at the line of 'set' where there is one
+            data, _ = parse_file(self.path)
+            line = data.lines.get("set") if hasattr(data, "lines") and "set" in data else None
+            raise LoaderError(f"the diagram{' with set' if line else ''}: {exc}", self.path, line) from None
+        self._check_signals(*f.build(), alias=f._alias)
         for v in self.variants:
             try:
                 with overrides_from("the tune file's"):
@@ -292,7 +294,7 @@ class TuneSpec:
                     raise LoaderError(f"parameter {p.path} = {value!r}: {exc}", self.path,
                                       self._param_line(p)) from None
 
-    def _check_signals(self, diagram, settings):
+    def _check_signals(self, diagram, settings, alias=str):
         """Each step measure's signal (``of``, ``reference``) a logged output element of the diagram, and
         its ``after`` within the run (what a run would find only after it ran)."""
         from hybridsim.format.kinds import SIGNAL
@@ -308,7 +310,7 @@ class TuneSpec:
             if q.source == "analysis" and hidden:  # what a linearization would say, before any point runs
                 self._fail(f"analysis {q.analysis!r}: {hidden}", q.line)
             if q.source == "analysis" and q.loop is not None:
-                why = _port_problem(diagram, str(points.get(q.loop, q.loop)))
+                why = _port_problem(diagram, alias(str(points.get(q.loop, q.loop))))
                 if why == "no such output":
                     why = (f"neither a name in {self.diagram.name}'s analysis.points ({', '.join(points) or 'none'}) "
                            "nor an output block.port[i] of it")
@@ -325,12 +327,12 @@ class TuneSpec:
             for key, ref in (("of", q.signal), ("reference", q.reference)):
                 if ref is None:
                     continue
-                why = _port_problem(diagram, str(ref))
+                why = _port_problem(diagram, alias(str(ref)))  # a subsystem's port: its inner output
                 if why == "no such output":
                     why = f"no output of that name in {self.diagram.name} (block.port or block.port[i])"
                 if why:
                     self._fail(f"{key} {ref!r}: {why}", q.line)
-                m = SIGNAL.match(str(ref))
+                m = SIGNAL.match(alias(str(ref)))
                 if logged and f"{m.group(1)}.{m.group(2)}" not in logged:
                     self._fail(f"{key} {ref!r}: not logged by {self.diagram.name} (add it to its 'log')", q.line)
 

@@ -177,6 +177,23 @@ def test_bad_tune_files_exit_2_with_file_and_line(tmp_path, capsys, body, line, 
     assert f"t.yaml:{line}" in err and message in err, err
 
 
+def test_a_set_the_diagram_refuses_and_a_subsystems_port_as_a_signal(tmp_path, capsys):
+    # 'set: {simulation.stepp: 3}' was named with no line; 'of: ctrl.u' (a subsystem's declared port,
+    # which a diagram's log and a run's result take) was refused as no output
+    p = tmp_path / "t.yaml"
+    p.write_text(f"diagram: {MSD}\nset: {{simulation.stepp: 3}}\n" + PARAMS + "objectives:\n" + SETTLE)
+    assert main(["check", str(p)]) == 2
+    assert "t.yaml:2: the diagram with set:" in capsys.readouterr().err
+    (tmp_path / "sub.yaml").write_text("blocks:\n  g: {type: gain, K: 1.0}\ninputs: {e: g.u}\noutputs: {u: g.y}\n")
+    d = tmp_path / "d.yaml"
+    d.write_text(MSD.read_text().replace("blocks:\n", "blocks:\n  ctrl: {type: subsystem, file: sub.yaml}\n", 1)
+                 .replace("wires:\n", "wires:\n  - plant.y -> ctrl.e\n", 1))
+    d.write_text(d.read_text().replace("log: [", "log: [ctrl.u, ", 1))
+    p.write_text(f"diagram: {d}\nset: {{simulation.t_end: 5.0}}\n" + PARAMS + "objectives:\n"
+                 + SETTLE.replace("of: plant.y", "of: ctrl.u"))
+    assert main(["check", str(p)]) == 0, capsys.readouterr().err
+
+
 # -- optimisers, outputs, resuming -------------------------------------------------------------
 @pytest.mark.slow
 def test_nelder_mead_improves_and_resumes(tmp_path):
