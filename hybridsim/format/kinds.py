@@ -131,6 +131,11 @@ class PathText(Kind):
 
     text = "a parameter path ('name', 'block.param' or 'sub.block.param')"
 
+    def __init__(self, blocks_only=False):
+        self.blocks_only = blocks_only  # a block's parameter only ('block.param', 'sub.block.param')
+        if blocks_only:
+            self.text = "a block parameter path ('block.param' or 'sub.block.param')"
+
     def problem(self, v):
         from hybridsim.format.paths import ParamPath
 
@@ -140,6 +145,8 @@ class PathText(Kind):
             ParamPath.parse(v)
         except ValueError as exc:
             return f"{v!r}: {exc}"
+        if self.blocks_only and "." not in v:
+            return f"{v!r} is not a block's parameter ('block.param')"
         return None
 
     def schema(self):

@@ -107,7 +107,7 @@ ANALYSIS = [
     Setting("rate_param", Text(nonempty=True), "rate", "the name in 'params' that sets the servo rate"),
     Setting("rates", ListOf(Number(0, low_open=True, unit="Hz")), [30, 45, 60, 80, 120, 240, 480],
             "servo rates of the rate sweep"),
-    Setting("gains", MapOf(PathText()), {}, "gains of the gain sweep: {name: block parameter path}"),
+    Setting("gains", MapOf(PathText(blocks_only=True)), {}, "gains of the gain sweep: {name: block parameter path}"),
     Setting("scales", ListOf(_POS), [0.125, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0], "factors of the gain sweep"),
     Setting("cases", MapOf(_OVERRIDES), {}, "other branches: {name: {parameter path: value}}"),
     Setting("at", Number(0, unit="s", text="a time in seconds >= 0"), None, "linearize about the state at this time (default: the initial)"),

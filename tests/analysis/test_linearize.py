@@ -390,3 +390,16 @@ def test_a_gain_crossover_python_control_misses_is_found_on_the_response():
     m = margins(L)
     assert m["phase_margin_deg"] == pytest.approx(pm, abs=0.01)
     assert m["gain_crossover_hz"] == pytest.approx(wc / (2 * np.pi), rel=1e-3)
+
+
+def test_a_gain_that_names_no_block_parameter_is_refused_as_the_table_says(tmp_path, capsys):
+    # the table (and docs/settings.md) offered 'name' (a params name) for a gain, which check refused
+    from hybridsim.app.cli import main
+
+    row = next(line for line in (ROOT / "docs" / "settings.md").read_text().splitlines() if line.startswith("| `gains`"))
+    assert "'name'" not in row and "'block.param'" in row
+    p = tmp_path / "g.yaml"
+    p.write_text("params: {K: 2.0}\nblocks:\n  g: {type: gain, K: $K}\n  i: {type: integrator}\n"
+                 "wires: [g.y -> i.u, i.y -> g.u]\nanalysis:\n  gains: {K: K}\n")
+    assert main(["check", str(p)]) == 2
+    assert "g.yaml:7: analysis setting 'gains': 'K': 'K' is not a block's parameter" in capsys.readouterr().err
