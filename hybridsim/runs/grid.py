@@ -18,9 +18,21 @@ import numpy as np
 
 
 def point_key(changes):
-    """A short stable hash of ``changes`` (a point's key in a resume store)."""
-    text = json.dumps(changes, sort_keys=True, default=float)
+    """A short stable hash of ``changes`` (a point's key in a resume store); a whole number the same
+    written 20 or 20.0 (one run)."""
+    text = json.dumps(_plain(changes), sort_keys=True, default=float)
     return hashlib.sha1(text.encode()).hexdigest()[:16]
+
+
+def _plain(v):
+    """``v`` with whole floats as ints, in lists and mappings too."""
+    if isinstance(v, dict):
+        return {k: _plain(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_plain(x) for x in v]
+    if isinstance(v, float) and v.is_integer() and abs(v) < 2.0 ** 53:
+        return int(v)
+    return v
 
 
 class Point(NamedTuple):
