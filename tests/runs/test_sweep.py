@@ -214,8 +214,8 @@ def test_a_parameter_that_is_not_finite_is_not_scaled(tmp_path):
         sw.run_sweep(p, tmp_path / "o", jobs=1, progress=False)
 
 
-@pytest.mark.parametrize("axes", ["grid: {x.K: [2, 2]}", "grid: {x.K: [2, 2.0]}", "random: {n: 2, ranges: {x.K: [3, 3]}}",
-                                  "scale: {x.initial: [1, 2]}"])
+@pytest.mark.parametrize("axes", ["grid: {x.K: [2, 2]}", "grid: {x.K: [2, 2.0]}",
+                                  "random: {n: 2, ranges: {x.K: [3, 3]}}", "scale: {x.initial: [1, 2]}"])
 def test_a_sweep_that_names_one_point_twice_is_refused(tmp_path, axes):
     from hybridsim.errors import InputError
 
