@@ -39,14 +39,21 @@ def overlay(spec, values, outdir):
             blocks.setdefault(parts[0], {})[".".join(parts[1:])] = value
     from hybridsim.format.build import load
 
-    swept = load(spec.diagram).data.get("variants") or {}
+    f = load(spec.diagram)
+    swept = f.data.get("variants") or {}
     fixed = {k: [v] for k, v in params.items() if k in swept}  # a value set for a swept name ends that sweep
+    # the tune's own variants (the worst case it scored): those over the diagram's params go with it
+    tuned = {k: list(dict.fromkeys(_plain(c[k]) for c in spec.variants)) for k in spec.variants[0]}
+    fixed.update({k: v for k, v in tuned.items() if k in f.params})
+    left = [k for k in tuned if k not in f.params]
     rel = os.path.relpath(spec.diagram, Path(outdir).resolve())
     doc = {"extends": rel, "name": f"{spec.diagram.stem}_tuned"}
     for key, part in (("params", params), ("variants", fixed), ("blocks", blocks), *settings.items()):
         if part:
             doc[key] = part
     head = f"# the best point of {spec.path.name} (hybridsim tune), over {spec.diagram.name}\n"
+    if left:  # block parameters a diagram's variants cannot sweep
+        head += f"# scored over the tune's variants of {', '.join(left)} too: run it with --set for each\n"
     return head + yaml.safe_dump(doc, sort_keys=False, default_flow_style=None)
 
 

@@ -194,6 +194,17 @@ def test_a_set_the_diagram_refuses_and_a_subsystems_port_as_a_signal(tmp_path, c
     assert main(["check", str(p)]) == 0, capsys.readouterr().err
 
 
+def test_the_overlay_keeps_the_variants_the_point_was_scored_over(tmp_path):
+    # best.yaml left out the tune's variants: run, it gave the 100 Hz value of a point scored as the
+    # worst of 50 and 100 Hz
+    from hybridsim.tune.outputs import overlay
+    from hybridsim.tune.spec import load_tune
+
+    p = tune_file(tmp_path, "variants: {rate: [50, 100], pid.N: [20, 40]}\n" + PARAMS + "objectives:\n" + SETTLE)
+    text = overlay(load_tune(p), {"pid.Kp": 10.0, "pid.Ki": 5.0, "pid.Kd": 1.0}, tmp_path)
+    assert "rate: [50, 100]" in text and "variants of pid.N too" in text
+
+
 # -- optimisers, outputs, resuming -------------------------------------------------------------
 @pytest.mark.slow
 def test_nelder_mead_improves_and_resumes(tmp_path):
