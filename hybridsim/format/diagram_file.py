@@ -138,7 +138,7 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
         self._broken = set()  # flat names of the blocks and subsystems that had a problem
         self._bad_ports = set()  # flat names of subsystem ports whose declaration had a problem
         self._expand(diagram, params, "", (self.path.resolve(),), "")
-        problems += [p for p in diagram.check() if p not in problems
+        problems += [self._at_block(p) for p in diagram.check() if p not in problems
                      and not any(p.startswith(f"input {ref} (") for ref in self._cut)]
         if self.data.get("inputs") and any("is not connected" in p for p in problems):
             problems.insert(0, f"{self.path} declares 'inputs': it is a subsystem, used from a diagram as "
@@ -159,6 +159,13 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
         widths = self._check_refs(diagram, settings)
         self._check_size(diagram, settings, widths)
         return diagram, settings
+
+    def _at_block(self, problem):
+        """``problem`` about an input ('input g.u (1 wide) is not connected') at the line of its block in
+        this file (a subsystem's block: the subsystem's line), when it names one and has no place."""
+        m = re.match(r"input ([^\s(]+)\.\w+ \(", problem)
+        loc = self._locs("blocks").get(m.group(1).split(".")[0]) if m else None
+        return f"{loc}: {problem}" if loc else problem
 
     def _alias(self, ref):
         """'ctrl.tau[1]' -> 'ctrl.sum.y[1]' when ctrl.tau is a subsystem's output."""

@@ -18,7 +18,7 @@ def run(capsys, *argv):
 
 @pytest.mark.parametrize("change, message", [
     (("type: gain", "type: gian"), "unknown block type 'gian'"),
-    (("  - g.y -> zoh.u\n", ""), "input zoh.u (1 wide) is not connected"),
+    (("  - g.y -> zoh.u\n", ""), "d.yaml:6: input zoh.u (1 wide) is not connected"),  # at its block's line
     (("src.y -> g.u", "src.y -> g.x"), "has no input 'x'"),
     (("{type: zoh, rate: 100}", "{type: zoh, rate: 100, width: 2}"), "width mismatch"),
     (("rate: 100", "rate: 0"), "bad rate"),
