@@ -93,6 +93,10 @@ class OutputError(InputError):
     """An output path hybridsim must not or cannot write (an existing file, no permission)."""
 
 
+class LinearizationError(InputError):
+    """A diagram or analysis setting that cannot be linearized as asked (exit 2)."""
+
+
 class CompiledPathError(InputError):
     """The compiled path was asked for but cannot run this diagram (or numba is missing)."""
 
