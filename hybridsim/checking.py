@@ -19,8 +19,8 @@ def check_file(path, **overrides):
         ``kind`` ("diagram", "subsystem", "sweep" or "tune"); for a diagram what :func:`check` gives
         (``blocks``, ``states``, ``rates``, ``runs``); for a subsystem file (one with ``inputs:``) the
         same, checked as a diagram that holds its inputs at 0 would run it (its ``simulation:``
-        section as an exported FMU's), with ``inputs`` and ``outputs`` [(name, width)]; for a sweep ``diagram`` and ``points``;
-        for a tune file ``diagram``, ``parameters`` and ``method``.
+        section as an exported FMU's), with ``inputs`` and ``outputs`` [(name, width)]; for a sweep
+        ``diagram`` and ``points``; for a tune file ``diagram``, ``parameters`` and ``method``.
     """
     from hybridsim.errors import InputError
     from hybridsim.format import parse_file
