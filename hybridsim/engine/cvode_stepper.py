@@ -147,7 +147,7 @@ def leaving_sides(s, xn, w, gl, y, z, pf, pi):
     if not on.size:
         return
     after = np.sign(_rates(s.t0, s.x0, g0, w, gl, y, z, pf, pi)[0])
-    own = np.zeros(g0.size, np.bool_) if s.before_fired is None else np.asarray(s.before_fired, bool)
+    own = _own(s, g0.size)
     for i in on:
         if after[i] == 0.0 and gn[i] != 0.0 and not own[i]:  # flat at the start (a dead zone's output),
             g0[i] = -gn[i]  # off its surface by the point: it left unreported, which the core stops at
@@ -161,10 +161,13 @@ def left_zero(s, t, xn, w, gl, y, z, pf, pi):
     fires), which CVODE, skipping a root that starts on zero, did not report. In ``w.g`` it reads
     as having come from the other side, so the core stops at the crossing it cannot locate."""
     here = _zc(t, xn, np.empty(w.g.size), w, gl, y, z, pf, pi)
-    left = (w.g == 0.0) & (w.dirs == 0) & (here != 0.0)
-    if s.before_fired is not None:
-        left &= ~np.asarray(s.before_fired, bool)
+    left = (w.g == 0.0) & (w.dirs == 0) & (here != 0.0) & ~_own(s, w.g.size)
     w.g[left] = -here[left]
+
+
+def _own(s, n):
+    """The functions that fired in the event this integration started from (they sit on 0 after it)."""
+    return np.zeros(n, np.bool_) if s.before_fired is None else np.asarray(s.before_fired, bool)
 
 
 def _rates(t, x, g, w, gl, y, z, pf, pi, step=None):
