@@ -13,7 +13,7 @@ from pathlib import Path
 
 from hybridsim.files import atomic_dir, safe_name, unique_names
 from hybridsim.format import DiagramFile
-from hybridsim.format.build import (SIMULATION_KEYS, build, check, check_plugin_blocks, load, load_keys,  # noqa: F401
+from hybridsim.format.build import (SIMULATION_KEYS, build, check, check_plugin_blocks, load,  # noqa: F401
                                      make_solver, simulate)
 
 

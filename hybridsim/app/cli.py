@@ -44,6 +44,7 @@ examples:
 --set PATH=VALUE: PATH is a name in the diagram's 'params', a block
 parameter 'block.param' ('sub.block.param' inside a subsystem, 'block.param[i]'
 for one element), 'simulation.key' ({sim}), or 'metrics.key' ({metrics}).
+A bare simulation key (t_end=5) is that setting unless 'params' has the name.
 VALUE is read as YAML: 10, 1e-4, [5, 50], true.
 A --set of a parameter that 'variants' sweeps fixes it to one run.
 Every setting of every section: docs/settings.md. Limits checked before a

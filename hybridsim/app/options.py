@@ -48,7 +48,8 @@ def add_diagram(parser):
     """The DIAGRAM argument and ``--set PATH=VALUE``."""
     parser.add_argument("diagram", help="YAML diagram file (see diagrams/)")
     parser.add_argument("--set", action="append", metavar="PATH=VALUE",
-                        help="override a parameter (repeatable; see hybridsim --help)")
+                        help="override a parameter or setting: k=2, g.K=3, g.K[1]=3, simulation.t_end=5 "
+                             "(t_end=5 where no parameter is named t_end); repeatable")
 
 
 def add_at(parser):

@@ -106,15 +106,8 @@ def load(path, **overrides):
     ``--set``; the setting is then ``**{"simulation.step": 1e-3}``.
     """
     if isinstance(path, DiagramFile):  # a parsed file: ``overrides`` over its own
-        return DiagramFile(path.path, {**path.overrides, **load_keys(overrides, path.params)}) if overrides else path
-    params = DiagramFile(path).params if any(k in SIMULATION_KEYS for k in overrides) else ()
-    return DiagramFile(path, load_keys(overrides, params))
-
-
-def load_keys(overrides, params=()):
-    """``overrides`` with a bare simulation setting (``t_end``) named as a path (``simulation.t_end``),
-    unless it is one of ``params`` (a parameter of the diagram)."""
-    return {(f"simulation.{k}" if k in SIMULATION_KEYS and k not in params else k): v for k, v in overrides.items()}
+        return DiagramFile(path.path, {**path.overrides, **overrides}) if overrides else path
+    return DiagramFile(path, overrides)
 
 
 def build(path_or_file, variant=None, check_only=False, log=None, **overrides):

@@ -46,7 +46,8 @@ class OverridesMixin:
     def apply(self, overrides, cancelling=True):
         """Apply ``{path: value}`` overrides in place (see class docstring).
 
-        Setting a parameter that ``variants`` sweeps fixes it: that sweep ends.
+        A bare simulation setting (``t_end``) is ``simulation.t_end``, unless the file has a
+        parameter of that name. Setting a parameter that ``variants`` sweeps fixes it: that sweep ends.
         A path with an element index (``g.K[1]``) changes that element of the
         parameter's current value (from the file, else the block's default).
         A parameter set together with every value that uses it is refused: it
@@ -59,6 +60,8 @@ class OverridesMixin:
         for key, value in overrides.items():
             self.overrides[key] = value
             path = self._path(key)
+            if path.kind == "param" and path.name not in self.params and path.name in tables.keys(tables.SIMULATION):
+                path = ParamPath.parse(f"simulation.{path}")  # t_end: simulation.t_end, unless a parameter
             if path.index is not None:
                 value = self._element_set(path, value, key)
                 path = path.without_index()

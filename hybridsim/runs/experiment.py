@@ -18,7 +18,7 @@ from collections import OrderedDict
 
 import numpy as np
 
-from hybridsim.format.build import build, load, load_keys
+from hybridsim.format.build import build, load
 from hybridsim.errors import HybridsimError, InputError, ParameterError, SimulationError
 from hybridsim.format.settings import horizon_problems
 from hybridsim.analysis.linearize import Linearization, LinearizationError, start_outputs
@@ -50,7 +50,7 @@ class Experiment:
             self.path, self.file, self._given = path.path, path, True
             if overrides:
                 self.file = copy.deepcopy(path)
-                self.file.apply(load_keys(overrides, path.params))
+                self.file.apply(overrides)
         else:
             self.path, self.file, self._given = path, load(path, **overrides), False
         self._start()

@@ -219,6 +219,19 @@ def test_a_keyword_that_is_a_parameter_and_a_setting_is_the_parameter_as_with_se
     assert r.t[-1] == 0.5 and r["i.y"][-1] == pytest.approx(0.5, abs=1e-12)
 
 
+def test_a_bare_setting_name_is_the_setting_in_set_sweeps_and_the_api_alike(tmp_path):
+    # `--set t_end=2` was refused ("no parameter 't_end'") where hs.simulate(p, t_end=2) and a
+    # sweep's `set: {t_end: 2}` took it: the rule is now DiagramFile.apply's, for every origin
+    from hybridsim.app.cli import main
+
+    p = tmp_path / "bare.yaml"
+    p.write_text("blocks:\n  c: {type: constant, value: 1.0}\n  i: {type: integrator}\n"
+                 "wires: [c.y -> i.u]\nlog: [i.y]\nsimulation: {t_end: 1.0, solver: rk4, step: 1.0e-3}\n")
+    assert main(["run", str(p), "--set", "t_end=2", "-o", str(tmp_path / "out"), "-q"]) == 0
+    rows = (tmp_path / "out" / "bare.csv").read_text().strip().splitlines()
+    assert rows[-1].split(",")[0] == "2" or float(rows[-1].split(",")[0]) == 2.0
+
+
 def test_incommensurate_rates_name_the_file_and_each_blocks_line(tmp_path):
     import hybridsim as hs
 
