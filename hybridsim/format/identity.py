@@ -163,18 +163,23 @@ def check_sweep(data, path):
         where = first[0].rsplit(":", 1)
         line = int(where[1]) if len(where) == 2 and where[1].isdigit() else None
         raise LoaderError(first[-1] + "".join(f"\n  also: {g}" for g in got[1:]), path, line)
+    random = data.get("random") if isinstance(data.get("random"), dict) else {}
+    given_once(path, [(s, data.get(s)) for s in ("set", "grid", "scale")] + [("random", random.get("ranges"))])
+
+
+def given_once(path, sections):
+    """Refuse one parameter given twice, in two sections or under two spellings (``k`` and
+    ``params.k``), across ``sections``: ``(name, mapping)`` pairs of a sweep or tune file.
+    Raises LoaderError at the second one's line."""
     seen = {}
-    for section in ("set", "grid", "scale"):
-        for key in (data.get(section) or {}):
-            _once(seen, key, section, data, path)
-    for key in ((data.get("random") or {}).get("ranges") or {}):
-        _once(seen, key, "random", data, path)
-
-
-def _once(seen, key, section, data, path):
-    canon = ParamPath.parse(str(key)).key
-    if canon in seen and (seen[canon][1] != section or seen[canon][0] != key):
-        other, where = seen[canon]
-        raise LoaderError(f"{section} {key!r} and {where} {other!r} are the same parameter ({canon}); "
-                          "give it once", path, (getattr(data.get(section), "lines", None) or {}).get(key))
-    seen.setdefault(canon, (key, section))
+    for section, mapping in sections:
+        for key in (mapping if isinstance(mapping, dict) else {}):
+            try:
+                canon = ParamPath.parse(str(key)).key
+            except ValueError:
+                continue  # refused where it is applied, with the reason
+            if canon in seen and seen[canon] != (key, section):
+                other, where = seen[canon]
+                raise LoaderError(f"{section} {key!r} and {where} {other!r} are the same parameter ({canon}); "
+                                  "give it once", path, (getattr(mapping, "lines", None) or {}).get(key))
+            seen.setdefault(canon, (key, section))

@@ -32,6 +32,7 @@ from pathlib import Path
 from hybridsim import limits
 from hybridsim.errors import InputError, LoaderError
 from hybridsim.format import parse_file
+from hybridsim.format.identity import given_once
 from hybridsim.format.yamlio import refuse_kind
 from hybridsim.tune.space import SCALES, Parameter
 
@@ -127,6 +128,7 @@ class TuneSpec:
         if data.get("compiled"):
             self.fixed["simulation.compiled"] = True
         self.variants = self._variants(data.get("variants") or {}, lines.get("variants"))
+        given_once(self.path, [(k, data.get(k)) for k in ("set", "variants", "parameters")])
         self.parameters = self._parameters(data["parameters"], lines["parameters"])
         self.objectives = self._quantities(data["objectives"], lines["objectives"], objective=True)
         self.constraints = self._quantities(data.get("constraints") or [], lines.get("constraints"), objective=False)

@@ -168,6 +168,10 @@ def test_pareto_front_by_hand():
     (PARAMS + "objectives:\n" + SETTLE.replace("final: 1.0", "after: 100"), 8, "not before the run's end"),
     (PARAMS + "objectives:\n" + SETTLE.replace("plant.y", "'plant.y[4]'"), 8, "plant.y has 1 element(s)"),
     (PARAMS + "objectives:\n" + SETTLE.replace("final: 1.0", "reference: nob.y"), 8, "reference 'nob.y'"),
+    # a tuned parameter also given in 'set' or 'variants' was taken (the tuner's value won); a sweep
+    # refused it
+    ("variants: {pid.Kp: [3.0, 4.0]}\n" + PARAMS + "objectives:\n" + SETTLE, 5,
+     "parameters 'pid.Kp' and variants 'pid.Kp' are the same parameter"),
 ])
 def test_bad_tune_files_exit_2_with_file_and_line(tmp_path, capsys, body, line, message):
     p = tune_file(tmp_path, body)
