@@ -40,6 +40,7 @@ class CVodeStepper:
         self.failed, self.message, self.seen = [], None, None
         self.event_at = self.event_x = None  # the last crossing CVODE returned, and the state there
         self.event_fired = self.before_fired = None  # the functions that fired there; and for ``before``
+        self.moved = None  # the event functions off 0 at some point since the integration started
 
     def start(self, w, gl, y, z, pf, pi):
         """A fresh CVODE for (t0, x0) with the glue's right-hand side and event functions."""
@@ -165,9 +166,30 @@ def left_zero(s, t, xn, w, gl, y, z, pf, pi):
     w.g[left] = -here[left]
 
 
+def left_with(s, t, xn, here, root, w, gl, y, z, pf, pi):
+    """At a root CVODE reported at ``t``: the functions that sat exactly on 0 at the last point and
+    are off it to their firing side at ``t`` (``here``). One still on 0 just before ``t`` left at
+    ``t`` (a dead zone's output leaving its zone at the instant another function crosses): it fires
+    with the root, returned. One that left earlier in the step (CVODE skips roots that start on
+    zero) makes it None: the core, looking, stops at a crossing it cannot locate (:func:`left_zero`)."""
+    fires = np.zeros(root.size, np.bool_)
+    stepping.crossed_any(np.zeros(root.size), here, w.dirs, fires)
+    left = fires & (w.g == 0.0) & ~root & ~_own(s, root.size)
+    if not left.any():
+        return root
+    before = here + _rates(t, xn, here, w, gl, y, z, pf, pi, -LEAVE_STEP)[0]
+    if (before[left] == 0.0).all():
+        return root | left
+    w.g[left] = -here[left]
+    return None
+
+
 def _own(s, n):
-    """The functions that fired in the event this integration started from (they sit on 0 after it)."""
-    return np.zeros(n, np.bool_) if s.before_fired is None else np.asarray(s.before_fired, bool)
+    """The functions that fired in the event this integration started from and sat exactly on 0
+    there (an FMU's indicator after its own event); not one that has left 0 and come back since."""
+    if s.before_fired is None or s.moved is None:
+        return np.zeros(n, np.bool_)
+    return np.asarray(s.before_fired, bool) & ~s.moved
 
 
 def _rates(t, x, g, w, gl, y, z, pf, pi, step=None):
@@ -271,19 +293,23 @@ def cvode_ops():
         if s.fresh or s.watch:  # w.g: the functions at the (re)start, or at the last point, where the
             # core looked. CVODE leaves one exactly on 0 out of its search until a point where it is not
             s.watch = bool((w.g == 0.0).any())  # (leaving 0 unreported): the core looks till then
+            s.moved = (w.g != 0.0) | (False if s.fresh else s.moved)  # off 0 since the start (see _own)
         reached = False
         if root is not None:  # the core's rule: a function fires once on its firing side, not on reaching 0
             past = np.zeros(root.size, np.bool_)
             here = _zc(t, xn, np.empty(root.size), w, gl, y, z, pf, pi)
             stepping.crossed_any(np.zeros(root.size), here, w.dirs, past)
             root = root & past
-            reached = not root.any()
+            refresh(s, x, w, gl, y, z, pf, pi, t_last)  # w.g at the last point
+            if (w.g == 0.0).any():  # one sat on 0 there (or at the start)
+                root = left_with(s, t, xn, here, root, w, gl, y, z, pf, pi)
+            reached = root is not None and not root.any()
             root = None if reached else root
         # past an integration's first point, CVODE's root search has compared the functions on a grid
         # holding every point it returned (its step ends and the log times): the core need not look
         # again, unless one sat exactly on 0 at the last point
         s.num[stepping.ROOT] = 1.0 if root is not None else (-1.0 if s.fresh or s.watch else -2.0)
-        if root is None and s.watch and not s.fresh:
+        if root is None and s.watch and not s.fresh and not reached:
             left_zero(s, t, xn, w, gl, y, z, pf, pi)
         if root is not None:  # the core reads w.g as the functions before the crossing
             refresh(s, x, w, gl, y, z, pf, pi, t_last)
@@ -313,6 +339,7 @@ def cvode_ops():
 
     def restart(s, t, xn, before):
         s.t0, s.x0, s.before = t, xn.copy(), before
+        s.before_fired = None if before is None else s.before_fired  # no event here: none fired
         s.times = [tt for tt in s.times if tt > t]
         s.cv, s.queue, s.started, s.fresh, s.looked = None, [], False, True, False
 

@@ -355,3 +355,37 @@ def test_a_flat_function_leaving_zero_after_another_ones_event_is_not_lost():
         assert "stepped over a crossing of block 'h'" in str(exc)
     else:
         assert res["h.count"][-1, 0] == 4
+
+
+@pytest.mark.parametrize("other", ["hit_crossing", "relay"])
+def test_a_flat_function_leaving_zero_at_another_ones_crossing_fires_with_it(other):
+    # a dead zone's output sits on 0 and leaves it at the very instant cos(2 pi t) crosses +-0.5, where
+    # another block's function crosses: CVODE reported that root only, and every crossing of the
+    # hit_crossings on the dead zone was lost (counts 0, exit 0); RK4 finds one at each of 1/3, 5/6,
+    # 4/3 and 11/6 s
+    from hybridsim.engine.registry import lookup
+
+    def diagram():
+        d = hs.Diagram("coincide")
+        d.add(lookup("cosine")("s", frequency=1.0))
+        d.add(lookup("dead_zone")("dz", lower=-0.5, upper=0.5))
+        d.add(lookup("hit_crossing")("he", direction="falling"))
+        d.add(lookup("hit_crossing")("hr", direction="rising"))
+        if other == "relay":
+            d.add(lookup("relay")("o", switch_on=0.5, switch_off=-0.5))
+            d.connect("s.y", "o.u")
+        else:
+            d.add(lookup("hit_crossing")("o", offset=[0.5, -0.5], width=2))
+            d.add(lookup("mux")("m", widths=[1, 1]))
+            d.connect("s.y", "m.u1")
+            d.connect("s.y", "m.u2")
+            d.connect("m.y", "o.u")
+        for a, b in (("s.y", "dz.u"), ("dz.y", "he.u"), ("dz.y", "hr.u")):
+            d.connect(a, b)
+        return d.build()
+
+    runs = {name: hs.Simulator(diagram(), solver, log=["he.count", "hr.count", "he.time", "hr.time"],
+                               log_period=0.1).run(2.2) for name, solver in (("rk4", hs.RK4(1e-3)), ("cvode", CVode()))}
+    for r in runs.values():
+        assert r["he.count"][-1, 0] == r["hr.count"][-1, 0] == 2
+        assert abs(r["he.time"][-1, 0] - 4 / 3) < 1e-9 and abs(r["hr.time"][-1, 0] - 11 / 6) < 1e-9
