@@ -67,9 +67,8 @@ class TransportDelay(Block):
         self.event_directions = (1,)
         self.declare_input("u", n)
         self.declare_output("y", n, depends_on=())
-        # the ring of samples (slot-major), then the time of the next sample (s): a count of samples
-        # would pass max_state (1e6) in a long run
-        self.declare_continuous_state((N + 2) * n + 1)
+        # the ring of samples (slot-major), then the time of the next sample (s), which grows by design
+        self.declare_continuous_state((N + 2) * n + 1, bounded=[True] * ((N + 2) * n) + [False])
 
     def linear_standin(self):
         """Its (pade, pade) Pade approximation, which analysis linearizes in its place (the buffer's

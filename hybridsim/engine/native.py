@@ -14,7 +14,7 @@ import warnings
 
 import numpy as np
 
-from hybridsim.engine import rk, stepping
+from hybridsim.engine import rk, solvers, stepping
 
 
 def cache_dir():
@@ -63,10 +63,7 @@ def example_records(n=1, s=1, e=1, d=1, b=1):
     tl = stepping.Timeline(f(2), np.zeros(2, np.int64), np.zeros((2, d), np.bool_), np.zeros(2, np.int64),
                            np.zeros(2, np.int64))
     lim = stepping.Limits(1e6, 1e-12, 1e-3, 10, 10, 10, 0, 10, 1e-6, 0, False, False, False)
-    w = stepping.Work(f(n), f(n), f(n), f(n), f(n), f(n), f(s * n), f(s * n), f(n), f(s), f(e), f(e), f(e), f(e),
-                      f(e), f(e), np.zeros(e, np.bool_), np.zeros(e, np.int64), np.zeros(e, np.bool_),
-                      np.zeros(e, np.bool_), np.zeros(e, np.int64), np.zeros(e, np.int64),
-                      np.zeros(d, np.bool_))
+    w = solvers.work(n, s, e, zb=np.zeros(d, np.bool_))  # the run's own constructor: the same types
     out = stepping.Out(f(1, 1), np.zeros(1, np.int64), np.zeros(1, np.int64), f(1), np.zeros((1, b), np.bool_),
                        np.zeros(1, np.int64), np.zeros(3, np.int64), f(1))
     rks = rk.RKState(f(s), f(8), f(8))

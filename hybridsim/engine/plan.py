@@ -142,7 +142,7 @@ class Plan:
     def check_continuous(self, x, t, max_state, ctx=None):
         """Raise :class:`SimulationError` when a continuous state is not finite or beyond
         ``max_state`` (with ``ctx``: naming the block whose output made it so, when one did)."""
-        bad = ~np.isfinite(x) | (np.abs(x) > max_state)
+        bad = ~np.isfinite(x) | ((np.abs(x) > max_state) & self.system.x_bounded)
         if bad.any():
             k = int(np.argmax(bad))
             if ctx is not None and not np.isfinite(x[k]):

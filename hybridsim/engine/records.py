@@ -63,6 +63,7 @@ class Work(NamedTuple):
     repeats: np.ndarray  # int64[e]: how often each switch was located in this interval
     owner: np.ndarray   # int64[e]: the located block (column of Out.evb) of each function
     zb: np.ndarray      # bool[d]: the discrete states max_state bounds
+    xb: np.ndarray      # bool[n]: the continuous states max_state bounds (all are checked finite)
 
 
 class Out(NamedTuple):

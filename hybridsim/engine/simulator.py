@@ -369,7 +369,7 @@ class Session:
         self.out = outputs(rows, len(columns), cap, len(located), columns)
         self.glue, self.ops, self.s, self.pf, self.pi, self.keeper = sim._machinery(ctx, self.out, numbers)
         self.w = work(sysm.n_x, getattr(self.s, "c", np.zeros(1)).size, int(sum(sizes)), dirs, switch, owner,
-                      sim._bounded)
+                      sim._bounded, sysm.x_bounded)
         variable = not isinstance(sim.solver, ExplicitRK)
         # steps in batches: a fixed-step method between checks; a solver that returns its own points
         batch = (not variable and not located and not timed) or getattr(sim.solver, "returns_points", False)

@@ -374,10 +374,10 @@ def scipy_ops():
 
 
 # -- the core's buffers ---------------------------------------------------------------------
-def work(n, s, e, dirs=None, switch=None, owner=None, zb=None):
+def work(n, s, e, dirs=None, switch=None, owner=None, zb=None, xb=None):
     """The :class:`~.stepping.Work` buffers of a run: ``n`` states, ``s`` stages, ``e`` located
     event functions (their directions, which are switches, which located block owns each), and
-    which discrete states ``max_state`` bounds (``zb``)."""
+    which discrete and continuous states ``max_state`` bounds (``zb``, ``xb``; default: all)."""
     f = lambda *shape: np.zeros(shape)  # noqa: E731
     s = max(s, 1)
     return stepping.Work(
@@ -387,7 +387,8 @@ def work(n, s, e, dirs=None, switch=None, owner=None, zb=None):
         np.zeros(e, np.bool_) if switch is None else np.asarray(switch, np.bool_),
         np.zeros(e, np.bool_), np.zeros(e, np.int64),
         np.zeros(e, np.int64) if owner is None else np.asarray(owner, np.int64),
-        np.zeros(0, np.bool_) if zb is None else np.asarray(zb, np.bool_))
+        np.zeros(0, np.bool_) if zb is None else np.asarray(zb, np.bool_),
+        np.ones(n, np.bool_) if xb is None else np.asarray(xb, np.bool_))
 
 
 def outputs(rows, cols, cap, blocks, columns=None):

@@ -111,10 +111,11 @@ def counted(count, stalls, since, t, lim, out, j):
     return OK, count, since
 
 
-def first_bad(x, max_state):
-    """The index of the first element of ``x`` not finite or beyond ``max_state``; -1 if none."""
+def first_bad(x, bounded, max_state):
+    """The index of the first element of ``x`` not finite, or ``bounded`` and beyond ``max_state``;
+    -1 if none."""
     for i in range(x.size):
-        if not abs(x[i]) <= max_state:
+        if not (abs(x[i]) <= max_state or (not bounded[i] and abs(x[i]) < math.inf)):
             return i
     return -1
 
@@ -290,7 +291,7 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
             t_lim = tl.t[ja] if ja < j1 else stop
             if lim.batch:
                 tb = ops.steps(s, t_lim, x, xn, w, gl, y, z, pf, pi)
-                if tb == tb and first_bad(xn, lim.max_state) >= 0:
+                if tb == tb and first_bad(xn, w.xb, lim.max_state) >= 0:
                     tb = restep_to_failure(ta, tb, ops, s, w, gl, y, z, pf, pi, lim)
             else:
                 tb = ops.step(s, x, xn, w, gl, y, z, pf, pi)
@@ -300,7 +301,7 @@ def interval(t0, t1, j, j1, tl, gl, ops, s, lim, w, out, y, z, pf, pi):
                     return BAD_OUTPUT
                 fail(out, FAILED, 0, j, ta)
                 return FAILED
-            bad = first_bad(xn, lim.max_state)
+            bad = first_bad(xn, w.xb, lim.max_state)
             if bad >= 0:
                 j = observe_to(gl, out, tl, j, ja, x, y, z, pf, pi)
                 if j < 0:
@@ -443,7 +444,7 @@ def time_event(t, gl, lim, w, out, y, z, pf, pi, j):
         fail(out, STOPPED, 0, j, t)
         return STOPPED
     copy_into(w.x, w.xe)
-    bad = first_bad(w.x, lim.max_state)
+    bad = first_bad(w.x, w.xb, lim.max_state)
     if bad >= 0:
         fail(out, DIVERGED, bad, j, t)
         return DIVERGED
@@ -458,7 +459,7 @@ def restep_to_failure(ta, tb_batch, ops, s, w, gl, y, z, pf, pi, lim):
     tb = ta
     while tb < tb_batch:
         tb = ops.step(s, w.x, w.xn, w, gl, y, z, pf, pi)
-        if first_bad(w.xn, lim.max_state) >= 0:
+        if first_bad(w.xn, w.xb, lim.max_state) >= 0:
             return tb
         copy_into(w.x, w.xn)
     return tb
@@ -588,7 +589,7 @@ def settle(t, gl, lim, w, out, y, z, pf, pi):
         gl.zc(t, w.x, w.ghi, y, z, pf, pi)
         mute(w.ghi, w.muted)
         if not crossed_any(w.gm, w.ghi, w.dirs, w.fired):
-            bad = first_bad(w.x, lim.max_state)
+            bad = first_bad(w.x, w.xb, lim.max_state)
             if bad >= 0:
                 out.status[1] = bad
                 return DIVERGED

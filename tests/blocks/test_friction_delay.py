@@ -86,6 +86,18 @@ def test_a_long_run_of_a_transport_delay_is_not_taken_for_divergence():
     assert abs(res["d.y[0]"][-1] - np.sin(2 * np.pi * (res.t[-1] - 0.01))) < 1e-4
 
 
+@pytest.mark.parametrize("path", PATHS)
+def test_states_that_grow_by_design_are_not_bounded_by_max_state(path):
+    # a delay's next sample time and a hit_crossing's count and time are states: past max_state
+    # (1e6 s of simulated time by default) the run stopped as "diverged"
+    blocks = [block("sine", "s", amplitude=1.0, frequency=1.0), block("transport_delay", "d", delay=0.5, buffer=4),
+              block("hit_crossing", "h")]
+    res = run(path, blocks, [("s.y", "d.u"), ("s.y", "h.u")], 3.0, ["d.y", "h.count", "h.time"], step=1e-3,
+              max_state=2.0)
+    assert res["h.count[0]"][-1] == 5 and abs(res["h.time[0]"][-1] - 2.5) < 1e-9
+    assert abs(res["d.y[0]"][-1] - np.sin(2 * np.pi * (3.0 - 0.5))) < 1e-9  # a sample falls on t - tau
+
+
 def test_a_delay_of_microseconds_runs_and_one_shorter_than_its_events_can_be_is_refused():
     # 50 us over 64 samples: events 0.78 us apart, evenly: it ended as "Zeno" (more than 100,000 events
     # under 1e-6 s apart); 1e-16 s ran without any event and gave 292 for a sine of amplitude 1
