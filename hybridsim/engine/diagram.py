@@ -62,8 +62,9 @@ class Diagram:
         self.wires.append(Wire(src, dst, where))
 
     # -- checking -------------------------------------------------------
-    def _resolve(self, ref, kind, where):
-        """Port object for a reference, or a problem string."""
+    def port(self, ref, kind, where=None):
+        """``(port, None)`` of the ``kind`` ("input", "output") reference 'block.port' of a wire
+        (``where``: its place in a file), or ``(None, problem)``."""
         at = f" ({where})" if where else ""
         try:
             bname, pname = split_ref(ref)
@@ -88,8 +89,8 @@ class Diagram:
         problems = list(self.problems)
         driven = {}
         for w in self.wires:
-            src, p1 = self._resolve(w.src, "output", w.where)
-            dst, p2 = self._resolve(w.dst, "input", w.where)
+            src, p1 = self.port(w.src, "output", w.where)
+            dst, p2 = self.port(w.dst, "input", w.where)
             problems += [p for p in (p1, p2) if p]
             if not (src and dst):
                 continue

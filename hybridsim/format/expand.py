@@ -65,6 +65,9 @@ class ExpandMixin:
                 continue
             if any(self._dead(r) for r in srcs + dsts):
                 self._cut.update(dsts)  # a block at one end already has a problem: not this input's
+                ends = [(r, "output") for r in srcs] + [(r, "input") for r in dsts]
+                problems += [why for r, kind in ends if not self._dead(r)  # the other end's own problem
+                             for why in [diagram.port(r, kind, f"{context}{line}" if context else line)[1]] if why]
                 continue
             for d in dsts:
                 diagram.connect(srcs[0], d, f"{context}{line}" if context else line)

@@ -205,6 +205,19 @@ def test_a_broken_subsystem_is_one_problem_not_also_its_wires(tmp_path, capsys):
     assert "g.u" not in err
 
 
+def test_a_wire_to_a_broken_block_still_has_its_other_end_checked(tmp_path, capsys):
+    # a wire with a broken block at one end was skipped whole: a wrong port or block name at the other
+    # end showed only once the block was mended (inside a subsystem file and in a diagram alike)
+    (tmp_path / "inner.yaml").write_text("blocks:\n  g: {type: gain, K: [1, 2], width: 3}\n  k: {type: integrator}\n"
+                                         "wires: [g.y -> nosuch.u, k.y -> g.u]\ninputs: {e: k.u}\noutputs: {u: k.y}\n")
+    (tmp_path / "d.yaml").write_text("blocks:\n  src: {type: step}\n  m: {type: subsystem, file: inner.yaml}\n"
+                                     "  bad: {type: gain, K: x}\nwires: [src.y -> m.e, src.yy -> bad.u]\n")
+    assert main(["check", str(tmp_path / "d.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert "diagram has 4 problem(s)" in err, err
+    assert "inner.yaml:4): no block named 'm.nosuch'" in err and "d.yaml:5): block 'src' (Step) has no output 'yy'" in err
+
+
 def test_a_bad_inner_value_is_one_problem_that_names_the_users_set(tmp_path, capsys):
     (tmp_path / "inner.yaml").write_text(INNER)
     (tmp_path / "d.yaml").write_text("blocks:\n  c: {type: constant, value: 1.0}\n"
