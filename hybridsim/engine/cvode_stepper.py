@@ -41,6 +41,7 @@ class CVodeStepper:
         self.event_at = self.event_x = None  # the last crossing CVODE returned, and the state there
         self.event_fired = self.before_fired = None  # the functions that fired there; and for ``before``
         self.moved = None  # the event functions off 0 at some point since the integration started
+        self.extra = np.zeros(0, np.int64)  # the functions on 0 at the start searched as g -+ OFF_ZERO
 
     def start(self, w, gl, y, z, pf, pi):
         """A fresh CVODE for (t0, x0) with the glue's right-hand side and event functions."""
@@ -49,6 +50,14 @@ class CVodeStepper:
         s, e = self.solver, w.g.size
         failed, seen = self.failed, []
         muting = bool(w.muted.any())  # switches are muted at events, and each event starts a new CVODE
+        # a function exactly on 0 here that is not there after its own event (a dead zone's output):
+        # CVODE leaves it out of its search till it is off 0, and would not report it leaving; g - eps
+        # (rising) and g + eps (falling), never 0, are searched in its place to find where it leaves
+        g0 = _zc(self.t0, self.x0, np.empty(e), w, gl, y, z, pf, pi) if e else np.ones(0)
+        flat = (g0 == 0.0) & ~(np.zeros(e, bool) if self.before_fired is None else np.asarray(self.before_fired, bool))
+        up, down = np.flatnonzero(flat & (w.dirs >= 0)), np.flatnonzero(flat & (w.dirs <= 0))
+        self.extra = np.concatenate((up, down))
+        shift = np.concatenate((np.full(up.size, -OFF_ZERO), np.full(down.size, OFF_ZERO)))
 
         def rhs(t, xx, dx):
             if failed:
@@ -68,14 +77,17 @@ class CVodeStepper:
             if failed:
                 out.fill(np.nan)
                 return
+            g = out[:e]
             try:
-                gl.zc(t, xx, out, y, z, pf, pi)
+                gl.zc(t, xx, g, y, z, pf, pi)
             except Exception as exc:  # noqa: BLE001 - as in rhs
                 failed.append(exc)
                 out.fill(np.nan)
                 return
             if muting:
-                stepping.mute(out, w.muted)
+                stepping.mute(g, w.muted)
+            if shift.size:
+                out[e:] = g[self.extra] + shift
 
         longest = min(s.max_step, s.scan) if e else s.max_step  # roots are looked for at step ends only
         # a step that cannot move t (a few of its float spacings) fails at once, as scipy's solvers do,
@@ -85,11 +97,19 @@ class CVodeStepper:
                     max_step=longest if np.isfinite(longest) else np.finfo(float).max,  # (0 is refused with a min)
                     max_num_steps=SWITCH_STEPS if w.switch.any() else MAX_STEPS, min_step=tiny)
         if e:
-            roots.terminal = [True] * e
-            roots.direction = [int(d) for d in w.dirs]
-            opts.update(eventsfn=roots, num_events=e)
+            n = e + shift.size
+            roots.terminal = [True] * n
+            roots.direction = [int(d) for d in w.dirs] + [1] * up.size + [-1] * down.size
+            opts.update(eventsfn=roots, num_events=n)
         self.seen = seen
         self.cv = CVODE(rhs, **opts)
+
+    def fired(self, res, e):
+        """The ``e`` functions whose root ``res`` reports (one searched in a function's place for it)."""
+        found = np.asarray(res.i_events, float).reshape(-1, e + self.extra.size)[-1] != 0
+        root = found[:e].copy()
+        root[self.extra[found[e:]]] = True
+        return root
 
     def result(self, res, t_start):
         """Whether ``res`` failed (then ``message`` says why); a callback's exception is raised."""
@@ -214,6 +234,8 @@ def _zc(t, x, g, w, gl, y, z, pf, pi):
     return g
 
 
+#: how far off 0 the functions searched in place of one on 0 are (see CVodeStepper.start)
+OFF_ZERO = 1e-300
 #: the time step (s, relative past t = 1 s) over which a function's rate at a start is taken
 LEAVE_STEP = 1e-9
 #: where a crossing at a start is reported (s after it, relative past t = 1 s): the RK and scipy
@@ -251,7 +273,7 @@ def cvode_ops():
         if res.status < 0 or s.failed:
             s.queue = [(float(ts[k]), ys[k], None) for k in range(1, last)] + [("failed", res, None)]
             return True
-        root = np.asarray(res.i_events, float).reshape(-1, w.g.size)[-1] != 0 if res.status == 2 else None
+        root = s.fired(res, w.g.size) if res.status == 2 else None
         s.queue = [(float(ts[k]), ys[k], None) for k in range(1, last)]
         s.queue.append((float(ts[last]) if res.status == 2 else s.t1, ys[last], root))
         return True
@@ -275,7 +297,7 @@ def cvode_ops():
         if res.status == 2:
             if target != s.t1 and t < target:
                 s.times.insert(0, target)
-            return t, res.y, np.asarray(res.i_events, float).reshape(-1, w.g.size)[-1] != 0
+            return t, res.y, s.fired(res, w.g.size)
         return (s.t1 if target == s.t1 else t), res.y, None
 
     def take(s, point, x, xn, w, gl, y, z, pf, pi):
