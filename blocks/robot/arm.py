@@ -266,8 +266,7 @@ class RobotArm(_RobotBlock):
         f = np.asarray(u[0], float) - self.b * np.asarray(x[n:2 * n], float)
         w = np.asarray(u[1], float)
         if w.any():
-            J = pin.computeFrameJacobian(self.model, self.data, q, self.frame_id, pin.LOCAL_WORLD_ALIGNED)
-            f = f + J.T @ w
+            f = f + rk.frame_jacobian(pin, self.model, self.data, q, self.frame_id).T @ w
         return f
 
     def sliding_level(self, v):
@@ -321,7 +320,7 @@ def inverse_position(model, data, frame_id, q, target, tol=1e-12, iterations=200
         err = target - data.oMf[frame_id].translation
         if np.linalg.norm(err) < tol:
             return q
-        J = pin.computeFrameJacobian(model, data, q, frame_id, pin.LOCAL_WORLD_ALIGNED)[:3]
+        J = rk.frame_jacobian(pin, model, data, q, frame_id)[:3]
         q = q + J.T @ np.linalg.solve(J @ J.T + damping ** 2 * np.eye(3), err)
     raise ParameterError("start_position", f"{target.tolist()} is out of the robot's reach from q0 "
                                            f"(still {np.linalg.norm(err):.3g} m away after {iterations} steps)")
@@ -358,7 +357,7 @@ class RobotKinematics(_RobotBlock):
     def output(self, t, x, u):
         pin = _pinocchio()
         q = np.asarray(u[0], float)
-        J = pin.computeFrameJacobian(self.model, self.data, q, self.frame_id, pin.LOCAL_WORLD_ALIGNED)
+        J = rk.frame_jacobian(pin, self.model, self.data, q, self.frame_id)
         pose = pin.updateFramePlacement(self.model, self.data, self.frame_id)  # the joints' placements are fresh
         return (pose.translation.copy(), pose.rotation.ravel().copy(), J @ np.asarray(u[1], float), J.ravel())
 

@@ -69,6 +69,12 @@ def pinocchio_model_of(number):
     return _MODELS[number][0]
 
 
+def frame_jacobian(pin, model, data, q, frame_id):
+    """The 6xN Jacobian of frame ``frame_id`` at ``q`` (world axes at its origin): Pinocchio gives a
+    one-joint robot's as a vector of 6."""
+    return np.reshape(pin.computeFrameJacobian(model, data, q, frame_id, pin.LOCAL_WORLD_ALIGNED), (6, model.nv))
+
+
 def tool_frame(model, data, tool, q):
     """``(q, p, R, J, J row by row, J^T)`` of the tool frame ``tool`` (robot file number, frame id)
     at the joint positions ``q`` (a tuple) by Pinocchio: computed once for given ``q``, whichever
@@ -76,7 +82,7 @@ def tool_frame(model, data, tool, q):
     got = _TOOLS.get(tool)
     if got is None or got[0] != q:
         pin = _PIN[0]
-        J = pin.computeFrameJacobian(model, data, np.array(q), tool[1], pin.LOCAL_WORLD_ALIGNED)
+        J = frame_jacobian(pin, model, data, np.array(q), tool[1])
         pose = pin.updateFramePlacement(model, data, tool[1])  # the joints' placements are those at q
         got = _TOOLS[tool] = (q, pose.translation.tolist(), pose.rotation.ravel().tolist(), J, J.ravel(), J.T)
     return got

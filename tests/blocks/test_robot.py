@@ -133,6 +133,28 @@ def test_start_position_solves_the_joints_for_a_tool_position():
         RobotArm(robot="ur5", start_position=[3.0, 0.0, 0.0])
 
 
+SLIDER = """<?xml version="1.0"?>
+<robot name="slider"><link name="base"/>
+  <link name="puck"><inertial><origin xyz="0 0 0"/><mass value="1.0"/>
+    <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
+  <joint name="z" type="prismatic"><parent link="base"/><child link="puck"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="100" velocity="5"/></joint>
+</robot>"""
+
+
+def test_a_one_joint_robot_has_a_6x1_jacobian(tmp_path):
+    # Pinocchio gives a one-joint robot's frame Jacobian as a vector of 6: robot_kinematics stopped
+    # with a numpy error (exit 70), a wrench on robot_arm and start_position too
+    urdf = tmp_path / "slider.urdf"
+    urdf.write_text(SLIDER)
+    kin = RobotKinematics(urdf=str(urdf), frame="puck")
+    p, _, twist, J = kin.output(0.0, None, [np.array([0.3]), np.array([2.0])])
+    assert p[2] == pytest.approx(0.3) and np.allclose(twist, [0, 0, 2.0, 0, 0, 0]) and np.allclose(J, [0, 0, 1, 0, 0, 0])
+    arm = RobotArm(urdf=str(urdf), frame="puck", start_position=[0.0, 0.0, 0.08])
+    assert arm.q0 == pytest.approx([0.08], abs=1e-12)
+    assert arm.applied(np.zeros(2), [np.zeros(1), np.array([0, 0, 5.0, 0, 0, 0])]) == pytest.approx([5.0])
+
+
 def test_ur5_dynamics_agree_with_drakes_multibody_plant():
     """A second rigid-body library on the same URDF: Drake's MultibodyPlant (continuous) at random
     states (measured 5.7e-14 rad/s^2 apart)."""
