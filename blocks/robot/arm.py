@@ -305,11 +305,6 @@ class RobotArm(_RobotBlock):
             f = f + self.joint_friction(x, f)
         return np.concatenate([v, pin.aba(self.model, self.data, q, v, f)])
 
-    def zero_crossings(self, t, x, u):
-        if not self.friction or self.lugre:
-            return None
-        return np.abs(np.asarray(x[self.n:2 * self.n], float)) - self.band
-
 
 def inverse_position(model, data, frame_id, q, target, tol=1e-12, iterations=200, damping=1e-6):
     """Joint positions near ``q`` that put frame ``frame_id``'s origin at ``target`` (m), by damped Newton steps."""

@@ -315,7 +315,13 @@ def arm_lugre_derivatives(p, t, x, u):
     return v + tuple(_PIN[0].aba(model, data, np.array(q), va, f).tolist()) + tuple(zd.tolist())
 
 
+@kernel
+def arm_friction_crossings(p, t, x, u):
+    """|q_i'| - stick_band per joint (rad/s or m/s): the edges of the Karnopp band, located."""
+    return np.abs(np.asarray(x)[p.n:2 * p.n]) - p.band
+
+
 #: the arm's kernels without joint friction, with Karnopp's or Stribeck's, and with LuGre's
 ARM = Kernels(output=arm_output, derivatives=arm_derivatives)
-ARM_FRICTION = Kernels(output=arm_output, derivatives=arm_friction_derivatives)
+ARM_FRICTION = Kernels(output=arm_output, derivatives=arm_friction_derivatives, zero_crossings=arm_friction_crossings)
 ARM_LUGRE = Kernels(output=arm_output, derivatives=arm_lugre_derivatives)

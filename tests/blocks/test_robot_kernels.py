@@ -146,6 +146,21 @@ def test_the_fused_path_is_taken_and_the_compiled_path_takes_the_ur5():
     assert problems(system, sim.solver, located_events(system, sim.solver)) == []
 
 
+def test_an_arm_has_event_functions_only_with_karnopp_friction_and_as_a_kernel():
+    # its zero_crossings method (None without friction) made every arm a block with events given as
+    # methods: the compiled path refused the UR5 with a table naming 'arm', and any friction arm
+    from hybridsim.engine.compiled import problems
+    from hybridsim.engine.simulator import located_events
+
+    assert not RobotArm("arm", robot="ur5").has_zero_crossings
+    arm = RobotArm("arm", robot="ur5", friction=True, tau_c=0.5, tau_s=0.8)
+    x = RNG.normal(size=arm.n_continuous)
+    assert np.array_equal(arm.zero_crossings(0.0, x, None), np.abs(x[6:12]) - arm.band)
+    system, sim, _ = hs.build(UR5, **{"arm.friction": True, "arm.tau_c": 0.5, "arm.tau_s": 0.8,
+                                      "simulation.locate_switches": True})
+    assert problems(system, sim.solver, located_events(system, sim.solver, True)) == []
+
+
 @pytest.mark.slow
 def test_the_rigid_body_kernels_compiled_by_numba_equal_the_methods():
     """The numba builds of the arm's (every friction model), the kinematics' and gravity's kernels
