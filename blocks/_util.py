@@ -117,6 +117,15 @@ def vector(value, name, width=None, sign=None, inf_ok=False):
     return arr
 
 
+def zero_one(value, name, width=None, meaning="0 or 1"):
+    """A selection parameter (a diagonal of 0s and 1s) as a float array (see :func:`vector`);
+    ``meaning`` says what 0 and 1 stand for in the error."""
+    arr = vector(value, name, width)
+    if not set(np.unique(arr)) <= {0.0, 1.0}:
+        raise ParameterError(name, f"entries must be {meaning}, got {arr.tolist()}")
+    return arr
+
+
 def floats(value, name, width=None, sign=None, inf_ok=False):
     """A parameter as a tuple of floats (what kernels read; see :func:`vector`)."""
     return tuple(float(v) for v in vector(value, name, width, sign, inf_ok))

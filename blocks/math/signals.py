@@ -7,7 +7,7 @@ from hybridsim.errors import ParameterError
 from hybridsim.engine.kernels import Kernels, kernel, unroll
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks._util import count, flag, matrix, vector
+from hybridsim.blocks._util import count, flag, matrix, zero_one
 
 
 GROUP = "math"  # where `hybridsim blocks` lists this module's blocks
@@ -72,9 +72,7 @@ class Selection(Block):
 
     def __init__(self, name="sel", S=(1, 0), complement=False):
         super().__init__(name)
-        s = vector(S, "S")
-        if set(np.unique(s)) - {0.0, 1.0}:
-            raise ParameterError("S", f"must hold only 0 and 1, got {S!r}")
+        s = zero_one(S, "S", meaning="0 (position) or 1 (force)")
         complement = flag(complement, "complement")
         self.params = (1.0 - s if complement else s,)  # the diagonal of S or I - S
         self.declare_input("u", s.size)

@@ -12,7 +12,7 @@ from hybridsim.engine.block import Block
 from hybridsim.errors import ParameterError
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks._util import count, scalar, vector
+from hybridsim.blocks._util import count, scalar, vector, zero_one
 
 from hybridsim.blocks.robot._frames import rotation, rotation_vector, inverse, _rot6
 from hybridsim.blocks.robot import task_kernels as tk
@@ -51,7 +51,8 @@ class HybridControl6D(Block):
     ----------
     rate : Hz                servo rate
     joints : int             N
-    S : [1]                  six entries, 1 force-controlled, 0 position-controlled (when S is unwired)
+    S : [1]                  six entries, 1 force-controlled, 0 position-controlled (when S is unwired;
+                             a wired S reads any non-zero entry as 1)
     axes : [1]               six entries, 1 where {C}'s axis is controlled at all (default all)
     frame_origin : [m]       origin of {C} in the base frame (when C is unwired)
     frame_rotation : [rad]   rotation vector of {C} in the base frame (when C is unwired)
@@ -67,10 +68,8 @@ class HybridControl6D(Block):
         super().__init__(name)
         n = self.n = count(joints, "joints")
         self.declare_rate(rate=rate)
-        self.axes = vector(axes, "axes", 6) != 0
-        self.S0 = vector(S, "S", 6)
-        if not set(np.unique(self.S0)) <= {0.0, 1.0}:
-            raise ParameterError("S", f"entries must be 0 (position) or 1 (force), got {self.S0.tolist()}")
+        self.axes = zero_one(axes, "axes", 6, "0 (left out) or 1 (controlled)") != 0
+        self.S0 = zero_one(S, "S", 6, "0 (position) or 1 (force)")
         self.gains = {k: vector(v, k, n) for k, v in
                       (("Kpp", Kpp), ("Kpi", Kpi), ("Kpd", Kpd), ("Kfp", Kfp), ("Kfi", Kfi))}
         self.tau_max = vector(tau_max, "tau_max", n, "nonnegative", inf_ok=True)

@@ -6,7 +6,7 @@ from hybridsim.engine.block import Block
 from hybridsim.errors import ParameterError
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks._util import count, scalar, vector
+from hybridsim.blocks._util import count, scalar, zero_one
 
 from hybridsim.blocks.robot._frames import inverse
 from hybridsim.blocks.robot import task_kernels as tk
@@ -19,7 +19,7 @@ class _JacobianBlock(Block):
 
     def _setup(self, joints, axes):
         self.n = count(joints, "joints")
-        self.axes = vector(axes, "axes", 6) != 0
+        self.axes = zero_one(axes, "axes", 6, "0 (left out) or 1 (kept)") != 0
         if not self.axes.any():
             raise ParameterError("axes", "must keep at least one of the six axes")
         return self.n

@@ -6,6 +6,7 @@ from hybridsim.blocks.paper.controllers import ForcePI, PositionPID
 from hybridsim.blocks.paper.kinematics import ForceTransform, endpoint, jacobian_rows
 from hybridsim.blocks.robot.sensing import ForceTorqueSensor
 from hybridsim.blocks.robot.hybrid6d import HybridControl6D
+from hybridsim.blocks.robot.jacobians import TaskJacobianInverse
 from hybridsim.blocks.robot.contact import PlaneContact
 from hybridsim.blocks.robot.phases import TaskPhases
 from hybridsim.blocks.robot.sensing import WrenchTransform
@@ -112,6 +113,11 @@ def test_a_singular_pose_is_a_runtime_error_and_uneven_axes_need_damping():
         HybridControl6D(joints=6, axes=[1, 1, 1, 0, 0, 0])
     with pytest.raises(ParameterError, match="0 \\(position\\) or 1"):
         HybridControl6D(S=[0.5, 0, 0, 0, 0, 0])
+    # axes of 0.5 ran as 1 (any non-zero was an axis): a selection is 0 or 1 in every block
+    with pytest.raises(ParameterError, match="axes.*0 \\(left out\\) or 1"):
+        HybridControl6D(axes=[1, 1, 1, 1, 1, 0.5])
+    with pytest.raises(ParameterError, match="axes.*0 \\(left out\\) or 1"):
+        TaskJacobianInverse(joints=2, axes=[1, 2, 0, 0, 0, 0], dls_damping=0.1)
 
 
 def test_task_phases_approach_press_then_trace():
