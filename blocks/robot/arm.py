@@ -8,8 +8,14 @@ they expose a tool frame's pose, twist and 6xN Jacobian for the task-space
 blocks of :mod:`hybridsim.blocks.robot`. A diagram names a robot by a URDF path, or by
 the name of one shipped with ``example-robot-data`` (``ur5``, ``panda``, ...).
 """
+import contextlib
 import functools
+import os
+import re
+import sys
+import tempfile
 from pathlib import Path
+from xml.etree import ElementTree
 
 import numpy as np
 
@@ -63,7 +69,7 @@ def urdf_path(urdf=None, robot=None):
     """The URDF file a block loads: ``urdf`` (a path) or ``robot`` (a name of :data:`ROBOTS`)."""
     if (urdf is None) == (robot is None):
         raise ParameterError("urdf", "give a URDF file (urdf: path/arm.urdf) or a shipped robot "
-                                     f"(robot: one of {', '.join(ROBOTS)}), one of them")
+                                     f"(robot: one of {', '.join([*OWN_ROBOTS, *ROBOTS])}), one of them")
     if robot is not None:
         if robot in OWN_ROBOTS:
             from hybridsim.shipped import diagrams_folder
@@ -90,9 +96,22 @@ def urdf_path(urdf=None, robot=None):
 def _load(path, mtime):
     pin = _pinocchio()
     try:
-        model = pin.buildModelFromUrdf(str(path))
-    except Exception as exc:  # noqa: BLE001 - Pinocchio raises plain errors with the reason
-        raise ParameterError("urdf", f"{str(path)!r} is not a robot model Pinocchio can read: {exc}") from None
+        ElementTree.parse(path)
+    except ElementTree.ParseError as exc:
+        line, column = exc.position
+        raise ParameterError("urdf", f"{str(path)}:{line}: not well-formed XML (column {column + 1}): "
+                                     f"{str(exc).split(':')[0]}") from None
+    with _said_in_c() as said:  # urdfdom says why a file is not a URDF on stderr, Pinocchio only that it is not
+        try:
+            model = pin.buildModelFromUrdf(str(path))
+        except Exception as exc:  # noqa: BLE001 - Pinocchio raises plain errors
+            model = exc
+    if isinstance(model, Exception):
+        why = "; ".join(m.strip() for m in re.findall(r"Error:(.*)", said[0]))
+        raise ParameterError("urdf", f"{str(path)!r} is not a robot model Pinocchio can read: {model}"
+                                     + (f" ({why})" if why else ""))
+    if said[0]:
+        sys.stderr.write(said[0])  # not an error: passed on
     if model.nv == 0:
         raise ParameterError("urdf", f"{str(path)!r} has no moving joint")
     odd = [f"{model.names[j]!r} ({_kind(model.joints[j].shortname())})"
@@ -101,6 +120,23 @@ def _load(path, mtime):
         raise ParameterError("urdf", f"{str(path)!r}: only revolute and prismatic joints are supported; "
                                      f"not {', '.join(odd[:4])}" + (f" and {len(odd) - 4} more" if len(odd) > 4 else ""))
     return model
+
+
+@contextlib.contextmanager
+def _said_in_c():
+    """What C code writes on file descriptor 2 inside the block: ``[text]`` after it."""
+    said = []
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 2)
+        try:
+            yield said
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            tmp.seek(0)
+            said.append(tmp.read().decode(errors="replace"))
 
 
 def _kind(joint_type):

@@ -118,6 +118,15 @@ def test_a_file_that_is_not_a_robot_is_a_parameter_error(tmp_path):
     bad.write_text("<robot name='x'><link name='a'/></robot>")
     with pytest.raises(ParameterError, match="no moving joint|not a robot model"):
         RobotArm(urdf=str(bad))
+    # the reason was only on urdfdom's stderr (and its XML line was always 1)
+    bad.write_text(SLIDER.replace('\n    <limit lower="-1" upper="1" effort="100" velocity="5"/>', "")
+                   .replace("prismatic", "revolute"))
+    with pytest.raises(ParameterError, match=r"not a robot model .*\(Joint \[z\] is of type REVOLUTE but it does "
+                                             r"not specify limits"):
+        RobotArm(urdf=str(bad))
+    bad.write_text(SLIDER[:-len("</robot>")])
+    with pytest.raises(ParameterError, match=r"bad.urdf:7: not well-formed XML \(column 1\): no element found"):
+        RobotArm(urdf=str(bad))
     assert urdf_path(robot="ur5").name == "ur5_robot.urdf"
 
 
