@@ -174,8 +174,8 @@ def step_figure(path, base, cfg):
     lin = size * np.ravel(control.step_response(G, T=np.arange(n) * T).outputs)
     ref = st["output"]
     res = build(path, log=[ref], **{**base, **st["set"], "log_period": T, "t_end": n * T})[1].run(n * T)
-    y0 = float(res[ref][0])
-    nl = res[ref][:n] - y0
+    y = np.asarray(res[ref], float).reshape(len(res.t), -1)[:, 0]  # 'plant.y' (one element) or 'plant.y[0]'
+    nl = y[:n] - y[0]
     fig, ax = plt.subplots(figsize=(6, 3.4))
     t = np.arange(n) * T
     if G.dt:

@@ -403,3 +403,19 @@ def test_a_gain_that_names_no_block_parameter_is_refused_as_the_table_says(tmp_p
                  "wires: [g.y -> i.u, i.y -> g.u]\nanalysis:\n  gains: {K: K}\n")
     assert main(["check", str(p)]) == 2
     assert "g.yaml:7: analysis setting 'gains': 'K': 'K' is not a block's parameter" in capsys.readouterr().err
+
+
+def test_the_step_figure_takes_a_whole_port_of_one_element(tmp_path):
+    # analysis.step with output 'plant.y' (check accepts a whole port) stopped the report with exit 70
+    from hybridsim.report.stability_figures import step_figure
+
+    p = tmp_path / "msd.yaml"
+    p.write_text("blocks:\n  setpoint: {type: step, final: 1.0}\n"
+                 "  pid: {type: discrete_pid, Kp: 20.0, Ki: 15.0, Kd: 4.0, N: 40.0, rate: 100}\n"
+                 "  plant: {type: transfer_function, num: [1.0], den: [1.0, 0.4, 4.0]}\n"
+                 "wires: [setpoint.y -> pid.r, plant.y -> pid.y, pid.u -> plant.u]\n"
+                 "simulation: {t_end: 0.2, step: 1.0e-3}\nlog: [plant.y]\n")
+    figs = [step_figure(p, {}, {"step": {"input": "setpoint.y", "output": out, "size": 1.0, "set": {}}})[0]
+            for out in ("plant.y", "plant.y[0]")]
+    a, b = (f.axes[0].lines[-1].get_ydata() for f in figs)
+    assert np.array_equal(a, b) and np.max(np.abs(a)) > 0.01
