@@ -106,6 +106,10 @@ def within_run(cfg, t_end):
         else:
             del cfg[key]
             notes.append(f"metrics {key}: {why}; the metrics that need it are left out")
+    cut = cfg.get("filter_cutoff")
+    if cut is not None and cut * t_end < 1e-3:
+        notes.append(f"metrics filter_cutoff: {cut:g} Hz is a time constant far longer than the run "
+                     f"({t_end:g} s); the filtered force stays at its first value")
     return cfg, notes
 
 
@@ -138,6 +142,8 @@ def lowpass(t, y, cutoff):
         return y.copy()
     dt = float(np.median(np.diff(t)))
     wn = min(0.99, 2.0 * cutoff * dt)  # normalised to Nyquist
+    if wn * len(y) < 1e-6:  # its poles round to 1 (scipy's design is singular); started in steady
+        return np.full_like(y, y[0])  # state it moves by about (wn n)^2 of a change: nothing
     b, a, zi = _butter2(wn)
     zi = zi * y[0]
     out, _ = _sig.lfilter(b, a, y, zi=zi)

@@ -45,3 +45,15 @@ def test_no_note_without_metrics_or_for_a_default():
     assert res.meta.get("metric_notes", []) == []
     cfg, notes = metrics.within_run({"ss_window": 0.5}, 0.25)  # the table's default: the whole run, unsaid
     assert notes == [] and cfg == {"ss_window": 0.5}
+
+
+def test_a_filter_far_slower_than_the_run_holds_its_first_value_with_a_note():
+    # filter_cutoff 1e-9 Hz at 100 Hz logging: scipy's design of the filter is singular, and the run
+    # ended with exit 3, "the linearized model has no finite solution"
+    t = np.arange(21) * 0.01
+    y = 1.0 + np.sin(10 * t)
+    assert np.array_equal(metrics.lowpass(t, y, 1e-9), np.ones(21))
+    slow, fast = metrics.lowpass(t, y, 1e-3), metrics.lowpass(t, y, 5.0)
+    assert np.all(np.isfinite(slow)) and abs(slow[-1] - 1.0) < 1e-6 and abs(fast[-1] - 1.0) > 0.01
+    _, notes = metrics.within_run({"filter_cutoff": 1e-9}, 0.2)
+    assert notes and "filter_cutoff" in notes[0]
