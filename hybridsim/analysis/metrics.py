@@ -77,7 +77,7 @@ def compute(result, signals, config=None):
     """
     cfg = dict(config or {})
     if len(result.t) and signals:
-        cfg, notes = within_run(cfg, float(result.t[-1]))
+        cfg, notes = within_run(cfg, float(result.t[-1]), result.t)
         result.meta["metric_notes"] = notes
     arrays = {}
     for role, ref in signals.items():
@@ -89,14 +89,14 @@ def compute(result, signals, config=None):
     return out
 
 
-def within_run(cfg, t_end):
+def within_run(cfg, t_end, times=None):
     """``(cfg, notes)``: the metrics settings with the times the run does not reach (the ``in_run`` rows of
     the ``metrics`` table) taken out, a span longer than the run cut to it, and a note for each (not for a
     default: a default span longer than a short run is the whole run, as the table says)."""
     from hybridsim.format import tables
 
     cfg, notes = dict(cfg), []
-    for key, why in tables.outside_run(tables.METRICS, cfg, t_end):
+    for key, why in tables.outside_run(tables.METRICS, cfg, t_end, times):
         row = next(r for r in tables.METRICS if r.key == key)
         if cfg[key] == row.default:
             continue

@@ -26,7 +26,7 @@ METRICS = [
             "when the force command steps (without it: no rise time or overshoot)", in_run="instant"),
     Setting("ss_window", Number(0, low_open=True, unit="s"), 0.5, "the span at the end of a run taken as steady state",
             in_run="span"),
-    Setting("error_window", ListOf(Number(unit="s"), exact=2, increasing=True), None,
+    Setting("error_window", ListOf(Number(0, unit="s"), exact=2, increasing=True), None,
             "[t0, t1]: the span of the force tracking error", in_run="window"),
     Setting("filter_cutoff", Number(0, low_open=True, unit="Hz"), DISPLAY_CUTOFF_HZ, "cutoff of the display filter"),
 ]

@@ -201,9 +201,10 @@ SECTIONS = {"diagram": DIAGRAM, "simulation": SIMULATION, "signals": SIGNALS, "m
             "analysis": ANALYSIS, "analysis.step": ANALYSIS_STEP, "sweep": SWEEP, "random": SWEEP_RANDOM}
 
 
-def outside_run(table, values, t_end):
+def outside_run(table, values, t_end, times=None):
     """``[(key, why)]`` for the times in ``values`` (a section's settings) that the run does not reach,
-    by the ``in_run`` of each row of ``table``."""
+    by the ``in_run`` of each row of ``table`` (``times``: the run's logged times, which a window
+    must hold one of)."""
     out = []
     for row in table:
         v = values.get(row.key)
@@ -216,6 +217,9 @@ def outside_run(table, values, t_end):
         elif row.in_run == "window" and (float(v[0]) >= t_end or float(v[1]) > t_end):
             out.append((row.key, f"[{float(v[0]):g}, {float(v[1]):g}] s does not lie within the run "
                                  f"(t_end {t_end:g} s)"))
+        elif row.in_run == "window" and times is not None and not any(v[0] <= t <= v[1] for t in times):
+            out.append((row.key, f"[{float(v[0]):g}, {float(v[1]):g}] s holds no logged time (widen it, "
+                                 "or log more often: simulation.log_period)"))
     return out
 
 

@@ -57,3 +57,12 @@ def test_a_filter_far_slower_than_the_run_holds_its_first_value_with_a_note():
     assert np.all(np.isfinite(slow)) and abs(slow[-1] - 1.0) < 1e-6 and abs(fast[-1] - 1.0) > 0.01
     _, notes = metrics.within_run({"filter_cutoff": 1e-9}, 0.2)
     assert notes and "filter_cutoff" in notes[0]
+
+
+def test_a_window_between_two_log_points_is_left_out_with_a_note():
+    # error_window [0.1001, 0.1002] at a 0.01 s log: force_error_max None and no note
+    t = np.arange(21) * 0.01
+    cfg, notes = metrics.within_run({"error_window": [0.1001, 0.1002]}, 0.2, t)
+    assert "error_window" not in cfg and "holds no logged time" in notes[0]
+    cfg, notes = metrics.within_run({"error_window": [0.1, 0.1]}, 0.2, t)
+    assert cfg == {"error_window": [0.1, 0.1]} and notes == []
