@@ -21,7 +21,7 @@ import control
 import numpy as np
 
 from hybridsim.format import tables
-from hybridsim.format.build import load
+from hybridsim.format.build import check_analysis_branches, load
 from hybridsim.runs.experiment import Experiment
 from hybridsim.runs.grid import Grid
 from hybridsim.runs.many import Linearize, run_many
@@ -279,12 +279,14 @@ def analyze(path, at=None, sweeps=True, **overrides):
     """
     if isinstance(path, Experiment):
         f = path.file
+        check_analysis_branches(f)  # a bad value in set, cases, compare or step: named at its line
         cfg = settings_of(f)
         exp, params = path.changed({**cfg["set"], **overrides})
         if params:
             exp = Experiment(exp.path, exp.variant, **{**exp.overrides, **params})
     else:
         f = load(path, **overrides)
+        check_analysis_branches(f)
         cfg = settings_of(f)
         exp = Experiment(path, **{**cfg["set"], **overrides})
     at = cfg["at"] if at is None else at

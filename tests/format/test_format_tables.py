@@ -245,9 +245,11 @@ def test_check_builds_the_analysis_branches_as_analyze_does(tmp_path, capsys, se
     p = tmp_path / "g.yaml"
     p.write_text("blocks:\n  c: {type: constant, value: 1.0}\n  g: {type: gain, K: 2.0}\nwires: [c.y -> g.u]\n"
                  f"simulation: {{t_end: 0.01}}\nanalysis: {section}\n")
-    assert main(["check", str(p)]) == 2  # check said OK; analyze then refused it
-    err = capsys.readouterr().err
-    assert f"{p}:6: " in err and message in err and "--set" not in err, err
+    command = ["report", str(p), "-o", str(tmp_path / "rep")] if "compare" in section else ["analyze", str(p)]
+    for argv in (["check", str(p)], command):  # analyze and report named a '--set' the user never gave
+        assert main(argv) == 2  # check said OK; analyze then refused it
+        err = capsys.readouterr().err
+        assert f"{p}:6: " in err and message in err and "--set" not in err, (argv, err)
 
 
 @pytest.mark.parametrize("values", ["[1, 1]", "[0.1, 0.10000000000000001]"])
