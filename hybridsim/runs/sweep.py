@@ -51,6 +51,10 @@ from hybridsim.runs.table import heatmaps, write_table
 SWEEP_KEYS = {"diagram", "set", "grid", "scale", "random", "traces", "stability"}
 
 
+#: where inside a random range a sweep's check tries a value (the golden section: no round number)
+INSIDE = 0.3819660112501051
+
+
 class Sweep:
     """A parsed sweep file: the diagram, fixed overrides (``fixed``) and the axes of its points."""
 
@@ -199,8 +203,9 @@ class Sweep:
     def validate(self):
         """Check the diagram, ``set`` and every swept value before any point runs.
 
-        Each grid value, each scale factor and both ends of each random range are checked
-        as one run would be: a run-time change by the blocks it reaches, anything else by
+        Each grid value, each scale factor, both ends of each random range and a value inside it
+        (draws are anywhere in it: a sample rate there is rarely commensurate) are checked as one
+        run would be: a run-time change by the blocks it reaches, anything else by
         :func:`hybridsim.format.build.check` of the diagram with it. A sweep naming an unknown
         parameter or a bad value stops here with exit 2.
         """
@@ -213,7 +218,8 @@ class Sweep:
         tries = [(k, v) for k, vals in self.grid.items() for v in vals]
         tries += [(k, (self._base_value(k) * float(v)).tolist()) for k, vals in self.scale.items() for v in vals]
         if self.random:
-            tries += [(k, float(v)) for k, rng in self.random["ranges"].items() for v in rng]
+            tries += [(k, float(v)) for k, rng in self.random["ranges"].items()
+                      for v in (*rng, rng[0] + INSIDE * (rng[1] - rng[0]))]
         for key, value in tries:
             if all(v._unchanged(key, value) or v.runtime(key, value, names=True) for _, v in exp.variants()):
                 continue
@@ -229,7 +235,8 @@ class Sweep:
             with overrides_from("the sweep's"):
                 load(self.diagram, **{**self.fixed, **together})
         except InputError as exc:
-            raise InputError(f"{self.path}: {exc}") from None
+            key = next((k for k in together if f"the sweep's {k}:" in str(exc)), None)
+            raise LoaderError(str(exc), self.path, self._lines.get(key)) from None
 
     def fingerprint(self):
         """The identity of everything a point's numbers depend on besides its own overrides: every file

@@ -30,10 +30,11 @@ import math
 from pathlib import Path
 
 from hybridsim import limits
-from hybridsim.errors import InputError, LoaderError
+from hybridsim.errors import InputError, LoaderError, RateError
 from hybridsim.format import parse_file
 from hybridsim.format.identity import given_once
 from hybridsim.format.yamlio import refuse_kind
+from hybridsim.runs.sweep import INSIDE
 from hybridsim.tune.space import SCALES, Parameter
 
 TUNE_KEYS = ("diagram", "set", "variants", "parameters", "objectives", "constraints", "method", "compiled")
@@ -288,13 +289,22 @@ class TuneSpec:
             except InputError as exc:
                 raise InputError(f"{self.path}: variant {v}: {exc}") from None
         for p in self.parameters:
-            for value in p.ends():
-                try:
+            for value in [*p.ends(), p.from_unit(INSIDE)]:  # a value inside: a sample rate there is rarely
+                try:  # commensurate
                     with overrides_from("the tune file's"):
                         check(load(self.diagram, **{**self.fixed, p.path: p.as_override(value)}))
                 except InputError as exc:
-                    raise LoaderError(f"parameter {p.path} = {value!r}: {exc}", self.path,
+                    hint = (" (a parameter that sets a sample rate needs whole values, integer: true, or a list, "
+                            "values: [...])" if isinstance(exc, RateError) else "")
+                    raise LoaderError(f"parameter {p.path} = {value!r}: {exc}{hint}", self.path,
                                       self._param_line(p)) from None
+        together = {p.path: p.as_override(p.from_unit(INSIDE)) for p in self.parameters}
+        try:  # all at once: one that a value using another sets (kp and pid.Kp = $kp) cancels it
+            with overrides_from("the tune file's"):
+                load(self.diagram, **{**self.fixed, **together})
+        except InputError as exc:
+            p = next((p for p in self.parameters if f"the tune file's {p.path}:" in str(exc)), self.parameters[0])
+            raise LoaderError(f"the parameters together: {exc}", self.path, self._param_line(p)) from None
 
     def _check_signals(self, diagram, settings, alias=str):
         """Each step measure's signal (``of``, ``reference``) a logged output element of the diagram, and

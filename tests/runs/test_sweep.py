@@ -336,3 +336,20 @@ def test_a_bad_entry_of_a_sweep_section_is_named_at_its_own_line(tmp_path, body,
     p.write_text(f"diagram: {DIAGRAMS / 'fig7_force_steps.yaml'}\n" + body)
     with pytest.raises(InputError, match=rf"s.yaml:{line}: .*'b.K'"):
         sw.Sweep(p)
+
+
+def test_a_random_range_over_a_sample_rate_is_refused_by_the_check(tmp_path):
+    # a rate drawn anywhere in [40, 60] Hz is incommensurate with the 100 Hz log: the ends passed, every
+    # drawn point failed and the sweep exited 0 with an empty table (check of the diagram, too, passed
+    # a rate its run refused)
+    from hybridsim.errors import InputError
+
+    import hybridsim as hs
+
+    msd = DIAGRAMS / "examples" / "msd_pid.yaml"
+    with pytest.raises(InputError, match=r"log_period': sample rates are not commensurate \(pid 48.0005 Hz"):
+        hs.check(msd, rate=48.0005)
+    p = tmp_path / "s.yaml"
+    p.write_text(f"diagram: {msd}\nrandom: {{n: 2, seed: 1, ranges: {{rate: [40, 60]}}}}\n")
+    with pytest.raises(InputError, match=r"s.yaml:2: swept value rate = 47.639.*not commensurate"):
+        sw.Sweep(p).validate()

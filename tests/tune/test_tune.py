@@ -172,6 +172,12 @@ def test_pareto_front_by_hand():
     # refused it
     ("variants: {pid.Kp: [3.0, 4.0]}\n" + PARAMS + "objectives:\n" + SETTLE, 5,
      "parameters 'pid.Kp' and variants 'pid.Kp' are the same parameter"),
+    # a rate tuned over a range (its points incommensurate with the 100 Hz log), and a parameter that the
+    # value using it cancels: check passed, every point failed, and tune exited 0
+    ("parameters:\n  rate: {low: 40, high: 60}\nobjectives:\n" + SETTLE, 4,
+     "needs whole values, integer: true"),
+    ("parameters:\n  pid.rate: {low: 40, high: 60, integer: true}\n  rate: {low: 40, high: 60, integer: true}\n"
+     "objectives:\n" + SETTLE, 5, "the parameters together: "),
 ])
 def test_bad_tune_files_exit_2_with_file_and_line(tmp_path, capsys, body, line, message):
     p = tune_file(tmp_path, body)
