@@ -34,8 +34,9 @@ def make_solver(sim):
 
 
 def _atol_vector(system, sim, where=None):
-    """Per-state absolute tolerances: ``atol`` given one per state, else a block's own where it
-    declares them and ``atol`` (a number) elsewhere. ``where``: 'file:line' (or the override) of it."""
+    """Per-state absolute tolerances: ``atol`` given one per state, else ``atol`` (a number) where a
+    block declares none, and a block's own where it does, at most ``atol`` when the diagram gives it
+    (a user's tighter tolerance tightens every state). ``where``: 'file:line' (or the override) of it."""
     import numpy as np
 
     from hybridsim.errors import InputError
@@ -48,7 +49,7 @@ def _atol_vector(system, sim, where=None):
         return np.asarray(given, float)
     a = system.atol.copy()
     a[np.isnan(a)] = float(given)
-    return a
+    return np.minimum(a, float(given)) if "atol" in sim else a
 
 
 SIMULATION_KEYS = set(tables.keys(tables.SIMULATION))

@@ -71,7 +71,8 @@ SIMULATION = [
     Setting("step", _TIME, 1e-4, "fixed step of rk4 and heun"),
     Setting("rtol", _POS, 1e-8, "relative tolerance of the scipy solvers"),
     Setting("atol", Either(_POS, ListOf(_POS)), 1e-10,
-            "absolute tolerance of the scipy solvers (a number, or one per state)"),
+            "absolute tolerance of the scipy solvers and cvode: one per state, or a number (every state's "
+            "when given, a block's own tighter ones kept; unset, blocks' own tolerances stand for their states)"),
     Setting("max_step", Number(0, low_open=True, inf=True, unit="s"), float("inf"),
             "largest step of the scipy solvers"),
     Setting("log_period", _TIME, 0.0005, "interval of the logged rows"),

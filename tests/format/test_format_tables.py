@@ -89,6 +89,19 @@ def test_atol_one_per_state_is_used_and_a_wrong_count_is_exit_2(tmp_path, capsys
     assert code == 2 and "'atol' has 3 value(s)" in err
 
 
+def test_a_given_atol_tightens_the_states_whose_block_declares_a_looser_one(tmp_path):
+    # a block's own tolerances (the lowpass's 1e-9, robot_arm's 1e-8 on q') stood against the user's
+    # atol: 1e-12 on panda under bdf left an error of 6e-7 rad where the setting asked for far less
+    base = GOOD.replace("simulation: {t_end: 0.2, log_period: 1.0e-2}", "simulation: {t_end: 0.2, log_period: 1.0e-2, "
+                        "solver: radau}")
+    base = base.replace("  zoh:  {type: zoh, rate: 100}", "  zoh:  {type: zoh, rate: 100}\n  lp: {type: lowpass, cutoff: 5.0}")
+    base = base.replace("  - g.y -> zoh.u\n", "  - g.y -> zoh.u\n  - g.y -> lp.u\n")
+    p = write(tmp_path, base)
+    for atol, expected in ((None, [1e-9, 1e-9]), (1e-12, [1e-12, 1e-12]), (1e-6, [1e-9, 1e-9])):
+        _, sim, _ = api.build(p, **({} if atol is None else {"simulation.atol": atol}))
+        assert list(sim.solver.atol) == expected
+
+
 def test_the_docs_page_is_current():
     page = (ROOT / "docs" / "settings.md").read_text()
     assert page == tables.markdown(), "run: python3 -c \"from hybridsim.format.tables import markdown; " \
