@@ -17,17 +17,17 @@ from hybridsim.format.build import (SIMULATION_KEYS, build, check, check_plugin_
                                      make_solver, simulate)
 
 
-def write_outputs(f, runs, settings, outdir, only_ours=False):
+def write_outputs(f, runs, settings, outdir):
     """Write CSV per variant, the figure (PNG, SVG) and metrics.json, atomically.
 
-    CSV names cannot collide (a short hash where two labels slug alike);
-    ``only_ours`` (a default folder): replace no file hybridsim did not write.
+    CSV names cannot collide (a short hash where two labels slug alike); a file of the same name
+    that hybridsim did not write is not replaced (the write is refused).
     """
     from hybridsim.report.figures import experiment_figure
 
     outdir = Path(outdir)
     name = safe_name(f.name)
-    with atomic_dir(outdir, only_ours=only_ours) as tmp:
+    with atomic_dir(outdir) as tmp:
         for r, stem in zip(runs, unique_names([r["label"] for r in runs], name)):
             r["csv"] = f"{stem}.csv"
             r["result"].to_csv(tmp / f"{stem}.csv")
@@ -84,10 +84,10 @@ def run(source, outdir=None, progress=False, jobs=None, **overrides):
     from hybridsim.files import output_dir
 
     f = _file(source, overrides)
-    outdir, only_ours = output_dir(outdir, Path("out") / safe_name(f.name), whole=False)
+    outdir, _ = output_dir(outdir, Path("out") / safe_name(f.name), whole=False)
     check(f)
     from hybridsim.runs.variants import run_experiment
 
     f, runs, settings = run_experiment(f, progress=progress, jobs=jobs)
-    write_outputs(f, runs, settings, outdir, only_ours=only_ours)
+    write_outputs(f, runs, settings, outdir)
     return {"file": f, "runs": runs, "settings": settings, "outdir": outdir}

@@ -172,10 +172,14 @@ def _alive(pid):
 
 @contextlib.contextmanager
 def atomic_file(path, mode="w"):
-    """Open a temporary file (in ``.hybridsim/`` beside ``path``) that replaces ``path`` when the block succeeds."""
+    """Open a temporary file (in ``.hybridsim/`` beside ``path``) that replaces ``path`` when the block
+    succeeds; a ``path`` that hybridsim did not write is refused (nothing written)."""
     path = Path(path)
     if path.exists() and not path.is_file():
         raise OutputError(f"{str(path)!r} exists and is not a file; not replaced")
+    if path.exists() and not written_by_hybridsim(path):
+        raise OutputError(f"{str(path)!r} exists and hybridsim did not write it; move it away or write "
+                          "into another folder (nothing was written)")
     if not path.parent.is_dir():
         make_output_dir(path.parent)
     fd, tmp = _own_temp(path.parent)
@@ -193,9 +197,9 @@ def atomic_file(path, mode="w"):
     record_written(path.parent, [path.name])
 
 
-def _check_destinations(tmp, path, only_ours):
-    """Refuse before anything moves: a file whose place is a folder (or the reverse), and with
-    ``only_ours`` a file there that hybridsim did not write."""
+def _check_destinations(tmp, path):
+    """Refuse before anything moves: a file whose place is a folder (or the reverse), or a file
+    there that hybridsim did not write."""
     for src in sorted(tmp.rglob("*")):
         dst = path / src.relative_to(tmp)
         if src.is_dir():
@@ -204,21 +208,21 @@ def _check_destinations(tmp, path, only_ours):
         elif dst.is_dir():
             raise OutputError(f"{str(dst)!r} is a folder; hybridsim does not replace it with a file "
                               "(nothing was written)")
-        elif only_ours and dst.exists() and not written_by_hybridsim(dst):
-            raise OutputError(f"{str(dst)!r} exists and hybridsim did not write it; give -o to write "
-                              "into this folder anyway, or choose another (nothing was written)")
+        elif dst.exists() and not written_by_hybridsim(dst):
+            raise OutputError(f"{str(dst)!r} exists and hybridsim did not write it; move it away or write "
+                              "into another folder (nothing was written)")
 
 
 @contextlib.contextmanager
-def atomic_dir(path, only_ours=False):
+def atomic_dir(path):
     """Yield a temporary folder whose files go into folder ``path`` when the block succeeds.
 
     The folder is created if needed; files already in it that this run does
     not write are left alone. Every destination is checked first, then each
     file arrives by an atomic rename, under the folder's lock. On any error
     (or Ctrl-C, SIGTERM) nothing is moved and the temporary folder is
-    removed; a folder created for nothing is removed too. ``only_ours``
-    (a default output folder): refuse to replace a file hybridsim did not write.
+    removed; a folder created for nothing is removed too. A file there that hybridsim did not
+    write is never replaced: the write is refused before anything moves.
     """
     path = Path(path)
     existed = path.is_dir()
@@ -236,7 +240,7 @@ def atomic_dir(path, only_ours=False):
         yield tmp
         with output_lock(path):
             remove_stale(path)
-            _check_destinations(tmp, path, only_ours)
+            _check_destinations(tmp, path)
             mode = 0o666 & ~_umask()
             for src in sorted(tmp.rglob("*")):
                 dst = path / src.relative_to(tmp)
@@ -270,7 +274,7 @@ def output_dir(outdir, default, whole=True):
     whole : bool
         With the default folder: refuse it unless every file already in it is hybridsim's
         (:func:`~.state.check_default_dir`); else only the files a write replaces are checked, then
-        (``atomic_dir(..., only_ours=True)``).
+        (as :func:`atomic_dir` checks every folder's).
 
     Returns
     -------

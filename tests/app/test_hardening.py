@@ -48,12 +48,24 @@ def tree(folder):
 
 # -- output folders are ours only ------------------------------------------------------
 
+def test_a_users_file_with_an_outputs_name_is_never_replaced_even_with_o(tmp_path, capsys):
+    # -o DIR replaced DIR/d.csv of the user's (exit 0): only a file hybridsim wrote is replaced
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "d.csv").write_text("an old result of mine")
+    code, _, err = run(capsys, "run", write(tmp_path, GOOD), "-q", "-o", out)
+    assert code == 2 and "d.csv' exists and hybridsim did not write it" in err
+    assert (out / "d.csv").read_text() == "an old result of mine" and sorted(p.name for p in out.iterdir()) == ["d.csv"]
+    (out / "d.csv").unlink()
+    assert run(capsys, "run", write(tmp_path, GOOD), "-q", "-o", out)[0] == 0
+    assert run(capsys, "run", write(tmp_path, GOOD), "-q", "-o", out)[0] == 0  # its own files: replaced
+
+
 def test_run_into_a_user_folder_keeps_every_file_subfolder_and_mode(tmp_path, capsys):
     out = tmp_path / "mine"
     (out / "sub" / "deep").mkdir(parents=True)
     (out / "notes.txt").write_text("my notes")
     (out / "sub" / "deep" / "data.bin").write_bytes(b"\x00\x01")
-    (out / "d.csv").write_text("an old result of mine")  # same name as an output: replaced, atomically
     os.chmod(out, 0o751)
     os.chmod(out / "notes.txt", 0o640)
     before = tree(out)
@@ -61,8 +73,6 @@ def test_run_into_a_user_folder_keeps_every_file_subfolder_and_mode(tmp_path, ca
     assert code == 0
     after = tree(out)
     for rel, (data, mode) in before.items():
-        if rel == "d.csv":
-            continue
         assert after[rel] == (data, mode), rel
     assert stat.S_IMODE(out.stat().st_mode) == 0o751
     assert {"d.csv", "d.png", "d.svg", "metrics.json"} <= set(after)

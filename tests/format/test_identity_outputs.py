@@ -146,17 +146,19 @@ def test_fmu_build_without_o_keeps_a_users_plant_fmu(tmp_path, capsys, monkeypat
     assert (tmp_path / "plant.fmu").read_text() == "the user's FMU"
 
 
-def test_a_default_run_folder_keeps_a_users_file_and_o_replaces_it(tmp_path, capsys, monkeypatch):
+def test_a_run_folder_keeps_a_users_file_with_or_without_o(tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     d = write(tmp_path, GOOD)
     (tmp_path / "out" / "d").mkdir(parents=True)
     (tmp_path / "out" / "d" / "d.csv").write_text("mine")
-    code, _, err = run(capsys, "run", d, "-q")
-    assert code == 2 and "hybridsim did not write it" in err
-    assert tree(tmp_path / "out" / "d") == {"d.csv": b"mine"}
+    for extra in ((), ("-o", tmp_path / "out" / "d")):
+        code, _, err = run(capsys, "run", d, "-q", *extra)
+        assert code == 2 and "hybridsim did not write it" in err
+        assert tree(tmp_path / "out" / "d") == {"d.csv": b"mine"}
+    (tmp_path / "out" / "d" / "d.csv").unlink()
     assert run(capsys, "run", d, "-q", "-o", tmp_path / "out" / "d")[0] == 0
     assert (tmp_path / "out" / "d" / "d.csv").read_text().startswith("time")
-    assert run(capsys, "run", d, "-q")[0] == 0  # now ours: a default run replaces it
+    assert run(capsys, "run", d, "-q")[0] == 0  # ours: a default run replaces it
 
 
 def test_a_result_path_that_is_a_folder_leaves_every_earlier_result(tmp_path, capsys):
