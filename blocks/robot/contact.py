@@ -29,8 +29,12 @@ class PlaneContact(Block):
     plane, toward the free side). Normal force f_n = max(0, K d + B d') when
     d > 0 (``unilateral``; else K d + B d' at any d), friction
     ``f_t = -mu f_n v_t / sqrt(|v_t|^2 + slip_velocity^2)`` (Coulomb, smoothed
-    below ``slip_velocity``). First touch and lift-off (d = 0) are located
-    events. The surface of the paper's Figs 7-10, in three dimensions.
+    below ``slip_velocity``). Where the plane starts and stops pushing is
+    an event function, located as switches are (every variable-step solver;
+    rk4 and heun with ``locate_switches``): min(d, K d + B d'), positive
+    exactly while it pushes, so lift-off is where K d + B d' reaches 0 (with
+    damping, before d does), not where d does. The surface of the paper's
+    Figs 7-10, in three dimensions.
 
     Parameters
     ----------
@@ -109,8 +113,13 @@ def plane_output(p, t, x, u):
 
 @kernel
 def plane_zero_crossings(p, t, x, u):
-    """First touch and lift-off: the depth's sign."""
-    return (plane_depth(p, u[0]),)
+    """Touch and lift-off: positive exactly while a unilateral plane pushes, min(d, K d + B d')
+    (m and N: only the sign is read); the depth d for a plane that pushes and pulls."""
+    n, tw = p.n, u[1]
+    d = plane_depth(p, u[0])
+    if not p.unilateral:
+        return (d,)
+    return (min(d, p.K * d - p.B * (tw[0] * n[0] + tw[1] * n[1] + tw[2] * n[2])),)
 
 
 PLANE = Kernels(output=plane_output, zero_crossings=plane_zero_crossings)

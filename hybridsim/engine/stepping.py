@@ -469,7 +469,12 @@ def locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi):
     """The first crossing of the event functions inside the step [ta, tb] (``w.g`` at ta, ``w.gn``
     at tb): checked at scan points of the dense output, bisected to ``time_tol``. Returns
     ``(found, t_event)``; when found, ``w.xe`` holds the state there and ``w.fired`` the functions
-    that crossed; else ``w.g`` takes ``w.gn``."""
+    that crossed; else ``w.g`` takes ``w.gn``.
+
+    Where the stepper takes fresh steps (a fixed-step one), the state at the event is one whose
+    every stage lies before the crossing (:func:`across`): a step's stages past a jump there (of an
+    input in time, or of the right-hand side at a switch's surface) bend its dense output and its
+    own end to first order."""
     h = tb - ta
     m = max(1, int(math.ceil(h / lim.scan - 1e-9)))
     copy_into(w.glo, w.g)
@@ -487,17 +492,14 @@ def locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi):
         if crossed_any(w.glo, w.ghi, w.dirs, w.fired):
             copy_into(w.xe, w.xm)
             lo, hi = bisect(ta, h, lo, hi, False, gl, ops, s, lim, w, y, z, pf, pi)
-            crossed_any(w.glo, w.ghi, w.dirs, w.fired)
-            early = False
             if lo > 0.0 and ops.restep(s, lo * h, w.x, w, gl, y, z, pf, pi, w.xm):
-                # a fresh step to just before a crossing driven by time (a source's, an input's):
-                # every stage on the side it leaves, where the step's dense output has stages past it
-                # (a crossing at the step's very end too: its last stage was past it)
-                gl.zc(ta + hi * h, w.xm, w.gm, y, z, pf, pi)
+                gl.zc(ta + lo * h, w.xm, w.gm, y, z, pf, pi)
                 mute(w.gm, w.muted)
-                if crossed_any(w.glo, w.gm, w.dirs, w.fired):  # fired: those that crossed from that state
-                    copy_into(w.xe, w.xm)
-                    early = True
+                if crossed_any(w.g, w.gm, w.dirs, w.fired):  # fresh steps crossed before lo: the
+                    copy_into(w.xe, w.xm)  # dense output, bent past a jump, crossed late
+                    copy_into(w.ghi, w.gm)
+                    return fresh_crossing(ta, tb, 0.0, lo, gl, ops, s, lim, w, y, z, pf, pi)
+            early = across(ta, h, lo, hi, gl, ops, s, w, y, z, pf, pi)
             # a fresh step to the crossing (the method's own order) when it is past the surface too
             if not early and hi < 1.0 and ops.restep(s, hi * h, w.x, w, gl, y, z, pf, pi, w.xm):
                 gl.zc(ta + hi * h, w.xm, w.gm, y, z, pf, pi)
@@ -506,10 +508,17 @@ def locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi):
                     copy_into(w.xe, w.xm)
                     early = True
                 elif unmoved(w.g, w.gm, w.glo, w.ghi, w.dirs):
-                    # the dense output crossed where a fresh step has not even moved: a stage past a
-                    # jump in time (a source's step at the step's end) bent it; the crossing is where
-                    # fresh steps cross, after hi (one that moved keeps the dense output's crossing)
-                    return fresh_crossing(ta, tb, hi, gl, ops, s, lim, w, y, z, pf, pi)
+                    # the dense output crossed where a fresh step has not even moved (a stage past a
+                    # jump in time, a source's step at the step's end, bent it): the crossing is
+                    # where fresh steps cross, after hi. One that a fresh step merely places later
+                    # keeps the dense output's: a fresh step past a jump of the right-hand side at
+                    # the surface is bent too, as often back across it (a PID leaving its clamp)
+                    if not crossed_any(w.g, w.gn, w.dirs, w.fired):
+                        copy_into(w.g, w.gn)
+                        return False, tb
+                    copy_into(w.xe, w.xn)
+                    copy_into(w.ghi, w.gn)
+                    return fresh_crossing(ta, tb, hi, 1.0, gl, ops, s, lim, w, y, z, pf, pi)
             if not early:  # the dense output's state and functions, then
                 crossed_any(w.glo, w.ghi, w.dirs, w.fired)
             # (else fired holds the functions crossed at the state acted on: one that crossed on the
@@ -519,6 +528,27 @@ def locate(ta, tb, gl, ops, s, lim, w, y, z, pf, pi):
         lo = hi
     copy_into(w.g, w.gn)
     return False, tb
+
+
+def across(ta, h, lo, hi, gl, ops, s, w, y, z, pf, pi):
+    """Whether a fresh step to ``ta + lo h`` (every stage before the crossing), carried on to
+    ``ta + hi h`` along its mean slope (hi - lo is a thousandth of time_tol), shows the crossing
+    from ``w.glo``: then ``w.xe`` holds that state and ``w.fired`` the functions."""
+    if not (lo > 0.0 and ops.restep(s, lo * h, w.x, w, gl, y, z, pf, pi, w.xm)):
+        return False
+    nudge(w.xm, w.x, (hi - lo) / lo)
+    gl.zc(ta + hi * h, w.xm, w.gm, y, z, pf, pi)
+    mute(w.gm, w.muted)
+    if not crossed_any(w.glo, w.gm, w.dirs, w.fired):
+        return False
+    copy_into(w.xe, w.xm)
+    return True
+
+
+def nudge(x, x0, r):
+    """``x`` carried on by ``r`` times its change from ``x0`` (a step's mean slope), in place."""
+    for i in range(x.size):
+        x[i] += r * (x[i] - x0[i])
 
 
 def unmoved(ga, gb, glo, ghi, dirs):
@@ -532,19 +562,15 @@ def unmoved(ga, gb, glo, ghi, dirs):
     return True
 
 
-def fresh_crossing(ta, tb, lo, gl, ops, s, lim, w, y, z, pf, pi):
-    """The first crossing of the functions ``w.g`` at ``ta`` on fresh steps from ``ta`` (a fixed-step
-    stepper's restep), bisected on [ta + lo h, tb]; ``locate``'s answer: ``(False, tb)`` when the
-    step's end has not crossed either."""
+def fresh_crossing(ta, tb, lo, hi, gl, ops, s, lim, w, y, z, pf, pi):
+    """``locate``'s answer from the first crossing of the functions ``w.g`` (at ta) on fresh steps
+    from ``ta``, bisected on [ta + lo h, ta + hi h]: none crossed by lo; ``w.ghi`` and ``w.xe``
+    hold the crossed functions and the state at hi."""
     h = tb - ta
-    if not crossed_any(w.g, w.gn, w.dirs, w.fired):
-        copy_into(w.g, w.gn)
-        return False, tb
-    copy_into(w.xe, w.xn)
-    copy_into(w.glo, w.g)  # (none crossed from ta to lo on fresh steps: lo's functions are ta's side)
-    copy_into(w.ghi, w.gn)
-    lo, hi = bisect(ta, h, lo, 1.0, True, gl, ops, s, lim, w, y, z, pf, pi)
-    crossed_any(w.glo, w.ghi, w.dirs, w.fired)
+    copy_into(w.glo, w.g)
+    lo, hi = bisect(ta, h, lo, hi, True, gl, ops, s, lim, w, y, z, pf, pi)
+    if not across(ta, h, lo, hi, gl, ops, s, w, y, z, pf, pi):  # the bisection's state at hi, then
+        crossed_any(w.glo, w.ghi, w.dirs, w.fired)
     return True, (ta + hi * h if hi < 1.0 else tb)
 
 

@@ -268,6 +268,37 @@ def test_a_jump_at_a_sample_hit_or_at_the_end_is_integrated_exactly_with_located
     assert [names for _, names in r.meta["events"]] == [("r",)]  # the edge at 0.5 s; none at 0 or 1 s
 
 
+DAMPED_FLOOR = """name: floor
+blocks:
+  grav: {type: constant, value: -9.81}
+  free: {type: constant, value: 0.0}
+  v: {type: integrator, initial: 0.0}
+  x: {type: integrator, initial: 0.05}
+  k: {type: gain, K: -10000.0}
+  b: {type: gain, K: -20.0}
+  spring: {type: sum, signs: "++"}
+  floor: {type: switch, threshold: 0.0}
+  acc: {type: sum, signs: "++"}
+wires: [v.y -> x.u, x.y -> k.u, v.y -> b.u, k.y -> spring.u1, b.y -> spring.u2,
+        free.y -> floor.u1, x.y -> floor.control, spring.y -> floor.u2,
+        grav.y -> acc.u1, floor.y -> acc.u2, acc.y -> v.u]
+log: [x.y]
+simulation: {t_end: 0.125, step: 1.0e-3, locate_switches: true, log_period: 0.005}
+"""
+
+
+@pytest.mark.parametrize("path", [{"fused": False}, {}], ids=["generic", "fused"])
+def test_a_switch_whose_right_hand_side_jumps_keeps_the_methods_order(tmp_path, path):
+    # a mass dropped 5 cm onto a damped floor: at touch (x = 0, located) the acceleration jumps by
+    # B v. The state at the event came from a fresh step whose last stage saw the jump: rk4 ran at
+    # first order (differences halving with the step); each stage now lies before the crossing
+    f = tmp_path / "floor.yaml"
+    f.write_text(DAMPED_FLOOR)
+    x = [hs.simulate(f, step=h, **path)["x.y"][-1, 0] for h in (1e-3, 5e-4, 2.5e-4, 1.25e-4)]
+    d = np.abs(np.diff(x))
+    assert np.all(d[:-1] / d[1:] > 12), d  # 16 at fourth order
+
+
 THRESHOLD = """name: threshold
 blocks:
   c: {type: clock}
