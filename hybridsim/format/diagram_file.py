@@ -17,7 +17,7 @@ from hybridsim.format.kinds import ListOf, MapOf, Text
 from hybridsim.format.tables import Record
 from hybridsim.format.overrides import ORIGIN, OverridesMixin
 from hybridsim.format.settings import SettingsMixin
-from hybridsim.format.values import _plain
+from hybridsim.format.values import _plain, _references
 from hybridsim.format.yamlio import _Dict, refuse_kind
 
 TOP_KEYS = tables.keys(tables.DIAGRAM)
@@ -79,6 +79,10 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
             if not isinstance(k, str) or not k or _BAD_PARAM.search(k):
                 self._fail(f"parameter name {k!r} may not be empty or contain '.', '[', ']', ':', '=', '$' "
                            "or spaces ($name and --set name must reach it)", self.params.lines.get(k))
+            refs = sorted(_references(self.params[k]))
+            if refs:
+                self._fail(f"parameter {k!r} refers to ${refs[0]}: a parameter's value is a number, list or "
+                           "word, not another parameter (give its value)", self.params.lines.get(k))
         self.overrides = {}  # every override applied, as given (a copy of the file is parsed with them)
         self.origin = ORIGIN.get()  # what messages call their source ("--set", a sweep's)
         self.apply(overrides or {})

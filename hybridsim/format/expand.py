@@ -33,9 +33,9 @@ class ExpandMixin:
         subs = {}
         for bname, spec in blocks.items():
             here = blocks.locs[bname]
-            if not isinstance(bname, str) or _BAD_NAME.search(bname):
-                problems.append(f"{context}{here}: block name {bname!r} may not contain '.', '[', ']', ':', "
-                                "'=' or spaces (a '.' separates a subsystem from its blocks)")
+            if not isinstance(bname, str) or not bname or _BAD_NAME.search(bname):
+                problems.append(f"{context}{here}: block name {bname!r} may not be empty or contain '.', '[', "
+                                "']', ':', '=' or spaces (a '.' separates a subsystem from its blocks)")
                 continue
             if _is_subsystem(spec):
                 got = self._subsystem(diagram, bname, spec, params, prefix, chain, context)

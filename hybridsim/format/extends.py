@@ -2,6 +2,7 @@
 from pathlib import Path
 
 from hybridsim import limits
+from hybridsim.engine.registry import closest
 from hybridsim.errors import LoaderError
 from hybridsim.format.yamlio import _List, parse_file
 
@@ -49,6 +50,9 @@ def read_merged(path, chain=(), budget=None, files=None):
                     del cur[bname]
                     _drop_wires(merged, bname)
                     continue
+                if spec is None:
+                    raise LoaderError(f"block {bname!r}: null removes a block of {base_name!r}, which has none of "
+                                      f"that name{closest(bname, cur)}", path, val.lines.get(bname))
                 if isinstance(spec, dict) and "type" not in spec and isinstance(cur.get(bname), dict):
                     cur[bname].update(spec)
                     cur[bname].lines.update(spec.lines)

@@ -84,6 +84,7 @@ class Sweep:
                 raise LoaderError(f"'{key}' must be true or false, got {data[key]!r}", self.path, lines[key])
         self.fixed = {str(k): v for k, v in (data.get("set") or {}).items()}
         self._set_lines = dict(getattr(data.get("set"), "lines", None) or {})
+        self._sections = {k: data.lines[k] for k in ("grid", "scale", "random") if k in data}
         self._diagram_line = lines["diagram"]
         self.grid = dict(data.get("grid") or {})
         self.scale = dict(data.get("scale") or {})
@@ -179,8 +180,13 @@ class Sweep:
         """The sweep's :class:`~hybridsim.runs.grid.Grid`: grid x scale (full factorial), then the random draws."""
         total = (int(np.prod([len(v) for v in [*self.grid.values(), *self.scale.values()]]))
                  if self.grid or self.scale else 0) + (int(self.random.get("n", 10)) if self.random else 0)
-        if total > limits.MAX_RUNS:
-            raise InputError(f"{self.path}: the sweep has {total} points; at most {limits.MAX_RUNS}")
+        if total > limits.MAX_RUNS:  # at the line of the section that makes the most
+            counts = {"grid": int(np.prod([len(v) for v in self.grid.values()])),
+                      "scale": int(np.prod([len(v) for v in self.scale.values()])),
+                      "random": int(self.random.get("n", 10)) if self.random else 0}
+            most = max(self._sections, key=counts.get, default=None)
+            raise LoaderError(f"the sweep has {total} points; at most {limits.MAX_RUNS}", self.path,
+                              self._sections.get(most))
         pts = Grid()
         if self.grid or self.scale:
             pts = Grid.values(self.grid) * Grid.scaled(self.scale, {k: self._base_value(k) for k in self.scale})

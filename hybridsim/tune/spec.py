@@ -129,6 +129,7 @@ class TuneSpec:
         if data.get("compiled"):
             self.fixed["simulation.compiled"] = True
         self.variants = self._variants(data.get("variants") or {}, lines.get("variants"))
+        self._variant_lines = getattr(data.get("variants"), "lines", None) or {}
         given_once(self.path, [(k, data.get(k)) for k in ("set", "variants", "parameters")])
         self.parameters = self._parameters(data["parameters"], lines["parameters"])
         self.objectives = self._quantities(data["objectives"], lines["objectives"], objective=True)
@@ -286,8 +287,9 @@ class TuneSpec:
             try:
                 with overrides_from("the tune file's"):
                     check(load(self.diagram, **{**self.fixed, **v}))
-            except InputError as exc:
-                raise InputError(f"{self.path}: variant {v}: {exc}") from None
+            except InputError as exc:  # at the line of the value the message names, else the first's
+                key = next((k for k in v if f"the tune file's {k}:" in str(exc)), next(iter(v), None))
+                raise LoaderError(f"variant {v}: {exc}", self.path, self._variant_lines.get(key)) from None
         for p in self.parameters:
             for value in [*p.ends(), p.from_unit(INSIDE)]:  # a value inside: a sample rate there is rarely
                 try:  # commensurate

@@ -98,6 +98,15 @@ def test_extends_merges_blocks_and_params(tmp_path):
     assert len(d.wires) == 2
 
 
+def test_removing_a_block_the_base_has_not_is_named(tmp_path):
+    # 'gg: null' said "block 'gg' must be a mapping with a 'type'"
+    write(tmp_path, GOOD, "base.yaml")
+    child = write(tmp_path, "extends: base.yaml\nblocks:\n  gg: null\n", "child.yaml")
+    with pytest.raises(LoaderError, match=r"child\.yaml:3: block 'gg': null removes a block of 'base.yaml', which "
+                                          r"has none of that name \(did you mean 'g'\?\)"):
+        DiagramFile(child)
+
+
 def test_overrides_and_variants(tmp_path):
     p = write(tmp_path, GOOD + "variants: {k: [1.0, 3.0]}\n")
     f = DiagramFile(p, {"g.K": 4.0, "simulation.t_end": 0.5})
@@ -188,6 +197,13 @@ def test_atol_of_the_wrong_length_names_its_line(tmp_path):
 def test_a_parameter_name_that_neither_dollar_nor_set_can_reach_is_refused(tmp_path, name):
     p = write(tmp_path, f"params:\n  {name!r}: 1.0\nblocks:\n  c: {{type: constant, value: 1.0}}\n")
     with pytest.raises(LoaderError, match=r"d\.yaml:2: parameter name .* may not be empty or contain"):
+        DiagramFile(p)
+
+
+def test_a_parameter_that_refers_to_another_is_refused_at_its_line(tmp_path):
+    # params {kp: $kq, kq: 20}: the error named the block using $kp ("got '$kq'"), not the cause
+    p = write(tmp_path, "params:\n  kq: 20.0\n  kp: $kq\nblocks:\n  g: {type: gain, K: $kp}\n")
+    with pytest.raises(LoaderError, match=r"d\.yaml:3: parameter 'kp' refers to \$kq"):
         DiagramFile(p)
 
 

@@ -173,10 +173,13 @@ def test_a_section_a_subsystem_file_never_reads_is_refused_or_noted(tmp_path, ca
     assert "plant.yaml: 'simulation' ignored where it is used as a subsystem" in caplog.text
 
 
-def test_a_dot_in_a_block_name_is_refused(tmp_path, capsys):
-    (tmp_path / "d.yaml").write_text("blocks:\n  a.b: {type: constant, value: 1.0}\n")
+@pytest.mark.parametrize("name", ["a.b", "''"])
+def test_a_dot_in_a_block_name_or_an_empty_one_is_refused(tmp_path, capsys, name):
+    # '' was taken: "input .u (1 wide) is not connected", with no file or line
+    (tmp_path / "d.yaml").write_text(f"blocks:\n  {name}: {{type: gain}}\n")
     assert main(["check", str(tmp_path / "d.yaml")]) == 2
-    assert "block name 'a.b' may not contain '.'" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "d.yaml:2: block name" in err and "may not be empty or contain '.'" in err, err
 
 
 def test_draw_shows_a_subsystem_as_one_box_or_expanded(nested, tmp_path):

@@ -353,3 +353,13 @@ def test_a_random_range_over_a_sample_rate_is_refused_by_the_check(tmp_path):
     p.write_text(f"diagram: {msd}\nrandom: {{n: 2, seed: 1, ranges: {{rate: [40, 60]}}}}\n")
     with pytest.raises(InputError, match=r"s.yaml:2: swept value rate = 47.639.*not commensurate"):
         sw.Sweep(p).validate()
+
+
+def test_too_many_points_are_named_at_the_line_of_the_section_that_makes_them(tmp_path):
+    from hybridsim.errors import InputError
+
+    p = tmp_path / "s.yaml"
+    p.write_text(f"diagram: {DIAGRAMS / 'examples' / 'msd_pid.yaml'}\ngrid: {{pid.Kp: [1, 2]}}\n"
+                 "random: {n: 100000, seed: 1, ranges: {pid.Ki: [1, 2]}}\n")
+    with pytest.raises(InputError, match=r"s\.yaml:3: the sweep has 100002 points; at most 100000"):
+        sw.Sweep(p).points()

@@ -176,6 +176,7 @@ def test_pareto_front_by_hand():
     # value using it cancels: check passed, every point failed, and tune exited 0
     ("parameters:\n  rate: {low: 40, high: 60}\nobjectives:\n" + SETTLE, 4,
      "needs whole values, integer: true"),
+    ("variants:\n  rate: [0]\n" + PARAMS + "objectives:\n" + SETTLE, 4, "variant {'rate': 0}: "),  # had no line
     ("parameters:\n  pid.rate: {low: 40, high: 60, integer: true}\n  rate: {low: 40, high: 60, integer: true}\n"
      "objectives:\n" + SETTLE, 5, "the parameters together: "),
 ])
