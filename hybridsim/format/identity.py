@@ -171,15 +171,23 @@ def given_once(path, sections):
     """Refuse one parameter given twice, in two sections or under two spellings (``k`` and
     ``params.k``), across ``sections``: ``(name, mapping)`` pairs of a sweep or tune file.
     Raises LoaderError at the second one's line."""
-    seen = {}
+    seen, parts = {}, ({}, {})  # canonical key -> (key, section); given whole, given by element: base -> (key, section)
     for section, mapping in sections:
         for key in (mapping if isinstance(mapping, dict) else {}):
             try:
-                canon = ParamPath.parse(str(key)).key
+                p = ParamPath.parse(str(key))
             except ValueError:
                 continue  # refused where it is applied, with the reason
+            canon, base = p.key, p.without_index().key
+            line = (getattr(mapping, "lines", None) or {}).get(key)
             if canon in seen and seen[canon] != (key, section):
                 other, where = seen[canon]
                 raise LoaderError(f"{section} {key!r} and {where} {other!r} are the same parameter ({canon}); "
-                                  "give it once", path, (getattr(mapping, "lines", None) or {}).get(key))
+                                  "give it once", path, line)
+            # the whole value and one of its elements: the later one would overwrite the other
+            clash = (parts[0] if p.index is not None else parts[1]).get(base)
+            if clash is not None:
+                raise LoaderError(f"{section} {key!r} and {clash[1]} {clash[0]!r} both set {base} (one whole, one "
+                                  "element by element); give one of them", path, line)
             seen.setdefault(canon, (key, section))
+            (parts[1] if p.index is not None else parts[0]).setdefault(base, (key, section))

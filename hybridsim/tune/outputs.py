@@ -11,6 +11,24 @@ import yaml
 from hybridsim.files import atomic_file
 
 
+def _whole_values(diagram, ov):
+    """``ov`` with each element change (``g.K[1]``) as its parameter's whole value: a file sets whole values."""
+    from hybridsim.format.build import load
+    from hybridsim.format.paths import ParamPath
+
+    if all(ParamPath.parse(k).index is None for k in ov):
+        return ov
+    f, out = load(diagram, **ov), {}
+    for key, value in ov.items():
+        path = ParamPath.parse(key)
+        if path.index is None:
+            out[key] = value
+            continue
+        base = path.without_index()
+        out[str(base)] = f.params[base.name] if base.kind == "param" else f.param_value(base.key).tolist()
+    return out
+
+
 def overlay(spec, values, outdir):
     """The text of a diagram file that ``extends`` the tuned diagram with ``values`` (and ``set``).
 
@@ -24,6 +42,7 @@ def overlay(spec, values, outdir):
     params, blocks, settings = {}, {}, {s: {} for s in SETTING_SECTIONS}
     ov = {k: v for k, v in spec.fixed.items() if k != "simulation.compiled"}
     ov.update(overrides(spec.parameters, values))
+    ov = _whole_values(spec.diagram, ov)
     for key, value in ov.items():
         parts = key.split(".")
         if parts[0] == "params":

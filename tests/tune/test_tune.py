@@ -177,6 +177,9 @@ def test_pareto_front_by_hand():
     ("parameters:\n  rate: {low: 40, high: 60}\nobjectives:\n" + SETTLE, 4,
      "needs whole values, integer: true"),
     ("variants:\n  rate: [0]\n" + PARAMS + "objectives:\n" + SETTLE, 4, "variant {'rate': 0}: "),  # had no line
+    # a parameter whole and one of its elements: the element was dropped, and best.yaml held 'K[1]'
+    (PARAMS.replace("pid.Kd:", "pid.Kp[0]:") + "objectives:\n" + SETTLE, 6,
+     "parameters 'pid.Kp[0]' and parameters 'pid.Kp' both set pid.Kp"),
     ("parameters:\n  pid.rate: {low: 40, high: 60, integer: true}\n  rate: {low: 40, high: 60, integer: true}\n"
      "objectives:\n" + SETTLE, 5, "the parameters together: "),
 ])
@@ -214,6 +217,9 @@ def test_the_overlay_keeps_the_variants_the_point_was_scored_over(tmp_path):
     p = tune_file(tmp_path, "variants: {rate: [50, 100], pid.N: [20, 40]}\n" + PARAMS + "objectives:\n" + SETTLE)
     text = overlay(load_tune(p), {"pid.Kp": 10.0, "pid.Ki": 5.0, "pid.Kd": 1.0}, tmp_path)
     assert "rate: [50, 100]" in text and "variants of pid.N too" in text
+    # an element tuned (g.K[1]) is written as the whole value a diagram file takes ('K[1]' was refused)
+    p = tune_file(tmp_path, "parameters:\n  pid.Kp[0]: {low: 1.0, high: 30.0}\nobjectives:\n" + SETTLE)
+    assert "Kp: [12.5]" in overlay(load_tune(p), {"pid.Kp[0]": 12.5}, tmp_path)
 
 
 # -- optimisers, outputs, resuming -------------------------------------------------------------
