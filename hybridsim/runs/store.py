@@ -13,8 +13,8 @@ import json
 import os
 from pathlib import Path
 
-from hybridsim.errors import InputError
-from hybridsim.files import atomic_file, note_written
+from hybridsim.errors import InputError, OutputError
+from hybridsim.files import atomic_file, note_written, written_by_hybridsim
 
 
 class Store:
@@ -40,6 +40,15 @@ class Store:
         More to write into the manifest (what the job was: its file, its diagram).
     """
 
+
+    def _set_aside(self, name):
+        """Rename the points file to ``NAME.old`` (--force), unless a file hybridsim did not write is there."""
+        old = self.path.with_name(name + ".old")
+        if old.exists() and not written_by_hybridsim(old):
+            raise OutputError(f"{str(old)!r} exists and hybridsim did not write it; move it away to start "
+                              "afresh (nothing was changed)")
+        os.replace(self.path, old)
+        note_written(old)
     def __init__(self, folder, identity, name, manifest, what, changed, restart=False, about=None):
         folder = Path(folder)
         self.path, self.what = folder / name, what
@@ -56,7 +65,7 @@ class Store:
                 raise InputError(f"{folder} holds points of a different {what} ({why}); they would not match "
                                  f"this one. Use another output folder (-o), or --force to start afresh (the old "
                                  f"points are kept as {name}.old)")
-            os.replace(self.path, self.path.with_name(name + ".old"))
+            self._set_aside(name)
         if old != identity:
             with atomic_file(manifest) as fh:
                 json.dump({"fingerprint": identity, **(about or {})}, fh, indent=1, default=str)
@@ -69,7 +78,7 @@ class Store:
                     raise InputError(f"{self.path} is not a file of points hybridsim wrote (not UTF-8 text); use "
                                      f"another output folder (-o), or --force to start afresh (it is kept as "
                                      f"{name}.old)") from None
-                os.replace(self.path, self.path.with_name(name + ".old"))
+                self._set_aside(name)
                 text = ""
             for line in text.splitlines():
                 try:
