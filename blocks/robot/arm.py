@@ -96,11 +96,12 @@ def urdf_path(urdf=None, robot=None):
 def _load(path, mtime):
     pin = _pinocchio()
     try:
-        ElementTree.parse(path)
+        tree = ElementTree.parse(path)
     except ElementTree.ParseError as exc:
         line, column = exc.position
         raise ParameterError("urdf", f"{str(path)}:{line}: not well-formed XML (column {column + 1}): "
                                      f"{str(exc).split(':')[0]}") from None
+    _check_urdf(tree, path)
     with _said_in_c() as said:  # urdfdom says why a file is not a URDF on stderr, Pinocchio only that it is not
         try:
             model = pin.buildModelFromUrdf(str(path))
@@ -120,6 +121,27 @@ def _load(path, mtime):
         raise ParameterError("urdf", f"{str(path)!r}: only revolute and prismatic joints are supported; "
                                      f"not {', '.join(odd[:4])}" + (f" and {len(odd) - 4} more" if len(odd) > 4 else ""))
     return model
+
+
+def _check_urdf(tree, path):
+    """Refuse what Pinocchio takes but cannot simulate: a moving joint's zero axis, a negative mass."""
+    for j in tree.iter("joint"):
+        axis = j.find("axis")
+        if j.get("type") in ("revolute", "continuous", "prismatic") and axis is not None:
+            try:
+                xyz = [float(v) for v in axis.get("xyz", "1 0 0").split()]
+            except ValueError:
+                xyz = [1.0]
+            if not any(xyz):
+                raise ParameterError("urdf", f"{str(path)!r}: joint {j.get('name')!r} has a zero axis (xyz 0 0 0)")
+    for link in tree.iter("link"):
+        mass = link.find("inertial/mass")
+        try:
+            m = float(mass.get("value")) if mass is not None else 0.0
+        except (TypeError, ValueError):
+            continue  # Pinocchio names a mass it cannot read
+        if m < 0:
+            raise ParameterError("urdf", f"{str(path)!r}: link {link.get('name')!r} has a negative mass ({m:g} kg)")
 
 
 @contextlib.contextmanager

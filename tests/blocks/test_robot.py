@@ -127,6 +127,13 @@ def test_a_file_that_is_not_a_robot_is_a_parameter_error(tmp_path):
     bad.write_text(SLIDER[:-len("</robot>")])
     with pytest.raises(ParameterError, match=r"bad.urdf:7: not well-formed XML \(column 1\): no element found"):
         RobotArm(urdf=str(bad))
+    # Pinocchio takes these: a zero axis gave a rotation of cos(q) I and a NaN warning, a negative mass
+    # a gravity torque of 8e32 N m
+    for text, why in ((SLIDER.replace('axis xyz="0 0 1"', 'axis xyz="0 0 0"'), "joint 'z' has a zero axis"),
+                      (SLIDER.replace('mass value="1.0"', 'mass value="-2.0"'), "link 'puck' has a negative mass")):
+        bad.write_text(text)
+        with pytest.raises(ParameterError, match=why):
+            RobotKinematics(urdf=str(bad), frame="puck")
     assert urdf_path(robot="ur5").name == "ur5_robot.urdf"
 
 
