@@ -107,7 +107,11 @@ def within_run(cfg, t_end, times=None):
             del cfg[key]
             notes.append(f"metrics {key}: {why}; the metrics that need it are left out")
     cut = cfg.get("filter_cutoff")
-    if cut is not None and cut * t_end < 1e-3:
+    dt = float(np.median(np.diff(times))) if times is not None and len(times) > 2 else None
+    if cut is not None and dt and 2.0 * cut * dt > 0.99:
+        notes.append(f"metrics filter_cutoff: {cut:g} Hz is at or above 0.99 of the log's Nyquist frequency "
+                     f"({0.5 / dt:g} Hz); the filter passes up to {0.99 * 0.5 / dt:g} Hz")
+    elif cut is not None and cut * t_end < 1e-3:
         notes.append(f"metrics filter_cutoff: {cut:g} Hz is a time constant far longer than the run "
                      f"({t_end:g} s); the filtered force stays at its first value")
     return cfg, notes

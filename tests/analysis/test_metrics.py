@@ -66,3 +66,10 @@ def test_a_window_between_two_log_points_is_left_out_with_a_note():
     assert "error_window" not in cfg and "holds no logged time" in notes[0]
     cfg, notes = metrics.within_run({"error_window": [0.1, 0.1]}, 0.2, t)
     assert cfg == {"error_window": [0.1, 0.1]} and notes == []
+
+
+def test_a_filter_cutoff_above_the_logs_nyquist_frequency_is_noted():
+    # 1e6 Hz at a 0.01 s log ran as 49.5 Hz, silently (the same numbers as 60 Hz)
+    _, notes = metrics.within_run({"filter_cutoff": 1e6}, 1.0, np.arange(101) * 0.01)
+    assert "above 0.99 of the log's Nyquist frequency (50 Hz)" in notes[0]
+    assert metrics.within_run({"filter_cutoff": 12.0}, 1.0, np.arange(101) * 0.01)[1] == []
