@@ -180,6 +180,7 @@ def check_analysis_branches(f):
 
     if not f.data.get("analysis") or f.path is None:
         return
+    build(f, check_only=True)  # the section's own problems first, not as a branch's
     cfg = f.analysis_settings()
     branches = [("set", "", cfg.get("set") or {})]
     branches += [("cases", name, {**(cfg.get("set") or {}), **ov}) for name, ov in (cfg.get("cases") or {}).items()]
