@@ -84,14 +84,19 @@ def copy_examples(out):
         The files written and the files left as they were (they existed).
     """
     out = check_output_dir(Path(out))
-    make_output_dir(out)
     src = diagrams_folder()
+    files = [f for f in sorted(src.rglob("*"))
+             if f.suffix.lower() in (".yaml", ".yml", ".md", ".urdf") and "__pycache__" not in f.parts]
+    for f in files:  # every destination first: a folder where a file of the user's is refuses the copy
+        for d in [out / p for p in f.relative_to(src).parents if str(p) != "."]:
+            if (d.exists() or d.is_symlink()) and not d.is_dir():
+                raise OutputError(f"{str(d)!r} is a file of yours where the examples put a folder; nothing "
+                                  "was written")
+    make_output_dir(out)
     written, kept = [], []
-    for f in sorted(src.rglob("*")):
-        if f.suffix.lower() not in (".yaml", ".yml", ".md", ".urdf") or "__pycache__" in f.parts:
-            continue
+    for f in files:
         dest = out / f.relative_to(src)
-        if dest.exists():
+        if dest.exists() or dest.is_symlink():  # a link, even one that points nowhere, is the user's
             kept.append(dest)
             continue
         dest.parent.mkdir(parents=True, exist_ok=True)

@@ -169,6 +169,17 @@ def test_examples_copies_the_shipped_diagrams_and_keeps_a_users_files(tmp_path, 
     assert (out / "fig7_force_steps.yaml").read_text() == "my own\n"  # never replaced
     assert "kept" in text and (out / "subsystems" / "fig6_controller.yaml").is_file()
     assert main(["check", str(out / "fig9_force_and_position.yaml")]) == 0  # the copy finds its subsystem
+    # a link pointing nowhere was replaced by a copy; a file where a subfolder goes: exit 5, half written
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "bouncing_ball.yaml").symlink_to(tmp_path / "nowhere.yaml")
+    (other / "subsystems").write_text("mine")
+    assert main(["examples", "-o", str(other)]) == 2
+    assert "is a file of yours where the examples put a folder" in capsys.readouterr().err
+    assert sorted(p.name for p in other.iterdir()) == ["bouncing_ball.yaml", "subsystems"]
+    (other / "subsystems").unlink()
+    assert main(["examples", "-o", str(other)]) == 0
+    assert (other / "bouncing_ball.yaml").is_symlink() and (other / "subsystems").is_dir()
 
 
 def test_a_shipped_diagram_runs_from_any_folder(tmp_path, capsys, monkeypatch):
