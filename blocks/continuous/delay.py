@@ -35,7 +35,9 @@ class TransportDelay(Block):
     interpolation between the two samples around t - tau, as Simulink's
     Transport Delay interpolates its buffer. The error is at most
     Ts^2 / 8 max abs(u''); y does not depend on u(t) itself, so the block breaks
-    algebraic loops. Example: tau = 0.1 s, u = t: y(0.35 s) = 0.25.
+    algebraic loops. Example: tau = 0.1 s, u = t: y(0.35 s) = 0.25. An edge of u
+    (a step) is spread over one Ts, starting up to Ts before t_edge + tau: its
+    integral is off by up to Ts/2 times the step (raise ``buffer`` for edges).
 
     Why 64 samples: the error bound is then (tau/64)^2/8 max abs(u''), a tenth
     of that of 20 samples (3e-5 of the amplitude for a sine at omega tau = 1),
