@@ -113,7 +113,7 @@ def within_run(cfg, t_end, times=None):
                      f"({0.5 / dt:g} Hz); the filter passes up to {0.99 * 0.5 / dt:g} Hz")
     elif cut is not None and cut * t_end < 1e-3:
         notes.append(f"metrics filter_cutoff: {cut:g} Hz is a time constant far longer than the run "
-                     f"({t_end:g} s); the filtered force stays at its first value")
+                     f"({t_end:g} s); the filtered signal stays at its first value")
     return cfg, notes
 
 
