@@ -8,6 +8,34 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
+# -- stop kinds (Timeline.kind) ------------------------------------------------
+HIT, LOG, END, END_LOG = 0, 1, 2, 3
+
+# -- status codes (Out.status[0]); status[1] says which state, block or count --
+OK = 0
+DIVERGED = 1    # a continuous state not finite or beyond max_state: status[1] = state index
+BAD_OUTPUT = 2  # a block output not finite: status[1] = block index
+BAD_UPDATE = 3  # a discrete state not finite: status[1] = block index
+ZENO = 4        # more than max_events events, on average under 1000 time_tol apart
+STALLED = 5     # max_stalls events in a row within 10 time_tol of each other
+CHATTER = 6     # an event iteration that does not settle
+STOPPED = 7     # a block asked to end the run (its request is kept by the glue)
+FAILED = 8      # the solver failed (its message is kept by the stepper)
+MISSED = 9      # a stepper that locates crossings itself stepped over one: status[1] = function index
+BIG_UPDATE = 10  # a bounded discrete state beyond max_state: status[1] = its index in z
+SLIDING = 11    # stuck sliding along a muted switch (tiny steps): status[1] = its function index
+CRAWLING = 12   # a variable-step solver's steps shrank to nothing (crawl_steps of them below slide_step)
+
+# -- what glue.stepped / glue.timed / glue.act answer --------------------------
+GO, STEP_EVENT, STOP = 0, 1, 2
+
+#: where a stepper that locates crossings itself says what it found (``s.num[ROOT]``): +1 the step
+#: ends at a crossing (``w.fired`` set), -1 none in the step (the core checks that none changed sign
+#: from ``w.g``, which such a stepper may set to the side a function leaves its surface to), -2 none,
+#: and its own search covered the step from its last point (the core does not look again), 0 it
+#: does not look (then the core bisects)
+ROOT = 6
+
 
 class Timeline(NamedTuple):
     """The stops of a run, in order, as arrays (:func:`hybridsim.engine.timeline.timeline`)."""
