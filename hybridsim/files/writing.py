@@ -171,13 +171,14 @@ def _alive(pid):
 
 
 @contextlib.contextmanager
-def atomic_file(path, mode="w"):
+def atomic_file(path, mode="w", known=False):
     """Open a temporary file (in ``.hybridsim/`` beside ``path``) that replaces ``path`` when the block
-    succeeds; a ``path`` that hybridsim did not write is refused (nothing written)."""
+    succeeds; a ``path`` that hybridsim did not write is refused (nothing written), unless the caller
+    ``known`` it as hybridsim's own (a manifest it read, in a folder copied from elsewhere)."""
     path = Path(path)
     if path.exists() and not path.is_file():
         raise OutputError(f"{str(path)!r} exists and is not a file; not replaced")
-    if path.exists() and not written_by_hybridsim(path):
+    if path.exists() and not known and not written_by_hybridsim(path):
         raise OutputError(f"{str(path)!r} exists and hybridsim did not write it; move it away or write "
                           "into another folder (nothing was written)")
     if not path.parent.is_dir():

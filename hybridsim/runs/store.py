@@ -40,15 +40,6 @@ class Store:
         More to write into the manifest (what the job was: its file, its diagram).
     """
 
-
-    def _set_aside(self, name):
-        """Rename the points file to ``NAME.old`` (--force), unless a file hybridsim did not write is there."""
-        old = self.path.with_name(name + ".old")
-        if old.exists() and not written_by_hybridsim(old):
-            raise OutputError(f"{str(old)!r} exists and hybridsim did not write it; move it away to start "
-                              "afresh (nothing was changed)")
-        os.replace(self.path, old)
-        note_written(old)
     def __init__(self, folder, identity, name, manifest, what, changed, restart=False, about=None):
         folder = Path(folder)
         self.path, self.what = folder / name, what
@@ -66,8 +57,8 @@ class Store:
                                  f"this one. Use another output folder (-o), or --force to start afresh (the old "
                                  f"points are kept as {name}.old)")
             self._set_aside(name)
-        if old != identity:
-            with atomic_file(manifest) as fh:
+        if old != identity:  # a manifest it read as one is hybridsim's, wherever it was written (a copied folder)
+            with atomic_file(manifest, known=isinstance(old, str) and old != "unreadable") as fh:
                 json.dump({"fingerprint": identity, **(about or {})}, fh, indent=1, default=str)
         self.done = {}
         if self.path.exists():
@@ -86,6 +77,15 @@ class Store:
                     self.done[rec["key"]] = rec["value"]
                 except (json.JSONDecodeError, KeyError, TypeError):
                     continue  # a line cut by a crash (or of an older layout): that point runs again
+
+    def _set_aside(self, name):
+        """Rename the points file to ``NAME.old`` (--force), unless a file hybridsim did not write is there."""
+        old = self.path.with_name(name + ".old")
+        if old.exists() and not written_by_hybridsim(old):
+            raise OutputError(f"{str(old)!r} exists and hybridsim did not write it; move it away to start "
+                              "afresh (nothing was changed)")
+        os.replace(self.path, old)
+        note_written(old)
 
     def __contains__(self, key):
         return key in self.done
