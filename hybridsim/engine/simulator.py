@@ -29,9 +29,8 @@ from hybridsim.engine import stepping
 from hybridsim.engine.context import Context
 from hybridsim.engine.glue import GenericGlue, state_derivatives
 from hybridsim.engine.result import Result, parse_signal
-from hybridsim.engine.schedule import Schedule
 from hybridsim.engine.solvers import RK4, ExplicitRK, limits, outputs, work
-from hybridsim.engine.timeline import rows, timeline
+from hybridsim.engine.timeline import rows, schedule, timeline
 from hybridsim.errors import DiagramError, InputError, SimulationError, StopRequest
 
 #: events whose times and blocks a run keeps for ``meta["events"]``
@@ -90,9 +89,7 @@ class Simulator:
         self.system = system
         self.solver = solver or RK4()
         self.log_period = to_period(log_period, "log period")
-        # the log's ticks and the blocks' share a base tick, or the rates are refused here (a check sees it)
-        blocks = [system.blocks[i] for i in system.discrete]
-        Schedule([(b.period, b.time_offset) for b in blocks] + [(self.log_period, 0)], [b.name for b in blocks] + ["log"])
+        schedule(system, self.log_period)  # rates the log cannot share are refused here (a check sees it)
         self.max_state = float(max_state)
         self.progress = progress
         refs = []

@@ -18,6 +18,14 @@ def on_grid(t, period):
     return abs(k * period - t) <= 1e-9 * period
 
 
+def schedule(system, log_period):
+    """The :class:`Schedule` of the discrete blocks' sample times and the log grid (its columns in
+    that order); raises :class:`~hybridsim.errors.RateError` where they share no small base tick."""
+    blocks = [system.blocks[i] for i in system.discrete]
+    return Schedule([(b.period, b.time_offset) for b in blocks] + [(log_period, 0)],
+                    [b.name for b in blocks] + ["log"])
+
+
 def timeline(system, log_period, t_end):
     """The :class:`Timeline` of a run of ``system`` to ``t_end`` s, logged every ``log_period`` s.
 
@@ -25,11 +33,9 @@ def timeline(system, log_period, t_end):
     when ``t_end`` lies on the log grid. The first row is always a hit (the
     first pass of a run evaluates every block, due or not).
     """
-    blocks, discrete = system.blocks, system.discrete
-    sched = Schedule([(blocks[i].period, blocks[i].time_offset) for i in discrete] + [(log_period, 0)],
-                     [blocks[i].name for i in discrete] + ["log"])
+    sched = schedule(system, log_period)
     ticks, due = sched.hits(sched.last_tick_before(t_end))
-    d = len(discrete)
+    d = len(system.discrete)
     hit = due[:, :d].any(axis=1)
     hit[0] = True
     log_end = on_grid(t_end, float(log_period))
