@@ -11,7 +11,7 @@ import json
 import logging
 from pathlib import Path
 
-from hybridsim.files import atomic_dir, safe_name, unique_names
+from hybridsim.files import atomic_dir, check_planned, safe_name, unique_names
 from hybridsim.format import DiagramFile
 from hybridsim.format.build import (SIMULATION_KEYS, build, check, check_plugin_blocks, load,  # noqa: F401
                                      make_solver, simulate)
@@ -28,9 +28,9 @@ def write_outputs(f, runs, settings, outdir):
     outdir = Path(outdir)
     name = safe_name(f.name)
     with atomic_dir(outdir) as tmp:
-        for r, stem in zip(runs, unique_names([r["label"] for r in runs], name)):
-            r["csv"] = f"{stem}.csv"
-            r["result"].to_csv(tmp / f"{stem}.csv")
+        for r, csv in zip(runs, output_names(f, [r["label"] for r in runs])):
+            r["csv"] = csv
+            r["result"].to_csv(tmp / csv)
         import matplotlib.pyplot as plt
 
         fig = None
@@ -53,6 +53,12 @@ def write_outputs(f, runs, settings, outdir):
         (tmp / "metrics.json").write_text(json.dumps(doc, indent=2, default=float) + "\n")
     return outdir
 
+def output_names(f, labels=None):
+    """The files :func:`write_outputs` writes for diagram file ``f``: a CSV per variant (``labels``,
+    default the file's), the figure (PNG, SVG) and metrics.json."""
+    name = safe_name(f.name)
+    labels = [label for label, _ in f.variants()] if labels is None else labels
+    return [f"{stem}.csv" for stem in unique_names(labels, name)] + [f"{name}.png", f"{name}.svg", "metrics.json"]
 
 
 def _file(source, overrides):
@@ -86,6 +92,7 @@ def run(source, outdir=None, progress=False, jobs=None, **overrides):
     f = _file(source, overrides)
     outdir, _ = output_dir(outdir, Path("out") / safe_name(f.name), whole=False)
     check(f)
+    check_planned(outdir, output_names(f))  # refused now, not after the runs
     from hybridsim.runs.variants import run_experiment
 
     f, runs, settings = run_experiment(f, progress=progress, jobs=jobs)

@@ -26,10 +26,10 @@
 from hybridsim.files.names import safe_name, unique_names
 from hybridsim.files.state import (OWN, check_default_dir, default_output_file, note_written, output_lock,
                                    record_written, state_dir, written_by_hybridsim)
-from hybridsim.files.writing import (atomic_dir, atomic_file, check_output_dir, check_output_file,
+from hybridsim.files.writing import (atomic_dir, atomic_file, check_output_dir, check_planned, check_output_file,
                                      locked_output_dir, make_output_dir, output_dir, own_folder, remove_stale)
 
 __all__ = ["safe_name", "unique_names", "OWN", "check_default_dir", "default_output_file", "note_written",
            "output_lock", "record_written", "state_dir", "written_by_hybridsim", "atomic_dir", "atomic_file",
-           "check_output_dir", "check_output_file", "locked_output_dir", "make_output_dir", "output_dir",
-           "own_folder", "remove_stale"]
+           "check_output_dir", "check_output_file", "check_planned", "locked_output_dir", "make_output_dir",
+           "output_dir", "own_folder", "remove_stale"]

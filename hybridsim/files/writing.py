@@ -198,20 +198,36 @@ def atomic_file(path, mode="w", known=False):
     record_written(path.parent, [path.name])
 
 
+def _refuse(dst, folder):
+    """Raise :class:`OutputError` where writing ``dst`` (a folder when ``folder``) would replace what
+    hybridsim did not write: a file where a folder goes (or the reverse), or a user's file."""
+    if folder:
+        if dst.exists() and not dst.is_dir():
+            raise OutputError(f"{str(dst)!r} exists and is not a folder; not replaced (nothing was written)")
+    elif dst.is_dir():
+        raise OutputError(f"{str(dst)!r} is a folder; hybridsim does not replace it with a file "
+                          "(nothing was written)")
+    elif dst.is_symlink() and not dst.exists():
+        raise OutputError(f"{str(dst)!r} is a symbolic link to a missing target; hybridsim does not "
+                          "replace it (nothing was written)")
+    elif dst.exists() and not written_by_hybridsim(dst):
+        raise OutputError(f"{str(dst)!r} exists and hybridsim did not write it; move it away or write "
+                          "into another folder (nothing was written)")
+
+
 def _check_destinations(tmp, path):
-    """Refuse before anything moves: a file whose place is a folder (or the reverse), or a file
-    there that hybridsim did not write."""
+    """Refuse before anything moves (:func:`_refuse`, for every file and folder in ``tmp``)."""
     for src in sorted(tmp.rglob("*")):
-        dst = path / src.relative_to(tmp)
-        if src.is_dir():
-            if dst.exists() and not dst.is_dir():
-                raise OutputError(f"{str(dst)!r} exists and is not a folder; not replaced (nothing was written)")
-        elif dst.is_dir():
-            raise OutputError(f"{str(dst)!r} is a folder; hybridsim does not replace it with a file "
-                              "(nothing was written)")
-        elif dst.exists() and not written_by_hybridsim(dst):
-            raise OutputError(f"{str(dst)!r} exists and hybridsim did not write it; move it away or write "
-                              "into another folder (nothing was written)")
+        _refuse(path / src.relative_to(tmp), src.is_dir())
+
+
+def check_planned(folder, names):
+    """Refuse, before a long computation, the outputs it will write into ``folder`` that it may not
+    replace (:func:`_refuse`); a name ending in ``/`` is a folder. The write checks them again."""
+    folder = Path(folder)
+    for name in names:
+        _refuse(folder / name.rstrip("/"), name.endswith("/"))
+    return folder
 
 
 @contextlib.contextmanager

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from hybridsim.analysis import stability as an
-from hybridsim.files import atomic_dir
+from hybridsim.files import atomic_dir, check_planned
 from hybridsim.paper.claims import DIAGRAMS, EXPERIMENTS, FAMILIES, KR, KW, conventions, judge
 from hybridsim.paper.hinges import hinges as hinge_analysis
 from hybridsim.paper.joint_search import joint_search
@@ -141,6 +141,7 @@ def reproduce(outdir, jobs=None, progress=None, experiments=None, grid=GRID, bis
     models kept in ``outdir/joint_search/`` for a rerun).
     """
     extra = {"compiled": True} if compiled else {}
+    check_planned(outdir, ("metrics.csv", "reproduce.json", "reproduce.html"))  # now, not after the runs
     say = progress or (lambda msg: None)
     t0 = time.perf_counter()
     chosen = [e for e in EXPERIMENTS if experiments is None or e[0] in experiments]

@@ -20,7 +20,7 @@ from hybridsim.analysis import extras
 from hybridsim.analysis import stability as an
 from hybridsim.analysis.linearize import LinearizationError
 from hybridsim.format.build import build, load
-from hybridsim.files import atomic_dir, atomic_file, check_output_dir, output_dir, safe_name
+from hybridsim.files import atomic_dir, atomic_file, check_output_dir, check_planned, output_dir, safe_name
 from hybridsim.format import DiagramFile
 from hybridsim.report import html
 from hybridsim.report.picture import draw_diagram
@@ -140,6 +140,7 @@ def write_report(path, outdir=None, at=None, **overrides):
         path, overrides = path.path, {**path.overrides, **overrides}
     f = load(path, **overrides)
     outdir, _ = output_dir(outdir, Path("out") / f"{safe_name(f.name)}_report")
+    check_planned(outdir, ("analysis.json", "report.html", "diagram.png", "diagram.svg"))  # before the analysis
     cfg = an.settings_of(f)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -37,7 +37,7 @@ import numpy as np
 
 from hybridsim import limits
 from hybridsim.errors import HybridsimError, InputError, LoaderError
-from hybridsim.files import locked_output_dir
+from hybridsim.files import check_planned, locked_output_dir
 from hybridsim.format import parse_file
 from hybridsim.format.yamlio import refuse_kind
 from hybridsim.format.identity import check_sweep
@@ -46,7 +46,7 @@ from hybridsim.runs.experiment import Experiment
 from hybridsim.runs.grid import Grid
 from hybridsim.runs.many import Simulate, run_many
 from hybridsim.runs.store import Store
-from hybridsim.runs.table import heatmaps, write_table
+from hybridsim.runs.table import files as table_files, heatmaps, write_table
 
 SWEEP_KEYS = {"diagram", "set", "grid", "scale", "random", "traces", "stability"}
 
@@ -334,6 +334,7 @@ def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False,
 
         analysis = Experiment(sw.diagram, **{**settings_of(sw.experiment.file)["set"], **sw.fixed})
     with ex, locked_output_dir(outdir) as outdir:  # one sweep per folder at a time
+        check_planned(outdir, table_files(sw.axes()) + (("traces/",) if sw.traces else ()))
         store = Store(outdir, fp, "points.jsonl", "sweep-manifest.json", "sweep",
                       "a file its runs read (the diagram, a file it extends, a subsystem, URDF, FMU, plugin or "
                       "a file the sweep names), 'set', 'stability', 'traces' or the hybridsim version changed",

@@ -4,6 +4,12 @@ from pathlib import Path
 from hybridsim.files import atomic_file
 
 
+
+def files(axes):
+    """The files a sweep over ``axes`` writes at its end (a heat map from two axes on)."""
+    return ("sweep.csv", "sweep.parquet") + (("heatmap.png",) if len(axes) >= 2 else ())
+
+
 def write_table(rows, outdir):
     """sweep.csv and sweep.parquet (tidy: one row per point and variant), atomically."""
     import pandas as pd

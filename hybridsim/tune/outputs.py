@@ -11,6 +11,13 @@ import yaml
 from hybridsim.files import atomic_file
 
 
+def files(spec):
+    """The files a search writes at its end: the table, plot and summary, the Pareto front's (two
+    objectives) and best.yaml (when a point is feasible)."""
+    front = ["pareto.png", "pareto.csv"] if len(spec.objectives) == 2 else []
+    return ["evaluations.csv", "convergence.png", "best.json"] + front + ["best.yaml"]
+
+
 def _whole_values(diagram, ov):
     """``ov`` with each element change (``g.K[1]``) as its parameter's whole value: a file sets whole values."""
     from hybridsim.format.build import load

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hybridsim.files import make_output_dir
+from hybridsim.files import check_planned, make_output_dir
 from hybridsim.runs.grid import point
 from hybridsim.runs.many import run_many
 from hybridsim.tune import drivers
@@ -193,6 +193,7 @@ def run_tune(path, outdir, jobs=None, dask=None, progress=True, restart=False, c
     fp = identity(run_files(exp.file), {"tune": spec.text,
                                         "set": {k: v for k, v in spec.fixed.items() if k != "simulation.compiled"}})
     outdir = make_output_dir(Path(outdir))
+    check_planned(outdir, outputs.files(spec))  # refused now, not after the search
     store = Store(outdir, fp, "evaluations.jsonl", "tune-manifest.json", "search",
                   "another diagram or tune file, a file its runs read, or the hybridsim version", restart,
                   {"tune_file": str(spec.path), "diagram": str(spec.diagram)})
@@ -214,7 +215,7 @@ def run_tune(path, outdir, jobs=None, dask=None, progress=True, restart=False, c
 def _write(spec, outdir, ev, before, wall):
     hist = ev.history
     best = ev.best()
-    files = ["evaluations.jsonl", "evaluations.csv", "convergence.png", "best.json"]
+    files = ["evaluations.jsonl"] + outputs.files(spec)[:3]
     outputs.write_table(outdir / "evaluations.csv", spec, hist)
     outputs.convergence_plot(outdir / "convergence.png", spec, hist)
     front = []

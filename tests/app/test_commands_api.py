@@ -69,3 +69,22 @@ def test_the_html_helper():
     assert "<title>T &amp; U</title>" in page and "max-width:900px" in page and page.endswith("</html>\n")
     assert html.figure("QUJD", "a < b") == ("<figure><img src='data:image/png;base64,QUJD'/>"
                                            "<figcaption>a &lt; b</figcaption></figure>")
+
+
+def test_a_users_file_among_the_outputs_is_refused_before_anything_runs(tmp_path, monkeypatch):
+    from hybridsim.errors import OutputError
+    from hybridsim.runs import variants
+
+    def ran(*a, **k):
+        raise AssertionError("the runs started")
+
+    monkeypatch.setattr(variants, "run_experiment", ran)
+    (tmp_path / "o").mkdir()
+    (tmp_path / "o" / "metrics.json").write_text("mine")  # was refused after the runs
+    with pytest.raises(OutputError, match="metrics.json' exists and hybridsim did not write it"):
+        hs.run(write(tmp_path, GOOD), tmp_path / "o", t_end=0.2)
+    (tmp_path / "o" / "metrics.json").unlink()
+    (tmp_path / "o" / "d.svg").mkdir()
+    with pytest.raises(OutputError, match="d.svg' is a folder"):
+        hs.run(write(tmp_path, GOOD), tmp_path / "o", t_end=0.2)
+    assert (tmp_path / "o" / "d.svg").is_dir()

@@ -374,3 +374,14 @@ def test_too_many_points_are_named_at_the_line_of_the_section_that_makes_them(tm
                  "random: {n: 100000, seed: 1, ranges: {pid.Ki: [1, 2]}}\n")
     with pytest.raises(InputError, match=r"s\.yaml:3: the sweep has 100002 points; at most 100000"):
         sw.Sweep(p).points()
+
+
+def test_a_users_table_in_the_output_folder_is_refused_before_any_point_runs(sweep_file, tmp_path):
+    from hybridsim.errors import OutputError
+
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "heatmap.png").write_text("mine")  # was refused after every point had run
+    with pytest.raises(OutputError, match="heatmap.png' exists and hybridsim did not write it"):
+        sw.run_sweep(sweep_file, out, jobs=1, progress=False)
+    assert sorted(p.name for p in out.iterdir()) == ["heatmap.png"]

@@ -332,3 +332,15 @@ def test_the_overlay_runs_the_tuned_point_and_nothing_else(tmp_path):
     f = hs.load(out / "best.yaml")
     assert f.variants() == [("force=5.0, rate=60", {"force": 5.0, "rate": 60})]
     assert param_value(f, "ctrl.fpi.Kp").tolist() == [0.7, 0.7] and f.params["wrist_damping"] == 12.0
+
+
+def test_a_users_file_among_the_search_outputs_is_refused_before_any_evaluation(tmp_path):
+    from hybridsim.errors import OutputError
+
+    p = tune_file(tmp_path, PARAMS + "objectives:\n" + SETTLE + "method: {name: nelder_mead, maxiter: 2}\n")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "best.yaml").write_text("mine")  # was refused after the search
+    with pytest.raises(OutputError, match="best.yaml' exists and hybridsim did not write it"):
+        run_tune(p, out, jobs=1, progress=False)
+    assert sorted(x.name for x in out.iterdir()) == ["best.yaml"]
