@@ -22,7 +22,7 @@ import control
 import numpy as np
 
 from hybridsim.errors import LinearizationError
-from hybridsim.analysis.jacobians import checked_jacobian, jacobian, nonzero_columns, zoh
+from hybridsim.analysis.jacobians import checked_jacobian, nonzero_columns, zoh
 from hybridsim.analysis.lti import ContinuousModel, DiscreteModel
 from hybridsim.analysis.standins import linear_standins
 from hybridsim.engine.result import parse_signal
@@ -191,9 +191,10 @@ class Linearization:
             self.ctx.evaluate(path, self.t, self.xc0)
             return measure()
 
-        C = jacobian(gx, self.xc0.copy(), self._steps(self.xc0, self._floor_x()))
-        D = jacobian(gh, self.h0.copy(), self._steps(self.h0, 1e-3))
+        C, e1 = checked_jacobian(gx, self.xc0.copy(), self._steps(self.xc0, self._floor_x()))
+        D, e2 = checked_jacobian(gh, self.h0.copy(), self._steps(self.h0, 1e-3))
         self._write(self.h_ports, self.h0)
+        self.fd_error = max(self.fd_error, e1, e2)
         return C, D
 
     # -- the tick pass --------------------------------------------------------------
@@ -276,18 +277,25 @@ class Linearization:
         self._write(self.yd_ports, self.yd0)
         self._write(self.h_ports, self.h0)
 
-    def _step_matrix(self, P, A, B, tau, n_in=0):
-        """Rows of P -> one hit plus the held interval: s+ = M s (+ N v)."""
+    def _step_matrix(self, P, A, B, tau, n_in=0, Bv=None):
+        """Rows of P -> one hit plus the held interval: s+ = M s (+ N v); ``Bv``: xc' = ... + Bv v
+        where v also enters the right-hand side (held over the interval)."""
         nx, nh = self.n_x, self.h0.size
         ns = self._state0().size
-        Phi, Gam = zoh(A, B, tau)
+        Phi, Gam = zoh(A, B if Bv is None else np.hstack([B, Bv]), tau)
         Ph = P[:nh]
         Pd = P[nh:nh + (ns - nx)]
         M = np.zeros((ns, ns + n_in))
-        M[:nx, :] = Gam @ Ph
+        M[:nx, :] = Gam[:, :nh] @ Ph
         M[:nx, :nx] += Phi
+        if Bv is not None:
+            M[:nx, ns:] += Gam[:, nh:]
         M[nx:, :] = Pd
         return M[:, :ns], M[:, ns:]
+
+    def _read_continuously(self, i):
+        """Whether block ``i``'s output is computed along the plant's right-hand side."""
+        return self.system.kind[i] not in ("discrete", "constant") and i in set(self.system.rhs_path)
 
     @property
     def sampled(self):
@@ -330,7 +338,10 @@ class Linearization:
         due, tau = hits[0]
         P = self._pass_matrices(due, inject, measure)
         ns = self._state0().size
-        M, N = self._step_matrix(P[:-1], A, B, tau, n_in=1)
+        Bv = None
+        if self._read_continuously(inject[0]):  # an input added along the interval too, held
+            Bv = self._continuous_model(inject, inject[:3]).B
+        M, N = self._step_matrix(P[:-1], A, B, tau, n_in=1, Bv=Bv)
         Cy, Dy = P[-1:, :ns], P[-1:, ns:]
         keep = nonzero_columns(np.vstack([M, Cy]))
         return control.ss(M[np.ix_(keep, keep)], N[keep], Cy[:, keep], Dy, H)
@@ -344,7 +355,7 @@ class Linearization:
         i, o, el = self._port(signal, "analysis point")
         if not self.sampled:
             return -self._continuous_model((i, o, el, "replace"), (i, o, el))
-        if self.system.kind[i] not in ("discrete", "constant") and i in set(self.system.rhs_path):
+        if self._read_continuously(i):
             raise LinearizationError(
                 f"analysis point {signal!r} is read continuously by the plant; open a loop at a "
                 "signal that is only sampled (a controller input or output)")

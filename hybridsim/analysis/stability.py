@@ -353,6 +353,9 @@ def summary_lines(res):
     lines = [f"{res['diagram']}: {head} (branch {res['branch'] or 'as built'})",
              f"  {g} {res['growth']:{'.4f' if sampled else '.4g'}} (besides {res['integrator_modes']} undriven "
              f"integrator pole(s) at {at_one}) -> {'STABLE' if res['stable'] else 'NOT STABLE'}"]
+    if res.get("fd_error", 0.0) > 1e-4:  # a kink or switch at the operating point
+        lines.append(f"  note: the finite differences agree only to {res['fd_error']:.1g} (relative): a kink or "
+                     "switch at the operating point makes the numbers below that uncertain")
     lines.append("  dominant poles:   " + ("|z|      f (Hz)   damping" if sampled else "|s|      f (Hz)   damping"))
     seen = 0
     for p in res["poles"]:

@@ -419,3 +419,44 @@ def test_the_step_figure_takes_a_whole_port_of_one_element(tmp_path):
             for out in ("plant.y", "plant.y[0]")]
     a, b = (f.axes[0].lines[-1].get_ydata() for f in figs)
     assert np.array_equal(a, b) and np.max(np.abs(a)) > 0.01
+
+
+DISTURBED = """\
+name: disturbed
+blocks:
+  r: {type: constant, value: 0.0}
+  dist: {type: step, initial: 0.0, final: 1.0, time: 0.0}
+  e: {type: sum, signs: "+-"}
+  C: {type: discrete_transfer_function, num: [0.5, -0.4], den: [1.0, -0.5], rate: 10}
+  u: {type: sum, signs: "++"}
+  P: {type: transfer_function, num: [1.0], den: [1.0, 2.0, 1.0]}
+wires: [r.y -> e.u1, P.y -> e.u2, e.y -> C.u, C.y -> u.u1, dist.y -> u.u2, u.y -> P.u]
+simulation: {t_end: 1.0}
+"""
+
+
+def test_an_input_the_plant_reads_continuously_enters_the_sampled_model(tmp_path):
+    """A disturbance added after the hold, read by the plant between hits: the model from it is
+    python-control's feedback(c2d(P), C) (it was the zero model: the input entered only at hits)."""
+    p = tmp_path / "d.yaml"
+    p.write_text(DISTURBED)
+    lin = Linearization(hs.build(p)[0])
+    C = control.tf([0.5, -0.4], [1.0, -0.5], 0.1)
+    ref = control.feedback(control.c2d(control.tf([1.0], [1.0, 2.0, 1.0]), 0.1, "zoh"), C)
+    t = np.arange(30) * 0.1
+    for signal in ("dist.y[0]", "u.y[0]", "C.y[0]"):
+        G = lin.io(signal, "P.y[0]")
+        assert control.dcgain(G) == pytest.approx(5 / 6, rel=1e-7), signal
+        assert control.step_response(G, t).outputs == pytest.approx(control.step_response(ref, t).outputs, abs=1e-9)
+
+
+def test_a_large_held_input_does_not_swamp_the_differences():
+    """msd_pid's plant is linear: its A is the same at every setpoint (a 1000 m step held a force of
+    1.3e5 N, about which a step of 1e-11 m was lost in rounding: A came out 0)."""
+    from hybridsim.runs.experiment import Experiment
+
+    for final in (1.0, 1000.0):
+        lin = Experiment(DIAGRAMS / "examples" / "msd_pid.yaml", **{"setpoint.final": final}).linearization()
+        A, _ = lin.continuous()
+        assert A == pytest.approx(np.array([[-0.4, -4.0], [1.0, 0.0]]), abs=1e-6), final
+        assert lin.closed_loop().growth == pytest.approx(0.993018, abs=1e-6) and lin.fd_error < 1e-6
