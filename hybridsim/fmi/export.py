@@ -106,8 +106,59 @@ def _identifier(name):
     return ident if ident and not ident[0].isdigit() else "m_" + ident
 
 
-def _finish(built, out, fmi):
-    """Copy the FMU to ``out``, listing the outputs as InitialUnknowns (FMI 2.0; pythonfmu leaves them out)."""
+def _fed_by(system, ref, inputs):
+    """The input ports (``{block name: port}`` of ``inputs``) that output ``ref`` depends on
+    directly: followed back along the blocks' feedthrough."""
+    found, seen, todo = set(), set(), [system.port_ref(ref)]
+    while todo:
+        b, o = todo.pop()
+        if (b, o) in seen:
+            continue
+        seen.add((b, o))
+        name = system.blocks[b].name
+        if name in inputs:
+            found.add(inputs[name])
+            continue
+        todo += [system.sources[b][k] for k in system.blocks[b].feedthrough(o)]
+    return found
+
+
+def _port_of(name):
+    """The port of FMI variable ``name`` (``q[2]`` -> ``q``)."""
+    return name.split("[")[0]
+
+
+def _declare(root, fmi, depends):
+    """Declare in ``root`` (modelDescription.xml) each output's inputs (``depends``: port -> input
+    ports), the outputs as FMI 2.0's InitialUnknowns and FMI 3.0's variable communication steps
+    (pythonfmu and pythonfmu3 leave them out or write them wrong)."""
+    import xml.etree.ElementTree as ET
+
+    variables = list(root.find("ModelVariables"))
+    port = lambda v: _port_of(v.get("name"))  # noqa: E731
+    structure = root.find("ModelStructure")
+    if fmi == 2:
+        index = {v.get("name"): str(k + 1) for k, v in enumerate(variables)}
+        ins = [v for v in variables if v.get("causality") == "input"]
+        outs = structure.find("Outputs")
+        for u in outs if outs is not None else []:
+            name = variables[int(u.get("index")) - 1].get("name")
+            u.set("dependencies", " ".join(index[v.get("name")] for v in ins if port(v) in depends[_port_of(name)]))
+        if outs is not None and structure.find("InitialUnknowns") is None:
+            init = ET.SubElement(structure, "InitialUnknowns")
+            for u in outs:
+                ET.SubElement(init, "Unknown", index=u.get("index"))
+        return
+    root.find("CoSimulation").set("canHandleVariableCommunicationStepSize", "true")
+    by_ref = {v.get("valueReference"): v for v in variables}
+    ins = [v for v in variables if v.get("causality") == "input"]
+    for u in structure.findall("Output"):
+        name = by_ref[u.get("valueReference")].get("name")
+        u.set("dependencies", " ".join(v.get("valueReference") for v in ins if port(v) in depends[_port_of(name)]))
+
+
+def _finish(built, out, fmi, depends):
+    """Copy the FMU to ``out`` with its model description completed (:func:`_declare`)."""
     import xml.etree.ElementTree as ET
     import zipfile
 
@@ -117,14 +168,9 @@ def _finish(built, out, fmi):
             zipfile.ZipFile(fh, "w", zipfile.ZIP_DEFLATED) as dst:
         for item in src.infolist():
             data = src.read(item)
-            if item.filename == "modelDescription.xml" and fmi == 2:
+            if item.filename == "modelDescription.xml":
                 root = ET.fromstring(data)
-                structure = root.find("ModelStructure")
-                outs = structure.find("Outputs")
-                if outs is not None and structure.find("InitialUnknowns") is None:
-                    init = ET.SubElement(structure, "InitialUnknowns")
-                    for u in outs:
-                        ET.SubElement(init, "Unknown", index=u.get("index"))
+                _declare(root, fmi, depends)
                 data = ET.tostring(root, encoding="UTF-8", xml_declaration=True)
             dst.writestr(item, data)
 
@@ -191,6 +237,8 @@ def export_fmu(diagram, out, fmi=2, name=None):
         else:
             outputs = [(n, r, w) for (n, _, w), r in zip(outputs, settings["log"])]
         _unique_names(f, inputs, outputs, params, fmi, path)
+        fed = {f"in_{n}": n for n, _, _ in inputs}
+        depends = {n: _fed_by(system, ref, fed) for n, ref, _ in outputs}
         (stage / INTERFACE).write_text(json.dumps({"diagram": entry, "inputs": inputs, "outputs": outputs,
                                                    "params": params, "source": str(path)}, indent=1))
         # the slave module's name is unique: the embedded interpreter of a process imports it once
@@ -200,5 +248,5 @@ def export_fmu(diagram, out, fmi=2, name=None):
             package="pythonfmu" if fmi == 2 else "pythonfmu3", base="Fmi2Slave" if fmi == 2 else "Fmi3Slave"))
         built = FmuBuilder.build_FMU(script, dest=tmp, project_files=[stage])
         out.parent.mkdir(parents=True, exist_ok=True)
-        _finish(built, out, fmi)
+        _finish(built, out, fmi, depends)
     return out

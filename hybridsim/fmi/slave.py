@@ -35,7 +35,7 @@ class Engine:
         self.inputs = {name: np.array(start, float) for name, width, start in self.spec["inputs"]}
         self.params = {name: value for name, value in self.spec["params"]}
         self.spec_params = dict(self.params)  # as exported (a whole number an int)
-        self.stepper = None
+        self.stepper, self.provisional = None, False
         self._register()
 
     # -- variables -----------------------------------------------------------------
@@ -98,7 +98,12 @@ class Engine:
         return setter
 
     def _output_getter(self, k):
-        return lambda: float(self.stepper.outputs()[k]) if self.stepper is not None else 0.0
+        def getter():
+            if self.stepper is None:  # initialization mode: built with the parameters set so far
+                self.start()
+                self.provisional = True
+            return float(self.stepper.outputs()[k])
+        return getter
 
     def _param_getter(self, name, k=None):
         def scalar():
@@ -108,8 +113,11 @@ class Engine:
 
     def _param_setter(self, name, k=None):
         def setter(value):
-            if self.stepper is not None:  # fixed: the diagram is built at exitInitializationMode
+            if self.stepper is not None and not self.provisional:  # built at exitInitializationMode
                 raise ValueError(f"parameter {name} is fixed: set it before exitInitializationMode")
+            if self.stepper is not None:  # outputs read in initialization mode: built again
+                self.stepper.release()
+                self.stepper, self.provisional = None, False
             if k is None:
                 whole = isinstance(self.spec_params[name], int) and not isinstance(value, bool)
                 self.params[name] = int(value) if whole and float(value).is_integer() else value
@@ -120,9 +128,14 @@ class Engine:
 
     # -- running ---------------------------------------------------------------------
     def start(self):
-        """Build the diagram with the parameters set (exitInitializationMode)."""
+        """Build the diagram with the parameters set (exitInitializationMode, or an output read
+        in initialization mode)."""
         from hybridsim.format import build as api
         from hybridsim.fmi.runtime import DiagramStepper
+
+        if self.provisional:  # built for an output read in initialization mode, parameters as now
+            self.provisional = False
+            return
 
         try:
             _, sim, settings = api.build(self.folder / self.spec["diagram"], **self.params)
