@@ -166,12 +166,7 @@ class Linearization:
     def _output_maps(self, outputs):
         sysm = self.system
         refs = [parse_signal(r) for r in outputs]
-        ports = []
-        for base, _ in refs:
-            try:
-                ports.append(sysm.port_ref(base))
-            except (KeyError, AttributeError, ValueError):
-                raise LinearizationError(f"no output {base!r} to linearize") from None
+        ports = [self._port(r, "output")[:2] for r in outputs]
         path = sysm.evaluation_path({i for i, _ in ports})
 
         def measure():
@@ -320,11 +315,15 @@ class Linearization:
         return DiscreteModel(M[np.ix_(keep, keep)], H, names, self.fd_error)
 
     def _port(self, signal, what):
-        base, el = parse_signal(signal)
+        """(block, output, element) of ``signal`` ('block.port[i]'); LinearizationError naming it."""
         try:
+            base, el = parse_signal(signal)
             i, o = self.system.port_ref(base)
         except (KeyError, AttributeError, ValueError):
             raise LinearizationError(f"{what} {signal!r}: no such output") from None
+        width = self.system.blocks[i].outputs[o].width
+        if el is not None and not 0 <= el < width:
+            raise LinearizationError(f"{what} {signal!r}: {base} has {width} element(s), [0] to [{width - 1}]")
         return i, o, 0 if el is None else el
 
     def _single_rate_model(self, inject, measure):

@@ -4,7 +4,7 @@ Reads an optional ``analysis`` section of the diagram::
 
     analysis:
       set: {friction: false}          # the branch to linearize on (overrides)
-      points: {inner: ctrl.dF.y[0], outer: ctrl.dX.y[1]}   # loop openings
+      points: {inner: "ctrl.dF.y[0]", outer: "ctrl.dX.y[1]"}   # loop openings
       rate_param: rate                # the parameter that sets the servo rate
       rates: [30, 45, 60, 80, 120, 240, 480]
       gains: {Kfp: ctrl.fpi.Kp, Kfi: ctrl.fpi.Ki, Kpp: ctrl.pid.Kp, Kpi: ctrl.pid.Ki, Kpd: ctrl.pid.Kd}

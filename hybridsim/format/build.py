@@ -235,7 +235,32 @@ def check(path_or_file, **overrides):
 
 
 def simulate(path_or_file, variant=None, progress=False, **overrides):
-    """Run one variant of a diagram file; returns a :class:`~hybridsim.engine.result.Result`."""
+    """Run one variant of a diagram file (writes nothing; :func:`hybridsim.api.run` writes files).
+
+    Parameters
+    ----------
+    path_or_file : str, Path or DiagramFile
+        The diagram.
+    variant : dict, optional
+        One point of the file's ``variants`` (default: the parameters as they are).
+    progress : bool
+        A progress bar on a terminal.
+    **overrides
+        Parameters and settings, as :func:`load` takes them (``rate=120``, ``t_end=1.0`` in s,
+        ``**{"ctrl.fpi.Ki": [100, 100]}``).
+
+    Returns
+    -------
+    hybridsim.engine.result.Result
+        ``res.t`` (s) and ``res["block.port"]`` / ``res["block.port[i]"]`` (the port's units).
+
+    Raises
+    ------
+    hybridsim.errors.InputError
+        A bad file, parameter or setting (file, line and what is wrong); exit status 2 in the CLI.
+    hybridsim.errors.SimulationError
+        The model diverged or its solver failed (the time and the block); exit status 3.
+    """
     system, simulator, settings = build(path_or_file, variant, **overrides)
     simulator.progress = progress
     return simulator.run(settings["simulation"]["t_end"])

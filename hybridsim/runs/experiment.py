@@ -203,6 +203,12 @@ class Experiment:
     def operating_point(self, params=None, at=None):
         """(context, t): the initial state with ``params`` (None: the system's own, started by the
         linearization), or the state after ``at`` s of simulation."""
+        if at is not None:  # the analysis table's check, as a file's 'at' gets
+            from hybridsim.format.tables import ANALYSIS, check_values
+
+            bad = check_values(ANALYSIS, {"at": at}, "analysis")
+            if bad:
+                raise InputError(f"{self.path}: {bad[0][0]}")
         if at:
             why = horizon_problems(self.system.blocks, self.settings["simulation"], at, 0, "linearize at")
             if why:

@@ -460,3 +460,21 @@ def test_a_large_held_input_does_not_swamp_the_differences():
         A, _ = lin.continuous()
         assert A == pytest.approx(np.array([[-0.4, -4.0], [1.0, 0.0]]), abs=1e-6), final
         assert lin.closed_loop().growth == pytest.approx(0.993018, abs=1e-6) and lin.fd_error < 1e-6
+
+
+def test_bad_signals_and_times_from_python_are_named(tmp_path):
+    """From the API, as a file's analysis section gets: an element past the port's width was an
+    IndexError, `at="x"` a ValueError and `at=-1` the simulator's end-time message."""
+    from hybridsim.analysis.stability import analyze
+    from hybridsim.errors import InputError
+
+    p = tmp_path / "d.yaml"
+    p.write_text(DISTURBED)
+    lin = Linearization(hs.build(p)[0])
+    with pytest.raises(LinearizationError, match=r"input 'r.y\[3\]': r.y has 1 element\(s\)"):
+        lin.io("r.y[3]", "P.y[0]")
+    with pytest.raises(LinearizationError, match=r"output 'P.y\[7\]'"):
+        lin.plant(["P.y[7]"])
+    for at in ("x", -1, float("nan")):
+        with pytest.raises(InputError, match="analysis setting 'at' must be a time in seconds >= 0"):
+            analyze(p, at=at, sweeps=False)

@@ -1,4 +1,4 @@
-"""The documentation site builds with Sphinx, warnings as errors, and documents every block type."""
+"""The documentation site builds with Sphinx, warnings as errors, documents every block type, and its YAML parses."""
 from pathlib import Path
 
 import pytest
@@ -24,3 +24,20 @@ def test_the_docs_build_without_a_warning(tmp_path):
     for page in ("tutorials/first-diagram", "tutorials/own-fmu", "tutorials/own-robot", "tutorials/dask-sweeps",
                  "tutorials/stability-report", "model", "diagram-format"):
         assert (out / f"{page}.html").exists(), page
+
+
+def test_every_yaml_example_in_the_docs_parses():
+    """A reader copies these: `points: {force: ctrl.dF.y[0]}` was a YAML syntax error ([ ] in { })."""
+    import re
+
+    import yaml
+
+    bad = []
+    for page in sorted(DOCS.rglob("*.md")) + [DOCS.parent / "README.md"]:
+        text = page.read_text()
+        for m in re.finditer(r"```ya?ml\n(.*?)```", text, re.S):
+            try:
+                yaml.safe_load(m.group(1))
+            except yaml.YAMLError as exc:
+                bad.append(f"{page.name}:{text[:m.start()].count(chr(10)) + 2}: {str(exc).splitlines()[0]}")
+    assert not bad, bad
