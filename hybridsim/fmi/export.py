@@ -219,6 +219,12 @@ def export_fmu(diagram, out, fmi=2, name=None):
         raise LoaderError(f"parameter {own[0]!r} cannot be an FMU parameter of a subsystem ('type' and 'file' are "
                           "the subsystem block's own keys, so nothing passes it in): rename it",
                           f._locs("params").get(own[0], path))
+    if f.data.get("variants"):  # one FMU is one variant: the parameters as they are
+        import logging
+
+        logging.getLogger("hybridsim").warning(
+            "%s: its 'variants' are not exported: the FMU runs the parameters as they are (%s), which "
+            "its importer may set", path, ", ".join(f"{k}={dict(params).get(k)}" for k in f.data["variants"]))
     cls = _identifier(name or f.name)
     out = Path(out)
     with tempfile.TemporaryDirectory(prefix="hybridsim-export-") as tmp:

@@ -185,7 +185,8 @@ class FMUBlock(ModelExchange, Block):
             return fn(*args, **kwargs)
         except Exception as exc:  # noqa: BLE001
             log = "; ".join(self._messages[-3:])
-            raise FMUError(f"FMU block {self.name!r}: {what} failed: {exc}"
+            said = str(exc).replace(str(self._unzipdir), f"{self.path}:") if self._unzipdir else str(exc)
+            raise FMUError(f"FMU block {self.name!r} ({self.path}): {what} failed: {said}"
                            + (f" - the FMU says: {log}" if log else "")) from None
 
     def _instantiate(self):

@@ -39,11 +39,12 @@ def start_values(path, byname, parameters):
                 raise ParameterError("parameters", f"{pname}: must be a finite number or a list of "
                                                    f"them, got {value!r}")
         first = 0 if f"{pname}[0]" in byname else 1  # the element names the FMU declares
-        if pname not in byname and f"{pname}[{first}]" in byname and isinstance(value, (list, tuple)):
+        if pname not in byname and f"{pname}[{first}]" in byname:
             last = max(int(m.group(2)) for m in map(_INDEXED.match, byname) if m and m.group(1) == pname)
-            if len(value) != last - first + 1:
+            if not isinstance(value, (list, tuple)) or len(value) != last - first + 1:
                 raise ParameterError("parameters", f"{pname}: the FMU has {last - first + 1} elements "
-                                     f"{pname}[{first}] .. {pname}[{last}], got {len(value)} values")
+                                     f"{pname}[{first}] .. {pname}[{last}]: give {last - first + 1} values "
+                                     f"(or set one as {pname}[{first}]), got {value!r}")
             for k, v in enumerate(value, start=first):  # b: [1, 2] sets b[1], b[2] (or b[0], b[1])
                 if f"{pname}[{k}]" not in byname:
                     raise FMUError(f"FMU {str(path)!r} has no variable {pname}[{k}]")

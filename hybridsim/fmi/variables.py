@@ -131,6 +131,9 @@ def _settable(var, value):
                                            f"(initial={var.initial}): it cannot be set")
     whole = var.type in _INT_RANGE or var.type in _UINT_RANGE
     for v in (value if isinstance(value, (list, tuple)) else [value]):
+        if var.type == "Boolean" and v not in (0, 1):  # 2 was set as true, silently
+            raise ParameterError("parameters", f"{var.name} is a Boolean variable of the FMU: give true or false "
+                                               f"(or 1, 0), got {v!r}")
         if whole and not isinstance(v, bool) and not float(v).is_integer():  # rounded, it was silently another
             raise ParameterError("parameters", f"{var.name} is an {var.type} variable of the FMU: give a whole "
                                                f"number, got {v!r}")

@@ -513,6 +513,9 @@ def test_plant_positive_parameters_have_a_min(any_plant, capsys):
         assert float(by[name].min) == 0.0, name
     with pytest.raises(hs.ParameterError, match=r"max_substep = -1.0 is outside its range: min = 0"):
         FMUBlock("p", path=str(any_plant), rate=60, parameters={"max_substep": -1.0})
+    with pytest.raises(hs.ParameterError, match=r"friction is a Boolean variable of the FMU: give true or false"):
+        FMUBlock("p", path=str(any_plant), rate=60, parameters={"friction": 2})  # was set as true
+    assert FMUBlock("p", path=str(any_plant), rate=60, parameters={"friction": 0}).parameters == {"friction": 0}
 
 
 def test_plant_default_experiment_has_a_tolerance(any_plant):

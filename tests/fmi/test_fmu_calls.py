@@ -6,6 +6,7 @@ closed-form outputs of tests/data/types3 (one output of every FMI 3.0 numeric ty
 getters and getEventIndicators on the same instance.
 """
 import ctypes
+import re
 import shutil
 
 import numpy as np
@@ -97,7 +98,7 @@ def test_event_indicators_and_derivatives_are_fmpys(plant):
         block.close()
 
 
-def test_a_failing_call_names_the_function_the_status_and_the_block(vdp):
+def test_a_failing_call_names_the_function_the_status_the_block_and_its_file(vdp):
     block = FMUBlock("vdp", path=str(vdp), mode="me")
     try:
         block.initial_state()
@@ -108,8 +109,9 @@ def test_a_failing_call_names_the_function_the_status_and_the_block(vdp):
         assert wrong.get_dx() == 3
         assert str(wrong.failure("get_dx", 3)).endswith("failed with status 3 (error).")
         block._calls, block._sent_state = wrong, None
-        with pytest.raises(FMUError, match=r"FMU block 'vdp': setContinuousStates at t=0.5 failed: "
-                                           r"fmi[23]SetContinuousStates failed with status 3"):
+        said = (r"FMU block 'vdp' \(" + re.escape(str(vdp)) + r"\): setContinuousStates at t=0.5 failed: "
+                r"fmi[23]SetContinuousStates failed with status 3")
+        with pytest.raises(FMUError, match=said):
             block.derivatives(0.5, np.zeros(3), [])
     finally:
         block.close()

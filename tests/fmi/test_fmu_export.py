@@ -345,3 +345,16 @@ def test_outputs_declare_the_inputs_they_feed_through_and_answer_in_initializati
     assert early == pytest.approx(fmu.getReal([vr["X[1]"], vr["X[2]"]])) and early != [0.0, 0.0]
     fmu.terminate()
     fmu.freeInstance()
+
+
+def test_a_diagram_with_variants_exports_its_parameters_as_they_are_and_says_so(tmp_path, caplog):
+    from fmpy import read_model_description
+
+    from hybridsim.fmi.export import export_fmu
+
+    d = tmp_path / "v.yaml"
+    d.write_text("name: v\nparams: {k: 2.0}\nvariants: {k: [3.0, 4.0]}\nblocks:\n  c: {type: constant, value: $k}\n"
+                 "log: [c.y]\nsimulation: {t_end: 0.1}\n")
+    fmu = export_fmu(d, tmp_path / "v.fmu")
+    assert "its 'variants' are not exported: the FMU runs the parameters as they are (k=2.0)" in caplog.text
+    assert {v.name: v.start for v in read_model_description(str(fmu)).modelVariables}["k"] in ("2", "2.0")
