@@ -49,6 +49,12 @@ class PID(Block):
                                           float(_ANTI_WINDUP.index(anti_windup)), Kb_, n)
         self.x0 = np.concatenate((vector(initial, "initial", n), np.zeros(n)))
         self.event_directions = (0,) * (3 * n)
+        if anti_windup == "clamping":
+            self.sliding_advice = (
+                "A PID held at its limit by clamping anti-windup slides along it while the error keeps its "
+                "integrator on the edge (clamped, the output leaves the limit; integrating, it returns): "
+                "use anti_windup: back_calculation, which has no such edge, or a fixed-step solver (rk4, heun) "
+                "without locate_switches")
         self.declare_input("r", n)
         self.declare_input("y", n)
         self.declare_output("u", n)

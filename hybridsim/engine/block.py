@@ -312,6 +312,9 @@ class Block:
 
     #: per zero-crossing function: +1 fires when it rises through 0, -1 when it falls, 0 both
     event_directions = None
+    #: what to do when the state slides along this block's switch (a run stopped there says it),
+    #: or None: the engine's general advice
+    sliding_advice = None
 
     def zero_crossings(self, t, x, u):
         """The block's event functions at ``t`` (a sequence of floats), or None without events."""

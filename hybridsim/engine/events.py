@@ -151,23 +151,25 @@ class EventSet:
         return bool(self.requested)
 
 
-def zeno_error(t, names, too_many, stalls):
-    """The error for events that accumulate (every path raises this one)."""
+def zeno_error(t, names, too_many, stalls, advice=None):
+    """The error for events that accumulate (every path raises this one); ``advice``: the blocks' own."""
     what = (f"more than {MAX_EVENTS} events on average under {1000 * TIME_TOL:g} s apart" if too_many else
             f"{stalls} events within {10 * TIME_TOL:g} s of each other")
     return SimulationError(f"events accumulate at t={t:.9g} s in block(s) {', '.join(names)}: {what} "
                            "(Zeno behaviour: a bouncing ball coming to rest, or a relay or switch that the "
-                           "state keeps flipping, a sliding mode); stop the run before that time, give the "
-                           "model a resting state, or give a relay hysteresis (switch_on above switch_off)")
+                           "state keeps flipping, a sliding mode)" + (f". {advice}" if advice else
+                           "; stop the run before that time, give the model a resting state, or give a relay "
+                           "hysteresis (switch_on above switch_off)"))
 
 
-def sliding_error(t, name, more):
-    """The error for a variable-step run stuck sliding along a switch (every path raises this one)."""
+def sliding_error(t, name, more, advice=None):
+    """The error for a variable-step run stuck sliding along a switch (every path raises this one);
+    ``advice``: the block's own (:attr:`~hybridsim.engine.block.Block.sliding_advice`)."""
     return SimulationError(
         f"block {name!r}{' (and others)' if more else ''} switches at every step from t={t:.9g} s: its "
         f"event function was located more than {MAX_REPEATS} times, then the solver's steps shrank "
         f"below {SLIDE_STEP:g} s on average over {SLIDE_STEPS} steps: the state slides along the switch. "
-        + SLIDING_ADVICE)
+        + (advice or SLIDING_ADVICE))
 
 
 #: what a run stuck on a switch can do

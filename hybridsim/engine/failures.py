@@ -35,7 +35,8 @@ def explain(run, code):
         names = list(log[-1][1]) if log else []
         if code == stepping.CHATTER:
             raise _events.chatter_error(t, names)
-        raise _events.zeno_error(t, names, code == stepping.ZENO, index)
+        raise _events.zeno_error(t, names, code == stepping.ZENO, index,
+                                 " ".join(dict.fromkeys(a for a in map(_advice_of(run), names) if a)) or None)
     elif code == stepping.CRAWLING:
         message = (f"solver {sim.solver.name}: its steps shrank below {_events.SLIDE_STEP:g} s on average over "
                    f"{_events.CRAWL_STEPS} steps before t={t:.9g} s")
@@ -43,7 +44,8 @@ def explain(run, code):
         raise SimulationError(message + (hint or ": the system is stiff there (use radau, bdf or cvode) or its "
                                          "right-hand side is discontinuous (a switch without an event function)"))
     elif code == stepping.SLIDING:
-        raise _events.sliding_error(t, function_owner(run, index), run.w.muted.sum() > 1)
+        name = function_owner(run, index)
+        raise _events.sliding_error(t, name, run.w.muted.sum() > 1, _advice_of(run)(name))
     elif code == stepping.MISSED:
         raise SimulationError(
             f"solver {sim.solver!r} stepped over a crossing of block {function_owner(run, index)!r}'s event "
@@ -63,19 +65,30 @@ def explain(run, code):
 def _sliding_hint(run, t, after_event):
     """'. Block ... ; the state may slide along it. <advice>' when the run failed on a switch: one muted as
     sliding, one that switched just before (``after_event``), or one nearest its surface; else ''."""
+    advice = _advice_of(run)
     muted = np.flatnonzero(run.w.muted)
     if muted.size:
         more = " (and others)" if muted.size > 1 else ""
-        return (f". Block {function_owner(run, muted[0])!r}{more} had switched more than {_events.MAX_REPEATS} "
-                f"times before it: the state slides along that switch. {_events.SLIDING_ADVICE}")
+        name = function_owner(run, muted[0])
+        return (f". Block {name!r}{more} had switched more than {_events.MAX_REPEATS} "
+                f"times before it: the state slides along that switch. {advice(name) or _events.SLIDING_ADVICE}")
     log = run.event_log() if after_event else []
     if log and 0.0 <= t - log[-1][0] <= 1e-6:
-        return (f". It failed just after {', '.join(log[-1][1])} switched at t={log[-1][0]:.9g} s; the state "
-                f"may slide along that switch. {_events.SLIDING_ADVICE}")
+        names = list(log[-1][1])
+        own = " ".join(dict.fromkeys(a for a in map(advice, names) if a))
+        return (f". It failed just after {', '.join(names)} switched at t={log[-1][0]:.9g} s; the state "
+                f"may slide along that switch. {own or _events.SLIDING_ADVICE}")
     near = switch_near_zero(run)
     if near is not None:
-        return f". Block {near!r} is on or near its switch there; the state may slide along it. {_events.SLIDING_ADVICE}"
+        return (f". Block {near!r} is on or near its switch there; the state may slide along it. "
+                f"{advice(near) or _events.SLIDING_ADVICE}")
     return ""
+
+
+def _advice_of(run):
+    """name -> the block's own advice for a state sliding along its switch (None: the general one)."""
+    system = run.sim.system
+    return lambda name: getattr(system.blocks[system.index[name]], "sliding_advice", None) if name in system.index else None
 
 
 def switch_near_zero(run, near=1e-3):

@@ -92,3 +92,27 @@ def test_continuous_pid_clamps_on_the_sign_of_ki_e(path):
     ref = solve_ivp(f, (0, 3.0), [0, 0, 0, 0], t_eval=res.t, method="LSODA", rtol=1e-10, atol=1e-12, max_step=1e-3)
     check("pid", path, res["p.y[0]"], ref.y[0], 5e-7)
     assert res["c.u[0]"].max() == 3.0 and res["c.u[0]"].min() >= -3.0
+
+
+T5 = """\
+name: t5
+blocks:
+  r:   {type: step, initial: 1.0, final: -1.0, time: 3.0}
+  pid: {type: pid, Kp: 2.0, Ki: 5.0, upper: 1.5, lower: -1.5, anti_windup: clamping}
+  y:   {type: first_order, tau: 1.0, initial: 0.0}
+wires: [r.y -> pid.r, y.y -> pid.y, pid.u -> y.u]
+simulation: {t_end: 1.0, solver: rk45, step: 1.0e-2, log_period: 0.01}
+log: [pid.u]
+"""
+
+
+def test_a_pid_sliding_along_its_clamp_is_named_with_what_to_do(tmp_path):
+    """Held at 1.5 while y rises to r = 1: clamped, the output leaves the limit, integrating, it
+    returns (a Filippov sliding mode); the error said to give a relay hysteresis. The advice works:
+    back-calculation has no such edge."""
+    p = tmp_path / "t5.yaml"
+    p.write_text(T5)
+    with pytest.raises(hs.SimulationError, match=r"block 'pid'.*use anti_windup: back_calculation"):
+        hs.simulate(p)
+    res = hs.simulate(p, **{"pid.anti_windup": "back_calculation"})
+    assert res["pid.u[0]"].max() == pytest.approx(1.5)
