@@ -231,7 +231,8 @@ class FirstOrder(Block):
 
     ``tau`` (s) = 0 passes u through unchanged (no state): an option that is off
     costs nothing and changes no number. Starts in balance, y(0) = u(0), unless
-    ``initial`` is given. Example: tau = 0.1 s, u = 1 from y(0) = 0 gives
+    ``initial`` is given (in a loop back to its own input too: u = 3 (1 - y) starts at
+    y = 0.75). Example: tau = 0.1 s, u = 1 from y(0) = 0 gives
     y(0.1 s) = 1 - 1/e.
     """
 

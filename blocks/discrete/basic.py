@@ -152,9 +152,8 @@ class DelayN(_Sampled):
     """y[k] = u[k - N]: ``N`` samples of delay (the first N outputs are ``initial``).
 
     Without ``initial`` the delay starts in balance: its first N outputs are
-    its input at t = 0, as the diagram computes it with the delay's output at
-    0 (in a loop back to its own input, u = 1 + 0.5 y gives y = 1, not the
-    balance y = u = 2: give ``initial`` there). N = 0 passes each sample through (no state): a delay
+    its input at t = 0 (in a loop back to its own input, the balance y = u:
+    u = 1 + 0.5 y gives y = 2). N = 0 passes each sample through (no state): a delay
     option that is off changes no number (e.g. a controller's computation
     delay of N ticks).
     """

@@ -20,14 +20,15 @@ contexts of the same system can run side by side (blocks hold no run data).
 import numpy as np
 
 from hybridsim.engine.block import Block
+from hybridsim.engine.graph import feedthrough_edges
 
 
 class Context:
     """Holds the state and signal values of one simulation of a system."""
 
     def __init__(self, system, blocks=None, outputs=None):
-        """``outputs(ctx, t, held)``: computes every block's outputs at ``t`` (``held``: the discrete
-        blocks hold theirs) as :meth:`evaluate` would, returning False when it did not (a compiled
+        """``outputs(ctx, t, due)``: computes every block's outputs at ``t`` (the discrete blocks
+        where ``due``) as :meth:`evaluate` would, returning False when it did not (a compiled
         output pass); default: the blocks' methods."""
         self.system = system
         self._outputs = outputs
@@ -52,16 +53,66 @@ class Context:
                 late.append(i)
             elif b.n_continuous or b.n_discrete or type(b).initial_state is not Block.initial_state:
                 self._set_initial(i, b.initial_state(None))
-        # provisional outputs at t = 0, then the blocks that need inputs; again while one such
-        # block's start depends on another's (a filter on a pre-loaded spring), in any order
+        if not late:
+            return
+        # provisional outputs at t = 0 (the discrete blocks not due then hold theirs), then the blocks
+        # that need inputs; again while one such block's start depends on another's (a filter on a
+        # pre-loaded spring), in any order
+        due = np.zeros(len(self.system.discrete), bool)
+        due[self.system.schedule.due(0)] = True
         for _ in range(len(late)):
-            if not self.outputs(0.0, held=False):
-                with np.errstate(all="ignore"):  # a non-finite output is reported by the run, naming its block
-                    self.evaluate(range(len(self.blocks)), 0.0, self.xc)
+            self._start_outputs(due)
             for i in late:
                 self._set_initial(i, self.blocks[i].initial_state(self.u[i]))
             if len(late) == 1:
                 break
+        looped = [i for i in late if _on_a_loop(self.system, i)]
+        if looped:
+            self._balance(looped, due)
+            for i in late:
+                if i not in looped:
+                    self._set_initial(i, self.blocks[i].initial_state(self.u[i]))
+
+    def _start_outputs(self, due):
+        """Every block's outputs at t = 0, the discrete ones where ``due`` (over ``system.discrete``)."""
+        if not self.outputs(0.0, due):
+            kind, holds = self.system.kind, set(np.asarray(self.system.discrete)[~due].tolist())
+            with np.errstate(all="ignore"):  # a non-finite output is reported by the run, naming its block
+                self.evaluate([i for i in range(len(self.blocks)) if i not in holds or kind[i] != "discrete"],
+                              0.0, self.xc)
+
+    def _balance(self, looped, due):
+        """Start the blocks of ``looped`` (each starts from its inputs, which depend on its own output)
+        in balance with them: x0 = initial_state(u(x0)), solved (scipy's root); left as one pass
+        gave them, with a warning, where no such start is found."""
+        import logging
+
+        from scipy.optimize import root
+
+        def state(i):
+            s = self.system.xslices[i]
+            return self.xc[s] if s is not None else self.xd[i]
+
+        sizes = [state(i).size for i in looped]
+        cuts = np.cumsum([0] + sizes)
+
+        def gap(z):
+            for k, i in enumerate(looped):
+                self._set_initial(i, z[cuts[k]:cuts[k + 1]])
+            self._start_outputs(due)
+            with np.errstate(all="ignore"):
+                return z - np.concatenate([np.asarray(self.blocks[i].initial_state(self.u[i]), float).reshape(-1)
+                                           for i in looped])
+
+        z0 = np.concatenate([np.array(state(i), float).reshape(-1) for i in looped])
+        sol = root(gap, z0, tol=1e-14)
+        if sol.success and np.all(np.isfinite(sol.x)) and np.max(np.abs(gap(sol.x))) <= 1e-9 * (1 + np.max(np.abs(sol.x))):
+            return
+        gap(z0)
+        logging.getLogger("hybridsim").warning(
+            "block(s) %s start from their inputs, which depend on their own outputs: no start in balance "
+            "was found (%s); they start from one pass with their state 0: give them an 'initial'",
+            ", ".join(repr(self.blocks[i].name) for i in looped), sol.message.rstrip("."))
 
     def _set_initial(self, i, x0):
         s = self.system.xslices[i]
@@ -87,11 +138,12 @@ class Context:
         s = self.system.xslices[i]
         return xc[s] if s is not None else self.xd[i]
 
-    def outputs(self, t, held):
-        """Every block's outputs at (t, ``xc``), the discrete ones too unless ``held``, by the compiled
-        output pass this context was given; False when there is none or it did not (a non-finite
-        output on the way: :meth:`evaluate` then computes them, as the generic path does)."""
-        return self._outputs is not None and self._outputs(self, t, held)
+    def outputs(self, t, due):
+        """Every block's outputs at (t, ``xc``), the discrete ones where ``due`` (a bool per block of
+        ``system.discrete``), by the compiled output pass this context was given; False when there
+        is none or it did not (a non-finite output on the way: :meth:`evaluate` then computes them,
+        as the generic path does)."""
+        return self._outputs is not None and self._outputs(self, t, due)
 
     def evaluate(self, path, t, xc):
         """Compute the outputs of the blocks in ``path`` (in order) at (t, xc)."""
@@ -100,3 +152,16 @@ class Context:
             outs = blocks[i].output(t, self.block_state(i, xc), u[i])
             for buf, v in zip(y[i], outs):
                 buf[:] = v
+
+
+def _on_a_loop(system, i):
+    """Whether an output of block ``i`` reaches its own inputs through blocks that pass their inputs
+    straight through (at t = 0 its start, read from its inputs, depends on itself)."""
+    edges = feedthrough_edges(system.blocks, system.sources)
+    reached, todo = {i}, [i]
+    while todo:
+        for b, _, _ in edges[todo.pop()]:
+            if b not in reached:
+                reached.add(b)
+                todo.append(b)
+    return any(a in reached for a, _ in system.sources[i])

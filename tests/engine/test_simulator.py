@@ -112,3 +112,37 @@ def test_scipy_solver_matches_analytic_and_stops_at_events():
         d.add(Oscillator())
         res = Simulator(d.build(), solver, log=["osc.y"], log_period=0.01).run(0.5)
         assert res["osc.y[0]"] == pytest.approx(np.cos(2 * np.pi * 5 * res.t), abs=1e-6), solver
+
+
+def _start(path, blocks, wires, log, t_end=0.3, log_period=0.1):
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "blocks"))
+    from paths import block, run
+
+    return run(path, [block(*b[:2], **b[2]) for b in blocks], wires, t_end, log, log_period=log_period)
+
+
+@pytest.mark.parametrize("path", ["generic", "fused"])
+def test_a_block_starting_from_its_inputs_in_a_loop_through_itself_starts_in_balance(path):
+    """u = 3 (1 - y) into a first-order lag started in balance: y(0) = 0.75, the fixed point
+    (it started at 3, u computed with y = 0), and a delay_n in u = 1 + 0.5 y at y = 2 (was 1)."""
+    lag = _start(path, [("step", "r", dict(initial=1.0, final=1.0)), ("sum", "e", dict(signs="+-")),
+                        ("gain", "g", dict(K=3.0)), ("first_order", "p", dict(tau=1.0))],
+                 [("r.y", "e.u1"), ("p.y", "e.u2"), ("e.y", "g.u"), ("g.y", "p.u")], ["p.y"])
+    assert lag["p.y[0]"] == pytest.approx(np.full(4, 0.75), abs=1e-12)
+    dn = _start(path, [("constant", "r", dict(value=1.0)), ("sum", "s", dict(signs="++")),
+                       ("gain", "g", dict(K=0.5)), ("delay_n", "d", dict(N=2, rate=10))],
+                [("r.y", "s.u1"), ("g.y", "s.u2"), ("s.y", "d.u"), ("d.y", "g.u")], ["d.y"])
+    assert dn["d.y[0]"] == pytest.approx(np.full(4, 2.0), abs=1e-12)
+
+
+@pytest.mark.parametrize("path", ["generic", "fused"])
+def test_a_discrete_block_not_due_at_the_start_holds_its_output_through_the_start(path):
+    """A counter first due at 0.03 s read 1 before it, where a block starting from its inputs (a
+    hit crossing) made the start evaluate every block."""
+    res = _start(path, [("counter", "c", dict(rate=10, offset=0.03)), ("sine", "s", dict(frequency=1.0)),
+                        ("hit_crossing", "h", dict(offset=0.25, direction="rising"))],
+                 [("s.y", "h.u")], ["c.y"], t_end=0.06, log_period=0.01)
+    assert list(res["c.y[0]"][:5]) == [0.0, 0.0, 0.0, 1.0, 1.0]
