@@ -65,6 +65,7 @@ class TransportDelay(Block):
                                  "they are events, which need at least 1e-9 s between them (a longer delay "
                                  "or a smaller buffer)")
         self.params = DelayParams(tau, tau / N, N + 2, vector(initial, "initial", n), n)
+        self.event_spacing = tau / N
         self.pade = count(pade, "pade")
         self.event_directions = (1,)
         self.declare_input("u", n)

@@ -315,6 +315,8 @@ class Block:
     #: what to do when the state slides along this block's switch (a run stopped there says it),
     #: or None: the engine's general advice
     sliding_advice = None
+    #: the time between this block's regular events (s), when it makes them (a run is warned of many)
+    event_spacing = None
 
     def zero_crossings(self, t, x, u):
         """The block's event functions at ``t`` (a sequence of floats), or None without events."""

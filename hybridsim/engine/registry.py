@@ -227,6 +227,11 @@ def lookup(type_name):
     return _TYPES.get(type_name)
 
 
+def type_name(block):
+    """The type name ``block``'s class is registered as, or None."""
+    return next((name for name, cls in _TYPES.items() if cls is type(block)), None)
+
+
 #: the order `hybridsim blocks` lists groups in (others follow, sorted); see :func:`list_first`
 GROUP_ORDER = ["control", "math", "sources", "sinks", "FMU", "robot", "examples"]
 

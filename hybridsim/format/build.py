@@ -6,6 +6,7 @@ solver from the ``simulation`` settings, per-state tolerances, the compiled path
 when asked), :func:`check` builds every variant as a run would, without running,
 and :func:`simulate` runs one. The public API (:mod:`hybridsim.api`) re-exports them.
 """
+import logging
 import re
 from hybridsim.engine.simulator import Simulator
 from hybridsim.errors import RateError
@@ -161,7 +162,26 @@ def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
     except RateError as exc:  # the log period's: its file and line (or its override)
         locs = getattr(f.data.get("simulation"), "locs", None) or {}
         raise RateError(f"{locs.get('log_period', f.path)}: simulation setting 'log_period': {exc}") from None
+    _warn_many_events(f, system, float(sim.get("t_end", _SIM["t_end"])))
     return system, simulator, settings
+
+
+#: regular events of one block over a run above which the run is warned it will be long
+MANY_EVENTS = 20_000
+
+
+def _warn_many_events(f, system, t_end):
+    """Warn of a block whose regular events (``event_spacing``) number more than MANY_EVENTS to t_end:
+    each one ends a solver step and is located, so such a run is long."""
+    from hybridsim.engine.registry import type_name
+
+    for b in system.blocks:
+        if b.event_spacing and t_end / b.event_spacing > MANY_EVENTS:
+            logging.getLogger("hybridsim").warning(
+                "%s: block %r makes an event every %.3g s, %.3g of them to t_end %g s, each ending a solver "
+                "step: a long run (its parameters set the spacing: hybridsim blocks -v %s)",
+                f._locs("blocks").get(b.name.split(".")[0], f.path), b.name, b.event_spacing,
+                t_end / b.event_spacing, t_end, type_name(b) or type(b).__name__)
 
 
 def _items(value):

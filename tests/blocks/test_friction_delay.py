@@ -106,3 +106,17 @@ def test_a_delay_of_microseconds_runs_and_one_shorter_than_its_events_can_be_is_
     assert abs(res["d.y[0]"][-1] - np.sin(2 * np.pi * 10 * (res.t[-1] - 5e-5))) < 1e-6
     with pytest.raises(Exception, match="need at least 1e-9 s between them"):
         block("transport_delay", "d", delay=1e-16)
+
+
+def test_a_run_of_many_delay_samples_is_warned_of(tmp_path, caplog):
+    """0.1 ms over 64 samples is an event every 1.6 us: 0.05 s took 97 s without a word."""
+    import hybridsim as hs
+
+    p = tmp_path / "d.yaml"
+    p.write_text("name: d\nblocks:\n  s: {type: sine, frequency: 5.0}\n  d: {type: transport_delay, delay: 1.0e-4}\n"
+                 "wires: [s.y -> d.u]\nsimulation: {t_end: 0.05}\n")
+    hs.build(p)
+    assert "d.yaml:4: block 'd' makes an event every 1.56e-06 s, 3.2e+04 of them to t_end 0.05 s" in caplog.text
+    caplog.clear()
+    hs.build(p, **{"d.buffer": 4})
+    assert "makes an event" not in caplog.text
