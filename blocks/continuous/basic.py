@@ -5,6 +5,7 @@ resets and relay switches are state events: the solver locates them and the
 event action sets the state, on every path.
 """
 import math
+import warnings
 from typing import NamedTuple
 
 import numpy as np
@@ -185,7 +186,7 @@ def tf_to_ss(num, den, name="num"):
     tuple of numpy.ndarray
         A (n x n), B (n x 1), C (1 x n), D (1 x 1), n = the order of ``den``.
     """
-    from scipy.signal import tf2ss
+    from scipy.signal import BadCoefficients, tf2ss
 
     num = np.atleast_1d(vector(num, name))
     den = np.atleast_1d(vector(den, "den"))
@@ -199,7 +200,9 @@ def tf_to_ss(num, den, name="num"):
     n = den.size - 1
     if n == 0:  # a pure gain num/den: no state (tf2ss gives a 1x1 zero A for it)
         return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[num[-1] / den[0]]])
-    A, B, C, D = tf2ss(num, den)
+    with warnings.catch_warnings():  # a zero numerator is a zero system, not "badly conditioned"
+        warnings.simplefilter("ignore", BadCoefficients)
+        A, B, C, D = tf2ss(num, den)
     return (np.asarray(A, float).reshape(n, n), np.asarray(B, float).reshape(n, 1),
             np.asarray(C, float).reshape(1, n), np.asarray(D, float).reshape(1, 1))
 

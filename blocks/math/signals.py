@@ -7,7 +7,7 @@ from hybridsim.errors import ParameterError
 from hybridsim.engine.kernels import Kernels, kernel, unroll
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks._util import count, flag, matrix, zero_one
+from hybridsim.blocks._util import count, finite_matrix, flag, matrix, zero_one
 
 
 GROUP = "math"  # where `hybridsim blocks` lists this module's blocks
@@ -46,14 +46,27 @@ def sum_output(p, t, x, u, out):
 
 @register("gain")
 class Gain(Block):
-    """y = K u; K scalar, diagonal list or full matrix."""
+    """y = K u; K scalar, diagonal list or full matrix.
+
+    A scalar or a list (the diagonal) keeps the width (``width``, or the list's length); a
+    matrix of m rows and n columns takes u of n elements to y of m (``width``, when given, is n).
+    Example: K = [[1, 2], [3, 4], [5, 6]], u = [1, 1] gives y = [3, 7, 11].
+    """
 
     def __init__(self, name="gain", K=1.0, width=1):
         super().__init__(name)
         width = count(width, "width")
-        self.params = (matrix(K, "K", width),)
-        self.declare_input("u", width)
-        self.declare_output("y", width)
+        K_ = np.asarray(K, dtype=object)
+        if K_.ndim == 2 and K_.shape[1] != width and width == 1:  # a matrix sets the widths
+            width = K_.shape[1]
+        if K_.ndim == 2 and K_.shape[0] != K_.shape[1] and K_.shape[1] == width:
+            self.params = (finite_matrix(K, "K"),)
+        elif K_.ndim == 1 and width == 1:
+            self.params = (matrix(K, "K", len(K_)),)
+        else:
+            self.params = (matrix(K, "K", width),)
+        self.declare_input("u", self.params[0].shape[1])
+        self.declare_output("y", self.params[0].shape[0])
 
 
 @kernel

@@ -111,3 +111,16 @@ def test_a_reset_to_a_limit_is_held_there_unless_the_input_points_inside(u, mode
     fired = (True, False, False, False, False)  # reset; enter upper, lower; leave upper, lower
     out = integrator_event(b.params, 0.3, (0.2, 0.0), ((u,), (1.0,)), fired)
     assert list(out) == [0.5, mode]
+
+
+def test_a_zero_numerator_is_a_zero_system_without_scipys_warning():
+    """num: [0] (and a zero_pole_gain of gain 0) printed scipy's BadCoefficients warning to stderr."""
+    import warnings
+
+    from hybridsim.engine.registry import lookup
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        tf = lookup("transfer_function")("p", num=[0.0], den=[1.0, 1.0])
+        lookup("zero_pole_gain")("z", zeros=[], poles=[-1.0], gain=0.0)
+    assert tf.n_continuous == 1

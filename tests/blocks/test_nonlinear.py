@@ -78,3 +78,17 @@ def test_a_gain_of_a_fractional_width_is_a_parameter_error():
 
     with pytest.raises(hs.ParameterError, match="'width' must be a whole number, got 2.5"):
         Gain(K=3.0, width=2.5)
+
+
+@pytest.mark.parametrize("path", ["generic", "fused"])
+def test_a_gain_matrix_of_m_rows_and_n_columns_takes_n_elements_to_m(path):
+    """Simulink's Matrix(K*u): a 3 x 2 K was refused ("must be 1x1"); a list is the diagonal at its
+    own length (it needed width)."""
+    from paths import block, run
+
+    blocks = [block("constant", "c", value=[1.0, 1.0]), block("gain", "g", K=[[1, 2], [3, 4], [5, 6]]),
+              block("gain", "d", K=[1, 2, 3])]
+    res = run(path, blocks, [("c.y", "g.u"), ("g.y", "d.u")], 0.01, ["g.y", "d.y"])
+    assert list(res["g.y"][0]) == [3.0, 7.0, 11.0] and list(res["d.y"][0]) == [3.0, 14.0, 33.0]
+    with pytest.raises(hs.ParameterError, match="K"):
+        block("gain", "g", K=[[1, 2], [3, 4], [5, 6]], width=3)
