@@ -105,10 +105,14 @@ def to_period(value, what="period"):
 
 
 def rate_to_period(rate_hz):
-    """Exact period (Fraction, s) of a sample rate in Hz (int, float or str)."""
+    """Exact period (Fraction, s) of a sample rate in Hz (int, float or str): a decimal rate as written,
+    one that is the float nearest a ratio of small integers (``1000 / 3``) as that ratio."""
     try:
         r = Fraction(str(rate_hz)) if not isinstance(rate_hz, Fraction) else rate_hz
-    except (ValueError, ZeroDivisionError):
+        small = r.limit_denominator(10**6)
+        if small != r and float(small) == float(r):  # 333.3333333333333 is 1000/3
+            r = small
+    except (ValueError, ZeroDivisionError, OverflowError):
         raise RateError(f"rate {rate_hz!r} is not a number") from None
     if r <= 0:
         raise RateError(f"rate must be positive, got {rate_hz!r} Hz")

@@ -87,3 +87,12 @@ def test_a_period_under_a_microsecond_is_its_exact_ratio():
 
     assert to_period(1e-8) == Fraction(1, 10**8) and to_period(1e-10) == Fraction(1, 10**10)
     assert to_period(1 / 60) == Fraction(1, 60) and to_period(0.0005) == Fraction(1, 2000)
+
+
+def test_a_rate_computed_as_a_ratio_is_that_ratio():
+    """rate: 333.3333333333333 (1000/3 as a float) was the decimal, incommensurate with a 1 kHz log;
+    a decimal rate stays as written."""
+    assert rate_to_period(1000 / 3) == Fraction(3, 1000)
+    assert rate_to_period(48.0005) == Fraction(2000, 96001) and rate_to_period("60") == Fraction(1, 60)
+    assert rate_to_period(123.4567891) == Fraction(10**7, 1234567891)
+    assert Schedule([(rate_to_period(1000 / 3), 0), (rate_to_period(1000), 0)]).base == Fraction(1, 1000)
