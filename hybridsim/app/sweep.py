@@ -16,7 +16,7 @@ def add(sub):
     options.add_runner(p)
     p.add_argument("--force", action="store_true",
                    help="when OUTDIR holds points of a different sweep (another diagram, set, "
-                        "solver or hybridsim version), discard them and start afresh")
+                        "solver or hybridsim's version or code), discard them and start afresh")
     p.set_defaults(func=run)
 
 

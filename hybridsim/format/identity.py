@@ -4,10 +4,11 @@
 it extends, every subsystem file (and what those extend), every file a block
 was built from (URDFs with the meshes they name, FMUs: any block attribute
 that is a path to a file), and the source files of the plugin modules loaded.
-:func:`identity` hashes their contents with hybridsim's version and any
+:func:`identity` hashes their contents with hybridsim's version and source and any
 extra data. Sweep resume keys its manifest by it, so editing any of those
 files (or a file named in the grid) makes the old points another sweep's.
 """
+import functools
 import hashlib
 import json
 import re
@@ -128,8 +129,22 @@ def file_identity(f):
     return got
 
 
+@functools.lru_cache(maxsize=1)
+def code_identity():
+    """A hash of hybridsim's own source (the package and its block library): an edited install
+    computes other numbers under the same version."""
+    import importlib.util
+
+    h = hashlib.sha256()
+    for name in ("hybridsim", "hybridsim.blocks"):
+        top = Path(importlib.util.find_spec(name).origin).parent
+        for p in sorted(top.rglob("*.py")):
+            h.update(str(p.relative_to(top)).encode() + b"\0" + hashlib.sha256(p.read_bytes()).digest())
+    return h.hexdigest()[:24]
+
+
 def identity(files, extra=None):
-    """A hash of the contents of ``files``, hybridsim's version and the JSON of ``extra``."""
+    """A hash of the contents of ``files``, hybridsim's version and code, and the JSON of ``extra``."""
     from hybridsim.version import __version__
 
     h = hashlib.sha256()
@@ -139,7 +154,8 @@ def identity(files, extra=None):
             h.update(hashlib.sha256(p.read_bytes()).digest())
         except OSError:
             h.update(b"<unreadable>")
-    h.update(json.dumps({"version": __version__, "extra": extra}, sort_keys=True, default=str).encode())
+    h.update(json.dumps({"version": __version__, "code": code_identity(), "extra": extra}, sort_keys=True,
+                        default=str).encode())
     return h.hexdigest()[:24]
 
 

@@ -4,7 +4,7 @@ A :class:`Store` is an append-only file of ``{"key": ..., "value": ...}`` lines 
 output folder (``points.jsonl`` for a sweep, ``evaluations.jsonl`` for a tune) beside a
 manifest that holds the identity of everything else the values depend on
 (:func:`hybridsim.format.identity.identity`: every file the runs read, the settings, the
-hybridsim version). A second run with the same identity reads the finished points back
+hybridsim version and code). A second run with the same identity reads the finished points back
 and runs only the others; an interrupted run loses at most the points not yet written (a
 line cut by a crash is dropped and its point runs again). A store of another identity in
 the folder is refused, or with ``restart`` set aside (``NAME.old``) and started afresh.

@@ -26,7 +26,7 @@ Resuming: each finished point is one line of ``points.jsonl`` in the output fold
 (:class:`~hybridsim.runs.store.Store`), keyed by a hash of its overrides; a second run of the
 same sweep runs only the points not there. ``sweep-manifest.json`` holds the identity of
 everything else a point's numbers depend on (every file its runs read, ``set``,
-``stability``, the hybridsim version: :mod:`hybridsim.format.identity`): a different sweep
+``stability``, hybridsim's version and code: :mod:`hybridsim.format.identity`): a different sweep
 into the same folder is refused, or with ``restart`` started afresh (the old points kept as
 ``points.jsonl.old``). Every swept value is checked before any point runs.
 """
@@ -281,16 +281,18 @@ class Row:
                       if not isinstance(v, (list, dict))}}
             if self.traces:
                 run.result.to_csv(Path(self.traces) / f"{p.key}{('_' + run.label) if run.label else ''}.csv")
-        if self.analysis is not None and run.index == 0:
-            row["linear_largest_abs_z"] = self._growth(p.changes)
+        if self.analysis is not None:  # this variant's loop (a variant may set the rate)
+            row["linear_largest_abs_z"], row["linear_stable"] = self._growth({**(run.variant or {}), **p.changes})
         return row
 
     def _growth(self, changes):
+        """(growth, stable) of the linearized closed loop: the largest |z| of a sampled loop, the
+        largest real part of s of a continuous one; (None, None) where it cannot be linearized."""
         try:
             cl = self.analysis.closed_loop(changes)
         except HybridsimError:
-            return None
-        return None if cl is None else cl.growth
+            return None, None
+        return (None, None) if cl is None else (cl.growth, bool(cl.stable))
 
 
 def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False, restart=False, batch=True):
@@ -337,7 +339,7 @@ def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False,
         check_planned(outdir, table_files(sw.axes()) + (("traces/",) if sw.traces else ()))
         store = Store(outdir, fp, "points.jsonl", "sweep-manifest.json", "sweep",
                       "a file its runs read (the diagram, a file it extends, a subsystem, URDF, FMU, plugin or "
-                      "a file the sweep names), 'set', 'stability', 'traces' or the hybridsim version changed",
+                      "a file the sweep names), 'set', 'stability', 'traces' or hybridsim's version or code changed",
                       restart, {"sweep": str(sw.path), "diagram": str(sw.diagram)})
         traces = None
         if sw.traces:
@@ -346,10 +348,7 @@ def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False,
         measure = Simulate(Row(traces, analysis), records=None if traces else "metrics", rebuild=not batch)
         done = run_many(sw.experiment, pts, ex, measure=measure, store=store, progress=progress,
                         desc=sw.path.stem)
-        table = []
-        for rows in done:
-            growth = rows[0].get("linear_largest_abs_z") if sw.stability else None
-            table += [{**r, "linear_largest_abs_z": growth} if sw.stability else r for r in rows]
+        table = [r for rows in done for r in rows]
         write_table(table, outdir)
         heatmaps(table, sw.axes(), outdir)
     return table

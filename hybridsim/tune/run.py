@@ -195,7 +195,7 @@ def run_tune(path, outdir, jobs=None, dask=None, progress=True, restart=False, c
     outdir = make_output_dir(Path(outdir))
     check_planned(outdir, outputs.files(spec))  # refused now, not after the search
     store = Store(outdir, fp, "evaluations.jsonl", "tune-manifest.json", "search",
-                  "another diagram or tune file, a file its runs read, or the hybridsim version", restart,
+                  "another diagram or tune file, a file its runs read, or hybridsim's version or code", restart,
                   {"tune_file": str(spec.path), "diagram": str(spec.diagram)})
     shown = progress_bar(drivers.budget(spec.method, spec.options, len(spec.parameters)), desc="tune",
                          unit="point", show=progress)

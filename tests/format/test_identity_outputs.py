@@ -401,3 +401,13 @@ def test_a_symbolic_link_to_nothing_is_refused_as_an_output_file_or_folder(tmp_p
     code, _, err = run(capsys, "draw", d, "-o", "pic.svg")
     assert code == 2 and "symbolic link to a missing target" in err, err
     assert not (tmp_path / "nowhere").exists() and not (tmp_path / "elsewhere.svg").exists()
+
+
+def test_the_identity_holds_hybridsims_code(tmp_path, monkeypatch):
+    """An edited install computed other numbers under the same version (a resumed sweep served the
+    old code's largest |z|): the source's hash is part of every identity."""
+    first = identity.code_identity()
+    assert first == identity.code_identity() and len(first) == 24
+    before = identity.identity([], {"a": 1})
+    monkeypatch.setattr(identity, "code_identity", lambda: "edited")
+    assert identity.identity([], {"a": 1}) != before

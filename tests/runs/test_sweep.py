@@ -1,6 +1,7 @@
 """Sweeps: the same table serially, on local processes and on Dask; resume; failures."""
 import json
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -385,3 +386,33 @@ def test_a_users_table_in_the_output_folder_is_refused_before_any_point_runs(swe
     with pytest.raises(OutputError, match="heatmap.png' exists and hybridsim did not write it"):
         sw.run_sweep(sweep_file, out, jobs=1, progress=False)
     assert sorted(p.name for p in out.iterdir()) == ["heatmap.png"]
+
+
+def test_stability_of_a_continuous_diagram_is_its_largest_real_part_and_a_stable_column(tmp_path):
+    """1/(s - 1) under a gain K: the closed-loop pole is 1 - K (a negative "|z|" before, no verdict)."""
+    (tmp_path / "d.yaml").write_text(
+        "name: d\nparams: {K: 1.0}\nblocks:\n  r: {type: constant, value: 0.0}\n  e: {type: sum, signs: '+-'}\n"
+        "  k: {type: gain, K: $K}\n  p: {type: transfer_function, num: [1.0], den: [1.0, -1.0]}\n"
+        "wires: [r.y -> e.u1, p.y -> e.u2, e.y -> k.u, k.y -> p.u]\nsimulation: {t_end: 0.1}\nlog: [p.y]\n")
+    p = tmp_path / "s.yaml"
+    p.write_text("diagram: d.yaml\ngrid:\n  K: [0.5, 2.0]\nstability: true\n")
+    rows = {r["K"]: r for r in sw.run_sweep(p, tmp_path / "o", jobs=1, progress=False)}
+    assert rows[0.5]["linear_largest_abs_z"] == pytest.approx(0.5, abs=1e-6) and rows[0.5]["linear_stable"] is False
+    assert rows[2.0]["linear_largest_abs_z"] == pytest.approx(-1.0, abs=1e-6) and rows[2.0]["linear_stable"] is True
+
+
+def test_stability_is_computed_for_each_variant(tmp_path):
+    """The diagram's variants set the rate: the sampled loop z = e^T - K (e^T - 1) of 1/(s - 1) under a
+    gain K is the row's own (every variant's row showed the first variant's)."""
+    (tmp_path / "d.yaml").write_text(
+        "name: d\nparams: {K: 1.0, rate: 10}\nvariants: {rate: [10, 20]}\nblocks:\n  r: {type: constant, value: 0.0}\n"
+        "  e: {type: sum, signs: '+-'}\n  k: {type: discrete_transfer_function, num: [$K], den: [1.0], rate: $rate}\n"
+        "  p: {type: transfer_function, num: [1.0], den: [1.0, -1.0]}\n"
+        "wires: [r.y -> e.u1, p.y -> e.u2, e.y -> k.u, k.y -> p.u]\nsimulation: {t_end: 0.1}\nlog: [p.y]\n")
+    p = tmp_path / "s.yaml"
+    p.write_text("diagram: d.yaml\ngrid:\n  K: [1.5]\nstability: true\n")
+    rows = sw.run_sweep(p, tmp_path / "o", jobs=1, progress=False)
+    got = {r["variant"]: r["linear_largest_abs_z"] for r in rows}
+    for rate in (10, 20):
+        z = np.exp(1 / rate) - 1.5 * (np.exp(1 / rate) - 1)
+        assert got[f"rate={rate}"] == pytest.approx(z, abs=1e-7)
