@@ -4,6 +4,7 @@ Every override key is read as one :class:`~.paths.ParamPath`.
 """
 import contextlib
 import contextvars
+import dataclasses
 import itertools
 import json
 import math
@@ -135,6 +136,12 @@ class OverridesMixin:
         From the file, else from the subsystem's file, else the block's default.
         """
         path = ParamPath.parse(ref) if not isinstance(ref, ParamPath) else ref
+        if path.index is not None:  # an element: of the whole value
+            whole = np.atleast_1d(self.param_value(dataclasses.replace(path, index=None)))
+            if not 0 <= path.index < whole.size:
+                raise LoaderError(f"{ref!r}: index {path.index} is past the {whole.size} element(s) of "
+                                  f"{str(ref).rsplit('[', 1)[0]!r}", self.path)
+            return whole[path.index]
         if path.kind != "block":
             if path.kind == "param" and path.name in self.params:
                 return self._number(ref, self._resolve(self.params[path.name], str(self.path), self.params))

@@ -416,3 +416,16 @@ def test_stability_is_computed_for_each_variant(tmp_path):
     for rate in (10, 20):
         z = np.exp(1 / rate) - 1.5 * (np.exp(1 / rate) - 1)
         assert got[f"rate={rate}"] == pytest.approx(z, abs=1e-7)
+
+
+def test_scaling_one_element_scales_that_element(tmp_path):
+    """scale: g.K[1] multiplied the whole list and wrote it into element 1 (a 'must be a number' error)."""
+    (tmp_path / "d.yaml").write_text("name: d\nblocks:\n  c: {type: constant, value: [1.0, 1.0]}\n"
+                                     "  g: {type: gain, K: [1.0, 4.0]}\nwires: [c.y -> g.u]\n"
+                                     "simulation: {t_end: 0.01}\nlog: [g.y]\n")
+    p = tmp_path / "s.yaml"
+    p.write_text("diagram: d.yaml\nscale:\n  g.K[1]: [0.5, 2.0]\n")
+    assert [pt.changes for pt in sw.Sweep(p).points()] == [{"g.K[1]": 2.0}, {"g.K[1]": 8.0}]
+    p.write_text("diagram: d.yaml\nscale:\n  g.K[2]: [0.5, 2.0]\n")
+    with pytest.raises(Exception, match=r"index 2 is past the 2 element\(s\) of 'g.K'"):
+        sw.Sweep(p).points()
