@@ -11,8 +11,9 @@ def _fmt(v):
 def summary_lines(res):
     """Human-readable lines from :func:`hybridsim.tune.run_tune`'s summary."""
     best, before = res["best"], res["before"]
-    lines = [f"{res['evaluations']} evaluations ({res['ran']} simulated now, the diagram as it is counted; the rest read from the store), "
-             f"{res['method']}, {res['wall_time_s']:.1f} s"]
+    stored = max(0, res["evaluations"] + 1 - res["ran"])  # + 1: the diagram as it is, evaluated first
+    lines = [f"{res['evaluations']} evaluations ({res['ran']} simulated now with the diagram as it is"
+             + (f", {stored} read from the store" if stored else "") + f"), {res['method']}, {res['wall_time_s']:.1f} s"]
     names = list((before or best or {}).get("quantities", {}))
     lines.append(f"  {'quantity':<28}{'before':>12}{'best':>12}")
     for n in names:
