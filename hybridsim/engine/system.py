@@ -45,8 +45,9 @@ class System:
                 [
                     "algebraic loop: " + " -> ".join(h.split(" -> ")[0] for h in hops)
                     + f" -> {hops[0].split(' -> ')[0]}\n      wires: " + "; ".join(map(at, hops))
-                    + "\n      every output on this cycle depends directly on its input;"
-                    " insert a delay or a rate transition (a discrete block) in the loop"
+                    + "\n      " + (_at_once(blocks, index, hops) or "every output on this cycle depends "
+                                     "directly on its input;")
+                    + " insert a delay or a rate transition (a discrete block) in the loop"
                     for hops in loops
                 ],
                 diagram.source,
@@ -182,3 +183,19 @@ class System:
             blocks[i] = self.blocks[i].with_params(**kw)
         return blocks
 
+
+
+def _at_once(blocks, index, hops):
+    """Why a block-level cycle (wires ``hops``, 'a.out -> b.in') is no loop port by port, if it is
+    not: a block on it whose leaving output does not depend on the input it is entered by, but
+    that computes all its outputs at once (an FMU)."""
+    for into, out in zip(hops, hops[1:] + hops[:1]):
+        name, inp = into.split(" -> ")[1].rsplit(".", 1)
+        b = blocks[index[name]]
+        leaving = out.split(" -> ")[0].rsplit(".", 1)[1]
+        k, o = b.input_port(inp).index, b.output_port(leaving).index
+        if k not in b.feedthrough(o):
+            others = [p.name for j, p in enumerate(b.outputs) if k in b.feedthrough(j)]
+            return (f"block {name!r} computes its outputs together: {leaving!r} does not depend on {inp!r}, "
+                    f"but {', '.join(map(repr, others))} does, so {inp!r} is needed before {leaving!r} is;")
+    return None

@@ -65,3 +65,24 @@ def test_delay_breaks_the_loop():
     d.connect("z.y", "s.u2")
     system = d.build()
     assert system.kind[system.index["z"]] == "discrete"
+
+
+def test_a_loop_only_through_a_block_that_computes_its_outputs_together_says_so():
+    """An FMU's y feeds back into its w, and only its d depends on w: no loop port by port, but the
+    block computes y and d at once; the error said every output depends on its input."""
+    from hybridsim import Block
+
+    class Two(Block):
+        def __init__(self, name):
+            super().__init__(name)
+            self.declare_input("w", 1)
+            self.declare_output("y", 1, depends_on=())
+            self.declare_output("d", 1, depends_on=("w",))
+            self.declare_continuous_state(1)
+
+    d = Diagram("t")
+    d.add(Two("sub"))
+    d.connect("sub.y", "sub.w")
+    with pytest.raises(DiagramError, match=r"block 'sub' computes its outputs together: 'y' does not depend "
+                                           r"on 'w', but 'd' does"):
+        d.build()
