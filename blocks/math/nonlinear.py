@@ -154,6 +154,7 @@ class MathFunction(Block):
 #: the largest arguments of exp and of sinh / cosh whose results are finite (math.exp raises above)
 EXP_MAX = 709.782712893384       # log(float max)
 SINH_MAX = 710.4758600739439     # log(2 float max)
+WHOLE = 2.0 ** 52                # from here on every float is a whole number
 
 
 @kernel
@@ -199,6 +200,8 @@ def apply_function(code, v):
         return math.sinh(v) if abs(v) <= SINH_MAX else math.copysign(math.inf, v)
     if c == 16:
         return math.cosh(v) if abs(v) <= SINH_MAX else math.inf
+    if not abs(v) < WHOLE:  # a whole number already (numba's floor, ceil and round pass an int64)
+        return v
     if c == 17:
         return float(math.floor(v))
     if c == 18:

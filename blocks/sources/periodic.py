@@ -81,7 +81,10 @@ def fraction(c):
     """The fraction in [0, 1) of the cycle reached at ``c`` cycles; a ``c`` within round-off below a
     whole number counts as that number (0.6 s / 0.4 s is 1.4999999999999998: the edge at 1.5 is
     reached)."""
-    k = math.floor(c + round_off(c))
+    s = c + round_off(c)
+    if not abs(s) < 2.0 ** 52:  # a whole number of cycles (numba's floor passes an int64)
+        return 0.0
+    k = math.floor(s)
     return max(c - k, 0.0)
 
 

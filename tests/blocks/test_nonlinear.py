@@ -92,3 +92,19 @@ def test_a_gain_matrix_of_m_rows_and_n_columns_takes_n_elements_to_m(path):
     assert list(res["g.y"][0]) == [3.0, 7.0, 11.0] and list(res["d.y"][0]) == [3.0, 14.0, 33.0]
     with pytest.raises(hs.ParameterError, match="K"):
         block("gain", "g", K=[[1, 2], [3, 4], [5, 6]], width=3)
+
+
+@pytest.mark.parametrize("path", ["generic", "fused", pytest.param("compiled", marks=pytest.mark.slow)])
+def test_floor_ceil_and_round_of_huge_values_are_the_values(path):
+    """At 1e20 the compiled path gave -9.22e18 (numba's floor passes an int64); a sawtooth 1e20 cycles
+    on gave 5e19."""
+    from paths import block, run
+
+    blocks = [block("constant", "c", value=[1e20, -3e19, 2.5]), block("sawtooth", "w", phase=1e20)]
+    for f in ("floor", "ceil", "round"):
+        blocks.append(block("math_function", f, function=f, width=3))
+    res = run(path, blocks, [("c.y", f"{f}.u") for f in ("floor", "ceil", "round")], 0.01,
+              ["floor.y", "ceil.y", "round.y", "w.y"])
+    assert list(res["floor.y"][0]) == [1e20, -3e19, 2.0] and list(res["ceil.y"][0]) == [1e20, -3e19, 3.0]
+    assert list(res["round.y"][0]) == [1e20, -3e19, 2.0]
+    assert res["w.y[0]"][0] == block("sawtooth", "v").output(0.0, None, [])[0][0]  # phase 0
