@@ -100,14 +100,7 @@ def check_output_file(path, formats=None):
     """Raise :class:`OutputError` unless file ``path`` can be written (and has a known suffix): a
     folder there, or a file hybridsim did not write, is never replaced."""
     path = Path(path)
-    if path.exists() and not path.is_file():
-        raise OutputError(f"{str(path)!r} exists and is not a file; hybridsim does not replace it")
-    if path.is_symlink() and not path.exists():
-        raise OutputError(f"{str(path)!r} is a symbolic link to a missing target; hybridsim does not "
-                          "replace it: remove it, or choose another name (nothing was written)")
-    if path.is_file() and not written_by_hybridsim(path):
-        raise OutputError(f"{str(path)!r} exists and hybridsim did not write it; it is not replaced: "
-                          "remove it, or choose another name (nothing was written)")
+    _refuse(path, folder=False)
     if formats is not None:
         fmt = path.suffix.lstrip(".").lower()
         if fmt not in formats:
@@ -204,9 +197,9 @@ def _refuse(dst, folder):
     if folder:
         if dst.exists() and not dst.is_dir():
             raise OutputError(f"{str(dst)!r} exists and is not a folder; not replaced (nothing was written)")
-    elif dst.is_dir():
-        raise OutputError(f"{str(dst)!r} is a folder; hybridsim does not replace it with a file "
-                          "(nothing was written)")
+    elif dst.exists() and not dst.is_file():
+        raise OutputError(f"{str(dst)!r} exists and is not a file{' (it is a folder)' if dst.is_dir() else ''}; "
+                          "hybridsim does not replace it (nothing was written)")
     elif dst.is_symlink() and not dst.exists():
         raise OutputError(f"{str(dst)!r} is a symbolic link to a missing target; hybridsim does not "
                           "replace it (nothing was written)")

@@ -85,6 +85,6 @@ def test_a_users_file_among_the_outputs_is_refused_before_anything_runs(tmp_path
         hs.run(write(tmp_path, GOOD), tmp_path / "o", t_end=0.2)
     (tmp_path / "o" / "metrics.json").unlink()
     (tmp_path / "o" / "d.svg").mkdir()
-    with pytest.raises(OutputError, match="d.svg' is a folder"):
+    with pytest.raises(OutputError, match="d.svg' exists and is not a file \\(it is a folder\\)"):
         hs.run(write(tmp_path, GOOD), tmp_path / "o", t_end=0.2)
     assert (tmp_path / "o" / "d.svg").is_dir()

@@ -25,6 +25,19 @@ PLANT = {"balance": 1.0, "surface_x0": 0.5, "preload": 10.0, "max_substep": 1e-4
 X_D, F_D = [0.5, 0.0], [20.0, 0.0]  # hold Y at 0, push with 20 N (from the 10 N preload)
 
 
+def initializing(path):
+    """(fmpy's FMU2Slave of the FMU at ``path``, in initialization mode; its value references by name)."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    md = read_model_description(str(path))
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(path)), modelIdentifier=md.coSimulation.modelIdentifier)
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    return fmu, {v.name: v.valueReference for v in md.modelVariables}
+
+
 @pytest.fixture(scope="module")
 def fmus(tmp_path_factory):
     from hybridsim.fmi.export import export_fmu
@@ -235,21 +248,12 @@ def test_a_subsystem_with_its_own_solver_and_a_continuous_state_exports_and_step
     integrated inside doStep: y = u (1 - e^(-t / tau))."""
     import math
 
-    from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave
-
     from hybridsim.fmi.export import export_fmu
 
     f = tmp_path / "lag.yaml"
     f.write_text("name: lag\nblocks:\n  lag: {type: first_order, tau: 0.2, initial: 0.0}\n"
                  "inputs: {x: lag.u}\noutputs: {y: lag.y}\nsimulation:\n  solver: heun\n  step: 1.0e-3\n")
-    path = str(export_fmu(f, tmp_path / "lag.fmu"))
-    md = read_model_description(path)
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier)
-    fmu.instantiate()
-    fmu.setupExperiment(startTime=0.0)
-    fmu.enterInitializationMode()
+    fmu, vr = initializing(export_fmu(f, tmp_path / "lag.fmu"))
     fmu.exitInitializationMode()
     try:
         fmu.setReal([vr["x"]], [2.0])
@@ -322,8 +326,7 @@ def test_outputs_declare_the_inputs_they_feed_through_and_answer_in_initializati
     """fmpy reads each output's dependencies (pythonfmu wrote none: every output on every input,
     so an importer saw algebraic loops that are not there); FMI 3.0 takes variable communication
     steps, as the FMI 2.0 export says; outputs read in initialization mode were 0."""
-    from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave
+    from fmpy import read_model_description
 
     for v in (2, 3):
         md = read_model_description(str(fmus[f"ctrl{v}"]))
@@ -331,13 +334,7 @@ def test_outputs_declare_the_inputs_they_feed_through_and_answer_in_initializati
         assert deps["X[1]"] == deps["X[2]"] == ["q[1]", "q[2]"]  # forward kinematics of q alone
         assert deps["CF[1]"] == ["F[1]", "F[2]", "q[1]", "q[2]"]  # eq 3b: F turned by q
         assert md.coSimulation.canHandleVariableCommunicationStepSize
-    path = str(fmus["ctrl2"])
-    md = read_model_description(path)
-    vr = {x.name: x.valueReference for x in md.modelVariables}
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier)
-    fmu.instantiate()
-    fmu.setupExperiment(startTime=0.0)
-    fmu.enterInitializationMode()
+    fmu, vr = initializing(fmus["ctrl2"])
     fmu.setReal([vr["q[1]"], vr["q[2]"]], [0.3, 0.2])
     early = fmu.getReal([vr["X[1]"], vr["X[2]"]])
     fmu.setReal([vr["S[1]"]], [0.0])  # a parameter set after a read: built again with it
