@@ -20,7 +20,6 @@ contexts of the same system can run side by side (blocks hold no run data).
 import numpy as np
 
 from hybridsim.engine.block import Block
-from hybridsim.engine.graph import feedthrough_edges
 
 
 class Context:
@@ -66,7 +65,7 @@ class Context:
                 self._set_initial(i, self.blocks[i].initial_state(self.u[i]))
             if len(late) == 1:
                 break
-        looped = [i for i in late if _on_a_loop(self.system, i)]
+        looped = [i for i in late if self.system.feeds_itself(i)]
         if looped:
             self._balance(looped, due)
             for i in late:
@@ -153,15 +152,3 @@ class Context:
             for buf, v in zip(y[i], outs):
                 buf[:] = v
 
-
-def _on_a_loop(system, i):
-    """Whether an output of block ``i`` reaches its own inputs through blocks that pass their inputs
-    straight through (at t = 0 its start, read from its inputs, depends on itself)."""
-    edges = feedthrough_edges(system.blocks, system.sources)
-    reached, todo = {i}, [i]
-    while todo:
-        for b, _, _ in edges[todo.pop()]:
-            if b not in reached:
-                reached.add(b)
-                todo.append(b)
-    return any(a in reached for a, _ in system.sources[i])
