@@ -16,33 +16,35 @@ def zoh(A, B, tau):
     return E[:n, :n], E[:n, n:]
 
 
-def _column(fun, x0, j, step):
-    """Column ``j`` of the central difference, and its rounding error bound (eps |f| / step)."""
+def _column(fun, x0, j, step, size=0.0):
+    """Column ``j`` of the central difference, and its rounding error bound: eps times the larger
+    of |f| and ``size`` (the magnitude of the terms f sums), over the step."""
     e = np.zeros_like(x0)
     e[j] = step
     hi, lo = fun(x0 + e), fun(x0 - e)
-    noise = np.finfo(float).eps * np.max(np.abs(hi) + np.abs(lo), initial=0.0) / (2 * step)
-    return (hi - lo) / (2 * step), noise
+    big = max(np.max(np.abs(hi) + np.abs(lo), initial=0.0), 2.0 * size)
+    return (hi - lo) / (2 * step), np.finfo(float).eps * big / (2 * step)
 
 
-def _columns(fun, x0, steps):
+def _columns(fun, x0, steps, size):
     f0 = fun(x0)
     J, noise = np.zeros((f0.size, x0.size)), np.zeros(x0.size)
     for j in range(x0.size):
-        J[:, j], noise[j] = _column(fun, x0, j, steps[j])
+        J[:, j], noise[j] = _column(fun, x0, j, steps[j], size)
     return J, noise
 
 
-def checked_jacobian(fun, x0, steps, tol=1e-8, tries=8):
+def checked_jacobian(fun, x0, steps, tol=1e-8, tries=8, size=0.0):
     """Jacobian and an estimate of its relative error: the difference to steps / 4 and the
     rounding error bound, relative to the largest entry.
 
     A column whose estimate exceeds ``tol`` is taken again with steps 10, 100, ... times larger,
     up to ``tries`` times, while that lowers it: a step small against a large right-hand side (a
     held input of 1e5 about a state at 0) loses the difference in rounding, a larger one keeps it.
+    ``size``: the magnitude of the values f's terms reach (its signals), where they cancel in f.
     """
-    J1, _ = _columns(fun, x0, steps)
-    J2, noise = _columns(fun, x0, steps / 4)
+    J1, _ = _columns(fun, x0, steps, size)
+    J2, noise = _columns(fun, x0, steps / 4, size)
     if not J2.size or not J2.any():  # nothing to difference, or nothing depends on x0
         return J2, 0.0
     scale = np.max(np.abs(J2))
@@ -51,8 +53,8 @@ def checked_jacobian(fun, x0, steps, tol=1e-8, tries=8):
         step = steps[j]
         for _ in range(tries):
             step *= 10
-            c1, _ = _column(fun, x0, j, step)
-            c2, n2 = _column(fun, x0, j, step / 4)
+            c1, _ = _column(fun, x0, j, step, size)
+            c2, n2 = _column(fun, x0, j, step / 4, size)
             e = (np.max(np.abs(c2 - c1)) + n2) / scale
             if not e < err[j]:
                 break

@@ -95,6 +95,9 @@ class Linearization:
         self.xd0 = np.concatenate([c.xd[i] for i in self.disc]) if self.disc else np.zeros(0)
         self.yd0 = np.concatenate([c.y[i][o] for i, o in self.yd_ports]) if self.yd_ports else np.zeros(0)
         self.h0 = self._read(self.h_ports)
+        with np.errstate(invalid="ignore"):  # the magnitude of the signals: what rounding is relative to
+            vals = np.abs(np.concatenate([c.ywire, c.xc, self.xd0]))
+        self.size = float(np.max(vals[np.isfinite(vals)], initial=0.0))
 
     def _read(self, ports):
         y = self.ctx.y
@@ -151,8 +154,8 @@ class Linearization:
             self._write(self.h_ports, h)
             return rhs(t, self.xc0.copy())
 
-        A, e1 = checked_jacobian(fx, self.xc0.copy(), self._steps(self.xc0, floor_x))
-        B, e2 = checked_jacobian(fh, self.h0.copy(), self._steps(self.h0, 1e-3))
+        A, e1 = checked_jacobian(fx, self.xc0.copy(), self._steps(self.xc0, floor_x), size=self.size)
+        B, e2 = checked_jacobian(fh, self.h0.copy(), self._steps(self.h0, 1e-3), size=self.size)
         self._write(self.h_ports, self.h0)
         self.fd_error = max(self.fd_error, e1, e2)
         return A, B
@@ -186,8 +189,8 @@ class Linearization:
             self.ctx.evaluate(path, self.t, self.xc0)
             return measure()
 
-        C, e1 = checked_jacobian(gx, self.xc0.copy(), self._steps(self.xc0, self._floor_x()))
-        D, e2 = checked_jacobian(gh, self.h0.copy(), self._steps(self.h0, 1e-3))
+        C, e1 = checked_jacobian(gx, self.xc0.copy(), self._steps(self.xc0, self._floor_x()), size=self.size)
+        D, e2 = checked_jacobian(gh, self.h0.copy(), self._steps(self.h0, 1e-3), size=self.size)
         self._write(self.h_ports, self.h0)
         self.fd_error = max(self.fd_error, e1, e2)
         return C, D
@@ -261,7 +264,7 @@ class Linearization:
 
         z0 = np.concatenate([s0, v0]) if io else s0
         steps = self._steps(z0, np.concatenate([floor, [1e-3]]) if io else floor)
-        P, err = checked_jacobian(fun, z0, steps)
+        P, err = checked_jacobian(fun, z0, steps, size=self.size)
         self.fd_error = max(self.fd_error, err)
         self._restore()
         return P
@@ -410,7 +413,7 @@ class Linearization:
             v0 = np.array([ctx.y[inject[0]][inject[1]][inject[2]]])
         z0 = np.concatenate([self.xc0, v0])
         floor = np.concatenate([self._floor_x(), [1e-3]])
-        J, err = checked_jacobian(fun, z0, self._steps(z0, floor))
+        J, err = checked_jacobian(fun, z0, self._steps(z0, floor), size=self.size)
         self.fd_error = max(self.fd_error, err)
         ctx.y[inject[0]][inject[1]][:] = kept
         self._write(self.h_ports, self.h0)

@@ -65,12 +65,7 @@ class Context:
                 self._set_initial(i, self.blocks[i].initial_state(self.u[i]))
             if len(late) == 1:
                 break
-        looped = [i for i in late if self.system.feeds_itself(i)]
-        if looped:
-            self._balance(looped, due)
-            for i in late:
-                if i not in looped:
-                    self._set_initial(i, self.blocks[i].initial_state(self.u[i]))
+        self._balance(late, due)
 
     def _start_outputs(self, due):
         """Every block's outputs at t = 0, the discrete ones where ``due`` (over ``system.discrete``)."""
@@ -80,10 +75,11 @@ class Context:
                 self.evaluate([i for i in range(len(self.blocks)) if i not in holds or kind[i] != "discrete"],
                               0.0, self.xc)
 
-    def _balance(self, looped, due):
-        """Start the blocks of ``looped`` (each starts from its inputs, which depend on its own output)
-        in balance with them: x0 = initial_state(u(x0)), solved (scipy's root); left as one pass
-        gave them, with a warning, where no such start is found."""
+    def _balance(self, late, due):
+        """Start the blocks of ``late`` (each starts from its inputs) in balance with them where the
+        passes did not (an input that depends on the block's own output, or on another's that
+        depends on it): x0 = initial_state(u(x0)), solved (scipy's root); left as the passes gave
+        them, with a warning, where no such start is found."""
         import logging
 
         from scipy.optimize import root
@@ -92,26 +88,32 @@ class Context:
             s = self.system.xslices[i]
             return self.xc[s] if s is not None else self.xd[i]
 
-        sizes = [state(i).size for i in looped]
-        cuts = np.cumsum([0] + sizes)
+        cuts = np.cumsum([0] + [state(i).size for i in late])
 
         def gap(z):
-            for k, i in enumerate(looped):
+            for k, i in enumerate(late):
                 self._set_initial(i, z[cuts[k]:cuts[k + 1]])
             self._start_outputs(due)
             with np.errstate(all="ignore"):
                 return z - np.concatenate([np.asarray(self.blocks[i].initial_state(self.u[i]), float).reshape(-1)
-                                           for i in looped])
+                                           for i in late])
 
-        z0 = np.concatenate([np.array(state(i), float).reshape(-1) for i in looped])
-        sol = root(gap, z0, tol=1e-14)
-        if sol.success and np.all(np.isfinite(sol.x)) and np.max(np.abs(gap(sol.x))) <= 1e-9 * (1 + np.max(np.abs(sol.x))):
+        def balanced(z):
+            g = gap(z)
+            return bool(np.all(np.isfinite(g)) and np.max(np.abs(g), initial=0.0) <= 1e-12 * (1 + np.max(np.abs(z))))
+
+        z0 = np.concatenate([np.array(state(i), float).reshape(-1) for i in late])
+        if balanced(z0):
+            return
+        with np.errstate(all="ignore"):
+            sol = root(gap, z0)  # its own success flag is strict: the residual decides
+        if np.all(np.isfinite(sol.x)) and balanced(sol.x):
             return
         gap(z0)
         logging.getLogger("hybridsim").warning(
             "block(s) %s start from their inputs, which depend on their own outputs: no start in balance "
-            "was found (%s); they start from one pass with their state 0: give them an 'initial'",
-            ", ".join(repr(self.blocks[i].name) for i in looped), sol.message.rstrip("."))
+            "was found (%s); they start from the inputs one pass gave: give them an 'initial'",
+            ", ".join(repr(self.blocks[i].name) for i in late), sol.message.rstrip("."))
 
     def _set_initial(self, i, x0):
         s = self.system.xslices[i]

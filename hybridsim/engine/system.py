@@ -18,7 +18,7 @@ import numpy as np
 
 from hybridsim.engine.context import Context
 from hybridsim.errors import DiagramError
-from hybridsim.engine.graph import feedthrough_edges, needed_blocks, sort_blocks
+from hybridsim.engine.graph import needed_blocks, sort_blocks
 from hybridsim.engine.schedule import Schedule
 
 
@@ -155,19 +155,6 @@ class System:
         """Sorted blocks to evaluate so the given block indices' outputs are current."""
         held = lambda j: self.kind[j] in ("discrete", "constant")  # noqa: E731
         return sorted(needed_blocks(wanted, self.blocks, self.sources, held))
-
-    def feeds_itself(self, i):
-        """Whether an output of block ``i`` reaches its own inputs through blocks that pass their
-        inputs straight through (a block starting from its inputs then starts from itself)."""
-        if getattr(self, "_edges", None) is None:
-            self._edges = feedthrough_edges(self.blocks, self.sources)
-        reached, todo = {i}, [i]
-        while todo:
-            for b, _, _ in self._edges[todo.pop()]:
-                if b not in reached:
-                    reached.add(b)
-                    todo.append(b)
-        return any(a in reached for a, _ in self.sources[i])
 
     def create_context(self, params=None):
         """A fresh :class:`Context` with every block's initial state.

@@ -129,9 +129,19 @@ def test_a_block_starting_from_its_inputs_in_a_loop_through_itself_starts_in_bal
     """u = 3 (1 - y) into a first-order lag started in balance: y(0) = 0.75, the fixed point
     (it started at 3, u computed with y = 0), and a delay_n in u = 1 + 0.5 y at y = 2 (was 1)."""
     lag = _start(path, [("step", "r", dict(initial=1.0, final=1.0)), ("sum", "e", dict(signs="+-")),
-                        ("gain", "g", dict(K=3.0)), ("first_order", "p", dict(tau=1.0))],
-                 [("r.y", "e.u1"), ("p.y", "e.u2"), ("e.y", "g.u"), ("g.y", "p.u")], ["p.y"])
+                        ("gain", "g", dict(K=3.0)), ("first_order", "p", dict(tau=1.0)),
+                        ("first_order", "c1", dict(tau=1.0)), ("first_order", "c2", dict(tau=1.0))],
+                 [("r.y", "e.u1"), ("p.y", "e.u2"), ("e.y", "g.u"), ("g.y", "p.u"), ("p.y", "c1.u"),
+                  ("c1.y", "c2.u")], ["p.y", "c2.y"])
     assert lag["p.y[0]"] == pytest.approx(np.full(4, 0.75), abs=1e-12)
+    assert lag["c2.y[0]"] == pytest.approx(np.full(4, 0.75), abs=1e-12)  # two lags after the loop: was -6
+    # gain 2 (scipy's root called it no progress: its flag is not the test) and the loop closed through
+    # a second lag, which passes nothing straight through
+    two = _start(path, [("step", "r", dict(initial=0.1, final=0.1)), ("sum", "e", dict(signs="+-")),
+                        ("gain", "g", dict(K=2.0)), ("first_order", "p", dict(tau=1.0)),
+                        ("first_order", "q", dict(tau=1.0))],
+                 [("r.y", "e.u1"), ("q.y", "e.u2"), ("e.y", "g.u"), ("g.y", "p.u"), ("p.y", "q.u")], ["q.y"])
+    assert two["q.y[0]"] == pytest.approx(np.full(4, 0.2 / 3), abs=1e-12)
     dn = _start(path, [("constant", "r", dict(value=1.0)), ("sum", "s", dict(signs="++")),
                        ("gain", "g", dict(K=0.5)), ("delay_n", "d", dict(N=2, rate=10))],
                 [("r.y", "s.u1"), ("g.y", "s.u2"), ("s.y", "d.u"), ("d.y", "g.u")], ["d.y"])

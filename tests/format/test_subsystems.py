@@ -226,7 +226,7 @@ def test_a_bad_inner_value_is_one_problem_that_names_the_users_set(tmp_path, cap
     (tmp_path / "d.yaml").write_text("blocks:\n  c: {type: constant, value: 1.0}\n"
                                      "  m: {type: subsystem, file: inner.yaml}\n  g: {type: gain}\n"
                                      "wires: [c.y -> m.a, c.y -> m.b, m.y -> g.u]\n")
-    assert main(["check", str(tmp_path / "d.yaml"), "--set", "m.g.K=[1, 2]"]) == 2
+    assert main(["check", str(tmp_path / "d.yaml"), "--set", "m.g.K=[[1, 2], [3]]"]) == 2
     err = capsys.readouterr().err
     assert "diagram has 1 problem(s)" in err and "--set m.g.K: block 'g' (gain): parameter 'K'" in err
 
