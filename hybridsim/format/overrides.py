@@ -118,10 +118,15 @@ class OverridesMixin:
             if not isinstance(current, list):
                 self._fail(f"{self.origin} {key}: an element index needs a list-valued parameter")
         else:
-            try:
-                current = self.param_value(path.without_index().key).tolist()
-            except (LoaderError, KeyError, TypeError, ValueError) as exc:
-                self._fail(f"{self.origin} {key}: {exc}")
+            spec = self.data["blocks"].get(path.block)
+            raw = spec.get(path.inner if _is_subsystem(spec) else path.name) if isinstance(spec, dict) else None
+            if isinstance(raw, list) and not any(isinstance(v, (list, dict)) for v in raw):
+                current = list(raw)  # as written: the other elements keep their $references
+            else:
+                try:
+                    current = self.param_value(path.without_index().key).tolist()
+                except (LoaderError, KeyError, TypeError, ValueError) as exc:
+                    self._fail(f"{self.origin} {key}: {exc}")
         flat = np.ravel(np.asarray(current, dtype=object)).tolist() if not isinstance(current, list) \
             else list(current)
         if not 0 <= path.index < len(flat):

@@ -356,3 +356,15 @@ def test_analysis_step_and_compare_errors_point_at_their_own_lines(tmp_path, cap
         assert main(["check", str(p)]) == 2
         err = capsys.readouterr().err
         assert f"{p}:{where}: " in err, (where, err)
+
+
+def test_setting_one_element_keeps_the_others_references(tmp_path):
+    """K: [$Kv, 5.0] with kg.K[1] set: K[0] stays $Kv, so a variant of Kv still reaches it (the whole
+    list was resolved and the variant silently ran at the file's Kv)."""
+    p = tmp_path / "d.yaml"
+    p.write_text("name: d\nparams: {Kv: 10.0}\nvariants: {Kv: [10.0, 30.0]}\nblocks:\n  c: {type: constant, "
+                 "value: [1.0, 1.0]}\n  kg: {type: gain, K: [$Kv, 5.0]}\nwires: [c.y -> kg.u]\nlog: [kg.y]\n"
+                 "simulation: {t_end: 0.01}\n")
+    f = api.load(p, **{"kg.K[1]": 7.0})
+    assert f.data["blocks"]["kg"]["K"] == ["$Kv", 7.0]
+    assert [api.simulate(f, variant=v)["kg.y"][0].tolist() for _, v in f.variants()] == [[10.0, 7.0], [30.0, 7.0]]
