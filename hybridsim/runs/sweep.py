@@ -37,7 +37,7 @@ import numpy as np
 
 from hybridsim import limits
 from hybridsim.errors import HybridsimError, InputError, LoaderError
-from hybridsim.files import check_planned, locked_output_dir
+from hybridsim.files import check_planned, locked_output_dir, unique_names
 from hybridsim.format import parse_file
 from hybridsim.format.yamlio import refuse_kind
 from hybridsim.format.identity import check_sweep
@@ -280,7 +280,8 @@ class Row:
                    **{k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in m.items()
                       if not isinstance(v, (list, dict))}}
             if self.traces:
-                run.result.to_csv(Path(self.traces) / f"{p.key}{('_' + run.label) if run.label else ''}.csv")
+                labels = [label for label, _ in run.experiment.file.variants()]
+                run.result.to_csv(Path(self.traces) / trace_name(p.key, run.label, labels))
         if self.analysis is not None:  # this variant's loop (a variant may set the rate)
             row["linear_largest_abs_z"], row["linear_stable"] = self._growth({**(run.variant or {}), **p.changes})
         return row
@@ -293,6 +294,12 @@ class Row:
         except HybridsimError:
             return None, None
         return (None, None) if cl is None else (cl.growth, bool(cl.stable))
+
+
+def trace_name(key, label, labels):
+    """The file of one run's trace under ``traces/``: the point's key, then its variant's label as a
+    file name (``labels``: every variant's, so that two never share one)."""
+    return dict(zip(labels, unique_names(labels, key)))[label] + ".csv"
 
 
 def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False, restart=False, batch=True):
@@ -336,7 +343,9 @@ def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False,
 
         analysis = Experiment(sw.diagram, **{**settings_of(sw.experiment.file)["set"], **sw.fixed})
     with ex, locked_output_dir(outdir) as outdir:  # one sweep per folder at a time
-        check_planned(outdir, table_files(sw.axes()) + (("traces/",) if sw.traces else ()))
+        labels = [label for label, _ in sw.experiment.variants()]
+        traced = [f"traces/{trace_name(p.key, label, labels)}" for p in pts for label in labels]
+        check_planned(outdir, table_files(sw.axes()) + (("traces/", *traced) if sw.traces else ()))
         store = Store(outdir, fp, "points.jsonl", "sweep-manifest.json", "sweep",
                       "a file its runs read (the diagram, a file it extends, a subsystem, URDF, FMU, plugin or "
                       "a file the sweep names), 'set', 'stability', 'traces' or hybridsim's version or code changed",

@@ -429,3 +429,20 @@ def test_scaling_one_element_scales_that_element(tmp_path):
     p.write_text("diagram: d.yaml\nscale:\n  g.K[2]: [0.5, 2.0]\n")
     with pytest.raises(Exception, match=r"index 2 is past the 2 element\(s\) of 'g.K'"):
         sw.Sweep(p).points()
+
+
+def test_a_users_file_where_a_trace_goes_is_refused_before_any_point_runs(tmp_path):
+    """It was refused after some points had written theirs, saying nothing was written."""
+    from hybridsim.errors import OutputError
+
+    (tmp_path / "d.yaml").write_text("name: d\nparams: {K: 1.0}\nvariants: {K: [1.0, 2.0]}\nblocks:\n"
+                                     "  c: {type: constant, value: $K}\nlog: [c.y]\nsimulation: {t_end: 0.01}\n")
+    p = tmp_path / "s.yaml"
+    p.write_text("diagram: d.yaml\ngrid:\n  c.value: [3.0, 4.0]\ntraces: true\n")
+    key = sw.Sweep(p).points()[1].key
+    (tmp_path / "o" / "traces").mkdir(parents=True)
+    mine = tmp_path / "o" / "traces" / sw.trace_name(key, "K=2.0", ["K=1.0", "K=2.0"])
+    mine.write_text("mine")
+    with pytest.raises(OutputError, match="hybridsim did not write it"):
+        sw.run_sweep(p, tmp_path / "o", jobs=1, progress=False)
+    assert [x.name for x in (tmp_path / "o").rglob("*")] == ["traces", mine.name] and mine.read_text() == "mine"
