@@ -140,8 +140,10 @@ def write_report(path, outdir=None, at=None, **overrides):
         path, overrides = path.path, {**path.overrides, **overrides}
     f = load(path, **overrides)
     outdir, _ = output_dir(outdir, Path("out") / f"{safe_name(f.name)}_report")
-    check_planned(outdir, ("analysis.json", "report.html", "diagram.png", "diagram.svg"))  # before the analysis
     cfg = an.settings_of(f)
+    figs = ["diagram", "poles"] + [f"bode_{p}" for p in cfg["points"]] + \
+        (["root_locus", "stability_vs_gain"] if cfg["gains"] else []) + (["stability_vs_rate"] if cfg["rates"] else [])
+    check_planned(outdir, ["analysis.json", "report.html"] + [f"{n}.{e}" for n in figs for e in ("png", "svg")])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         data, models, loops, known, main_ov = _analyse(path, at, overrides, cfg, f)

@@ -62,3 +62,14 @@ def test_values_matplotlib_cannot_scale_lose_the_figure_not_the_run(tmp_path, ca
     assert main(["run", str(p), "-o", str(tmp_path / "out")]) == 0
     assert (tmp_path / "out" / "huge.csv").exists() and not (tmp_path / "out" / "huge.png").exists()
     assert "no figure drawn" in caplog.text
+
+
+def test_a_users_figure_among_the_reports_files_is_refused_before_the_analysis(tmp_path, monkeypatch):
+    """A user's poles.svg was refused after the analysis (38 s on Fig 9)."""
+    from hybridsim.errors import OutputError
+    from hybridsim.report import stability
+
+    monkeypatch.setattr(stability, "_analyse", lambda *a: (_ for _ in ()).throw(AssertionError("analysed")))
+    (tmp_path / "poles.svg").write_text("mine")
+    with pytest.raises(OutputError, match="poles.svg' exists and hybridsim did not write it"):
+        stability.write_report(DIAGRAMS / "examples" / "msd_pid.yaml", tmp_path)
