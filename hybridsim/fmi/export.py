@@ -25,6 +25,7 @@ import uuid
 from pathlib import Path
 
 from hybridsim.errors import FMUError
+from hybridsim.fmi.runtime import fed_by
 from hybridsim.fmi.slave import INTERFACE
 from hybridsim.format import standalone
 
@@ -104,23 +105,6 @@ def _unique_names(f, inputs, outputs, params, fmi, path):
 def _identifier(name):
     ident = re.sub(r"\W", "_", name)
     return ident if ident and not ident[0].isdigit() else "m_" + ident
-
-
-def _fed_by(system, ref, inputs):
-    """The input ports (``{block name: port}`` of ``inputs``) that output ``ref`` depends on
-    directly: followed back along the blocks' feedthrough."""
-    found, seen, todo = set(), set(), [system.port_ref(ref)]
-    while todo:
-        b, o = todo.pop()
-        if (b, o) in seen:
-            continue
-        seen.add((b, o))
-        name = system.blocks[b].name
-        if name in inputs:
-            found.add(inputs[name])
-            continue
-        todo += [system.sources[b][k] for k in system.blocks[b].feedthrough(o)]
-    return found
 
 
 def _port_of(name):
@@ -244,9 +228,11 @@ def export_fmu(diagram, out, fmi=2, name=None):
             outputs = [(n, r, w) for (n, _, w), r in zip(outputs, settings["log"])]
         _unique_names(f, inputs, outputs, params, fmi, path)
         fed = {f"in_{n}": n for n, _, _ in inputs}
-        depends = {n: _fed_by(system, ref, fed) for n, ref, _ in outputs}
+        depends = {n: fed_by(system, ref, fed) for n, ref, _ in outputs}
         (stage / INTERFACE).write_text(json.dumps({"diagram": entry, "inputs": inputs, "outputs": outputs,
-                                                   "params": params, "source": str(path)}, indent=1))
+                                                   "params": params, "source": str(path),
+                                                   "depends": {n: sorted(d) for n, d in depends.items()}},
+                                                  indent=1))
         # the slave module's name is unique: the embedded interpreter of a process imports it once
         script = Path(tmp) / f"hybridsim_{cls}_fmi{fmi}_{uuid.uuid4().hex[:12]}.py"
         script.write_text(_SCRIPT.format(

@@ -143,3 +143,20 @@ class DiagramStepper:
         """Free what the blocks hold (FMU instances inside the diagram)."""
         for b in self.ctx.blocks:
             b.release()
+
+
+def fed_by(system, ref, inputs):
+    """The input ports (``{block name: port}`` of ``inputs``) that output ``ref`` depends on
+    directly: followed back along the blocks' feedthrough."""
+    found, seen, todo = set(), set(), [system.port_ref(ref)]
+    while todo:
+        b, o = todo.pop()
+        if (b, o) in seen:
+            continue
+        seen.add((b, o))
+        name = system.blocks[b].name
+        if name in inputs:
+            found.add(inputs[name])
+            continue
+        todo += [system.sources[b][k] for k in system.blocks[b].feedthrough(o)]
+    return found

@@ -139,11 +139,30 @@ class Engine:
 
         try:
             _, sim, settings = api.build(self.folder / self.spec["diagram"], **self.params)
+            self._check_dependencies(sim.system)
             self.stepper = DiagramStepper(sim, {"in_" + n: v for n, v in self.inputs.items()},
                                           [ref for _, ref, _ in self.spec["outputs"]])
         except Exception as exc:
             self._log(f"cannot build the diagram: {exc}")
             raise
+
+    def _check_dependencies(self, system):
+        """Refuse parameters under which an output depends on an input the model description does
+        not declare (a lag's tau set to 0 passes its input through): an importer trusting the
+        declaration would order its evaluation wrong."""
+        from hybridsim.errors import FMUError
+        from hybridsim.fmi.runtime import fed_by
+
+        declared = self.spec.get("depends")
+        if declared is None:
+            return
+        fed = {f"in_{n}": n for n, _, _ in self.spec["inputs"]}
+        for name, ref, _ in self.spec["outputs"]:
+            extra = fed_by(system, ref, fed) - set(declared.get(name, ()))
+            if extra:
+                raise FMUError(f"with these parameters output {name} depends directly on input(s) "
+                               f"{', '.join(sorted(extra))}, which the FMU does not declare: export the "
+                               "diagram with these parameter values")
 
     def step(self, t, h):
         """doStep: advance by ``h`` from ``t``; False (FMI 2) or terminateSimulation (FMI 3) on a stop."""

@@ -355,3 +355,25 @@ def test_a_diagram_with_variants_exports_its_parameters_as_they_are_and_says_so(
     fmu = export_fmu(d, tmp_path / "v.fmu")
     assert "its 'variants' are not exported: the FMU runs the parameters as they are (k=2.0)" in caplog.text
     assert {v.name: v.start for v in read_model_description(str(fmu)).modelVariables}["k"] in ("2", "2.0")
+
+
+def test_parameters_that_make_an_output_feed_through_an_undeclared_input_are_refused(tmp_path):
+    """A lag's tau set to 0 passes u straight to y, which the model description says y does not
+    depend on: an importer would order its loop wrong. Initialization fails, saying why."""
+    from hybridsim.fmi.export import export_fmu
+
+    f = tmp_path / "lag.yaml"
+    f.write_text("name: lag\nparams: {tau: 0.2}\nblocks:\n  lag: {type: first_order, tau: $tau, initial: 0.0}\n"
+                 "inputs: {u: lag.u}\noutputs: {y: lag.y}\n")
+    fmu, vr = initializing(export_fmu(f, tmp_path / "lag.fmu"))
+    try:
+        fmu.setReal([vr["tau"]], [0.0])
+        with pytest.raises(Exception):
+            fmu.exitInitializationMode()
+    finally:
+        fmu.freeInstance()
+    fmu, vr = initializing(tmp_path / "lag.fmu")
+    fmu.setReal([vr["tau"]], [0.5])  # a lag still
+    fmu.exitInitializationMode()
+    fmu.terminate()
+    fmu.freeInstance()
