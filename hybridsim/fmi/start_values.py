@@ -26,6 +26,13 @@ def start_values(path, byname, parameters):
     FMUError
         A name the FMU does not have.
     """
+    try:
+        return _start_values(path, byname, parameters)
+    except ParameterError as exc:  # the FMU named: its variables are what the values are checked against
+        raise ParameterError("parameters", str(exc).split(" ", 2)[2] + f" (FMU {path})") from None
+
+
+def _start_values(path, byname, parameters):
     out = {}
     if parameters is not None and not isinstance(parameters, dict):
         raise ParameterError("parameters", f"must map variable names to values, got {parameters!r}")
