@@ -98,22 +98,23 @@ class Context:
                 return z - np.concatenate([np.asarray(self.blocks[i].initial_state(self.u[i]), float).reshape(-1)
                                            for i in late])
 
-        def balanced(z):
-            g = gap(z)
-            return bool(np.all(np.isfinite(g)) and np.max(np.abs(g), initial=0.0) <= 1e-12 * (1 + np.max(np.abs(z))))
+        def off(z, g):  # the entries not in balance
+            return ~(np.abs(g) <= 1e-12 * (1 + np.max(np.abs(z))))
 
         z0 = np.concatenate([np.array(state(i), float).reshape(-1) for i in late])
-        if balanced(z0):
+        g0 = gap(z0)
+        if not off(z0, g0).any() or not np.all(np.isfinite(g0)):  # settled; or not finite: the run says where
             return
         with np.errstate(all="ignore"):
             sol = root(gap, z0)  # its own success flag is strict: the residual decides
-        if np.all(np.isfinite(sol.x)) and balanced(sol.x):
+        if np.all(np.isfinite(sol.x)) and not off(sol.x, gap(sol.x)).any():
             return
-        gap(z0)
+        bad = off(z0, gap(z0))
         logging.getLogger("hybridsim").warning(
             "block(s) %s start from their inputs, which depend on their own outputs: no start in balance "
             "was found (%s); they start from the inputs one pass gave: give them an 'initial'",
-            ", ".join(repr(self.blocks[i].name) for i in late), sol.message.rstrip("."))
+            ", ".join(repr(self.blocks[i].name) for k, i in enumerate(late) if bad[cuts[k]:cuts[k + 1]].any()),
+            sol.message.rstrip("."))
 
     def _set_initial(self, i, x0):
         s = self.system.xslices[i]
