@@ -7,7 +7,10 @@ section within a section, :class:`~.tables.Record`, is a kind made of a table:
 it lives with the tables).
 """
 import math
+import numbers
 import re
+
+import numpy as np
 
 #: a '$name' reference to 'params' (allowed wherever a diagram value goes)
 REF_SCHEMA = {"type": "string", "pattern": r"^\$[A-Za-z_][A-Za-z0-9_]*$", "description": "a name in 'params'"}
@@ -17,7 +20,8 @@ PORT = re.compile(r"^([^\[\]\s]+)\.([^.\[\]\s]+)$")
 
 
 def _is_number(v):
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
+    """A real number, from YAML or Python (numpy's, a Fraction), not a bool."""
+    return isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_))
 
 
 class Kind:

@@ -203,12 +203,7 @@ class Experiment:
     def operating_point(self, params=None, at=None):
         """(context, t): the initial state with ``params`` (None: the system's own, started by the
         linearization), or the state after ``at`` s of simulation."""
-        if at is not None:  # the analysis table's check, as a file's 'at' gets
-            from hybridsim.format.tables import ANALYSIS, check_values
-
-            bad = check_values(ANALYSIS, {"at": at}, "analysis")
-            if bad:
-                raise InputError(f"{self.path}: {bad[0][0]}")
+        at = self._checked_at(at)
         if at:
             why = horizon_problems(self.system.blocks, self.settings["simulation"], at, 0, "linearize at")
             if why:
@@ -220,9 +215,21 @@ class Experiment:
         start_outputs(self.system, ctx)
         return ctx, 0.0
 
+    def _checked_at(self, at):
+        """``at`` as a float (None stays None), checked as a file's analysis ``at`` is."""
+        if at is None:
+            return None
+        from hybridsim.format.tables import ANALYSIS, check_values
+
+        bad = check_values(ANALYSIS, {"at": at}, "analysis")
+        if bad:
+            raise InputError(f"{self.path}: {bad[0][0]}")
+        return float(at)
+
     def linearization(self, changes=None, at=None):
         """A :class:`~hybridsim.analysis.linearize.Linearization` with ``changes`` (run time where they can be)
         about the initial state, or about the state reached at ``at`` s of simulation."""
+        at = self._checked_at(at)
         exp, params = self.changed(changes)
         if exp is self and not params and at in self._at:
             return self._at[at][0]
@@ -244,6 +251,7 @@ class Experiment:
     def closed_loop(self, changes=None, at=None):
         """The closed loop with ``changes`` (see :meth:`linearization`), or None where it cannot be
         linearized."""
+        at = self._checked_at(at)
         exp, params = self.changed(changes)
         if exp is self and not params and self._at.get(at, (None, None))[1] is not None:
             return self._at[at][1]  # this experiment unchanged: computed once per operating point

@@ -475,6 +475,7 @@ def test_bad_signals_and_times_from_python_are_named(tmp_path):
         lin.io("r.y[3]", "P.y[0]")
     with pytest.raises(LinearizationError, match=r"output 'P.y\[7\]'"):
         lin.plant(["P.y[7]"])
-    for at in ("x", -1, float("nan")):
+    for at in ("x", -1, float("nan"), [0.5]):  # a list was a TypeError (unhashable)
         with pytest.raises(InputError, match="analysis setting 'at' must be a time in seconds >= 0"):
             analyze(p, at=at, sweeps=False)
+    assert analyze(p, at=np.int64(0), sweeps=False)["stable"] is not None  # numpy's numbers are numbers
