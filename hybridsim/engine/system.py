@@ -184,7 +184,6 @@ class System:
         return blocks
 
 
-
 def _at_once(blocks, index, hops):
     """Why a block-level cycle (wires ``hops``, 'a.out -> b.in') is no loop port by port, if it is
     not: a block on it whose leaving output does not depend on the input it is entered by, but
