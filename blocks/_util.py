@@ -8,6 +8,10 @@ import numpy as np
 
 from hybridsim.errors import ParameterError
 
+#: from here on every float is a whole number (kernels return it as it is: numba's floor, ceil and
+#: round pass an int64, which overflows at 2^63)
+WHOLE = 2.0 ** 52
+
 
 def _not_a(what, value, name, word=None):
     """The error for ``value`` where ``what`` was needed; a string (``word``, in a list) that spells

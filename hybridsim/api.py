@@ -53,6 +53,7 @@ def write_outputs(f, runs, settings, outdir):
         (tmp / "metrics.json").write_text(json.dumps(doc, indent=2, default=float) + "\n")
     return outdir
 
+
 def output_names(f, labels=None):
     """The files :func:`write_outputs` writes for diagram file ``f``: a CSV per variant (``labels``,
     default the file's), the figure (PNG, SVG) and metrics.json."""

@@ -13,7 +13,7 @@ from hybridsim.errors import ParameterError
 from hybridsim.engine.kernels import Kernels, kernel, unroll
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks._util import as_floats, choice, count, vector
+from hybridsim.blocks._util import WHOLE, as_floats, choice, count, vector
 from hybridsim.blocks.math.lookup import lookup_1d_output, table_params
 
 
@@ -154,7 +154,6 @@ class MathFunction(Block):
 #: the largest arguments of exp and of sinh / cosh whose results are finite (math.exp raises above)
 EXP_MAX = 709.782712893384       # log(float max)
 SINH_MAX = 710.4758600739439     # log(2 float max)
-WHOLE = 2.0 ** 52                # from here on every float is a whole number
 
 
 @kernel
@@ -200,7 +199,7 @@ def apply_function(code, v):
         return math.sinh(v) if abs(v) <= SINH_MAX else math.copysign(math.inf, v)
     if c == 16:
         return math.cosh(v) if abs(v) <= SINH_MAX else math.inf
-    if not abs(v) < WHOLE:  # a whole number already (numba's floor, ceil and round pass an int64)
+    if not abs(v) < WHOLE:  # a whole number already
         return v
     if c == 17:
         return float(math.floor(v))

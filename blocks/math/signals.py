@@ -56,15 +56,11 @@ class Gain(Block):
     def __init__(self, name="gain", K=1.0, width=1):
         super().__init__(name)
         width = count(width, "width")
-        K_ = np.asarray(K, dtype=object)
-        if K_.ndim == 2 and K_.shape[1] != width and width == 1:  # a matrix sets the widths
-            width = K_.shape[1]
-        if K_.ndim == 2 and K_.shape[0] != K_.shape[1] and K_.shape[1] == width:
+        shape = np.shape(np.asarray(K, dtype=object))
+        if len(shape) == 2 and width in (1, shape[1]):  # a matrix sets the widths
             self.params = (finite_matrix(K, "K"),)
-        elif K_.ndim == 1 and width == 1:
-            self.params = (matrix(K, "K", len(K_)),)
-        else:
-            self.params = (matrix(K, "K", width),)
+        else:  # a scalar, or a list (the diagonal) at its own length
+            self.params = (matrix(K, "K", shape[0] if len(shape) == 1 and width == 1 else width),)
         self.declare_input("u", self.params[0].shape[1])
         self.declare_output("y", self.params[0].shape[0])
 

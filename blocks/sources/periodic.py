@@ -16,7 +16,7 @@ from hybridsim.errors import ParameterError
 from hybridsim.engine.kernels import Kernels, kernel
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks._util import choice, scalar, vector
+from hybridsim.blocks._util import WHOLE, choice, scalar, vector
 from hybridsim.blocks.sources.basic import _Source, _widths
 
 GROUP = "sources"  # where `hybridsim blocks` lists this module's blocks
@@ -82,7 +82,7 @@ def fraction(c):
     whole number counts as that number (0.6 s / 0.4 s is 1.4999999999999998: the edge at 1.5 is
     reached)."""
     s = c + round_off(c)
-    if not abs(s) < 2.0 ** 52:  # a whole number of cycles (numba's floor passes an int64)
+    if not abs(s) < WHOLE:  # a whole number of cycles
         return 0.0
     k = math.floor(s)
     return max(c - k, 0.0)

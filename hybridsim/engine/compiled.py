@@ -165,13 +165,13 @@ class CompiledGlue:
         numbers = self.numbers(tuple(b.params for b in blocks))
 
         def outputs(ctx, t, due):
-            return self.evaluate(numbers, t, ctx, due=due)
+            return self.evaluate(numbers, t, ctx, due)
 
         return Context(sysm, blocks, outputs), numbers
 
-    def evaluate(self, numbers, t, ctx, held=True, due=None):
-        """Every block's outputs at ``t`` into ``ctx`` (``held``: the discrete blocks hold theirs;
-        ``due``: a bool per discrete block, those that do not hold theirs), by
+    def evaluate(self, numbers, t, ctx, due=None):
+        """Every block's outputs at ``t`` into ``ctx`` (``due``: a bool per discrete block, those that
+        do not hold theirs; None: every one holds), by
         the glue's output pass; False when it did not (a state not a contiguous float array) or
         stopped at a non-finite output or a kernel raised: the caller then evaluates the blocks'
         Python, as the generic path does (which raises the kernel's error, or goes on past NaN)."""
@@ -182,8 +182,8 @@ class CompiledGlue:
         call = _callers.get(glue.outputs.address)
         if call is None:
             call = _callers[glue.outputs.address] = _OUTPUTS(glue.outputs.address)
-        due = (np.full((1, len(self.system.discrete)), not held) if due is None
-               else np.ascontiguousarray(due, bool).reshape(1, -1))
+        due = np.zeros((1, len(self.system.discrete)), bool) if due is None else \
+            np.ascontiguousarray(due, bool).reshape(1, -1)
         y, z = ctx.flat()
         raised = []
         with caught_unraisable(raised):

@@ -154,4 +154,3 @@ class Context:
             outs = blocks[i].output(t, self.block_state(i, xc), u[i])
             for buf, v in zip(y[i], outs):
                 buf[:] = v
-

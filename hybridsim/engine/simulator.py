@@ -302,7 +302,7 @@ class Simulator:
                 ctx.stopped = run.stop
                 t_end = run.stop.t
             elif not (self._compiled is not None
-                      and self._compiled.evaluate((run.glue, run.pf, run.pi), t_end, ctx, held=True)):
+                      and self._compiled.evaluate((run.glue, run.pf, run.pi), t_end, ctx)):
                 # the context ends consistent: every output not held, evaluated at t_end
                 ctx.evaluate([i for i in range(len(sysm.blocks)) if sysm.kind[i] != "discrete"], t_end, ctx.xc)
         finally:
