@@ -211,9 +211,9 @@ def test_a_compiled_context_starts_and_ends_as_the_generic_one():
         assert np.array_equal(x, y)
     # a non-finite output stops the glue's pass: the blocks then compute them, as the generic path does
     a.xc[:] = np.nan
-    assert not sim._compiled.evaluate(numbers, 0.0, a, held=True)
+    assert not sim._compiled.evaluate(numbers, 0.0, a)
     a.xc[:] = b.xc
-    assert sim._compiled.evaluate(numbers, 0.0, a, held=True)
+    assert sim._compiled.evaluate(numbers, 0.0, a)
 
 
 @pytest.mark.slow
