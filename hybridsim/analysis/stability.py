@@ -144,7 +144,26 @@ def margins(L):
         "phase_crossover_hz": to_hz(wg),
         "gain_crossover_hz": to_hz(wp),
         "period_s": float(dt) if dt else None,
+        **loop_stability(L),
     }
+
+
+def _unstable(poles, dt):
+    """How many ``poles`` grow: |z| > 1 (sampled) or Re s > 0, poles at z = 1 / s = 0 left out."""
+    p = np.asarray(poles, complex)
+    if dt:
+        return int(np.sum((np.abs(p) > 1.0 + 1e-9) & (np.abs(p - 1.0) >= 1e-7)))
+    scale = max(1.0, float(np.max(np.abs(p)))) if p.size else 1.0
+    return int(np.sum((p.real > 1e-9 * scale) & (np.abs(p) > 1e-7 * scale)))
+
+
+def loop_stability(L):
+    """What the margins of L do not say alone: ``open_loop_unstable_poles`` (the loop opened, its poles
+    that grow; with any, the margins say nothing of stability without counting Nyquist's
+    encirclements) and ``closed_loop_stable`` (1/(1 + L), the loop closed again)."""
+    closed = control.feedback(L, 1)
+    return {"open_loop_unstable_poles": _unstable(control.poles(L), L.dt),
+            "closed_loop_stable": _unstable(control.poles(closed), L.dt) == 0}
 
 
 def closed_loop(path, overrides, at=None):
@@ -371,6 +390,12 @@ def summary_lines(res):
         gm = "inf" if m["gain_margin_db"] is None else f"{m['gain_margin_db']:.2f} dB"
         pm = "inf" if m["phase_margin_deg"] is None else f"{m['phase_margin_deg']:.1f} deg"
         lines.append(f"  loop {name} ({m['signal']}): gain margin {gm}, phase margin {pm}")
+        if not m.get("closed_loop_stable", True):
+            lines.append("    closed through this opening the loop is NOT STABLE: these margins do not measure "
+                         "a distance to instability")
+        elif m.get("open_loop_unstable_poles"):
+            lines.append(f"    opened here the loop has {m['open_loop_unstable_poles']} unstable pole(s): "
+                         "margins alone do not show stability (count Nyquist's encirclements)")
     for cname, c in res.get("cases", {}).items():
         lines.append(f"  case {cname} {c['set']}: {g} {_num(c['spectral_radius'])}"
                      f" ({'stable' if c['stable'] else 'not stable'})")

@@ -51,7 +51,8 @@ def page(report, imgs, folder):
     stab = report["stability"]
     srows = "".join(
         f"<tr><td>{r['model']}</td><td>{r['rate_hz']}</td><td>{r['largest_abs_z']:.4f}</td>"
-        f"<td>{_f(r['least_damping'])}</td><td>{_f(r['force_phase_margin_deg'])}</td></tr>"
+        f"<td>{_f(r['least_damping'])}</td><td>{_f(r['force_phase_margin_deg'])}"
+        f"{' (the loop closes unstable)' if r.get('force_loop_closes_stable') is False else ''}</td></tr>"
         for r in stab["rows"])
     sens = "".join(
         f"<tr><td>{esc(s['experiment'])}</td><td>{esc(s['variation'])}</td><td>{s['claims_reproduced']}</td>"

@@ -99,7 +99,8 @@ def _stability_row(experiment, point):
     return {"model": point.changes["model"], "rate_hz": changes["rate"], "largest_abs_z": res["growth"],
             "least_damping": an.least_damping(res["poles"]),
             "force_phase_margin_deg": res["loops"]["force"].get("phase_margin_deg"),
-            "force_gain_margin_db": res["loops"]["force"].get("gain_margin_db")}
+            "force_gain_margin_db": res["loops"]["force"].get("gain_margin_db"),
+            "force_loop_closes_stable": res["loops"]["force"].get("closed_loop_stable")}
 
 
 def _explanations():

@@ -122,7 +122,10 @@ def _analysis_values(spec, ov, quantities):
                     loops[q.loop] = margins(lin.loop(sig))
                 except LinearizationError as exc:
                     raise SpecError(f"loop {q.loop!r}: {exc}", spec.path, q.line) from None
-            v = loops[q.loop][q.analysis]  # margins() names its results as the tune file does
+            m = loops[q.loop]
+            v = m[q.analysis]  # margins() names its results as the tune file does
+            if q.analysis.endswith(("_db", "_deg")) and not m["closed_loop_stable"]:
+                v = -math.inf  # a margin of a loop that closes unstable: none to speak of
             # no crossing: an infinite margin (none at all), no crossover frequency
             out[q.name].append(math.inf if v is None and q.analysis.endswith(("_db", "_deg")) else _number(v))
     return out

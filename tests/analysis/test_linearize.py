@@ -207,6 +207,39 @@ def test_reported_margins_lie_on_the_loops_own_frequency_response():
             assert abs(r) * m["gain_margin"] == pytest.approx(1.0, rel=0.01) and r.real < 0, name
 
 
+@pytest.mark.parametrize("L, open_unstable, closed_stable", [
+    (control.tf([2.0], [1.0, 1.0]), 0, True),            # 1 + L: s + 3
+    (control.tf([2.0], [1.0, -1.0]), 1, True),           # unstable opened, 1 + L: s + 1
+    (control.tf([0.5], [1.0, -1.0]), 1, False),          # 1 + L: s - 0.5
+    (control.tf([0.3], [1.0, -0.5], 0.1), 0, True),      # 1 + L: z - 0.2
+    (control.tf([3.0], [1.0, -0.5], 0.1), 0, False),     # 1 + L: z + 2.5
+    (control.tf([1.0], [1.0, -1.0], 0.1), 0, True),      # a sampled integrator, 1 + L: z
+])
+def test_loop_stability_says_what_margins_do_not(L, open_unstable, closed_stable):
+    from hybridsim.analysis.stability import loop_stability
+
+    assert loop_stability(L) == {"open_loop_unstable_poles": open_unstable, "closed_loop_stable": closed_stable}
+
+
+def test_margins_of_a_loop_that_closes_unstable_say_so():
+    """Fig 9's force loop, opened at dF: |L| > 1.58 up to just below Nyquist, where it falls to 0 (phase
+    margin 90 deg there, no usable gain margin), and the whole loop is not stable (|z| 6.44): the
+    margins come with the verdict of 1/(1 + L), and the opened position loop's own unstable poles."""
+    import warnings
+
+    from hybridsim.analysis import stability as an
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = an.analyze(DIAGRAMS / "fig9_force_and_position.yaml", sweeps=False)
+    assert res["stable"] is False
+    assert res["loops"]["force"]["closed_loop_stable"] is False
+    assert res["loops"]["position"]["closed_loop_stable"] is False
+    assert res["loops"]["position"]["open_loop_unstable_poles"] == 2  # the force loop's pair at |z| 6.44
+    text = "\n".join(an.summary_lines(res))
+    assert text.count("closed through this opening the loop is NOT STABLE") == 2
+
+
 def test_a_continuous_loop_matches_python_control():
     """Nothing sampled: a continuous PI around a second-order plant; the closed loop's poles and the
     loop opened at the controller's output are python-control's feedback(C P) and C P."""
