@@ -16,22 +16,24 @@ def zoh(A, B, tau):
     return E[:n, :n], E[:n, n:]
 
 
-def _column(fun, x0, j, step, size=0.0):
-    """Column ``j`` of the central difference, and its rounding error bound: eps times the larger
-    of |f| and ``size`` (the magnitude of the terms f sums), over the step."""
+def _column(fun, x0, j, step, size=0.0, f0=None):
+    """Column ``j`` of the central difference, its rounding error bound (eps times the larger of |f|
+    and ``size``, the magnitude of the terms f sums, over the step) and, given f0 = f(x0), the
+    difference of the one-sided slopes (forward - backward)."""
     e = np.zeros_like(x0)
     e[j] = step
     hi, lo = fun(x0 + e), fun(x0 - e)
     big = max(np.max(np.abs(hi) + np.abs(lo), initial=0.0), 2.0 * size)
-    return (hi - lo) / (2 * step), np.finfo(float).eps * big / (2 * step)
+    bend = None if f0 is None else (hi - 2.0 * f0 + lo) / step
+    return (hi - lo) / (2 * step), np.finfo(float).eps * big / (2 * step), bend
 
 
 def _columns(fun, x0, steps, size):
     f0 = fun(x0)
-    J, noise = np.zeros((f0.size, x0.size)), np.zeros(x0.size)
+    J, noise, bend = np.zeros((f0.size, x0.size)), np.zeros(x0.size), np.zeros((f0.size, x0.size))
     for j in range(x0.size):
-        J[:, j], noise[j] = _column(fun, x0, j, steps[j], size)
-    return J, noise
+        J[:, j], noise[j], bend[:, j] = _column(fun, x0, j, steps[j], size, f0)
+    return J, noise, bend
 
 
 def checked_jacobian(fun, x0, steps, tol=1e-8, tries=8, size=0.0):
@@ -42,26 +44,34 @@ def checked_jacobian(fun, x0, steps, tol=1e-8, tries=8, size=0.0):
     up to ``tries`` times, while that lowers it: a step small against a large right-hand side (a
     held input of 1e5 about a state at 0) loses the difference in rounding, a larger one keeps it.
     ``size``: the magnitude of the values f's terms reach (its signals), where they cancel in f.
+
+    A kink at x0 (a contact closing there, a saturation at its limit) has one-sided slopes that
+    differ by as much at steps / 4 as at steps (smooth: 4 times less); the central difference is
+    then their mean, half the jump from either: that is the estimate's floor for that column.
     """
-    J1, _ = _columns(fun, x0, steps, size)
-    J2, noise = _columns(fun, x0, steps / 4, size)
+    J1, _, bend1 = _columns(fun, x0, steps, size)
+    J2, noise, bend2 = _columns(fun, x0, steps / 4, size)
     if not J2.size or not J2.any():  # nothing to difference, or nothing depends on x0
         return J2, 0.0
     scale = np.max(np.abs(J2))
     err = (np.max(np.abs(J2 - J1), axis=0) + noise) / scale
+    # bend2 / bend1: 1/4 smooth, 1 a kink, 4 a value at x0 alone (an equality test; its neighbours agree)
+    kink = ((np.abs(bend2) > 0.5 * np.abs(bend1)) & (np.abs(bend2) < 2.0 * np.abs(bend1))
+            & (np.abs(bend2) > np.maximum(1e-6 * scale, 1e3 * noise)))
+    bent = np.max(np.where(kink, np.abs(bend2), 0.0), axis=0) / (2 * scale)
     for j in np.flatnonzero(err > tol):
         step = steps[j]
         for _ in range(tries):
             step *= 10
-            c1, _ = _column(fun, x0, j, step, size)
-            c2, n2 = _column(fun, x0, j, step / 4, size)
+            c1, _, _ = _column(fun, x0, j, step, size)
+            c2, n2, _ = _column(fun, x0, j, step / 4, size)
             e = (np.max(np.abs(c2 - c1)) + n2) / scale
             if not e < err[j]:
                 break
             J2[:, j], err[j] = c2, e
             if e <= tol:
                 break
-    return J2, float(np.max(err))
+    return J2, float(np.max(np.maximum(err, bent)))
 
 
 def nonzero_columns(M):

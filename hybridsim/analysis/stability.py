@@ -374,7 +374,8 @@ def summary_lines(res):
              f"integrator pole(s) at {at_one}) -> {'STABLE' if res['stable'] else 'NOT STABLE'}"]
     if res.get("fd_error", 0.0) > 1e-4:  # a kink or switch at the operating point
         lines.append(f"  note: the finite differences agree only to {res['fd_error']:.1g} (relative): a kink or "
-                     "switch at the operating point makes the numbers below that uncertain")
+                     "switch at the operating point (a contact closing there, a limit reached) makes the numbers "
+                     "below that uncertain; linearize off it (analysis: at, or a set)")
     lines.append("  dominant poles:   " + ("|z|      f (Hz)   damping" if sampled else "|s|      f (Hz)   damping"))
     seen = 0
     for p in res["poles"]:

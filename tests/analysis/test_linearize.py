@@ -512,3 +512,18 @@ def test_bad_signals_and_times_from_python_are_named(tmp_path):
         with pytest.raises(InputError, match="analysis setting 'at' must be a time in seconds >= 0"):
             analyze(p, at=at, sweeps=False)
     assert analyze(p, at=np.int64(0), sweeps=False)["stable"] is not None  # numpy's numbers are numbers
+
+
+def test_linearizing_on_the_contact_kink_says_so(capsys):
+    """Fig 7 starts at first touch (0 N): the contact force's slopes are Kr and 0 there, the central
+    difference their mean (the hand mode at 231.7 Hz instead of 270 Hz); analyze notes it."""
+    import warnings
+
+    from hybridsim.analysis import stability as an
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = an.analyze(DIAGRAMS / "fig7_force_steps.yaml", sweeps=False)
+    assert res["plant_modes_hz"][0] == pytest.approx(231.66, abs=0.05)
+    assert res["fd_error"] > 0.1
+    assert any("kink or switch at the operating point" in line for line in an.summary_lines(res))

@@ -1,0 +1,29 @@
+"""Finite-difference Jacobians: the error estimate, hand-checked."""
+import numpy as np
+import pytest
+
+from hybridsim.analysis.jacobians import checked_jacobian
+
+STEPS = np.array([1e-6, 1e-6])
+
+
+def test_a_smooth_function_is_differenced_to_its_derivative():
+    J, err = checked_jacobian(lambda x: np.array([np.sin(x[0]) * x[1], x[1] ** 3]), np.array([0.3, 2.0]), STEPS)
+    assert J == pytest.approx(np.array([[2 * np.cos(0.3), np.sin(0.3)], [0.0, 12.0]]), rel=1e-8)
+    assert err < 1e-8
+
+
+def test_a_kink_at_the_point_is_half_its_jump_in_the_error_estimate():
+    """max(0, 3 x) at x = 0: slopes 3 and 0, the central difference their mean 1.5; the estimate says
+    the entry is 1.5 from either side, relative to the largest entry (2): 0.75."""
+    J, err = checked_jacobian(lambda x: np.array([max(0.0, 3 * x[0]) + 2 * x[1], np.sin(x[0])]),
+                              np.array([0.0, 1.0]), STEPS)
+    assert J[0, 0] == pytest.approx(1.5) and err == pytest.approx(0.75, rel=1e-6)
+    _, err = checked_jacobian(lambda x: np.array([max(0.0, 3 * x[0]) + 2 * x[1]]), np.array([0.1, 1.0]), STEPS)
+    assert err < 1e-8  # off the kink
+
+
+def test_a_value_at_the_point_alone_is_not_a_kink():
+    """An equality test (1 at x = 0 exactly, 0 around it): both sides agree on slope 0."""
+    J, err = checked_jacobian(lambda x: np.array([float(x[0] == 0.0) + x[1]]), np.array([0.0, 1.0]), STEPS)
+    assert J[0, 0] == 0.0 and err < 1e-8
