@@ -1,7 +1,7 @@
 """Force-control metrics of a run: the numbers the paper quotes, and their phrases.
 
 Force is judged as logged ("raw": it carries the hand's ringing, ~272 Hz in the
-paper's plant) and after the display filter ("filtered": a causal 2nd-order
+paper's plant) and after the display filter (each figure says which) ("filtered": a causal 2nd-order
 Butterworth low-pass at ``metrics: filter_cutoff``, 12 Hz by default, started in
 steady state). Registered with :func:`hybridsim.analysis.metrics.register`.
 """
@@ -63,6 +63,9 @@ def compute(t, sig, cfg):
         out["ss_force_error_filtered_N"] = max_abs_error(t, ff, fd, win)
         out["ss_force_error_raw_N"] = max_abs_error(t, f, fd, win)
         out["final_force_filtered_N"] = float(np.mean(ff[t >= win[0]]))
+        held = np.asarray(fd[t >= win[0]], float)
+        # a command that moves inside the window leaves no steady state to judge there
+        out["ss_command_held"] = bool(held.size and np.ptp(held) <= 1e-9 * max(1.0, float(np.max(np.abs(held)))))
         if "step_time" in cfg:
             ts = float(cfg["step_time"])
             before = fd[t < ts]
@@ -70,6 +73,9 @@ def compute(t, sig, cfg):
             step = step_response(t, ff, ts, y0, float(fd[-1]))
             out["rise_time_s"] = step["rise_time_s"]
             out["overshoot_pct"] = step["overshoot_pct"]
+            raw = step_response(t, f, ts, y0, float(fd[-1]))
+            out["rise_time_raw_s"] = raw["rise_time_s"]
+            out["overshoot_raw_pct"] = raw["overshoot_pct"]
         if "error_window" in cfg:
             w = [float(v) for v in cfg["error_window"]]
             out["force_error_max_filtered_N"] = max_abs_error(t, ff, fd, w)
@@ -84,22 +90,33 @@ def compute(t, sig, cfg):
 
 
 _PHRASES = (("rise_time_s", "rise {:.3f} s"), ("overshoot_pct", "overshoot {:.0f} %"),
-            ("ss_force_error_filtered_N", "steady error {:.2f} N"),
+            ("ss_force_error_filtered_N", "steady error up to {:.2f} N"),
             ("force_error_max_filtered_N", "max force error {:.2f} N"),
             ("max_position_error_m", "max position error {:.2f} mm"),
             ("oscillation_hz", "oscillation {:.1f} Hz"))
+#: the unfiltered counterpart of a filtered figure, shown beside it
+_RAW = {"rise_time_s": ("rise_time_raw_s", "{:.3f} s"), "overshoot_pct": ("overshoot_raw_pct", "{:.0f} %")}
 
 
 def describe(m):
-    """Phrases for the terminal: ``["rise 0.120 s", "overshoot 4 %", ..., "contact kept"]``."""
+    """Phrases for the terminal: ``["rise 0.120 s filtered (0.110 s raw)", ..., "contact kept"]``; the
+    figures of the force are those after the display filter, the raw ones beside them."""
     lost = m.get("contact_lost")
     parts = []
     for key, fmt in _PHRASES:
         v = m.get(key)
         if lost and key in ("rise_time_s", "overshoot_pct"):
             continue  # a bouncing hand has no meaningful step response (metrics.json keeps them)
-        if v is not None:
-            parts.append(fmt.format(v * 1000 if key.endswith("_m") else v))
+        if v is None:
+            continue
+        phrase = fmt.format(v * 1000 if key.endswith("_m") else v)
+        if key in _RAW:
+            raw_key, raw_fmt = _RAW[key]
+            raw = m.get(raw_key)
+            phrase += " filtered" + ("" if raw is None else f" ({raw_fmt.format(raw)} raw)")
+        if key == "ss_force_error_filtered_N" and m.get("ss_command_held") is False:
+            phrase += " (the command moves in that window: no steady state to judge)"
+        parts.append(phrase)
     if "contact_lost" in m:
         parts.append(f"contact LOST at {m['first_loss_s']:.3f} s (the force metrics then describe "
                      "a bouncing hand, not the force loop)" if lost else "contact kept")

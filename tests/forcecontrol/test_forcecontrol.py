@@ -30,7 +30,10 @@ def test_force_metrics_of_a_delayed_first_order_step():
     t0 = t[t >= t[-1] - 1.9][0]  # the window's first sample (1.1 s); the error is largest there
     assert m["ss_force_error_raw_N"] == pytest.approx(10 * np.exp(-(t0 - 1.0) / tau), rel=1e-9)
     assert "contact_lost" not in m and "oscillation_hz" not in m  # no role, no metric
-    assert describe({**m, "contact_lost": False})[:2] == [f"rise {m['rise_time_s']:.3f} s", "overshoot 0 %"]
+    assert m["rise_time_raw_s"] == pytest.approx(tau * np.log(9), abs=1e-4) and m["overshoot_raw_pct"] == 0.0
+    assert describe({**m, "contact_lost": False})[:2] == [
+        f"rise {m['rise_time_s']:.3f} s filtered ({m['rise_time_raw_s']:.3f} s raw)", "overshoot 0 % filtered (0 % raw)"]
+    assert m["ss_command_held"] is True
     assert describe({"rise_time_s": 0.1, "contact_lost": True, "first_loss_s": 0.2})[0].startswith("contact LOST at 0.200 s")
 
 
@@ -90,3 +93,27 @@ def test_the_wing_fills_the_generic_registries():
     assert "forcecontrol" in [m.name for m in generic.METRIC_SETS]
     assert "forcecontrol" in [lay.name for lay in figures.LAYOUTS]
     assert "hand_mode_hz" in extras.keys()
+
+
+def test_a_fast_loop_has_its_raw_overshoot_beside_the_filtered_one():
+    """A 30 Hz, zeta 0.2 second-order step (a helper's loop): overshoot exp(-pi z / sqrt(1 - z^2)) = 52.7 %
+    raw; the 12 Hz display filter shows a fraction of it, and the phrase gives both."""
+    from scipy import signal
+
+    wn, z = 2 * np.pi * 30, 0.2
+    t = np.arange(0, 1.0, 1e-4)
+    _, y = signal.step(([wn ** 2], [1, 2 * z * wn, wn ** 2]), T=t)
+    f = np.concatenate([np.zeros(1000), y[:-1000]])
+    fd = np.where(t < 0.1, 0.0, 1.0)
+    m = compute(t, {"force": f, "force_desired": fd}, {"step_time": 0.1})
+    assert m["overshoot_raw_pct"] == pytest.approx(100 * np.exp(-np.pi * z / np.sqrt(1 - z * z)), abs=0.05)
+    assert m["overshoot_pct"] < 20
+    assert describe(m)[1] == f"overshoot {m['overshoot_pct']:.0f} % filtered ({m['overshoot_raw_pct']:.0f} % raw)"
+
+
+def test_a_command_moving_in_the_steady_window_is_said():
+    t = np.arange(0, 1.2, 1e-3)
+    fd = np.where(t < 0.5, 0.0, 5.0)
+    m = compute(t, {"force": np.zeros_like(t), "force_desired": fd}, {"ss_window": 1.0})
+    assert m["ss_command_held"] is False
+    assert "no steady state to judge" in next(p for p in describe(m) if p.startswith("steady error"))
