@@ -77,6 +77,10 @@ def _check_subsystem(path, overrides):
             text = re.sub(r"subsystem 'sub' \(([^)]*)\) has", r"\1 has", str(exc).replace("--set sub.", "--set "))
             raise InputError(text) from None
     rates = sorted({float(1 / b.period) for b in system.blocks if b.period})
-    return {"kind": "subsystem", "blocks": len(system.blocks) - len(staged.inputs), "states": system.n_x,
+    from hybridsim.engine.diagram import DefaultValue
+
+    shown = [b for b in system.blocks if not isinstance(b, DefaultValue)]  # not an input's default
+    return {"kind": "subsystem", "blocks": len(shown) - len(staged.inputs), "states": system.n_x,
+            "held_states": int(system.x_held.sum()),
             "rates": rates, "runs": 1, "inputs": [(n, w) for n, w, _ in staged.inputs],
             "outputs": [(n, w) for n, _, w in staged.outputs]}

@@ -65,7 +65,7 @@ class Integrator(Block):
         self.declare_input("u", n)
         self.declare_input("reset", n, default=[0.0] * n, optional=True)
         self.declare_output("y", n, depends_on=())
-        self.declare_continuous_state(2 * n)  # x, then the mode m
+        self.declare_continuous_state(2 * n, held=[False] * n + [True] * n)  # x, then the mode m
         # starting at a limit, it starts held there unless its input points inside (read at t = 0)
         self.init_needs_inputs = bool(np.any((x0 <= lo) | (x0 >= hi)))
 

@@ -71,7 +71,7 @@ class TransportDelay(Block):
         self.declare_input("u", n)
         self.declare_output("y", n, depends_on=())
         # the ring of samples (slot-major), then the time of the next sample (s), which grows by design
-        self.declare_continuous_state((N + 2) * n + 1, bounded=[True] * ((N + 2) * n) + [False])
+        self.declare_continuous_state((N + 2) * n + 1, bounded=[True] * ((N + 2) * n) + [False], held=True)
 
     def linear_standin(self):
         """Its (pade, pade) Pade approximation, which analysis linearizes in its place (the buffer's
@@ -211,7 +211,7 @@ class Memory(Block):
         self.declare_input("u", n)
         self.declare_input("trigger", 1)
         self.declare_output("y", n, depends_on=())
-        self.declare_continuous_state(n + 1)  # y, then the trigger's side of 0.5 (-1, 0 at the start on it, +1)
+        self.declare_continuous_state(n + 1, held=True)  # y, then the trigger's side of 0.5 (-1, 0 at the start on it, +1)
 
     def initial_state(self, u=None):
         side = np.sign(float(np.asarray(u[1], float)[0]) - 0.5) if u is not None else 0.0

@@ -74,8 +74,8 @@ def checked_jacobian(fun, x0, steps, tol=1e-8, tries=8, size=0.0):
     return J2, float(np.max(np.maximum(err, bent)))
 
 
-def nonzero_columns(M):
-    """States to keep: drop, repeatedly, those whose column is zero.
+def nonzero_columns(M, drop=None):
+    """States to keep: drop, repeatedly, those whose column is zero (and those in ``drop``).
 
     ``M`` has one column per state and one row per state, possibly followed by
     output rows. A state whose column vanishes (in the rows of the states kept
@@ -83,7 +83,7 @@ def nonzero_columns(M):
     """
     n = M.shape[1]
     extra = np.ones(M.shape[0] - n, bool)
-    keep = np.ones(n, bool)
+    keep = np.ones(n, bool) if drop is None else ~np.asarray(drop, bool)
     while True:
         rows = np.concatenate([keep, extra])
         zero = keep & ~np.any(M[rows] != 0, axis=0)

@@ -82,6 +82,7 @@ class Linearization:
         self.xd_sizes = [sysm.blocks[i].n_discrete for i in self.disc]
         self.yd_ports = [(i, o) for i in self.disc for o in range(len(sysm.blocks[i].outputs))]
         self.h_ports = sysm.plan.held_ports()
+        self.held = sysm.x_held  # modes and counts: held at their operating values, dropped from the models
         self.fd_error = 0.0
         hidden = hidden_state(sysm.blocks)
         if hidden:
@@ -116,6 +117,17 @@ class Linearization:
             self.ctx.xd[i] = xd[k:k + n].copy()
             k += n
 
+    def _pin(self, x):
+        """``x`` with the held states (modes, counts) at their operating values: their columns are 0."""
+        if self.held.any():
+            x = x.copy()
+            x[self.held] = self.xc0[self.held]
+        return x
+
+    def _kept(self, extra=0):
+        """Which entries of (xc, then ``extra`` more) a model keeps: all but the held states."""
+        return np.concatenate([~self.held, np.ones(extra, bool)])
+
     def _steps(self, v, floor):
         return self.rel_step * np.maximum(np.abs(v), floor)
 
@@ -148,7 +160,7 @@ class Linearization:
 
         def fx(x):
             self._write(self.h_ports, self.h0)
-            return rhs(t, x)
+            return rhs(t, self._pin(x))
 
         def fh(h):
             self._write(self.h_ports, h)
@@ -181,7 +193,7 @@ class Linearization:
 
         def gx(x):
             self._write(self.h_ports, self.h0)
-            self.ctx.evaluate(path, self.t, x)
+            self.ctx.evaluate(path, self.t, self._pin(x))
             return measure()
 
         def gh(h):
@@ -206,7 +218,7 @@ class Linearization:
         """
         sysm, ctx, t = self.system, self.ctx, self.t
         nx, nd = self.n_x, self.xd0.size
-        xc, xd, yd = s[:nx], s[nx:nx + nd], s[nx + nd:]
+        xc, xd, yd = self._pin(s[:nx]), s[nx:nx + nd], s[nx + nd:]
         self._set_xd(xd)
         self._write(self.yd_ports, yd)
         y_meas = []
@@ -305,7 +317,8 @@ class Linearization:
         diagram with nothing sampled, the :class:`ContinuousModel` ``xc' = A xc``."""
         A, B = self.continuous()
         if not self.sampled:
-            return ContinuousModel(A, self.state_names()[:self.n_x], self.fd_error)
+            k = self._kept()
+            return ContinuousModel(A[np.ix_(k, k)], [n for n, x in zip(self.state_names(), k) if x], self.fd_error)
         hits, H = self._hits()
         ns = self._state0().size
         M = np.eye(ns)
@@ -313,7 +326,7 @@ class Linearization:
             P = self._pass_matrices(due)
             Mk, _ = self._step_matrix(P, A, B, tau)
             M = Mk @ M
-        keep = nonzero_columns(M)
+        keep = nonzero_columns(M, ~self._kept(ns - self.n_x))
         names = [n for n, k in zip(self.state_names(), keep) if k]
         return DiscreteModel(M[np.ix_(keep, keep)], H, names, self.fd_error)
 
@@ -345,7 +358,7 @@ class Linearization:
             Bv = self._continuous_model(inject, inject[:3]).B
         M, N = self._step_matrix(P[:-1], A, B, tau, n_in=1, Bv=Bv)
         Cy, Dy = P[-1:, :ns], P[-1:, ns:]
-        keep = nonzero_columns(np.vstack([M, Cy]))
+        keep = nonzero_columns(np.vstack([M, Cy]), ~self._kept(ns - self.n_x))
         return control.ss(M[np.ix_(keep, keep)], N[keep], Cy[:, keep], Dy, H)
 
     def loop(self, signal):
@@ -386,7 +399,7 @@ class Linearization:
             buf[inject[2]] = v[0] if inject[3] == "replace" else buf[inject[2]] + v[0]
 
         def fun(z, injecting=True):
-            x, v = z[:n], z[n:]
+            x, v = self._pin(z[:n]), z[n:]
             self._write(self.h_ports, self.h0)
             if inject[0] not in path:  # a held signal: its operating value, then v
                 ctx.y[inject[0]][inject[1]][:] = kept
@@ -417,4 +430,5 @@ class Linearization:
         self.fd_error = max(self.fd_error, err)
         ctx.y[inject[0]][inject[1]][:] = kept
         self._write(self.h_ports, self.h0)
-        return control.ss(J[:n, :n], J[:n, n:], J[n:, :n], J[n:, n:])
+        k = self._kept()
+        return control.ss(J[:n, :n][np.ix_(k, k)], J[:n, n:][k], J[n:, :n][:, k], J[n:, n:])

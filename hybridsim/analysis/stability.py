@@ -370,8 +370,10 @@ def summary_lines(res):
     head = (f"closed loop at period {res['period_s'] * 1000:.3f} ms" if sampled
             else "continuous closed loop (nothing is sampled)")
     lines = [f"{res['diagram']}: {head} (branch {res['branch'] or 'as built'})",
-             f"  {g} {res['growth']:{'.4f' if sampled else '.4g'}} (besides {res['integrator_modes']} undriven "
-             f"integrator pole(s) at {at_one}) -> {'STABLE' if res['stable'] else 'NOT STABLE'}"]
+             f"  {g} {res['growth']:{'.4f' if sampled else '.4g'}}"
+             + (f" (besides {res['integrator_modes']} undriven integrator pole(s) at {at_one})"
+                if res["integrator_modes"] else "")
+             + f" -> {'STABLE' if res['stable'] else 'NOT STABLE'}"]
     if res.get("fd_error", 0.0) > 1e-4:  # a kink or switch at the operating point
         lines.append(f"  note: the finite differences agree only to {res['fd_error']:.1g} (relative): a kink or "
                      "switch at the operating point (a contact closing there, a limit reached) makes the numbers "

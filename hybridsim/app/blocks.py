@@ -48,5 +48,6 @@ def lines(b, verbose):
         out.append(f"  {'':26s} inputs: {', '.join(map(port, b.inputs)) or 'none'}; "
                    f"outputs: {', '.join(map(port, b.outputs)) or 'none'}"
                    + (f"; rate {b.rate_hz:g} Hz" if b.rate_hz else "")
-                   + (f"; {b.states} continuous states" if b.states else ""))
+                   + (f"; {b.states} continuous states" if b.states else "")
+                   + (f" ({b.held} of them modes or counts, held between events)" if b.held else ""))
     return out

@@ -29,10 +29,16 @@ def run(args):
               f"method {info['method']}")
     elif info["kind"] == "subsystem":
         ports = lambda ps: ", ".join(f"{n} ({w})" for n, w in ps) or "none"  # noqa: E731
-        print(f"{args.diagram}: OK - a subsystem of {info['blocks']} blocks, {info['states']} continuous states, "
+        print(f"{args.diagram}: OK - a subsystem of {info['blocks']} blocks, {_states(info)}, "
               f"rates {', '.join(f'{r:g} Hz' for r in info['rates']) or 'none'}; inputs {ports(info['inputs'])}, "
               f"outputs {ports(info['outputs'])} (checked with its inputs held at 0)")
     else:
-        print(f"{args.diagram}: OK - {info['blocks']} blocks, {info['states']} continuous states, "
+        print(f"{args.diagram}: OK - {info['blocks']} blocks, {_states(info)}, "
               f"rates {', '.join(f'{r:g} Hz' for r in info['rates']) or 'none'}, {info['runs']} run(s)")
     return 0
+
+
+def _states(info):
+    held = info.get("held_states", 0)
+    return f"{info['states']} continuous states" + (f" ({held} of them modes or counts, held between events)"
+                                                    if held else "")

@@ -137,6 +137,8 @@ class Block:
     discrete_bounded = True
     #: per continuous state: ``max_state`` bounds it (see :meth:`declare_continuous_state`); None: all
     continuous_bounded = None
+    #: per continuous state: held between events (see :meth:`declare_continuous_state`); None: none
+    continuous_held = None
     #: the block's equations as pure functions f(p, t, x, u) (hybridsim.engine.kernels);
     #: the methods below call them with ``params``. Blocks with kernels run on
     #: the fused and compiled paths as well as the generic one.
@@ -194,14 +196,17 @@ class Block:
         self.outputs.append(Port(self, name, port_width(width), len(self.outputs), dep))
         return len(self.outputs) - 1
 
-    def declare_continuous_state(self, n, atol=None, bounded=True):
+    def declare_continuous_state(self, n, atol=None, bounded=True, held=False):
         """Declare ``n`` continuous states; ``atol`` per state (or scalar). ``bounded`` (per state or
         scalar): ``max_state`` bounds them (False for states that grow by design: a count, a time).
-        A state that is not finite stops the run either way."""
+        A state that is not finite stops the run either way. ``held`` (per state or scalar): the
+        state's derivative is 0 and only the block's event actions change it (a mode, a count, a
+        time of the last event); a linearization holds it, it is no dynamics."""
         self.n_continuous = port_width(n, "states") if n else 0
         if atol is not None:
             self.atol = np.broadcast_to(np.asarray(atol, float), (n,)).copy()
         self.continuous_bounded = np.broadcast_to(np.asarray(bounded, bool), (self.n_continuous,)).copy()
+        self.continuous_held = np.broadcast_to(np.asarray(held, bool), (self.n_continuous,)).copy()
 
     def declare_rate(self, period=None, rate=None, offset=0):
         """Make the block discrete: sampled every ``period`` s (or ``rate`` Hz)."""

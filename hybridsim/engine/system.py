@@ -111,18 +111,25 @@ class System:
 
     def _layout(self):
         self.xslices = [None] * len(self.blocks)
-        atol, bounded, n = [], [], 0
+        atol, bounded, held, n = [], [], [], 0
+
+        def per_state(b, name, default):
+            own = getattr(b, name, None)
+            return own if own is not None and len(own) == b.n_continuous else np.full(b.n_continuous, default)
+
         for i, b in enumerate(self.blocks):
             if self.kind[i] == "continuous":
                 self.xslices[i] = slice(n, n + b.n_continuous)
                 n += b.n_continuous
                 atol.append(b.atol if b.atol is not None else np.full(b.n_continuous, np.nan))
-                own = getattr(b, "continuous_bounded", None)
-                bounded.append(own if own is not None and len(own) == b.n_continuous else np.ones(b.n_continuous, bool))
+                bounded.append(per_state(b, "continuous_bounded", True))
+                held.append(per_state(b, "continuous_held", False))
         self.n_x = n
         self.atol = np.concatenate(atol) if atol else np.zeros(0)
         #: which continuous states ``max_state`` bounds (a count or a time grows by design)
         self.x_bounded = np.concatenate(bounded).astype(bool) if bounded else np.zeros(0, bool)
+        #: which continuous states only events change (modes, counts): no dynamics to linearize
+        self.x_held = np.concatenate(held).astype(bool) if held else np.zeros(0, bool)
         # every output in one wire vector, every discrete state in one vector: each block's slices
         self.yslices, k = [], 0
         for b in self.blocks:

@@ -250,7 +250,10 @@ def check(path_or_file, **overrides):
     for label, variant in variants:
         system, simulator, settings = build(f, variant, check_only=True)
         rates |= {float(1 / b.period) for b in system.blocks if b.period}
-    return {"blocks": len(system.blocks), "states": system.n_x, "rates": sorted(rates),
+    from hybridsim.engine.diagram import DefaultValue
+
+    return {"blocks": sum(not isinstance(b, DefaultValue) for b in system.blocks),  # not an input's default
+            "states": system.n_x, "held_states": int(system.x_held.sum()), "rates": sorted(rates),
             "runs": len(variants)}
 
 

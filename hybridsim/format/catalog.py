@@ -15,7 +15,8 @@ class BlockInfo:
 
     ``required``: parameter names without a default; ``defaults``: ``{name: default}`` of the others;
     ``inputs``/``outputs``: ``[(port, width)]`` of the block built with its defaults (None
-    when it cannot be built so, e.g. it needs a file); ``rate_hz`` and ``states`` likewise.
+    when it cannot be built so, e.g. it needs a file); ``rate_hz``, ``states`` and ``held`` (of those, the
+    modes and counts only events change) likewise.
     """
 
     type_name: str
@@ -27,6 +28,7 @@ class BlockInfo:
     outputs: list = None
     rate_hz: float = None
     states: int = 0
+    held: int = 0
 
 
 def block_info(type_name, ports=True):
@@ -51,13 +53,22 @@ def block_info(type_name, ports=True):
     info = dict(type_name=type_name, cls=cls, doc=doc, required=req, defaults={p: sig[p].default for p in opt})
     if not ports:
         return BlockInfo(**info)
-    try:  # the ports of a block with its defaults (a block that needs a file has none to show)
-        blk = cls(name="b")
-    except Exception:  # noqa: BLE001 - only for showing
+    # the ports of a block with its defaults (a sampled block given a rate, which its ports do not
+    # depend on; a block that needs a file has none to show)
+    for given in ({}, {"rate": 1.0} if "rate" in sig else None):
+        try:
+            blk = cls(name="b", **given) if given is not None else None
+        except Exception:  # noqa: BLE001 - only for showing
+            blk = None
+        if blk is not None:
+            break
+    if blk is None:
         return BlockInfo(**info)
+    held = blk.continuous_held
     return BlockInfo(**info, inputs=[(p.name, p.width) for p in blk.inputs],
                      outputs=[(p.name, p.width) for p in blk.outputs],
-                     rate_hz=float(1 / blk.period) if blk.period else None, states=blk.n_continuous)
+                     rate_hz=float(1 / blk.period) if blk.period and not given else None,
+                     states=blk.n_continuous, held=int(held.sum()) if held is not None else 0)
 
 
 def catalog():

@@ -527,3 +527,34 @@ def test_linearizing_on_the_contact_kink_says_so(capsys):
     assert res["plant_modes_hz"][0] == pytest.approx(231.66, abs=0.05)
     assert res["fd_error"] > 0.1
     assert any("kink or switch at the operating point" in line for line in an.summary_lines(res))
+
+
+INTEGRATOR_LOOP = """
+name: cascade
+blocks:
+  ref:   {type: step, initial: 0.0, final: 1.0, time: 0.05}
+  outer: {type: discrete_pid, Kp: 8.0, Ki: 2.0, Kd: 0.5, N: 50.0, rate: 100}
+  motor: {type: transfer_function, num: [1.0], den: [0.01, 0.1]}
+  pos:   %s
+wires: [ref.y -> outer.r, pos.y -> outer.y, outer.u -> motor.u, motor.y -> pos.u]
+simulation: {t_end: 1.0}
+"""
+
+
+def test_an_integrators_mode_is_no_pole(tmp_path):
+    """An integrator's mode (free, at a limit) is a state only events change: the loop closed through
+    `integrator` has the poles of the same loop through the transfer function 1/s, none at z = 1 more
+    (a helper found an 'undriven integrator pole' there), and check counts the blocks the file has."""
+    from hybridsim.analysis import stability as an
+    from hybridsim.format.build import check
+
+    res = {}
+    for kind, block in (("integrator", "{type: integrator}"), ("tf", "{type: transfer_function, num: [1.0], den: [1.0, 0.0]}")):
+        p = tmp_path / f"{kind}.yaml"
+        p.write_text(INTEGRATOR_LOOP % block)
+        res[kind] = an.analyze(p, sweeps=False)
+    assert res["integrator"]["integrator_modes"] == 0 == res["tf"]["integrator_modes"]
+    poles = [np.sort_complex([complex(q["re"], q["im"]) for q in r["poles"]]) for r in res.values()]
+    assert len(poles[0]) == len(poles[1]) and poles[0] == pytest.approx(poles[1], abs=1e-7)
+    info = check(tmp_path / "integrator.yaml")
+    assert info["blocks"] == 4 and info["states"] == 3 and info["held_states"] == 1

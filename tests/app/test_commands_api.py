@@ -47,6 +47,10 @@ def test_write_schema_and_the_catalog(tmp_path):
     assert gain.inputs == [("u", 1)] and gain.outputs == [("y", 1)] and gain.states == 0
     groups = catalog()
     assert list(groups)[0] == "paper" and "gain" in [b.type_name for b in groups["math"]]
+    pid = block_info("discrete_pid")  # needs a rate to be built; its ports do not
+    assert pid.inputs == [("r", 1), ("y", 1)] and pid.outputs == [("u", 1)] and pid.rate_hz is None
+    integ = block_info("integrator")  # x and its mode, which only events change
+    assert integ.states == 2 and integ.held == 1
 
 
 def test_find_diagram_names_a_shipped_one(tmp_path, monkeypatch):
