@@ -45,7 +45,7 @@ def checked_jacobian(fun, x0, steps, tol=1e-8, tries=8, size=0.0):
     held input of 1e5 about a state at 0) loses the difference in rounding, a larger one keeps it.
     ``size``: the magnitude of the values f's terms reach (its signals), where they cancel in f.
 
-    A kink at x0 (a contact closing there, a saturation at its limit) has one-sided slopes that
+    A kink at x0 (a one-sided spring engaging there, a saturation at its limit) has one-sided slopes that
     differ by as much at steps / 4 as at steps (smooth: 4 times less); the central difference is
     then their mean, half the jump from either: that is the estimate's floor for that column.
     """
