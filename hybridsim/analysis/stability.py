@@ -376,7 +376,7 @@ def summary_lines(res):
              + f" -> {'STABLE' if res['stable'] else 'NOT STABLE'}"]
     if res.get("fd_error", 0.0) > 1e-4:  # a kink or switch at the operating point
         lines.append(f"  note: the finite differences agree only to {res['fd_error']:.1g} (relative): a kink or "
-                     "switch at the operating point (a surface closing there, a limit reached) makes the numbers "
+                     "switch at the operating point (a one-sided spring engaging there, a limit reached) makes the numbers "
                      "below that uncertain; linearize off it (analysis: at, or a set)")
     lines.append("  dominant poles:   " + ("|z|      f (Hz)   damping" if sampled else "|s|      f (Hz)   damping"))
     seen = 0
