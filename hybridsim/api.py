@@ -46,6 +46,7 @@ def write_outputs(f, runs, settings, outdir):
         finally:
             plt.close(fig or "all")
         doc = {"diagram": f.name, "file": str(f.path), "description": f.description,
+               "set": dict(getattr(f, "overrides", None) or {}),  # the changes given (--set), over every run
                "runs": [{"label": r["label"], "csv": r["csv"], "overrides": r["overrides"],
                          "solver": r["result"].meta["solver"], "metrics": r["metrics"],
                          "notes": r["result"].meta.get("metric_notes", [])}

@@ -74,7 +74,9 @@ def test_run_writes_csv_plots_metrics(tmp_path, capsys):
     names = sorted(p.name for p in out.iterdir())
     assert names == ["eq18_hand_oscillation.csv", "eq18_hand_oscillation.png",
                      "eq18_hand_oscillation.svg", "metrics.json"]
-    m = json.loads((out / "metrics.json").read_text())["runs"][0]["metrics"]
+    doc = json.loads((out / "metrics.json").read_text())
+    assert doc["set"] == {"Kr": 9.0e5, "simulation.t_end": 0.02}  # what produced it
+    m = doc["runs"][0]["metrics"]
     assert m["oscillation_hz"] == pytest.approx(272.5, rel=0.01)
     assert "oscillation 27" in stdout
 
