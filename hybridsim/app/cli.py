@@ -14,6 +14,7 @@ error (please report it, with ``--debug``).
 """
 import argparse
 import logging
+import os
 import signal
 import sys
 
@@ -141,6 +142,41 @@ def _origin(exc):
     return None
 
 
+class _Stdout:
+    """stdout that goes quiet once its reader has gone (``hybridsim analyze ... | head -1``): the
+    command still finishes its work and its files."""
+
+    def __init__(self, stream):
+        self._stream, self.gone = stream, False
+
+    def write(self, text):
+        if not self.gone:
+            try:
+                return self._stream.write(text)
+            except BrokenPipeError:
+                self._went()
+        return len(text)
+
+    def flush(self):
+        if not self.gone:
+            try:
+                self._stream.flush()
+            except BrokenPipeError:
+                self._went()
+
+    def _went(self):
+        self.gone = True
+        try:  # what is still buffered, and the flush at exit, go nowhere instead of failing
+            null = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(null, self._stream.fileno())
+            os.close(null)
+        except (OSError, ValueError, AttributeError):
+            pass
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
 def main(argv=None):
     """Run the ``hybridsim`` command with ``argv`` (default: sys.argv); returns the exit status (docs/getting-started.md, "Exit status")."""
     parser = build_parser()
@@ -154,6 +190,8 @@ def main(argv=None):
         signal.signal(signal.SIGTERM, _on_sigterm)
     except ValueError:  # not the main thread: leave signals alone
         previous = None
+    stdout = sys.stdout
+    sys.stdout = _Stdout(stdout)
     try:
         for module in getattr(args, "plugins", None) or []:
             from hybridsim.engine.registry import load_plugin
@@ -184,6 +222,7 @@ def main(argv=None):
               "(this is a bug in hybridsim; run again with --debug for the traceback)", file=sys.stderr)
         return 70
     finally:
+        sys.stdout = stdout
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
 

@@ -478,3 +478,18 @@ def test_an_analysis_time_past_t_end_is_said_once(tmp_path, capsys):
     # analyze ran 300 s in silence on a 0.3 s diagram linearized at 100 s
     code, _, err = run(capsys, "check", write(tmp_path, GOOD + "analysis: {at: 100}\n"))
     assert code == 0 and err.count("analysis at 100 s is past t_end 0.2 s") == 1
+
+
+def test_a_reader_that_leaves_early_does_not_stop_the_command(tmp_path):
+    """``hybridsim analyze ... | head -1``: the pipe closes after the first line; the command finishes
+    its files and exits 0, without 'Broken pipe' (it said so and exited 5, the environment's code)."""
+    code = "import sys; from hybridsim.app.cli import main; sys.exit(main(sys.argv[1:]))"
+    diagram = DIAGRAMS / "examples" / "msd_pid.yaml"
+    p = subprocess.Popen([sys.executable, "-c", code, "analyze", str(diagram), "-o", str(tmp_path / "a")],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=tmp_path)
+    first = p.stdout.readline()
+    p.stdout.close()
+    err = p.stderr.read().decode()
+    assert p.wait(timeout=120) == 0, err
+    assert first.startswith(b"msd_pid: closed loop") and "Broken pipe" not in err
+    assert (tmp_path / "a" / "analysis.json").is_file()
