@@ -76,10 +76,13 @@ def check_output_dir(path):
             probe = probe.parent
         if probe.exists() and not probe.is_dir():
             raise OutputError(f"cannot create output folder {str(path)!r}: {str(probe)!r} is not a folder")
-        if not os.access(probe, os.W_OK | os.X_OK):
+        if not os.access(probe, os.W_OK | os.X_OK):  # the machine's refusal: the environment's exit code
+            import errno
+
+            code = errno.EROFS if os.statvfs(probe).f_flag & os.ST_RDONLY else errno.EACCES
             what = "write into" if probe == path else "create"
-            raise OutputError(f"cannot {what} output folder {str(path)!r}: "
-                              f"no permission to write in {str(probe)!r}")
+            raise from_os_error(OSError(code, os.strerror(code), str(probe)), f"cannot {what} output folder "
+                                f"{str(path)!r}: writing in")
         made = []
         try:
             for folder in reversed(missing):

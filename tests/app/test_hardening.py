@@ -113,7 +113,7 @@ def test_output_under_an_unwritable_folder_is_refused_before_the_simulation(tmp_
     ro.mkdir(mode=0o555)
     monkeypatch.setattr(variants, "run_experiment", lambda *a, **k: pytest.fail("simulated before checking -o"))
     code, _, err = run(capsys, "run", write(tmp_path, GOOD), "-q", "-o", ro / "o")
-    assert code == 2 and "no permission" in err
+    assert code == 5 and "Permission denied" in err and "no permission: choose another -o" in err
 
 
 def test_output_into_the_current_folder(tmp_path, capsys, monkeypatch):
