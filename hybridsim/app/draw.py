@@ -10,7 +10,7 @@ def add(sub):
                                    "dependency layers), one colour per rate.")
     options.add_diagram(p)
     p.add_argument("-o", "--output", metavar="FILE",
-                   help="image file (.png, .svg, .pdf; default NAME.png, never replacing a file hybridsim "
+                   help="image file, its suffix the format (.png, .svg, .pdf, .jpg or another matplotlib writes; default NAME.png, never replacing a file hybridsim "
                         "did not write: then NAME-2.png, ...)")
     p.add_argument("--expand", action="store_true",
                    help="draw every block inside subsystems (default: a subsystem is one box)")
