@@ -99,8 +99,11 @@ class Text(Kind):
 
 
 class Choice(Kind):
-    def __init__(self, options):
+    """One of ``options`` (any case); ``hints``: {a name users bring from elsewhere: what to give here}."""
+
+    def __init__(self, options, hints=None):
         self.options = list(options)
+        self.hints = dict(hints or {})
         self.text = "one of " + ", ".join(self.options)
 
     def problem(self, v):

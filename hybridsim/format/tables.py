@@ -24,6 +24,14 @@ __all__ = ["SIMULATION", "SIGNALS", "METRICS", "PLOT", "ANALYSIS", "ANALYSIS_STE
 
 SOLVERS = ["rk4", "heun", "radau", "bdf", "lsoda", "rk45", "rk23", "dop853", "cvode"]
 FIXED_STEP_SOLVERS = ("rk4", "heun")
+#: MATLAB / Simulink solver names and what to give here
+MATLAB_SOLVERS = {
+    "ode45": "rk45 (Dormand-Prince 5(4), as ode45) or dop853", "ode23": "rk23 (Bogacki-Shampine, as ode23)",
+    "ode113": "lsoda (Adams while not stiff)", "ode15s": "cvode or bdf (variable-order BDF, as ode15s)",
+    "ode15i": "cvode", "ode23s": "radau (implicit, for stiff problems)", "ode23t": "radau", "ode23tb": "radau",
+    "ode1": "heun or rk4 (fixed steps; there is no Euler)", "ode2": "heun (as ode2)", "ode3": "heun or rk4",
+    "ode4": "rk4 (as ode4)", "ode5": "rk4, or dop853 with steps chosen by tolerance", "ode8": "dop853",
+}
 
 
 @dataclass(frozen=True)
@@ -67,7 +75,7 @@ _OVERRIDES = MapOf(Kind(), keys=PathText(), what="parameter path")
 
 SIMULATION = [
     Setting("t_end", _TIME, 1.0, "end time of a run"),
-    Setting("solver", Choice(SOLVERS), "rk4", "integrator: fixed-step rk4/heun, a scipy solve_ivp method, or cvode (SUNDIALS BDF)"),
+    Setting("solver", Choice(SOLVERS, MATLAB_SOLVERS), "rk4", "integrator: fixed-step rk4/heun, a scipy solve_ivp method, or cvode (SUNDIALS BDF)"),
     Setting("step", _TIME, 1e-4, "fixed step of rk4 and heun"),
     Setting("rtol", _POS, 1e-8, "relative tolerance of the scipy solvers"),
     Setting("atol", Either(_POS, ListOf(_POS)), 1e-10,
@@ -275,8 +283,10 @@ def check_values(table, data, section, lines=None):
             continue
         why = s.kind.problem(value)
         if why and isinstance(s.kind, Choice):
-            out.append((f"unknown {s.key} {value!r}{closest(str(value).lower(), s.kind.options)}; "
-                        f"{s.key}s: {', '.join(s.kind.options)}", key))
+            hint = s.kind.hints.get(str(value).lower())
+            out.append((f"unknown {s.key} {value!r}"
+                        + (f" (here: {hint})" if hint else closest(str(value).lower(), s.kind.options))
+                        + f"; {s.key}s: {', '.join(s.kind.options)}", key))
         elif why:
             out.append((f"{section} setting {key!r} {why}" if why.startswith("must") else
                         f"{section} setting {key!r}: {why}", key))

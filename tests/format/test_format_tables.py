@@ -66,6 +66,7 @@ def test_analyze_and_report_read_the_checked_section(tmp_path, capsys):
 @pytest.mark.parametrize("section, line, message", [
     ("simulation", "atol: [1.0e-9, x]", "'atol' must be a positive, finite number or a list"),
     ("simulation", "solver: radua", "unknown solver 'radua' (did you mean 'radau'?)"),
+    ("simulation", "solver: ode15s", "unknown solver 'ode15s' (here: cvode or bdf"),  # MATLAB's names
     ("simulation", "fused: yes-please", "'fused' must be true or false"),
     ("simulation", "max_step: -.inf", "'max_step' must be a positive"),
     ("metrics", "error_window: [2, 1]", "'error_window' must be a list of 2"),
