@@ -452,6 +452,10 @@ def test_the_step_figure_takes_a_whole_port_of_one_element(tmp_path):
             for out in ("plant.y", "plant.y[0]")]
     a, b = (f.axes[0].lines[-1].get_ydata() for f in figs)
     assert np.array_equal(a, b) and np.max(np.abs(a)) > 0.01
+    _, stable = step_figure(p, {}, {"step": {"input": "setpoint.y", "output": "plant.y", "size": 1.0, "set": {}}})
+    _, unstable = step_figure(p, {"pid.Kd": 400.0}, {"step": {"input": "setpoint.y", "output": "plant.y", "size": 1.0,
+                                                               "ticks": 8, "set": {}}})
+    assert stable["linear_unstable_poles"] == 0 and unstable["linear_unstable_poles"] > 0  # the report says so
 
 
 DISTURBED = """\
