@@ -144,6 +144,7 @@ def test_linear_step_matches_nonlinear_simulation():
     assert lin[-1] == pytest.approx(0.05, abs=1e-3)
 
 
+@pytest.mark.slow
 def test_predicted_gain_boundary_brackets_nonlinear_instability():
     from hybridsim.analysis.stability import critical_scale
 
@@ -184,17 +185,23 @@ def test_an_unknown_analysis_setting_is_refused_at_its_line(tmp_path, capsys):
     assert "'at' must be a time in seconds >= 0" in capsys.readouterr().err
 
 
-def test_reported_margins_lie_on_the_loops_own_frequency_response():
-    """python-control's polynomial margins put Fig 9's force-loop crossover where |L| = 615 (and the
-    position loop's where |L| = 0.08); the margins reported are checked against L and, where they miss,
-    found on a dense grid of L's response."""
+@pytest.fixture(scope="module")
+def fig9_analysis():
     import warnings
 
     from hybridsim.analysis import stability as an
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = an.analyze(DIAGRAMS / "fig9_force_and_position.yaml", sweeps=False)
+        return an.analyze(DIAGRAMS / "fig9_force_and_position.yaml", sweeps=False)
+
+
+@pytest.mark.slow
+def test_reported_margins_lie_on_the_loops_own_frequency_response(fig9_analysis):
+    """python-control's polynomial margins put Fig 9's force-loop crossover where |L| = 615 (and the
+    position loop's where |L| = 0.08); the margins reported are checked against L and, where they miss,
+    found on a dense grid of L's response."""
+    res = fig9_analysis
     for name, m in res["loops"].items():
         L = res["_objects"]["loops"][name]
         at = lambda hz: complex(np.asarray(L(np.exp(2j * np.pi * hz * L.dt))).ravel()[0])  # noqa: E731
@@ -221,17 +228,14 @@ def test_loop_stability_says_what_margins_do_not(L, open_unstable, closed_stable
     assert loop_stability(L) == {"open_loop_unstable_poles": open_unstable, "closed_loop_stable": closed_stable}
 
 
-def test_margins_of_a_loop_that_closes_unstable_say_so():
+@pytest.mark.slow
+def test_margins_of_a_loop_that_closes_unstable_say_so(fig9_analysis):
     """Fig 9's force loop, opened at dF: |L| > 1.58 up to just below Nyquist, where it falls to 0 (phase
     margin 90 deg there, no usable gain margin), and the whole loop is not stable (|z| 6.44): the
     margins come with the verdict of 1/(1 + L), and the opened position loop's own unstable poles."""
-    import warnings
-
     from hybridsim.analysis import stability as an
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        res = an.analyze(DIAGRAMS / "fig9_force_and_position.yaml", sweeps=False)
+    res = fig9_analysis
     assert res["stable"] is False
     assert res["loops"]["force"]["closed_loop_stable"] is False
     assert res["loops"]["position"]["closed_loop_stable"] is False
@@ -518,6 +522,7 @@ def test_bad_signals_and_times_from_python_are_named(tmp_path):
     assert analyze(p, at=np.int64(0), sweeps=False)["stable"] is not None  # numpy's numbers are numbers
 
 
+@pytest.mark.slow
 def test_linearizing_on_the_contact_kink_says_so(capsys):
     """Fig 7 starts at first touch (0 N): the contact force's slopes are Kr and 0 there, the central
     difference their mean (the hand mode at 231.7 Hz instead of 270 Hz); analyze notes it."""

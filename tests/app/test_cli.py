@@ -92,6 +92,7 @@ def test_draw_and_blocks_and_help(tmp_path, capsys):
     assert "--set PATH=VALUE" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_analyze_prints_poles_margins_and_sweeps(tmp_path, capsys):
     code, out, _ = run(capsys, "analyze", DIAGRAMS / "hybrid_controller.yaml", "--set", "rate=120",
                        "-o", tmp_path)
@@ -162,6 +163,7 @@ def test_blocks_lists_the_library_by_group(capsys):
     assert "discrete_pid" in section and "integrator" in section and "manipulator" not in section
 
 
+@pytest.mark.slow
 def test_examples_copies_the_shipped_diagrams_and_keeps_a_users_files(tmp_path, capsys):
     out = tmp_path / "mine"
     out.mkdir()
@@ -184,6 +186,7 @@ def test_examples_copies_the_shipped_diagrams_and_keeps_a_users_files(tmp_path, 
     assert (other / "bouncing_ball.yaml").is_symlink() and (other / "subsystems").is_dir()
 
 
+@pytest.mark.slow
 def test_a_shipped_diagram_runs_from_any_folder(tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     assert main(["check", "diagrams/fig10_force_ramp.yaml"]) == 0

@@ -314,6 +314,7 @@ def test_nul_byte_and_deep_nesting_are_clear_errors(tmp_path, capsys):
     assert code == 2 and "nested deeper than" in err
 
 
+@pytest.mark.slow
 def test_extends_dev_zero_a_huge_file_and_a_fifo(tmp_path, capsys):
     code, _, err = run(capsys, "check", write(tmp_path, "extends: /dev/zero\nblocks: {}\n"))
     assert code == 2 and "is not a YAML file" in err

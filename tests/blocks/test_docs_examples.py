@@ -70,7 +70,8 @@ def test_every_example_has_a_check_and_a_page():
         assert f"examples/{name}.yaml" in (DOCS / f"{name}.md").read_text(), name
 
 
-@pytest.mark.parametrize("name", sorted(CHECKS))
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n == "continuous" else n
+                                  for n in sorted(CHECKS)])  # 'continuous' runs 11 s
 def test_example(name):
     res = hs.simulate(EXAMPLES / f"{name}.yaml")
     CHECKS[name](res, res.t)

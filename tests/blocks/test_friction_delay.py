@@ -98,6 +98,7 @@ def test_states_that_grow_by_design_are_not_bounded_by_max_state(path):
     assert abs(res["d.y[0]"][-1] - np.sin(2 * np.pi * (3.0 - 0.5))) < 1e-9  # a sample falls on t - tau
 
 
+@pytest.mark.slow
 def test_a_delay_of_microseconds_runs_and_one_shorter_than_its_events_can_be_is_refused():
     # 50 us over 64 samples: events 0.78 us apart, evenly: it ended as "Zeno" (more than 100,000 events
     # under 1e-6 s apart); 1e-16 s ran without any event and gave 292 for a sine of amplitude 1

@@ -44,6 +44,7 @@ def test_the_block_gives_the_vectorized_numbers():
     np.testing.assert_allclose(got, ref, rtol=1e-14, atol=1e-15)  # math.cos vs numpy's: an ulp
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1, 12345, 2**63 + 7])
 def test_a_million_samples_are_standard_normal_and_channels_independent(seed):
     n = 1_000_000
@@ -75,6 +76,7 @@ def test_psd_sets_sigma_from_the_period():
         Noise(sigma=1.0, psd=1.0, rate=10)
 
 
+@pytest.mark.slow
 def test_noise_is_the_same_in_another_process():
     code = ("from hybridsim.blocks.sources.noise import Noise; b = Noise(seed=11, rate=10); x = b.initial_state(); "
             "import numpy as np; print(repr(float(b.output(0, b.update(0, b.update(0, x, []), []), [])[0][0])))")

@@ -60,6 +60,7 @@ def _cloop(path, sign=1.0, limits=None, anti_windup="clamping", step=5e-4, **sim
                **sim)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", PATHS)
 def test_continuous_pid_equals_python_controls_closed_loop(path):
     import control as ct

@@ -126,6 +126,7 @@ def test_every_robot_blocks_params_are_numbers_and_arrays():
     _numbers_only(RobotArm(robot="panda", friction=True, friction_model="lugre").params, "lugre arm")
 
 
+@pytest.mark.slow
 def test_ur5_press_and_trace_fused_equals_generic():
     # 0.7 s: the approach, first touch (~0.19 s), the press with its force ramp, the trace's start
     runs = {f: hs.simulate(UR5, t_end=0.7, fused=f) for f in (False, True)}

@@ -30,6 +30,7 @@ def test_every_example_checks_and_runs(name):
     assert res.t[-1] == pytest.approx(0.2)
 
 
+@pytest.mark.slow
 def test_dc_motor_accelerates_at_the_current_limit_and_settles():
     res = hs.simulate(EXAMPLES / "dc_motor_speed.yaml")
     w, i, t = res["split.y1[0]"], res["split.y2[0]"], res.t

@@ -88,6 +88,7 @@ def test_analyze_linearizes_the_6dof_diagram_in_contact(capsys):
     assert 10.0 < m["phase_margin_deg"] < 40.0  # measured 20.4 deg at 22.5 Hz
 
 
+@pytest.mark.slow
 def test_the_rigid_body_arm_runs_the_papers_experiment():
     """Fig 10 with the Fig 3 arm as one rigid body (URDF by Pinocchio): it starts at first touch and
     tracks the ramp about as the printed model does (measured max filtered error over 0.75-2.5 s at

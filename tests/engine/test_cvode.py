@@ -244,6 +244,7 @@ def test_a_callback_error_comes_after_the_checks_of_the_points_before_it(where):
         run()  # no divergence: the block's own error, not CVODE's failure after it
 
 
+@pytest.mark.slow
 def test_me_fmu_diagram_checks_and_runs_from_the_cli_on_cvode_and_on_a_scipy_solver(plant, tmp_path, capsys):
     from hybridsim.app.cli import main
 

@@ -180,6 +180,7 @@ def test_located_switches_run_bit_for_bit_on_every_path():
         assert runs[0].meta["events"] == r.meta["events"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("solver", ["cvode", "radau", "rk4"])
 def test_two_crossings_within_round_off_of_a_hit_both_fire_after_it(solver):
     # the pulse's own switch and the memory's trigger cross a few ulps before the zoh's hit at

@@ -8,6 +8,7 @@ from hybridsim.engine import fused
 from conftest import DIAGRAMS, ROOT, integrator_without_kernels
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path, extra", [
     (DIAGRAMS / "fig9_force_and_position.yaml", {"rate": 120, "t_end": 0.4}),
     (DIAGRAMS / "fig8_receding_surface.yaml", {"t_end": 1.2}),

@@ -32,6 +32,7 @@ def common_rows(a, b):
     return a.table()[ia, 1:], b.table()[ib, 1:]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("settings", [
     {"fused": False}, {}, {"compiled": True},
     {"solver": "heun", "step": 5e-5, "fused": False}, {"solver": "heun", "step": 5e-5},

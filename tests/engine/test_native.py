@@ -3,9 +3,12 @@ import subprocess
 import sys
 import time
 
+import pytest
+
 from hybridsim.engine import native
 
 
+@pytest.mark.slow
 def test_a_second_process_waits_for_the_one_compiling_the_same_code(tmp_path, monkeypatch):
     monkeypatch.setenv("HYBRIDSIM_CACHE", str(tmp_path))
     holder = subprocess.Popen(

@@ -11,6 +11,7 @@ FIG10 = DIAGRAMS / "fig10_force_ramp.yaml"
 SMOOTH = ROOT / "tests" / "data" / "smooth_contact.yaml"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", [{"fused": False}, {}, {"compiled": True}], ids=["generic", "fused", "compiled"])
 def test_run_time_params_equal_a_rebuilt_diagram(path):
     change = {"arm.stick_band": 3e-4, "ctrl.fpi.Ki": [200.0, 180.0]}

@@ -111,6 +111,7 @@ def test_plugin_named_on_the_command_line(tmp_path, monkeypatch, capsys):
     assert "cannot import plugin module 'not_a_module_xyz'" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_a_broken_installed_plugin_is_skipped_with_a_warning(installed_plugin):
     target, _ = installed_plugin
     broken = target / "hs_demo_plugin" / "__init__.py"

@@ -41,6 +41,7 @@ class HitLog(Block):
         return x
 
 
+@pytest.mark.slow
 def test_60_and_120_hz_for_1000_s_hit_exactly_and_coincide():
     d = Diagram()
     slow, fast = d.add(HitLog("slow", 60)), d.add(HitLog("fast", 120))

@@ -20,12 +20,14 @@ def reference():
     return hs.simulate(SMOOTH, solver="radau", rtol=1e-9, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_contact_is_kept_and_force_settles(reference):
     assert reference["surface.contact[0]"].min() == 1.0
     assert reference["ctrl.ft.CF[0]"][0] == pytest.approx(10.0, abs=1e-9)  # starts in balance
     assert reference["ctrl.ft.CF[0]"][-1] == pytest.approx(15.0, abs=0.3)  # settling towards 15 N
 
 
+@pytest.mark.slow
 def test_radau_and_fine_rk4_agree(reference):
     rk4 = hs.simulate(SMOOTH, solver="rk4", step=2.5e-5)
     assert np.array_equal(rk4.t, reference.t)
@@ -34,6 +36,7 @@ def test_radau_and_fine_rk4_agree(reference):
     assert np.max(np.abs(rk4["ctrl.fk.X[1]"] - reference["ctrl.fk.X[1]"])) < 1e-11
 
 
+@pytest.mark.slow
 def test_default_rk4_step_is_accurate(reference):
     rk4 = hs.simulate(SMOOTH, solver="rk4")  # step 1e-4 s: measured 1.5e-5 N, 1.1e-11 m
     assert np.max(np.abs(rk4["ctrl.ft.CF[0]"] - reference["ctrl.ft.CF[0]"])) < 1e-4

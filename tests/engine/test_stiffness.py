@@ -34,6 +34,7 @@ def test_the_longest_stable_step_on_a_real_mode_is_the_methods_interval():
     assert longest_stable_step(RK4.A, RK4.b, 1e-3, lam) == pytest.approx(2.785e-4, rel=0.03)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("solver", ["heun", "rk4"])
 def test_a_step_too_long_for_a_fast_lag_is_refused_naming_its_block(tmp_path, solver):
     # events at the integrator's limit cut heun's steps short: it used to end with ff.y = -2345

@@ -81,6 +81,7 @@ def test_xml_and_c_table_come_from_one_source():
     assert pm.guid() in xml and pm.guid() in header
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("extra", [{}, {"friction": False, "joint_damping": [100.0, 1000.0],
                                         "wrist_damping": 50.0, "surface_damping": 50.0}],
                          ids=["friction-on", "friction-off-damped"])
@@ -99,6 +100,7 @@ def test_fmu_plant_matches_python_plant_fig9(any_plant, extra):
         assert np.max(np.abs(res["ctrl.fk.X[1]"] - ref["ctrl.fk.X[1]"])) < tol * 1e-3, mode
 
 
+@pytest.mark.slow
 def test_fmu_plant_matches_python_plant_fig7(any_plant):
     plant = any_plant
     ov = {"rate": 60, "force0": 0.0, "force_cmd.initial": [0.0, 0.0],

@@ -67,6 +67,7 @@ def test_the_issue_example_step_1e_9_to_t_end_1_is_refused(capsys):
     assert code == 2 and "steps" in err
 
 
+@pytest.mark.slow
 def test_a_linearisation_horizon_too_long_is_exit_2_not_memory_error(tmp_path, capsys):
     t0 = time.perf_counter()
     code, err = run(capsys, "analyze", HC, "--at", "1e7")

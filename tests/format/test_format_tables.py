@@ -134,6 +134,7 @@ def test_help_lists_the_simulation_settings_and_exit_codes():
     assert "5 the" in text and "6 a plugin" in text
 
 
+@pytest.mark.slow
 def test_the_schema_refuses_what_the_table_refuses():
     import jsonschema
 

@@ -16,6 +16,7 @@ def test_mutated_diagrams_keep_the_invariants(text):
     check_invariants(text)
 
 
+@pytest.mark.slow
 def test_the_unmutated_bases_run():
     from fuzz_diagrams import BASES
 

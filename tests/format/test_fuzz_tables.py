@@ -1,5 +1,6 @@
 """Fuzzing generated from the format's tables: every key of every section, --set values, sweep files,
 subsystem trees. Bounded (a few hundred cases); the long run is ``python benchmarks/fuzz_tables.py``."""
+import pytest
 from hypothesis import HealthCheck, given, settings
 
 from fuzz_tables import check_case, diagrams, set_options, subsystem_trees, sweep_files
@@ -8,6 +9,7 @@ FAST = settings(max_examples=80, deadline=None, derandomize=True, database=None,
                 suppress_health_check=list(HealthCheck))
 
 
+@pytest.mark.slow
 @FAST
 @given(diagrams())
 def test_sections_drawn_from_their_tables_keep_the_invariants(doc):
@@ -26,6 +28,7 @@ def test_sweep_files_drawn_from_their_table_keep_the_invariants(sweep):
     check_case("sweep", sweep=sweep)
 
 
+@pytest.mark.slow
 @FAST
 @given(subsystem_trees())
 def test_subsystem_trees_keep_the_invariants(tree):

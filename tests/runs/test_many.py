@@ -57,6 +57,7 @@ def test_grids_hand_checked():
     assert len(g + r) == 9 and (g + r)[4].changes == r[0].changes
 
 
+@pytest.mark.slow
 def test_run_time_and_structural_points_give_the_exact_answer_serially_and_on_processes(ramp, monkeypatch):
     exp = Experiment(ramp)
     pts = Grid.values({"rate": [50, 100]}) * Grid.values({"k": [1.0, 3.0]})

@@ -51,6 +51,7 @@ def test_serial_pool_and_dask_give_the_same_table(sweep_file, tmp_path):
     assert (tmp_path / "serial" / "heatmap.png").stat().st_size > 5000
 
 
+@pytest.mark.slow
 def test_resume_runs_only_the_missing_points(sweep_file, tmp_path):
     out = tmp_path / "o"
     sw.run_sweep(sweep_file, out, jobs=1, progress=False)
@@ -65,6 +66,7 @@ def test_resume_runs_only_the_missing_points(sweep_file, tmp_path):
     pd.testing.assert_frame_equal(table(out / "sweep.csv"), table(tmp_path / "o" / "sweep.csv"))
 
 
+@pytest.mark.slow
 def test_asking_for_traces_on_a_resumed_sweep_is_a_changed_sweep(sweep_file, tmp_path):
     # 'traces: true' added after a sweep: its points were read back, no run wrote a CSV, exit 0 with
     # an empty traces/ folder
@@ -271,6 +273,7 @@ def test_compiled_chunks_give_the_point_by_point_table(runtime_file, tmp_path):
     pd.testing.assert_frame_equal(table(tmp_path / "points" / "sweep.csv"), table(tmp_path / "fast" / "sweep.csv"))
 
 
+@pytest.mark.slow
 def test_chunked_traces_equal_the_point_by_point_traces(tmp_path):
     p = tmp_path / "tr.yaml"
     p.write_text(RUNTIME.replace("[0.5, 1.0, 1.5, 2.0, 2.5]", "[0.5, 2.0]").replace("[8.0e5, 9.0e5]", "[9.0e5]")

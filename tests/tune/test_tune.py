@@ -242,6 +242,7 @@ def test_nelder_mead_improves_and_resumes(tmp_path):
     assert fresh["ran"] >= 3 and (tmp_path / "out" / "evaluations.jsonl.old").exists()
 
 
+@pytest.mark.slow
 def test_two_objectives_give_a_pareto_front(tmp_path):
     p = tune_file(tmp_path, PARAMS + "objectives:\n" + SETTLE
                   + "  - {name: effort, metric: peak, of: 'pid.u', goal: minimize}\n"
