@@ -230,9 +230,9 @@ class TransferFunction(Block):
 
 @register("first_order")
 class FirstOrder(Block):
-    """y' = (u - y) / tau: a first-order low-pass (a force-sensor filter, an actuator lag).
+    """y' = (u - y) / tau, a first-order lag; starts in balance, y(0) = u(0), unless ``initial`` is given.
 
-    ``tau`` (s) = 0 passes u through unchanged (no state): an option that is off
+    A sensor filter, an actuator lag. ``tau`` (s) = 0 passes u through unchanged (no state): an option that is off
     costs nothing and changes no number. Starts in balance, y(0) = u(0), unless
     ``initial`` is given (in a loop back to its own input too: u = 3 (1 - y) starts at
     y = 0.75). Example: tau = 0.1 s, u = 1 from y(0) = 0 gives
