@@ -345,7 +345,9 @@ class Simulator:
         meta = {"diagram": self.system.name, "solver": repr(self.solver), "t_end": t_end,
                 "stopped": None if stopped is None else
                 {"t": stopped.t, "block": stopped.block, "reason": stopped.reason},
-                "wall_time_s": wall, "hits": hits, "events": list(ctx.events)}
+                "wall_time_s": wall, "hits": hits, "events": list(ctx.events),
+                "sampled": [ref for ref, (i, _) in zip(self.log_refs, self._log_ports)  # held between hits
+                            if self.system.kind[i] == "discrete"]}
         return Result(np.array(times), signals, meta, context=ctx, aliases=self.aliases)
 
 

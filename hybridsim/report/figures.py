@@ -116,8 +116,10 @@ def scope_figure(f, runs, title=None, most=8):
             t, v = thin(r.t, r.signals[ref])
             shown = min(v.shape[1], limits.get("MAX_PLOT_LINES"))
             many = shown > 8  # no legend entry per element then
+            stairs = "steps-post" if ref in r.meta.get("sampled", ()) else "default"  # a sampled signal is held
             for j in range(shown):
                 ax.plot(t, v[:, j], color=c, lw=1.2 if not many else 0.5, ls=("-", "--", ":", "-.")[j % 4],
+                        drawstyle=stairs,
                         label=None if many else (f"{run['label'] or f.name} [{j}]"
                                                  if v.shape[1] > 1 or len(runs) > 1 else None))
             if k == 0 and (shown < v.shape[1] or len(t) < len(r.t)):

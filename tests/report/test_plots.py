@@ -73,3 +73,18 @@ def test_a_users_figure_among_the_reports_files_is_refused_before_the_analysis(t
     (tmp_path / "poles.svg").write_text("mine")
     with pytest.raises(OutputError, match="poles.svg' exists and hybridsim did not write it"):
         stability.write_report(DIAGRAMS / "examples" / "msd_pid.yaml", tmp_path)
+
+
+def test_a_sampled_signal_is_drawn_as_stairs():
+    """A discrete block's output is held between its hits (Simulink draws it as stairs); the plant's
+    continuous output is a line."""
+    from hybridsim.format.build import load
+    from hybridsim.report.figures import scope_figure
+
+    path = DIAGRAMS / "examples" / "msd_pid.yaml"
+    res = hs.simulate(path, t_end=0.1)
+    assert res.meta["sampled"] == [r for r in res.signals if r.startswith("pid.")]
+    fig = scope_figure(load(path), [{"result": res, "label": ""}])
+    styles = {ax.get_ylabel(): ax.lines[0].get_drawstyle() for ax in fig.axes}
+    assert styles["pid.u"] == "steps-post" and styles["plant.y"] == "default"
+    plt.close(fig)
