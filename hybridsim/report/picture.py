@@ -5,6 +5,8 @@ installed, else in dependency layers; :func:`write_picture` is ``hybridsim draw`
 Importing this module lets Jupyter show a :class:`~hybridsim.engine.diagram.Diagram`
 as its picture (it sets ``Diagram.to_svg``); matplotlib is imported only to draw.
 """
+from pathlib import Path
+
 from hybridsim.engine.diagram import DefaultValue, Diagram
 from hybridsim.report.figures import literal, pyplot
 
@@ -221,15 +223,31 @@ def write_picture(path_or_file, output=None, expand=False, **overrides):
     from hybridsim.format.build import load
     from hybridsim.files import atomic_file, check_output_file, default_output_file, safe_name
 
+    from hybridsim.format import standalone
+    from hybridsim.format.diagram_file import DiagramFile
+
     plt = pyplot()
-    f = load(path_or_file, **overrides)
+    given = isinstance(path_or_file, DiagramFile)
+    f = path_or_file if given else DiagramFile(path_or_file)
+    sub = standalone.is_subsystem(f)
+    if given:
+        overrides = {**(getattr(f, "overrides", None) or {}), **overrides}
+    elif not sub:
+        f = load(path_or_file, **overrides)
     if output:
         out, note = check_output_file(output, image_formats()), None
     else:  # the default name: a file hybridsim did not write is kept, the next free name taken
         out, note = default_output_file(f"{safe_name(f.name)}.png")
         check_output_file(out, image_formats())
-    diagram, _ = f.build(f.variants()[0][1])
-    fig = draw_diagram(diagram.build(), f.description or f.name, expand=expand)
+    if sub:  # a subsystem file: its blocks, fed by the sources its FMU export would read
+        import tempfile
+
+        with tempfile.TemporaryDirectory(prefix="hybridsim-draw-") as tmp:
+            system = standalone.Staged(f.path, Path(tmp) / "diagram").build(**overrides)[0]
+        fig = draw_diagram(system, f.description or f.name, expand=True)
+    else:
+        diagram, _ = f.build(f.variants()[0][1])
+        fig = draw_diagram(diagram.build(), f.description or f.name, expand=expand)
     with atomic_file(out, "wb") as fh:
         fig.savefig(fh, format=out.suffix.lstrip(".") or "png", dpi=120)
     plt.close(fig)
