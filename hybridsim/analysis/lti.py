@@ -50,6 +50,9 @@ class DiscreteModel:
             if abs(z) < 1e-12:
                 rows.append({"z": z, "pole": z, "abs": 0.0, "freq_hz": None, "damping": None})
                 continue
+            if abs(z - 1.0) < 1e-7:  # an integrator direction (see integrator_modes): s = 0, no damping ratio
+                rows.append({"z": z, "pole": z, "abs": float(abs(z)), "freq_hz": 0.0, "damping": None})
+                continue
             s = np.log(complex(z)) / self.period
             wn = abs(s)
             rows.append({"z": z, "pole": z, "abs": float(abs(z)), "freq_hz": float(wn / (2 * np.pi)),

@@ -383,7 +383,8 @@ def summary_lines(res):
     for p in res["poles"]:
         if p["freq_hz"] is None or seen >= 6:
             continue
-        lines.append(f"    {p['re']:+.4f}{p['im']:+.4f}j  {p['abs']:.4f}  {p['freq_hz']:8.2f}  {p['damping']:+.4f}")
+        damping = "   -" if p["damping"] is None else f"{p['damping']:+.4f}"  # at z = 1 (s = 0): none
+        lines.append(f"    {p['re']:+.4f}{p['im']:+.4f}j  {p['abs']:.4f}  {p['freq_hz']:8.2f}  {damping}")
         seen += 1
     lines += [f"  {line}" for line in extras.lines(res)]
     for name, m in res["loops"].items():

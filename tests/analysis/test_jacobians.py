@@ -27,3 +27,4 @@ def test_a_value_at_the_point_alone_is_not_a_kink():
     """An equality test (1 at x = 0 exactly, 0 around it): both sides agree on slope 0."""
     J, err = checked_jacobian(lambda x: np.array([float(x[0] == 0.0) + x[1]]), np.array([0.0, 1.0]), STEPS)
     assert J[0, 0] == 0.0 and err < 1e-8
+
