@@ -42,36 +42,48 @@ def checked_jacobian(fun, x0, steps, tol=1e-8, tries=8, size=0.0):
 
     A column whose estimate exceeds ``tol`` is taken again with steps 10, 100, ... times larger,
     up to ``tries`` times, while that lowers it: a step small against a large right-hand side (a
-    held input of 1e5 about a state at 0) loses the difference in rounding, a larger one keeps it.
+    held input of 1e5 about a state at 0) loses the difference in rounding, a larger one keeps it
+    (where rounding hid every entry, each column rounding could hide one in is taken again).
     ``size``: the magnitude of the values f's terms reach (its signals), where they cancel in f.
 
-    A kink at x0 (a one-sided spring engaging there, a saturation at its limit) has one-sided slopes that
-    differ by as much at steps / 4 as at steps (smooth: 4 times less); the central difference is
-    then their mean, half the jump from either: that is the estimate's floor for that column.
+    A kink at x0 (a one-sided spring engaging there, a saturation at its limit) has one-sided slopes
+    that differ by as much at steps / 4 as at steps (smooth: 4 times less); the central difference
+    is then their mean, half the jump from either: that is the estimate's floor for that column. A
+    jump at x0 (a floor, a sign) has no slope: a central difference 4 times larger at steps / 4;
+    its column's estimate is 1.
     """
     J1, _, bend1 = _columns(fun, x0, steps, size)
     J2, noise, bend2 = _columns(fun, x0, steps / 4, size)
-    if not J2.size or not J2.any():  # nothing to difference, or nothing depends on x0
+    if not J2.size:
         return J2, 0.0
-    scale = np.max(np.abs(J2))
-    err = (np.max(np.abs(J2 - J1), axis=0) + noise) / scale
-    # bend2 / bend1: 1/4 smooth, 1 a kink, 4 a value at x0 alone (an equality test; its neighbours agree)
+    a1, a2 = np.abs(J1), np.abs(J2)
+    seen = np.maximum(1e3 * noise, 0.0)
+    # bend2 / bend1: 1/4 smooth, 1 a kink, 4 a jump or a value at x0 alone (an equality test, whose
+    # neighbours agree: its central difference stays small)
     kink = ((np.abs(bend2) > 0.5 * np.abs(bend1)) & (np.abs(bend2) < 2.0 * np.abs(bend1))
-            & (np.abs(bend2) > np.maximum(1e-6 * scale, 1e3 * noise)))
-    bent = np.max(np.where(kink, np.abs(bend2), 0.0), axis=0) / (2 * scale)
-    for j in np.flatnonzero(err > tol):
+            & (np.abs(bend2) > seen))
+    jump = (a2 > 2.0 * a1) & (a2 < 8.0 * a1) & (a2 > seen)
+    absolute = np.max(np.abs(J2 - J1), axis=0) + noise
+    scale = np.max(a2)
+    retake = absolute > tol * scale if scale > 0 else noise > 0
+    for j in np.flatnonzero(retake & ~jump.any(axis=0)):
         step = steps[j]
         for _ in range(tries):
             step *= 10
             c1, _, _ = _column(fun, x0, j, step, size)
             c2, n2, _ = _column(fun, x0, j, step / 4, size)
-            e = (np.max(np.abs(c2 - c1)) + n2) / scale
-            if not e < err[j]:
+            e = np.max(np.abs(c2 - c1)) + n2
+            if not e < absolute[j]:
                 break
-            J2[:, j], err[j] = c2, e
-            if e <= tol:
+            J2[:, j], absolute[j] = c2, e
+            if e <= tol * max(scale, np.max(np.abs(c2))):
                 break
-    return J2, float(np.max(np.maximum(err, bent)))
+    scale = np.max(np.abs(J2))
+    if scale == 0:  # nothing depends on x0, at any step tried
+        return J2, 0.0
+    bent = np.max(np.where(kink, np.abs(bend2), 0.0), axis=0) / (2 * scale)
+    bent = np.where(jump.any(axis=0), 1.0, bent)
+    return J2, float(np.max(np.maximum(absolute / scale, bent)))
 
 
 def nonzero_columns(M, drop=None):

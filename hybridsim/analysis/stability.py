@@ -110,6 +110,10 @@ def _grid_margins(L, n=20000):
         g = 1.0 / abs(at(x).real)
         if abs(np.log(g)) < abs(np.log(gm)):
             gm, wg = g, x
+    for x in (1e-9 * nyq, nyq):  # at DC and Nyquist L is real: no sign change of Im L there to find
+        r0 = at(x)
+        if r0.real < 0 and abs(r0.imag) < 1e-4 * abs(r0) and abs(np.log(abs(r0))) < abs(np.log(gm)):
+            gm, wg = 1.0 / abs(r0), (0.0 if x < nyq else x)
     return gm, pm, wg, wp
 
 
@@ -135,6 +139,8 @@ def margins(L):
                 pm, wp = gpm, gwp
             if not np.isfinite(gm) and np.isfinite(ggm):
                 gm, wg = ggm, gwg
+    if not 1e-9 < gm < 1e9:  # a phase crossover where |L| is rounding (1e-16 at 15 MHz) or a pole: none
+        gm, wg = np.inf, np.nan
     dt = L.dt
     to_hz = (lambda w: None if w is None or not np.isfinite(w) else float(w / (2 * np.pi)))
     return {
@@ -148,22 +154,40 @@ def margins(L):
     }
 
 
-def _unstable(poles, dt):
-    """How many ``poles`` grow: |z| > 1 (sampled) or Re s > 0, poles at z = 1 / s = 0 left out."""
-    p = np.asarray(poles, complex)
-    if dt:
-        return int(np.sum((np.abs(p) > 1.0 + 1e-9) & (np.abs(p - 1.0) >= 1e-7)))
-    scale = max(1.0, float(np.max(np.abs(p)))) if p.size else 1.0
-    return int(np.sum((p.real > 1e-9 * scale) & (np.abs(p) > 1e-7 * scale)))
+def _growing(sys):
+    """How many of ``sys``'s poles grow - |z| > 1 (sampled) or Re s > 0, poles at z = 1 / s = 0 left
+    out - and are modes of its input-output path (the PBH test: neither uncontrollable from its input
+    nor unobservable at its output; a state elsewhere in the diagram is no pole of this loop)."""
+    from scipy.linalg import matrix_balance
+
+    ss = control.ss(sys)
+    A, B, C = (np.atleast_2d(np.asarray(m, float)) for m in (ss.A, ss.B, ss.C))
+    if not A.size:
+        return 0
+    A, T = matrix_balance(A, permute=False)  # states of unlike units (um and N) made comparable
+    t = np.diag(T)
+    B, C = B / t[:, None], C * t[None, :]
+    n = A.shape[0]
+    scale = max(1.0, float(np.max(np.abs(A))))
+    count = 0
+    for lam in np.linalg.eigvals(A):
+        grows = (abs(lam) > 1.0 + 1e-9 and abs(lam - 1.0) >= 1e-7) if ss.dt else \
+            (lam.real > 1e-9 * scale and abs(lam) > 1e-7 * scale)
+        if not grows:
+            continue
+        shifted = A - lam * np.eye(n)
+        reach = np.linalg.svd(np.hstack([shifted, B]), compute_uv=False)
+        seen = np.linalg.svd(np.vstack([shifted, C]), compute_uv=False)
+        count += bool(reach[-1] > 1e-12 * reach[0] and seen[-1] > 1e-12 * seen[0])
+    return count
 
 
 def loop_stability(L):
     """What the margins of L do not say alone: ``open_loop_unstable_poles`` (the loop opened, its poles
     that grow; with any, the margins say nothing of stability without counting Nyquist's
-    encirclements) and ``closed_loop_stable`` (1/(1 + L), the loop closed again)."""
-    closed = control.feedback(L, 1)
-    return {"open_loop_unstable_poles": _unstable(control.poles(L), L.dt),
-            "closed_loop_stable": _unstable(control.poles(closed), L.dt) == 0}
+    encirclements) and ``closed_loop_stable`` (1/(1 + L), the loop closed again). Only the modes of
+    L's own path count."""
+    return {"open_loop_unstable_poles": _growing(L), "closed_loop_stable": _growing(control.feedback(L, 1)) == 0}
 
 
 def closed_loop(path, overrides, at=None):
@@ -375,7 +399,7 @@ def summary_lines(res):
                 if res["integrator_modes"] else "")
              + f" -> {'STABLE' if res['stable'] else 'NOT STABLE'}"]
     if res.get("fd_error", 0.0) > 1e-4:  # a kink or switch at the operating point
-        lines.append(f"  note: the finite differences agree only to {res['fd_error']:.1g} (relative): a kink or "
+        lines.append(f"  note: the finite differences agree only to {res['fd_error']:.2g} (relative): a kink or "
                      "switch at the operating point (a one-sided spring engaging there, a limit reached) makes the numbers "
                      "below that uncertain; linearize off it (analysis: at, or a set)")
     lines.append("  dominant poles:   " + ("|z|      f (Hz)   damping" if sampled else "|s|      f (Hz)   damping"))

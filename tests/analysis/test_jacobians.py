@@ -28,3 +28,17 @@ def test_a_value_at_the_point_alone_is_not_a_kink():
     J, err = checked_jacobian(lambda x: np.array([float(x[0] == 0.0) + x[1]]), np.array([0.0, 1.0]), STEPS)
     assert J[0, 0] == 0.0 and err < 1e-8
 
+
+
+def test_a_column_rounding_hid_entirely_is_taken_again():
+    """x' = 1e5 - 3 x about x = 0 with a step of 1e-12: the difference (6e-12) is below the rounding of 1e5,
+    every entry came out 0 and the pole vanished (a helper's constant bias); a larger step finds -3."""
+    J, err = checked_jacobian(lambda x: np.array([1e5 - 3.0 * x[0]]), np.array([0.0]), np.array([1e-12]))
+    assert J[0, 0] == pytest.approx(-3.0, rel=1e-6) and err < 1e-6
+
+
+def test_a_jump_at_the_point_has_no_slope():
+    """floor(x) at x = 1: the central difference grows as 1/step; its estimate is 1 (it was 7.5e-9 beside a
+    pole of -4001)."""
+    J, err = checked_jacobian(lambda x: np.array([np.floor(x[0]) + x[1]]), np.array([1.0, 0.5]), STEPS)
+    assert err == 1.0

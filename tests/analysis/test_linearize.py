@@ -221,6 +221,10 @@ def test_reported_margins_lie_on_the_loops_own_frequency_response(fig9_analysis)
     (control.tf([0.3], [1.0, -0.5], 0.1), 0, True),      # 1 + L: z - 0.2
     (control.tf([3.0], [1.0, -0.5], 0.1), 0, False),     # 1 + L: z + 2.5
     (control.tf([1.0], [1.0, -1.0], 0.1), 0, True),      # a sampled integrator, 1 + L: z
+    # 2/(s + 1) beside a growing mode the loop neither drives nor sees (a helper's unwired 1/(s - 0.5))
+    (control.ss([[-1.0, 0.0], [0.0, 0.5]], [[1.0], [0.0]], [[2.0, 0.0]], 0.0), 0, True),
+    (control.ss([[-1.0, 0.0], [0.0, 0.5]], [[1.0], [1.0]], [[2.0, 0.0]], 0.0), 0, True),
+    (control.ss([[-1.0, 0.0], [0.0, 0.5]], [[1.0], [1.0]], [[2.0, 1.0]], 0.0), 1, False),  # 2/(s+1) + 1/(s-0.5), closed: s = 0.137
 ])
 def test_loop_stability_says_what_margins_do_not(L, open_unstable, closed_stable):
     from hybridsim.analysis.stability import loop_stability
@@ -567,3 +571,20 @@ def test_an_integrators_mode_is_no_pole(tmp_path):
     assert len(poles[0]) == len(poles[1]) and poles[0] == pytest.approx(poles[1], abs=1e-7)
     info = check(tmp_path / "integrator.yaml")
     assert info["blocks"] == 4 and info["states"] == 3 and info["held_states"] == 1
+
+
+def test_a_gain_margin_at_dc_and_none_at_rounding():
+    """A P controller, Kp = 2, around 1/(s - 1) sampled at 10 Hz: L(1) = -2, a phase crossover at DC, gain
+    margin 0.5 (-6.02 dB) as python-control says (the grid started above DC and said none); and the loop of
+    K / (s (s + 1)) has no phase crossover, where python-control's polynomial method finds |L| = 2e-16 at
+    15 MHz (a gain margin of 313 dB was printed)."""
+    from hybridsim.analysis.stability import margins
+
+    L = 2.0 * control.sample_system(control.tf([1.0], [1.0, -1.0]), 0.1, "zoh")
+    L = control.ss(control.tf([1.0, 0.0], [1.0, -1.0], 0.1)) * 0 + control.ss(L)  # a cancelled pole at z = 1
+    m = margins(L)
+    assert m["gain_margin"] == pytest.approx(0.5, rel=1e-4) and m["phase_crossover_hz"] == 0.0
+    assert m["gain_margin"] == pytest.approx(control.stability_margins(L)[0], rel=1e-4)
+    c = control.ss(control.tf([2.0], [1.0, 1.0, 0.0]))
+    assert margins(c)["gain_margin"] is None and margins(c)["phase_margin_deg"] == pytest.approx(
+        control.stability_margins(c)[1], rel=1e-6)
