@@ -107,9 +107,10 @@ def describe(m):
         v = m.get(key)
         if lost and key in ("rise_time_s", "overshoot_pct"):
             continue  # a bouncing hand has no meaningful step response (metrics.json keeps them)
-        if v is None:
+        if v is None and m.get(_RAW.get(key, ("",))[0]) is None:
             continue
-        phrase = fmt.format(v * 1000 if key.endswith("_m") else v)
+        phrase = fmt.format(v * 1000 if key.endswith("_m") else v) if v is not None else \
+            fmt.split(" ")[0] + " not reached"  # the filtered force never got to 90 % of the step
         if key in _RAW:
             raw_key, raw_fmt = _RAW[key]
             raw = m.get(raw_key)

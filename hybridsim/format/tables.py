@@ -31,6 +31,8 @@ MATLAB_SOLVERS = {
     "ode15i": "cvode", "ode23s": "radau (implicit, for stiff problems)", "ode23t": "radau", "ode23tb": "radau",
     "ode1": "heun or rk4 (fixed steps; there is no Euler)", "ode2": "heun (as ode2)", "ode3": "heun or rk4",
     "ode4": "rk4 (as ode4)", "ode5": "rk4, or dop853 with steps chosen by tolerance", "ode8": "dop853",
+    "ode14x": "radau or bdf (implicit; there are no fixed-step implicit solvers)", "daessc": "cvode",
+    "euler": "heun or rk4 (fixed steps; there is no Euler)",
 }
 
 

@@ -117,3 +117,8 @@ def test_a_command_moving_in_the_steady_window_is_said():
     m = compute(t, {"force": np.zeros_like(t), "force_desired": fd}, {"ss_window": 1.0})
     assert m["ss_command_held"] is False
     assert "no steady state to judge" in next(p for p in describe(m) if p.startswith("steady error"))
+
+
+def test_a_raw_rise_is_shown_where_the_filtered_force_never_rises():
+    m = {"rise_time_s": None, "rise_time_raw_s": 0.008, "overshoot_pct": 0.0, "overshoot_raw_pct": 12.0}
+    assert describe(m)[:2] == ["rise not reached filtered (0.008 s raw)", "overshoot 0 % filtered (12 % raw)"]
