@@ -16,7 +16,7 @@ if _os.path.isfile(_os.path.join(_root, "pyproject.toml")) and _os.path.isdir(_o
     __path__.append(_root)  # noqa: F821 - a package's __path__
 del _os, _root
 
-from hybridsim.api import build, check, load, run, simulate, write_outputs
+from hybridsim.api import analyze, build, check, load, run, simulate, write_outputs
 from hybridsim.engine.block import Block
 from hybridsim.engine.diagram import Diagram
 from hybridsim.errors import (CompiledPathError, DiagramError, FMUError, HybridsimError, InputError,
@@ -34,7 +34,7 @@ from hybridsim.runs.variants import run_experiment
 from hybridsim import forcecontrol  # noqa: E402,F401
 from hybridsim.report import picture as _picture  # noqa: E402,F401
 
-__all__ = ["registry", "Block", "Diagram", "Simulator", "RK4", "Heun", "ExplicitRK", "ScipySolver", "CVode", "register", "simulate", "load",
+__all__ = ["registry", "Block", "Diagram", "Simulator", "RK4", "Heun", "ExplicitRK", "ScipySolver", "CVode", "register", "simulate", "analyze", "load",
            "build", "check", "from_control", "run", "run_experiment", "write_outputs", "HybridsimError", "InputError",
            "DiagramError", "LoaderError", "RateError", "ParameterError", "OutputError",
            "CompiledPathError", "PluginError", "SimulationError", "FMUError"]

@@ -100,3 +100,28 @@ def run(source, outdir=None, progress=False, jobs=None, **overrides):
     f, runs, settings = run_experiment(f, progress=progress, jobs=jobs)
     write_outputs(f, runs, settings, outdir)
     return {"file": f, "runs": runs, "settings": settings, "outdir": outdir}
+
+
+def analyze(source, at=None, sweeps=True, **overrides):
+    """Linearize a diagram and judge its stability; what ``hybridsim analyze`` prints (without files).
+
+    Parameters
+    ----------
+    source : str, Path or Experiment
+        The diagram (``overrides`` as ``--set`` gives them).
+    at : float, optional
+        Linearize about the state reached at ``at`` s of simulation (default: the start, or the
+        file's ``analysis: at``).
+    sweeps : bool
+        Also the rate and gain sweeps of the ``analysis`` section (the slow part).
+
+    Returns
+    -------
+    dict
+        Poles, largest |z| (or Re s), loop margins with ``closed_loop_stable`` and
+        ``open_loop_unstable_poles``, cases and sweeps: see
+        :func:`hybridsim.analysis.stability.analyze`.
+    """
+    from hybridsim.analysis.stability import analyze as _analyze
+
+    return _analyze(source, at=at, sweeps=sweeps, **overrides)

@@ -92,3 +92,10 @@ def test_a_users_file_among_the_outputs_is_refused_before_anything_runs(tmp_path
     with pytest.raises(OutputError, match="d.svg' exists and is not a file \\(it is a folder\\)"):
         hs.run(write(tmp_path, GOOD), tmp_path / "o", t_end=0.2)
     assert (tmp_path / "o" / "d.svg").is_dir()
+
+
+def test_analyze_is_part_of_the_top_level_api():
+    import hybridsim as hs
+
+    res = hs.analyze(DIAGRAMS / "examples" / "msd_pid.yaml", sweeps=False)
+    assert res["stable"] and res["growth"] == pytest.approx(0.993018, abs=1e-6)  # python-control's, tested there
