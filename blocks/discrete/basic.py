@@ -62,7 +62,7 @@ class DiscreteIntegrator(_Sampled):
         if np.any((self.x0 < lo) | (self.x0 > hi)):
             raise ParameterError("initial", f"must lie within [lower, upper], got {initial!r}")
         self.params = DIntegratorParams(vector(K, "K", n) * self.T, c, lo, hi, self.x0.copy(), n)
-        self.declare_discrete_state(2 * n)  # x, and the reset input at the last hit
+        self.declare_discrete_state(2 * n, held=[False] * n + [True] * n)  # x, and the reset input at the last hit
         self.declare_input("u", n)
         self.declare_input("reset", n, default=[0.0] * n, optional=True)
         self.declare_output("y", n, depends_on=("reset",) if c == 0.0 else None)

@@ -70,7 +70,7 @@ class Counter(Block):
     def __init__(self, name="counter", rate=None, period=None, offset=0):
         super().__init__(name)
         self.declare_rate(period=period, rate=rate, offset=offset)
-        self.declare_discrete_state(1, bounded=False)  # a count
+        self.declare_discrete_state(1, bounded=False, held=True)  # a count
         self.declare_output("y", 1)
 
 

@@ -74,7 +74,7 @@ class TaskPhases(Block):
             self.declare_output(port, 6)
         self.declare_output("phase", 1)
         # phase, time it began, the start pose in {C} (6), the pose where contact was found (6)
-        self.declare_discrete_state(14, bounded=False)  # times and the phase, not dynamics
+        self.declare_discrete_state(14, bounded=False, held=True)  # times and the phase, not dynamics
         self.params = tk.PhasesParams(self.o, np.ascontiguousarray(self.RC, dtype=float), self.k, self.v, self.f0,
                                       self.f1, self.t_ramp, self.t_settle, self.radius, self.T)
 

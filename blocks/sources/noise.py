@@ -106,7 +106,7 @@ class Noise(Block):
         else:
             sd = vector(1.0 if sigma is None else sigma, "sigma", n, "nonnegative")
         self.params = NoiseParams(sd, vector(mean, "mean", n), philox_keys(seed), n)
-        self.declare_discrete_state(1, bounded=False)  # k, the samples so far
+        self.declare_discrete_state(1, bounded=False, held=True)  # k, the samples so far
         self.declare_output("y", n)
 
 

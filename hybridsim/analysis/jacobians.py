@@ -48,9 +48,9 @@ def checked_jacobian(fun, x0, steps, tol=1e-8, tries=8, size=0.0):
 
     A kink at x0 (a one-sided spring engaging there, a saturation at its limit) has one-sided slopes
     that differ by as much at steps / 4 as at steps (smooth: 4 times less); the central difference
-    is then their mean, half the jump from either: that is the estimate's floor for that column. A
-    jump at x0 (a floor, a sign) has no slope: a central difference 4 times larger at steps / 4;
-    its column's estimate is 1.
+    is then their mean, half their difference from either: relative to the larger slope, that is
+    the estimate's floor for that entry, whatever the other entries' sizes. A jump at x0 (a floor,
+    a sign) has no slope: a central difference 4 times larger at steps / 4; its estimate is 1.
     """
     J1, _, bend1 = _columns(fun, x0, steps, size)
     J2, noise, bend2 = _columns(fun, x0, steps / 4, size)
@@ -63,6 +63,12 @@ def checked_jacobian(fun, x0, steps, tol=1e-8, tries=8, size=0.0):
     kink = ((np.abs(bend2) > 0.5 * np.abs(bend1)) & (np.abs(bend2) < 2.0 * np.abs(bend1))
             & (np.abs(bend2) > seen))
     jump = (a2 > 2.0 * a1) & (a2 < 8.0 * a1) & (a2 > seen)
+    # at a kink the entry is the mean of its one-sided slopes J2 +- bend2 / 2: half their difference,
+    # relative to the larger, is how far it is from either (0.5 for a saturation at its limit, 1 for |x|)
+    sides = np.maximum(np.abs(J2 + bend2 / 2), np.abs(J2 - bend2 / 2))
+    half = np.where(kink, np.abs(bend2) / 2, 0.0)
+    bent = np.max(np.divide(half, sides, out=np.zeros_like(half), where=sides > 0), axis=0)
+    bent = np.where(jump.any(axis=0), 1.0, bent)
     absolute = np.max(np.abs(J2 - J1), axis=0) + noise
     scale = np.max(a2)
     retake = absolute > tol * scale if scale > 0 else noise > 0
@@ -81,8 +87,6 @@ def checked_jacobian(fun, x0, steps, tol=1e-8, tries=8, size=0.0):
     scale = np.max(np.abs(J2))
     if scale == 0:  # nothing depends on x0, at any step tried
         return J2, 0.0
-    bent = np.max(np.where(kink, np.abs(bend2), 0.0), axis=0) / (2 * scale)
-    bent = np.where(jump.any(axis=0), 1.0, bent)
     return J2, float(np.max(np.maximum(absolute / scale, bent)))
 
 

@@ -83,6 +83,9 @@ class Linearization:
         self.yd_ports = [(i, o) for i in self.disc for o in range(len(sysm.blocks[i].outputs))]
         self.h_ports = sysm.plan.held_ports()
         self.held = sysm.x_held  # modes and counts: held at their operating values, dropped from the models
+        self.xd_held = np.concatenate([np.zeros(n, bool) if getattr(sysm.blocks[i], "discrete_held", None) is None
+                                       else sysm.blocks[i].discrete_held for i, n in zip(self.disc, self.xd_sizes)]
+                                      ) if self.disc else np.zeros(0, bool)
         self.fd_error = 0.0
         hidden = hidden_state(sysm.blocks)
         if hidden:
@@ -124,9 +127,11 @@ class Linearization:
             x[self.held] = self.xc0[self.held]
         return x
 
-    def _kept(self, extra=0):
-        """Which entries of (xc, then ``extra`` more) a model keeps: all but the held states."""
-        return np.concatenate([~self.held, np.ones(extra, bool)])
+    def _kept(self, whole=False):
+        """Which entries of xc (``whole``: of s = (xc, xd, yd)) a model keeps: all but the held states."""
+        if not whole:
+            return ~self.held
+        return np.concatenate([~self.held, ~self.xd_held, np.ones(self.yd0.size, bool)])
 
     def _steps(self, v, floor):
         return self.rel_step * np.maximum(np.abs(v), floor)
@@ -218,7 +223,8 @@ class Linearization:
         """
         sysm, ctx, t = self.system, self.ctx, self.t
         nx, nd = self.n_x, self.xd0.size
-        xc, xd, yd = self._pin(s[:nx]), s[nx:nx + nd], s[nx + nd:]
+        xc, xd, yd = self._pin(s[:nx]), s[nx:nx + nd].copy(), s[nx + nd:]
+        xd[self.xd_held] = self.xd0[self.xd_held]  # a memory of the logic (a count, the last mode): held
         self._set_xd(xd)
         self._write(self.yd_ports, yd)
         y_meas = []
@@ -326,7 +332,7 @@ class Linearization:
             P = self._pass_matrices(due)
             Mk, _ = self._step_matrix(P, A, B, tau)
             M = Mk @ M
-        keep = nonzero_columns(M, ~self._kept(ns - self.n_x))
+        keep = nonzero_columns(M, ~self._kept(whole=True))
         names = [n for n, k in zip(self.state_names(), keep) if k]
         return DiscreteModel(M[np.ix_(keep, keep)], H, names, self.fd_error)
 
@@ -358,7 +364,7 @@ class Linearization:
             Bv = self._continuous_model(inject, inject[:3]).B
         M, N = self._step_matrix(P[:-1], A, B, tau, n_in=1, Bv=Bv)
         Cy, Dy = P[-1:, :ns], P[-1:, ns:]
-        keep = nonzero_columns(np.vstack([M, Cy]), ~self._kept(ns - self.n_x))
+        keep = nonzero_columns(np.vstack([M, Cy]), ~self._kept(whole=True))
         return control.ss(M[np.ix_(keep, keep)], N[keep], Cy[:, keep], Dy, H)
 
     def loop(self, signal):

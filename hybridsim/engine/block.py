@@ -139,6 +139,8 @@ class Block:
     continuous_bounded = None
     #: per continuous state: held between events (see :meth:`declare_continuous_state`); None: none
     continuous_held = None
+    #: per discrete state: a memory of the block's logic (see :meth:`declare_discrete_state`); None: none
+    discrete_held = None
     #: the block's equations as pure functions f(p, t, x, u) (hybridsim.engine.kernels);
     #: the methods below call them with ``params``. Blocks with kernels run on
     #: the fused and compiled paths as well as the generic one.
@@ -222,11 +224,14 @@ class Block:
                 f"smaller than its period {float(self.period)} s"
             )
 
-    def declare_discrete_state(self, n, bounded=True):
+    def declare_discrete_state(self, n, bounded=True, held=False):
         """Declare ``n`` discrete states (needs a rate). ``bounded``: ``max_state`` bounds them
-        (False for states that grow by design: a count of samples, a time)."""
+        (False for states that grow by design: a count of samples, a time). ``held`` (per state or
+        scalar): a memory of the block's logic, no dynamics (a count, the last tick's mode, a time);
+        a linearization holds it."""
         self.n_discrete = port_width(n, "states") if n else 0
         self.discrete_bounded = bool(bounded)
+        self.discrete_held = np.broadcast_to(np.asarray(held, bool), (self.n_discrete,)).copy()
 
     # -- parameters at run time -------------------------------------------------
     def linear_standin(self):

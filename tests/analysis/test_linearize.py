@@ -588,3 +588,18 @@ def test_a_gain_margin_at_dc_and_none_at_rounding():
     c = control.ss(control.tf([2.0], [1.0, 1.0, 0.0]))
     assert margins(c)["gain_margin"] is None and margins(c)["phase_margin_deg"] == pytest.approx(
         control.stability_margins(c)[1], rel=1e-6)
+
+
+def test_a_count_is_no_pole(tmp_path):
+    """A counter's count and a noise source's sample number grow by one at each hit whatever happens: as
+    states of the loop they were poles at z = 1 ('undriven integrators'); they are held, as a mode is."""
+    from hybridsim.analysis import stability as an
+
+    p = tmp_path / "count.yaml"
+    p.write_text(INTEGRATOR_LOOP.replace("wires:", "  n: {type: counter, rate: 100}\n"
+                                          "  w: {type: noise, sigma: 0.0, rate: 100}\nwires:")
+                 % "{type: transfer_function, num: [1.0], den: [1.0, 0.0]}")
+    q = tmp_path / "plain.yaml"
+    q.write_text(INTEGRATOR_LOOP % "{type: transfer_function, num: [1.0], den: [1.0, 0.0]}")
+    a, b = (an.analyze(x, sweeps=False) for x in (p, q))
+    assert a["integrator_modes"] == b["integrator_modes"] == 0 and len(a["poles"]) == len(b["poles"])
