@@ -354,6 +354,7 @@ def test_a_transport_delay_is_linearized_as_its_pade_approximation(tmp_path):
     assert m["phase_margin_deg"] == pytest.approx(pm, abs=0.2)
 
 
+@pytest.mark.slow
 def test_a_conditionally_stable_gain_reports_its_lower_boundary(tmp_path):
     # PI 4 + 2/s around 1/(s (s + 2)): s^3 + 2 s^2 + Kp s + Ki is stable for 2 Kp > Ki, i.e. Kp above
     # x0.25 of 4; the boundary search walked up only ("no stability boundary found")
@@ -397,6 +398,7 @@ def test_a_gain_sweep_about_a_later_state_takes_a_diverging_scale_as_unstable(tm
     assert res["stable"] and res["gains"]["Kp"]["critical_scale"] == pytest.approx(10.1, rel=0.02)
 
 
+@pytest.mark.slow
 def test_a_delays_stand_in_gives_the_delays_output_at_the_operating_point(tmp_path):
     # x' = 1 - x d with d a ramp delayed 1 s (initial 5 before): about t = 3 the Jacobian is -d(3) = -2,
     # about t = 0 it is -5. The stand-in was started at the steady state for its input (-3, and 0:

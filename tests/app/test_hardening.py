@@ -428,6 +428,7 @@ def test_sweep_with_no_points_exits_2(tmp_path, capsys):
     assert code == 2 and "no points" in err
 
 
+@pytest.mark.slow
 def test_sweep_dask_address_that_does_not_answer_exits_2(tmp_path, capsys, monkeypatch):
     from hybridsim.runs import executor
 
@@ -481,6 +482,7 @@ def test_an_analysis_time_past_t_end_is_said_once(tmp_path, capsys):
     assert code == 0 and err.count("analysis at 100 s is past t_end 0.2 s") == 1
 
 
+@pytest.mark.slow
 def test_a_reader_that_leaves_early_does_not_stop_the_command(tmp_path):
     """``hybridsim analyze ... | head -1``: the pipe closes after the first line; the command finishes
     its files and exits 0, without 'Broken pipe' (it said so and exited 5, the environment's code)."""

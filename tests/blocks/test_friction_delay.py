@@ -64,6 +64,7 @@ def test_backlash_refuses_a_start_outside_the_play():
         b.initial_state([np.array([0.0]), np.array([0.0])])
 
 
+@pytest.mark.slow
 def test_transport_delay_default_buffer_is_64_samples_per_delay():
     """The default buffer: located samples every tau / 64 s, within that spacing's interpolation bound."""
     tau = 0.3
@@ -77,6 +78,7 @@ def test_transport_delay_default_buffer_is_64_samples_per_delay():
     assert err > bound / 10  # the bound is tight: a finer buffer would pass far below it
 
 
+@pytest.mark.slow
 def test_a_long_run_of_a_transport_delay_is_not_taken_for_divergence():
     # its count of samples was a state: past 1e6 samples (156 s of a 0.01 s delay) it tripped
     # max_state, "diverged"; the state is now the next sample's time

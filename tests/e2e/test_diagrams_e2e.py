@@ -53,6 +53,7 @@ def test_engine_matches_an_independent_plain_implementation():
     assert np.max(np.abs(res["ctrl.ft.CF[0]"][: forces.size] - forces)) < 1e-7
 
 
+@pytest.mark.slow
 def test_fig9_cli_writes_everything(tmp_path, capsys):
     out = tmp_path / "fig9"
     code = main(["run", str(DIAGRAMS / "fig9_force_and_position.yaml"), "-q", "-o", str(out),

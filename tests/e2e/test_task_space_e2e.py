@@ -42,6 +42,7 @@ def ur5_run():
     return hs.simulate(DIAGRAMS / "ur5_press_and_trace.yaml")
 
 
+@pytest.mark.slow
 def test_a_ur5_presses_10_N_and_traces_a_10_cm_circle(ur5_run):
     r = ur5_run
     t, phase = r.t, r["phases.phase"][:, 0]

@@ -148,6 +148,7 @@ def test_plant_me_fmu_matches_fmpys_cvode_within_the_tolerances(plant, rtol):
     assert np.median(f_err) < 8e5 * 50 * rtol
 
 
+@pytest.mark.slow
 def test_fig9_with_the_me_plant_converges_under_cvode_to_the_python_plant(plant):
     common = dict(fmu=str(plant), rate=120, t_end=0.3, solver="cvode")
     loose = hs.simulate(DIAGRAMS / "fig9_fmu_me.yaml", rtol=1e-8, **common)

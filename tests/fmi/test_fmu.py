@@ -290,6 +290,7 @@ def test_unwired_inputs_take_their_start_values_and_check_says_so(plant, tmp_pat
     assert np.all(np.isfinite(res["plant.F"]))
 
 
+@pytest.mark.slow
 def test_fmpy_rebuilds_the_plant_from_its_sources(any_plant, tmp_path):
     import fmpy
 

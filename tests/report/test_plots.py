@@ -7,6 +7,7 @@ from hybridsim.report.figures import experiment_figure
 from conftest import DIAGRAMS
 
 
+@pytest.mark.slow
 def test_a_two_parameter_grid_of_variants_gets_small_multiples():
     f, runs, settings = hs.run_experiment(DIAGRAMS / "fig7_force_steps.yaml", t_end=0.05)
     fig = experiment_figure(f, runs, settings)
@@ -90,6 +91,7 @@ def test_a_sampled_signal_is_drawn_as_stairs():
     plt.close(fig)
 
 
+@pytest.mark.slow
 def test_a_subsystem_file_is_drawn_with_its_inputs_as_sources(tmp_path):
     """`hybridsim draw` of a subsystem file (one with `inputs:`) listed its 14 unwired inputs and exited 2:
     it draws its blocks, fed by the sources its FMU export would read."""

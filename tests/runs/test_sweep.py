@@ -80,6 +80,7 @@ def test_asking_for_traces_on_a_resumed_sweep_is_a_changed_sweep(sweep_file, tmp
         sw.run_sweep(sweep_file, out, jobs=1, progress=False)
 
 
+@pytest.mark.slow
 def test_failing_point_is_recorded_not_fatal(tmp_path, capsys):
     p = tmp_path / "f.yaml"
     p.write_text(f"""
@@ -167,6 +168,7 @@ def test_chunks_on_dask_give_the_same_table(runtime_file, tmp_path):
     pd.testing.assert_frame_equal(table(tmp_path / "points" / "sweep.csv"), table(tmp_path / "dask" / "sweep.csv"))
 
 
+@pytest.mark.slow
 def test_a_point_that_changes_structure_runs_on_its_own(tmp_path, monkeypatch):
     p = tmp_path / "rate.yaml"
     p.write_text(f"diagram: {DIAGRAMS / 'fig7_force_steps.yaml'}\n"
@@ -177,6 +179,7 @@ def test_a_point_that_changes_structure_runs_on_its_own(tmp_path, monkeypatch):
     assert calls == [{"rate": 60}, {"rate": 120}] and all(r["status"] == "ok" for r in rows)
 
 
+@pytest.mark.slow
 def test_a_bad_swept_value_stops_the_sweep_before_any_run(tmp_path):
     from hybridsim.errors import InputError
 
