@@ -118,7 +118,7 @@ def analyze(source, at=None, sweeps=True, **overrides):
     Returns
     -------
     dict
-        Poles, largest |z| (or Re s), loop margins with ``closed_loop_stable`` and
+        Poles, largest ``|z|`` (or Re s), loop margins with ``closed_loop_stable`` and
         ``open_loop_unstable_poles``, cases and sweeps: see
         :func:`hybridsim.analysis.stability.analyze`.
     """

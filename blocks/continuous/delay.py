@@ -211,7 +211,8 @@ class Memory(Block):
         self.declare_input("u", n)
         self.declare_input("trigger", 1)
         self.declare_output("y", n, depends_on=())
-        self.declare_continuous_state(n + 1, held=True)  # y, then the trigger's side of 0.5 (-1, 0 at the start on it, +1)
+        # y, then the trigger's side of 0.5 (-1, 0 at the start on it, +1)
+        self.declare_continuous_state(n + 1, held=True)
 
     def initial_state(self, u=None):
         side = np.sign(float(np.asarray(u[1], float)[0]) - 0.5) if u is not None else 0.0

@@ -87,7 +87,8 @@ class Backlash(Block):
         self.declare_input("u", n)
         self.declare_input("du", n)
         self.declare_output("y", n, depends_on=("u",))
-        self.declare_continuous_state(2 * n, held=[False] * n + [True] * n)  # y while in the play, and the mode (+1, 0, -1)
+        # y while in the play, and the mode (+1, 0, -1)
+        self.declare_continuous_state(2 * n, held=[False] * n + [True] * n)
 
     def initial_state(self, u=None):
         h, n = self.params

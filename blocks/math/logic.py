@@ -168,7 +168,7 @@ class HitCrossing(Block):
         self.declare_output("count", n, depends_on=())
         self.declare_output("time", n, depends_on=())
         # count, time of the last crossing, the side of offset u is on (-1, 0 at the start on it, +1)
-        self.declare_continuous_state(3 * n, bounded=[False] * (2 * n) + [True] * n, held=True)  # a count and a time grow
+        self.declare_continuous_state(3 * n, bounded=[False] * (2 * n) + [True] * n, held=True)  # counts, times grow
 
     def initial_state(self, u=None):
         p = self.params

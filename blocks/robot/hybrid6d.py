@@ -89,7 +89,8 @@ class HybridControl6D(Block):
         self.declare_input("tau_ff", n, default=np.zeros(n), optional=True)
         self.declare_output("tau", n)
         self.declare_output("F_C", 6)
-        self.declare_discrete_state(2 * n + 6, held=[False] * (2 * n) + [True] * 6)  # ∫q_e, ∫tau'_e, the S of the last tick
+        # ∫q_e, ∫tau'_e, the S of the last tick
+        self.declare_discrete_state(2 * n + 6, held=[False] * (2 * n) + [True] * 6)
         g = self.gains
         self.params = tk.HybridParams(n, self.period_s, np.flatnonzero(self.axes).astype(np.int64), g["Kpp"],
                                       g["Kpi"], g["Kpd"], g["Kfp"], g["Kfi"], self.tau_max, self.lam)

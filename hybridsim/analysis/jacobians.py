@@ -57,7 +57,7 @@ def checked_jacobian(fun, x0, steps, tol=1e-8, tries=8, size=0.0):
     if not J2.size:
         return J2, 0.0
     a1, a2 = np.abs(J1), np.abs(J2)
-    seen = np.maximum(1e3 * noise, 0.0)
+    seen = 1e3 * noise  # above what rounding could make
     # bend2 / bend1: 1/4 smooth, 1 a kink, 4 a jump or a value at x0 alone (an equality test, whose
     # neighbours agree: its central difference stays small)
     kink = ((np.abs(bend2) > 0.5 * np.abs(bend1)) & (np.abs(bend2) < 2.0 * np.abs(bend1))

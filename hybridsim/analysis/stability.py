@@ -124,7 +124,11 @@ def margins(L):
     on L's own frequency response (it loses accuracy on high-order loops, e.g.
     a 6-DOF arm's with its many modes), the margins of the response sampled
     on a dense grid up to Nyquist; where it finds no crossover, the grid's
-    where it finds one (a slow integrator's gain crossover it misses).
+    where it finds one (a slow integrator's gain crossover it misses). The grid
+    also reads L at DC and Nyquist, where a phase crossover makes Im L touch 0
+    without changing sign. A gain margin past 1e9 or under 1e-9 is rounding
+    (``|L|`` = 1e-16) or a pole on the circle: none. With them, what they do not
+    say alone: :func:`loop_stability`.
     """
     import warnings
 
@@ -400,8 +404,8 @@ def summary_lines(res):
              + f" -> {'STABLE' if res['stable'] else 'NOT STABLE'}"]
     if res.get("fd_error", 0.0) > 1e-4:  # a kink or switch at the operating point
         lines.append(f"  note: the finite differences agree only to {res['fd_error']:.2g} (relative): a kink or "
-                     "switch at the operating point (a one-sided spring engaging there, a limit reached) makes the numbers "
-                     "below that uncertain; linearize off it (analysis: at, or a set)")
+                     "switch at the operating point (a one-sided spring engaging there, a limit reached) makes "
+                     "the numbers below that uncertain; linearize off it (analysis: at, or a set)")
     lines.append("  dominant poles:   " + ("|z|      f (Hz)   damping" if sampled else "|s|      f (Hz)   damping"))
     seen = 0
     for p in res["poles"]:
