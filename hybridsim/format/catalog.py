@@ -54,21 +54,26 @@ def block_info(type_name, ports=True):
     if not ports:
         return BlockInfo(**info)
     # the ports of a block with its defaults (a sampled block given a rate, which its ports do not
-    # depend on; a block that needs a file has none to show)
-    for given in ({}, {"rate": 1.0} if "rate" in sig else None):
-        try:
-            blk = cls(name="b", **given) if given is not None else None
-        except Exception:  # noqa: BLE001 - only for showing
-            blk = None
-        if blk is not None:
-            break
+    # depend on, and which is then not shown; a block that needs a file has none to show)
+    blk, rate_hz = _built(cls), None
+    if blk is not None:
+        rate_hz = float(1 / blk.period) if blk.period else None
+    elif "rate" in sig:
+        blk = _built(cls, rate=1.0)
     if blk is None:
         return BlockInfo(**info)
     held = blk.continuous_held
     return BlockInfo(**info, inputs=[(p.name, p.width) for p in blk.inputs],
-                     outputs=[(p.name, p.width) for p in blk.outputs],
-                     rate_hz=float(1 / blk.period) if blk.period and not given else None,
+                     outputs=[(p.name, p.width) for p in blk.outputs], rate_hz=rate_hz,
                      states=blk.n_continuous, held=int(held.sum()) if held is not None else 0)
+
+
+def _built(cls, **given):
+    """An instance of block class ``cls`` with its defaults and ``given``, or None where it cannot be built."""
+    try:
+        return cls(name="b", **given)
+    except Exception:  # noqa: BLE001 - only for showing
+        return None
 
 
 def catalog():
