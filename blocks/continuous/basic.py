@@ -303,7 +303,7 @@ class Relay(Block):
         self.event_directions = (1,) * n + (-1,) * n
         self.declare_input("u", n)
         self.declare_output("y", n, depends_on=())
-        self.declare_continuous_state(n)
+        self.declare_continuous_state(n, held=True)  # the position, which only its switches change
 
     def initial_state(self, u=None):
         if u is None:

@@ -113,7 +113,7 @@ class ForceTorqueSensor(Block):
         self.declare_output("twist", 6, depends_on=("twist",))
         self.declare_output("F", 6, depends_on=("p", "R", "twist"))
         # the tool's position and velocity, and the reading stored at the last tare (constant between tares)
-        self.declare_continuous_state(9, atol=[1e-12] * 3 + [1e-10] * 3 + [1e-9] * 3)
+        self.declare_continuous_state(9, atol=[1e-12] * 3 + [1e-10] * 3 + [1e-9] * 3, held=[False] * 6 + [True] * 3)
         self.init_needs_inputs = True
         self.params = SensorParams(self.m, tuple(self.K.tolist()), tuple(self.B.tolist()),
                                       tuple(self.g.tolist()), self.compensate)

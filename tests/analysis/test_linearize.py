@@ -604,3 +604,17 @@ def test_a_count_is_no_pole(tmp_path):
     q.write_text(INTEGRATOR_LOOP % "{type: transfer_function, num: [1.0], den: [1.0, 0.0]}")
     a, b = (an.analyze(x, sweeps=False) for x in (p, q))
     assert a["integrator_modes"] == b["integrator_modes"] == 0 and len(a["poles"]) == len(b["poles"])
+
+
+def test_a_relays_position_is_no_pole(tmp_path):
+    """A relay's state is its position (on/off), which only its switches change: it was a pole at s = 0
+    beside the plant's -1; held, the loop through the relay (on, nowhere near a switch) is the plant."""
+    from hybridsim.analysis import stability as an
+
+    p = tmp_path / "relay.yaml"
+    p.write_text("blocks:\n  r: {type: constant, value: 0.3}\n  e: {type: sum, signs: '+-'}\n"
+                 "  rel: {type: relay, switch_on: 0.1, switch_off: -0.1, y_on: 1.0, y_off: -1.0}\n"
+                 "  plant: {type: transfer_function, num: [0.2], den: [1.0, 1.0]}\n"
+                 "wires: [r.y -> e.u1, plant.y -> e.u2, e.y -> rel.u, rel.y -> plant.u]\n")
+    res = an.analyze(p, sweeps=False)
+    assert res["integrator_modes"] == 0 and [complex(q["re"], q["im"]) for q in res["poles"]] == pytest.approx([-1.0])
