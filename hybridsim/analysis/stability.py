@@ -158,7 +158,7 @@ def margins(L):
     }
 
 
-def _growing(sys):
+def growing_modes(sys):
     """How many of ``sys``'s poles grow - |z| > 1 (sampled) or Re s > 0, poles at z = 1 / s = 0 left
     out - and are modes of its input-output path (the PBH test: neither uncontrollable from its input
     nor unobservable at its output; a state elsewhere in the diagram is no pole of this loop)."""
@@ -191,7 +191,8 @@ def loop_stability(L):
     that grow; with any, the margins say nothing of stability without counting Nyquist's
     encirclements) and ``closed_loop_stable`` (1/(1 + L), the loop closed again). Only the modes of
     L's own path count."""
-    return {"open_loop_unstable_poles": _growing(L), "closed_loop_stable": _growing(control.feedback(L, 1)) == 0}
+    return {"open_loop_unstable_poles": growing_modes(L),
+            "closed_loop_stable": growing_modes(control.feedback(L, 1)) == 0}
 
 
 def closed_loop(path, overrides, at=None):

@@ -1,9 +1,10 @@
 """Force-control metrics of a run: the numbers the paper quotes, and their phrases.
 
 Force is judged as logged ("raw": it carries the hand's ringing, ~272 Hz in the
-paper's plant) and after the display filter (each figure says which) ("filtered": a causal 2nd-order
+paper's plant) and after the display filter ("filtered": a causal 2nd-order
 Butterworth low-pass at ``metrics: filter_cutoff``, 12 Hz by default, started in
-steady state). Registered with :func:`hybridsim.analysis.metrics.register`.
+steady state); each figure's name and phrase say which. Registered with
+:func:`hybridsim.analysis.metrics.register`.
 """
 import numpy as np
 

@@ -220,10 +220,9 @@ def write_picture(path_or_file, output=None, expand=False, **overrides):
     (pathlib.Path, str or None)
         The file written, and a note saying why it is not the default name (or None).
     """
-    from hybridsim.format.build import load
     from hybridsim.files import atomic_file, check_output_file, default_output_file, safe_name
-
     from hybridsim.format import standalone
+    from hybridsim.format.build import load
     from hybridsim.format.diagram_file import DiagramFile
 
     plt = pyplot()

@@ -249,11 +249,13 @@ def _page(data, figures, first_gain):
                   "hyperperiod for several rates). \"Largest |z|\" leaves out poles at exactly z = 1 "
                   f"(integrator directions no signal drives, {a['integrator_modes']} here).")
     step = data.get("step")
-    step_txt = (f"<p>Step of {step['step_size']} at the input: linear and nonlinear differ by at most "
-                f"{step['max_abs_difference']:.3g} over {step['ticks']} samples"
-                + (f" (the linear model is unstable, {step['linear_unstable_poles']} pole(s) growing: the two "
-                   "part as it grows, and only the nonlinear limits keep the simulation bounded)"
-                   if step and step.get("linear_unstable_poles") else "") + ".</p>" if step else "")
+    step_txt = ""
+    if step:
+        why = (f" (the linear model is unstable, {step['linear_unstable_poles']} pole(s) growing: the two part "
+               "as it grows, and only the nonlinear limits keep the simulation bounded)"
+               if step.get("linear_unstable_poles") else "")
+        step_txt = (f"<p>Step of {step['step_size']} at the input: linear and nonlinear differ by at most "
+                    f"{step['max_abs_difference']:.3g} over {step['ticks']} samples{why}.</p>")
     locus = f"root locus against {first_gain[0]} ({first_gain[1]}); x = the gains as given" if first_gain else ""
     bodes = "".join(img(k, f"loop transfer L at {k[5:]}; margins marked") for k in figures if k.startswith("bode_"))
     body = f"""<h1>Stability report: {html.escape(data['diagram'])}</h1>

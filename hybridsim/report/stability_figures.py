@@ -191,7 +191,7 @@ def step_figure(path, base, cfg):
     ax.grid(True, alpha=0.3)
     fig.tight_layout()
     err = float(np.max(np.abs(lin - nl)))
-    from hybridsim.analysis.stability import loop_stability
+    from hybridsim.analysis.stability import growing_modes
 
-    grows = loop_stability(G)["open_loop_unstable_poles"]  # G is the closed loop: its own poles
-    return fig, {"step_size": size, "max_abs_difference": err, "ticks": n, "linear_unstable_poles": grows}
+    return fig, {"step_size": size, "max_abs_difference": err, "ticks": n,
+                 "linear_unstable_poles": growing_modes(G)}  # G is the closed loop: its own poles
