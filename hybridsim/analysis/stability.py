@@ -159,7 +159,7 @@ def margins(L):
 
 
 def growing_modes(sys):
-    """How many of ``sys``'s poles grow - |z| > 1 (sampled) or Re s > 0, poles at z = 1 / s = 0 left
+    """How many of ``sys``'s poles grow - ``|z| > 1`` (sampled) or Re s > 0, poles at z = 1 / s = 0 left
     out - and are modes of its input-output path (the PBH test: neither uncontrollable from its input
     nor unobservable at its output; a state elsewhere in the diagram is no pole of this loop)."""
     from scipy.linalg import matrix_balance
