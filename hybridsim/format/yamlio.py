@@ -168,6 +168,17 @@ def read_text(path, budget=None):
         raise LoaderError("not UTF-8 text (a binary file?)", path, line) from None
 
 
+_OTHER_FORMATS = {  # a file of another kind given where a diagram is read: what to do with it
+    ".urdf": "is a URDF robot description, not a diagram; name it in a robot block's 'urdf:' "
+             "(robot_arm, robot_kinematics ...; see 'hybridsim blocks -v robot_arm')",
+    ".xml": "is XML, not a YAML diagram (a modelDescription.xml belongs inside an .fmu; "
+            "an FMU is imported with an 'fmu' block's 'path:')",
+    ".sdf": "is an SDF world description, not a diagram; robots are read from URDF files",
+    ".fmu": "is an FMU, not a diagram; import it with an 'fmu' block (its 'path:'), "
+            "see 'hybridsim blocks -v fmu'",
+}
+
+
 def parse_file(path, budget=None, what="a diagram file must be a mapping with a 'blocks' section"):
     """The YAML mapping in ``path`` with file/line tracking, and its size in bytes; or LoaderError.
 
@@ -175,7 +186,12 @@ def parse_file(path, budget=None, what="a diagram file must be a mapping with a 
     characters YAML forbids (NUL), nesting deeper than ``MAX_YAML_DEPTH``,
     aliases that expand to more than ``MAX_YAML_VALUES`` values, duplicate keys.
     """
+    other = _OTHER_FORMATS.get(os.path.splitext(str(path))[1].lower())
+    if other and os.path.isfile(path):
+        raise LoaderError(other, path)
     text = read_text(path, budget)
+    if text.lstrip("\ufeff \t\r\n").startswith("<"):
+        raise LoaderError("is XML or HTML, not a YAML diagram", path, 1)
     data = _load_text(text, str(path))
     if not isinstance(data, dict):
         raise LoaderError(what, path, 1)

@@ -257,3 +257,16 @@ def test_incommensurate_rates_name_the_file_and_each_blocks_line(tmp_path):
     with pytest.raises(InputError, match=rf"^{re.escape(str(p))}: sample rates are not commensurate .*"
                                          rf"\(blocks: z at {re.escape(str(p))}:3, z2 at {re.escape(str(p))}:4\)"):
         hs.check(p)
+
+
+@pytest.mark.parametrize("name, text, says", [
+    ("arm.urdf", '<?xml version="1.0"?>\n<robot name="a"/>\n', "URDF robot description"),
+    ("plant.fmu", "PK\x03\x04", "is an FMU"),
+    ("page.yaml", "\n  <html><body>a: b</body></html>\n", "XML or HTML"),
+])
+def test_a_file_of_another_kind_says_what_it_is_not_a_yaml_syntax_error(tmp_path, name, text, says):
+    path = tmp_path / name
+    path.write_text(text)
+    with pytest.raises(LoaderError) as err:
+        DiagramFile(path)
+    assert says in str(err.value) and "YAML syntax" not in str(err.value) and name in str(err.value)
