@@ -68,7 +68,7 @@ def _file(source, overrides):
     return load(source, **overrides)
 
 
-def run(source, outdir=None, progress=False, jobs=None, **overrides):
+def run(source, outdir=None, progress=False, jobs=None, announce=None, **overrides):
     """Run every variant of a diagram and write its CSV, figure and metrics; ``hybridsim run``.
 
     Parameters
@@ -81,6 +81,8 @@ def run(source, outdir=None, progress=False, jobs=None, **overrides):
         A progress bar on a terminal.
     jobs : int, optional
         Processes for several variants (default one per core).
+    announce : callable, optional
+        Called with the DiagramFile once it has passed the checks, before the first run.
     **overrides
         As :func:`load` takes them.
 
@@ -95,6 +97,8 @@ def run(source, outdir=None, progress=False, jobs=None, **overrides):
     outdir, _ = output_dir(outdir, Path("out") / safe_name(f.name), whole=False)
     check(f)
     check_planned(outdir, output_names(f))  # refused now, not after the runs
+    if announce is not None:
+        announce(f)
     from hybridsim.runs.variants import run_experiment
 
     f, runs, settings = run_experiment(f, progress=progress, jobs=jobs)

@@ -27,10 +27,12 @@ def run(args):
     """Do the command: one call of the Python API, its result printed; returns the exit status."""
     from hybridsim import api
 
+    def announce(f):
+        n = len(f.variants())
+        print(f"running {f.name} ({n} run{'s' if n > 1 else ''}) ...", file=sys.stderr)
+
     f = options.diagram(args, ["simulation.compiled=true"] if args.compiled else [])
-    n = len(f.variants())
-    print(f"running {f.name} ({n} run{'s' if n > 1 else ''}) ...", file=sys.stderr)
-    done = api.run(f, args.output, progress=not args.quiet)
+    done = api.run(f, args.output, progress=not args.quiet, announce=announce)
     show(done)
     return 0
 

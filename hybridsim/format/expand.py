@@ -15,6 +15,10 @@ from hybridsim.format.values import _has_nan, _is_subsystem, _references, note, 
 
 _BAD_NAME = re.compile(r"[.\[\]\s:=]")  # a '.' separates a subsystem's name from its blocks' names
 
+_WIRING = re.compile(r"(inputs?|outputs?|in|out|u\d*|y\d*|from|to|src|source|connect\w*|ports?)$")
+_WIRES_HINT = (" (signals are connected in the 'wires:' section: '- block.output -> {b}.input'; "
+               "'hybridsim blocks -v {t}' lists its ports)")
+
 
 class ExpandMixin:
     """The expansion methods of :class:`~.diagram_file.DiagramFile`."""
@@ -253,7 +257,8 @@ class ExpandMixin:
                 valid = required + optional
                 problems.append(
                     f"{context}{spec.locs[pname]}: block {bname!r} ({tname}) has no parameter {pname!r}"
-                    f"{closest(pname, valid)}; its parameters: {', '.join(valid) or 'none'}")
+                    f"{closest(pname, valid)}; its parameters: {', '.join(valid) or 'none'}"
+                    + (_WIRES_HINT.format(b=bname, t=tname) if _WIRING.match(pname) else ""))
                 bad = True
                 continue
             try:

@@ -30,6 +30,18 @@ def test_bad_diagrams_exit_2_with_message(tmp_path, capsys, change, message):
     assert code == 2 and message in err and "d.yaml" in err
 
 
+@pytest.mark.parametrize("change, message", [
+    (("{type: gain, K: $k}", "{type: gain, K: $k, input: src.y}"), "'wires:' section"),
+    (("log_period: 1.0e-2", "log_period: 1.0e-2, dt: 1.0e-3"), "unknown simulation setting 'dt'"),
+])
+def test_a_run_refused_for_bad_input_says_only_why_and_where_signals_are_wired(tmp_path, capsys, change,
+                                                                            message):
+    p = write(tmp_path, GOOD.replace(*change))
+    code, out, err = run(capsys, "run", p, "-o", tmp_path / "out")
+    assert code == 2 and message in err and "running" not in err
+    assert not (tmp_path / "out").exists()
+
+
 def test_algebraic_loop_exit_2(tmp_path, capsys):
     text = """\
 blocks:
