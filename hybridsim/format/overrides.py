@@ -194,7 +194,12 @@ class OverridesMixin:
         names = list(spec)
         for n in names:
             if n not in self.params:
-                self._fail(f"variant {n!r} is not a parameter in 'params'{closest(n, self.params)}",
+                how = ""
+                if "." in str(n):  # g.K, simulation.solver: only a parameter is varied
+                    head, _, tail = str(n).rpartition(".")
+                    how = (f"; to vary {n}, give it a parameter: 'params: {{{tail}: ...}}', "
+                           f"'{tail}: ${tail}' in {head!r}, 'variants: {{{tail}: [...]}}'")
+                self._fail(f"variant {n!r} is not a parameter in 'params'{closest(n, self.params)}{how}",
                            spec.lines[n])
             if not isinstance(spec[n], list) or not spec[n]:
                 self._fail(f"variant {n!r} must be a non-empty list of values", spec.lines[n])

@@ -117,6 +117,12 @@ def test_overrides_and_variants(tmp_path):
         DiagramFile(p, {"kk": 1})
 
 
+def test_a_variant_of_a_block_parameter_says_how_to_vary_it_through_a_parameter(tmp_path):
+    p = write(tmp_path, GOOD + "variants: {zoh.rate: [50, 100]}\n")
+    with pytest.raises(LoaderError, match=r"d\.yaml:\d+: variant 'zoh.rate' .*'rate: \$rate' in 'zoh'"):
+        DiagramFile(p).variants()
+
+
 def test_a_metrics_setting_is_set_like_a_simulation_setting(tmp_path):
     # it said "no block 'metrics'": every section with a settings table takes SECTION.KEY
     import hybridsim.forcecontrol.settings  # noqa: F401 (the metrics settings' table rows)
