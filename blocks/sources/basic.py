@@ -135,7 +135,12 @@ def cosine_output(p, t, x, u, out):
 
 @register("table")
 class Table(_Source):
-    """Piecewise-linear y(t) through (times[k], values[k]); held beyond the ends."""
+    """Piecewise-linear y(t) through (times[k], values[k]); held beyond the ends.
+
+    A time given twice is a jump (as in Simulink's From Workspace): the first of its rows holds
+    up to it, the second from it on; the jump is a zero crossing like a ``step``'s.
+    Example: times [0, 1, 1, 2], values [0, 0, 5, 5] steps from 0 to 5 at t = 1 s.
+    """
 
     def __init__(self, name="table", times=(0.0, 1.0), values=(0.0, 1.0)):
         times = vector(times, "times")
@@ -143,22 +148,38 @@ class Table(_Source):
         values = vals.T if np.ndim(values) == 1 else vals
         if values.shape[0] != times.size or times.size < 2:
             raise ParameterError("values", "needs at least 2 times and one row of values per time")
-        if np.any(np.diff(times) <= 0):
-            raise ParameterError("times", "must increase strictly")
+        gaps = np.diff(times)
+        if np.any(gaps < 0):
+            raise ParameterError("times", "must not decrease (a time given twice is a jump)")
+        if np.any((gaps[:-1] == 0) & (gaps[1:] == 0)):
+            raise ParameterError("times", "gives one time three times; a jump is a time given twice")
         super().__init__(name, values.shape[1])
-        self.params = (times, np.ascontiguousarray(values))
+        jumps = times[1:][gaps == 0]
+        self.params = (times, np.ascontiguousarray(values), jumps)
+        if jumps.size:
+            self.event_directions = (1,) * jumps.size
+            self.kernels = Kernels(output=table_output, zero_crossings=table_crossings)
 
 
 @kernel
 def table_output(p, t, x, u):
-    times, values = p
+    times, values, jumps = p
     n = times.size
-    k = min(max(np.searchsorted(times, t, side="right") - 1, 0), n - 2)
+    if t < times[0]:
+        return values[0].copy(), np.zeros_like(values[0])
+    if t >= times[n - 1]:
+        return values[n - 1].copy(), np.zeros_like(values[0])
+    k = np.searchsorted(times, t, side="right") - 1  # times[k] <= t < times[k + 1]: never a jump's gap
     t0, t1 = times[k], times[k + 1]
     slope = (values[k + 1] - values[k]) / (t1 - t0)
-    if t < times[0] or t >= times[n - 1]:
-        return (values[0] if t < t0 else values[n - 1]).copy(), np.zeros_like(slope)
     return values[k] + slope * (t - t0), slope
+
+
+@kernel
+def table_crossings(p, t, x, u):
+    """t - each jump's time, past zero from the jump on, where the output has jumped (as a step's)."""
+    d = t - p[2]
+    return np.where(d == 0.0, 1e-300, d)
 
 
 Constant.kernels = Kernels(output=constant_output)
