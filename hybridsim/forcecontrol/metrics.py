@@ -70,7 +70,8 @@ def compute(t, sig, cfg):
         if "step_time" in cfg:
             ts = float(cfg["step_time"])
             before = fd[t < ts]
-            y0 = float(before[-1]) if before.size else float(fd[0])
+            # a step at or before the first sample: from where the force starts
+            y0 = float(before[-1]) if before.size else float(f[0])
             step = step_response(t, ff, ts, y0, float(fd[-1]))
             out["rise_time_s"] = step["rise_time_s"]
             out["overshoot_pct"] = step["overshoot_pct"]

@@ -73,3 +73,14 @@ def test_a_filter_cutoff_above_the_logs_nyquist_frequency_is_noted():
     _, notes = metrics.within_run({"filter_cutoff": 1e6}, 1.0, np.arange(101) * 0.01)
     assert "above 0.99 of the log's Nyquist frequency (50 Hz)" in notes[0]
     assert metrics.within_run({"filter_cutoff": 12.0}, 1.0, np.arange(101) * 0.01)[1] == []
+
+
+def test_a_step_at_the_first_sample_is_measured_from_where_the_force_starts():
+    # the command is 1 from t = 0 on, the force rises as 1 - exp(-t / 0.1): rise 0.1 ln 9 = 0.2197 s;
+    # with no command sample before the step, the step was taken as 1 -> 1 and every figure was None
+    t = np.linspace(0.0, 2.0, 20001)
+    f = 1.0 - np.exp(-t / 0.1)
+    res = Result(t, {"f.y": f[:, None], "fd.y": np.ones((t.size, 1))}, {"wall_time_s": 0.0})
+    m = metrics.compute(res, {"force": "f.y", "force_desired": "fd.y"}, {"step_time": 0.0})
+    assert m["rise_time_raw_s"] == pytest.approx(0.1 * np.log(9.0), abs=2e-4)
+    assert m["overshoot_raw_pct"] == pytest.approx(0.0)
