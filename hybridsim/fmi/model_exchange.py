@@ -153,7 +153,9 @@ class ModelExchange:
         return x_new
 
     def zero_crossings(self, t, x, u):
-        """The FMU's event indicators at (t, x, u) (none in Co-Simulation)."""
+        """The FMU's event indicators at (t, x, u) (none in Co-Simulation); an indicator at exactly
+        0 is returned as -1e-300: FMI's domains are z > 0 and z <= 0 (FMI 2.0 section 3.1, 3.0
+        section 3.1.1), so a z that an event left at 0 and that then goes negative is no event."""
         if self.mode != "me" or not self.nz:
             return np.zeros(0)
         self._me_set(t, x, u)
@@ -161,4 +163,4 @@ class ModelExchange:
         status = calls.get_z()
         if status > 1:
             self._call("getEventIndicators", _raise, calls.failure("get_z", status))
-        return calls.z.copy()
+        return np.where(calls.z == 0.0, -1e-300, calls.z)

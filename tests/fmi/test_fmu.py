@@ -562,3 +562,26 @@ def test_a_fractional_value_for_an_integer_parameter_is_refused_not_rounded():
     assert _settable(var, 3) == 3 and _settable(var, 3.0) == 3.0
     with pytest.raises(ParameterError, match="Kp is an Integer variable of the FMU: give a whole number, got 2.7"):
         _settable(var, 2.7)
+
+
+@pytest.mark.slow
+def test_an_indicator_an_event_leaves_at_zero_is_in_fmis_nonpositive_domain(plant, tmp_path):
+    # bilateral contact: after the contact event the plant's indicator is exactly 0, then negative.
+    # Read as "leaving zero" that fired again and again: "events accumulate at t = 0.00634 s"
+    # (CVODE at rtol 1e-9 and 1e-7); FMI's domains are z > 0 and z <= 0, and fmpy runs through.
+    path = tmp_path / "bilateral.yaml"
+    path.write_text(f"""
+blocks:
+  tau: {{type: constant, value: [2.0, -1.0]}}
+  xs: {{type: constant, value: 0.5}}
+  plant: {{type: fmu, path: {plant}, mode: me, rate: 1000,
+          parameters: {{friction: false, unilateral: false, b: [1.0, 10.0], bw: 5.0}}}}
+wires: [tau.y -> plant.tau, xs.y -> plant.x_surface, xs.dy -> plant.v_surface]
+simulation: {{t_end: 0.05, solver: cvode, rtol: 1.0e-9}}
+log: [plant.q]
+""")
+    ref = hs.simulate(path, **{"simulation.solver": "radau"})
+    for rtol in (1e-9, 1e-7):
+        res = hs.simulate(path, **{"simulation.rtol": rtol})
+        assert np.abs(res["plant.q"][-1] - ref["plant.q"][-1]).max() < 1e-5
+        assert len(res.meta["events"]) == len(ref.meta["events"])

@@ -7,6 +7,7 @@
  * 13 flag_in (input), 14 flag_out = !flag_in: ports of other types than Real;
  * String 15 label (parameter, start "ab") and Integer 16 label_length = strlen(label). */
 #include <math.h>
+#include <float.h>
 #include <string.h>
 #include "fmi2Functions.h"
 
@@ -67,7 +68,7 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *e) {
     Ball *m = (Ball *)c;
     memset(e, 0, sizeof *e);
     if (m->r[0] <= 0.0 && m->r[2] < 0.0) {  /* the bounce */
-        m->r[0] = 0.0;
+        m->r[0] = DBL_MIN;  /* just above the floor: in z > 0, FMI's other domain than z <= 0 */
         m->r[2] = -m->r[4] * m->r[2];
         m->bounces += 1;
         e->valuesOfContinuousStatesChanged = fmi2True;

@@ -6,6 +6,7 @@
  * 14 flag_out = !flag_in; String 15 label (parameter), Int32 16 label_length = strlen(label),
  * Binary 17 blob (parameter), Int32 18 blob_sum = the sum of its bytes. */
 #include <stdlib.h>
+#include <float.h>
 #include <string.h>
 #include "fmi3Functions.h"
 
@@ -119,7 +120,7 @@ fmi3Status fmi3UpdateDiscreteStates(fmi3Instance c, fmi3Boolean *need, fmi3Boole
     Ball *m = (Ball *)c;
     *need = *term = *nom = *values = fmi3False;
     if (m->r[0] <= 0.0 && m->r[2] < 0.0) {  /* the bounce */
-        m->r[0] = 0.0;
+        m->r[0] = DBL_MIN;  /* just above the floor: in z > 0, FMI's other domain than z <= 0 */
         m->r[2] = -m->r[4] * m->r[2];
         m->bounces += 1;
         *values = fmi3True;
