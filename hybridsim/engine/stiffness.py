@@ -82,6 +82,17 @@ def one_sided_jacobians(f, t, x):
     return sides[0], sides[1]
 
 
+def participation(vec, k):
+    """How much each state takes part in mode ``k`` of the eigenvectors ``vec``: ``|w_i v_i|``, the left
+    times the right eigenvector (a fast lag feeding an integrator moves the integrator's state too, but
+    the integrator takes no part in the lag's mode); the right eigenvector alone where ``vec`` is singular."""
+    try:
+        left = np.linalg.inv(vec)[k]
+    except np.linalg.LinAlgError:
+        return np.abs(vec[:, k])
+    return np.abs(left * vec[:, k])
+
+
 def check_step(method, f, t, x, owner):
     """Raise :class:`SimulationError` when the fixed step of ``method`` (an ExplicitRK) is unstable on
     a mode of ``f`` linearized at ``(t, x)``; ``owner(k)`` names state ``k`` (its block and index).
@@ -103,7 +114,7 @@ def check_step(method, f, t, x, owner):
         if bad.size:
             k = bad[np.argmax(np.abs(lam[bad]))]
             if worst is None or abs(lam[k]) > abs(worst[0]):
-                worst = (lam[k], int(np.argmax(np.abs(vec[:, k]))))
+                worst = (lam[k], int(np.argmax(participation(vec, k))))
     if worst is None:
         return
     mode, state = worst

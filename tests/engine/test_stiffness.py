@@ -48,6 +48,23 @@ def test_a_step_too_long_for_a_fast_lag_is_refused_naming_its_block(tmp_path, so
     assert res["i.y"][-1, 0] == pytest.approx(0.5, abs=1e-12)
 
 
+def test_the_mode_is_named_by_the_state_that_takes_part_in_it_not_the_one_it_moves():
+    # a transfer function's lag (state scaled by 1e4 into its output) feeding an integrator: the
+    # eigenvector of -1e4 is larger on the integrator's state, which was named; the participation
+    # factor |left * right| of the integrator is 0 (the helper's diagram, heun at 1 ms)
+    d = hs.Diagram("d")
+    from hybridsim.blocks.continuous.basic import Integrator, TransferFunction
+    from hybridsim.blocks.sources.basic import Constant
+
+    d.add(Constant("one", 1.0))
+    d.add(TransferFunction("ff", num=[1.0], den=[1e-4, 1.0]))
+    d.add(Integrator("int", upper=1.0, lower=-1.0))
+    d.connect("one.y", "ff.u")
+    d.connect("ff.y", "int.u")
+    with pytest.raises(SimulationError, match=r"lambda = -1e\+04 1/s.*mostly state 0 of block 'ff'"):
+        hs.Simulator(d.build(), Heun(1e-3)).run(0.04)
+
+
 KINK_AT_START = """blocks:
   f: {type: lookup_1d, x: [-2.0, 1.0, 3.0], y: [-2000.0, 1000.0, 1001.0], extrapolation: linear}
   g: {type: gain, K: -1.0}
