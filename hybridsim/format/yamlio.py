@@ -5,6 +5,7 @@ Both diagram and sweep files (:func:`parse_file`) and ``--set`` values
 both: nesting depth, the number of values aliases expand to, recursive aliases,
 characters YAML forbids. Nothing is evaluated; only YAML's plain types.
 """
+import copy
 import os
 import re
 import stat
@@ -179,6 +180,12 @@ _OTHER_FORMATS = {  # a file of another kind given where a diagram is read: what
 }
 
 
+#: files parsed, by path and text: a file read again (an analysis builds its diagram for every case and
+#: gain scale) is copied, not parsed again; its text is read every time, so an edit is never missed
+_PARSED = {}
+_PARSED_MAX = 64
+
+
 def parse_file(path, budget=None, what="a diagram file must be a mapping with a 'blocks' section"):
     """The YAML mapping in ``path`` with file/line tracking, and its size in bytes; or LoaderError.
 
@@ -190,12 +197,18 @@ def parse_file(path, budget=None, what="a diagram file must be a mapping with a 
     if other and os.path.isfile(path):
         raise LoaderError(other, path)
     text = read_text(path, budget)
-    if text.lstrip("\ufeff \t\r\n").startswith("<"):
-        raise LoaderError("is XML or HTML, not a YAML diagram", path, 1)
-    data = _load_text(text, str(path))
-    if not isinstance(data, dict):
+    key = (str(path), text)
+    parsed = _PARSED.pop(key, None)
+    if parsed is None:
+        if text.lstrip("\ufeff \t\r\n").startswith("<"):
+            raise LoaderError("is XML or HTML, not a YAML diagram", path, 1)
+        parsed = _load_text(text, str(path)), len(text.encode("utf-8"))
+    _PARSED[key] = parsed  # the most recent last
+    while len(_PARSED) > _PARSED_MAX:
+        del _PARSED[next(iter(_PARSED))]
+    if not isinstance(parsed[0], dict):
         raise LoaderError(what, path, 1)
-    return data, len(text.encode("utf-8"))
+    return copy.deepcopy(parsed[0]), parsed[1]
 
 
 def _load_text(text, source):
