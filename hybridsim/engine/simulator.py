@@ -120,7 +120,8 @@ class Simulator:
         self.located = _events.located_events(system, self.solver, locate_switches)
         self._timelines = {}
         self._step_checked = False
-        self._compiled = self._fused = self._twin = None
+        self._compiled = self._twin = self._fused_code = None
+        self._fusable = False
         if compiled:
             from hybridsim.engine.compiled import CompiledGlue
 
@@ -128,13 +129,22 @@ class Simulator:
         elif fused:
             from hybridsim.engine import fused as _fused
 
-            if _fused.eligible(system, self.solver):
-                self._fused = _fused.build(system, self.solver, self.located)
+            self._fusable = _fused.eligible(system, self.solver)
+
+    @property
+    def _fused(self):
+        """The fused path's code (None: not fused), written on first use: a check, or an analysis of
+        its branches, builds simulators it never runs."""
+        if self._fusable and self._fused_code is None:
+            from hybridsim.engine import fused as _fused
+
+            self._fused_code = _fused.build(self.system, self.solver, self.located)
+        return self._fused_code
 
     @property
     def path(self):
         """Which path runs: ``"compiled"``, ``"fused"`` or ``"generic"``."""
-        return "compiled" if self._compiled is not None else "fused" if self._fused is not None else "generic"
+        return "compiled" if self._compiled is not None else "fused" if self._fusable else "generic"
 
     # -- the right-hand side, for analysis ------------------------------------------------
     def rhs(self, ctx):
