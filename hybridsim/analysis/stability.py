@@ -62,8 +62,21 @@ def least_damping(poles):
 
 def _response(L, w):
     """L's frequency response at ``w`` (rad/s, a number or an array), discrete or continuous."""
-    r = np.asarray(L(np.exp(1j * np.asarray(w) * L.dt) if L.dt else 1j * np.asarray(w)))
-    return complex(r.ravel()[0]) if np.ndim(w) == 0 else r.ravel()
+    s = np.exp(1j * np.asarray(w) * L.dt) if L.dt else 1j * np.asarray(w)
+    if np.ndim(w) == 0 or L.ninputs != 1 or L.noutputs != 1 or not L.nstates:
+        r = np.asarray(L(s))
+        return complex(r.ravel()[0]) if np.ndim(w) == 0 else r.ravel()
+    A, B, C = (np.asarray(m, complex) for m in (L.A, L.B, L.C))
+    eye = np.eye(A.shape[0])
+    out = np.empty(s.shape, complex)
+    for a in range(0, s.size, 4096):  # C (sI - A)^-1 B + D, solves batched (python-control loops: 5x slower)
+        part = s[a:a + 4096]
+        try:
+            x = np.linalg.solve(part[:, None, None] * eye - A, np.broadcast_to(B, (part.size,) + B.shape))
+            out[a:a + 4096] = (C @ x)[:, 0, 0] + complex(np.asarray(L.D)[0, 0])
+        except np.linalg.LinAlgError:  # a frequency on a pole
+            out[a:a + 4096] = np.asarray(L(part)).ravel()
+    return out
 
 
 def _margins_hold(L, gm, pm, wg, wp):
