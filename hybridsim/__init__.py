@@ -28,6 +28,7 @@ from hybridsim.engine.simulator import Simulator
 from hybridsim.engine.solvers import RK4, ExplicitRK, Heun, ScipySolver
 from hybridsim.engine.cvode import CVode
 from hybridsim.runs.variants import run_experiment
+from hybridsim.checking import check_file
 
 # The wing over the generic layers: force control's signal roles, metrics, figure layout and hand
 # mode register themselves; the picture module lets Jupyter show a Diagram.
@@ -35,7 +36,7 @@ from hybridsim import forcecontrol  # noqa: E402,F401
 from hybridsim.report import picture as _picture  # noqa: E402,F401
 
 __all__ = ["registry", "Block", "Diagram", "Simulator", "RK4", "Heun", "ExplicitRK", "ScipySolver", "CVode", "register", "simulate", "analyze", "load",
-           "build", "check", "from_control", "run", "run_experiment", "write_outputs", "HybridsimError", "InputError",
+           "build", "check", "check_file", "from_control", "run", "run_experiment", "write_outputs", "HybridsimError", "InputError",
            "DiagramError", "LoaderError", "RateError", "ParameterError", "OutputError",
            "CompiledPathError", "PluginError", "SimulationError", "FMUError"]
 from hybridsim.version import __version__  # noqa: E402

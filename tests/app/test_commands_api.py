@@ -99,3 +99,15 @@ def test_analyze_is_part_of_the_top_level_api():
 
     res = hs.analyze(DIAGRAMS / "examples" / "msd_pid.yaml", sweeps=False)
     assert res["stable"] and res["growth"] == pytest.approx(0.993018, abs=1e-6)  # python-control's, tested there
+
+
+def test_check_file_takes_every_file_the_check_command_takes(capsys):
+    # getting-started named hybridsim.api.check as check's function: it refuses a subsystem file
+    # (its inputs unwired) and a sweep file, which the command checks
+    from hybridsim.app.cli import main
+
+    for path in (DIAGRAMS / "subsystems" / "fig6_controller.yaml", DIAGRAMS / "sweeps" / "fig7_force_gains.yaml"):
+        got = hs.check_file(path)
+        assert main(["check", str(path)]) == 0
+        assert got["kind"] in capsys.readouterr().out
+    assert hs.check_file(DIAGRAMS / "fig7_force_steps.yaml")["kind"] == "diagram"
