@@ -11,6 +11,7 @@ from hybridsim import limits
 from hybridsim.errors import FMUError, LoaderError, ParameterError, RateError
 from hybridsim.engine.registry import closest, lookup, parameters, types
 from hybridsim.format import tables
+from hybridsim.format.kinds import MapOf
 from hybridsim.format.values import _has_nan, _is_subsystem, _references, note, subsystem_path
 
 _BAD_NAME = re.compile(r"[.\[\]\s:=]")  # a '.' separates a subsystem's name from its blocks' names
@@ -258,7 +259,9 @@ class ExpandMixin:
                 problems.append(
                     f"{context}{spec.locs[pname]}: block {bname!r} ({tname}) has no parameter {pname!r}"
                     f"{closest(pname, valid)}; its parameters: {', '.join(valid) or 'none'}"
-                    + (_WIRES_HINT.format(b=bname, t=tname) if _WIRING.match(pname) else ""))
+                    + (_WIRES_HINT.format(b=bname, t=tname) if _WIRING.match(pname) else "")
+                    + "".join(f" (an entry of its mapping {r.key!r} is set as {bname}.{r.key}.{pname})"
+                              for r in table or () if isinstance(r.kind, MapOf)))
                 bad = True
                 continue
             try:

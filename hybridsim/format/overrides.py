@@ -92,6 +92,9 @@ class OverridesMixin:
                     pname = path.inner  # ctrl.pid.Kp: the subsystem passes pid.Kp on
                 elif bname not in blocks:
                     self._fail(f"{self.origin} {key}: no block {bname!r}{closest(bname, blocks)}")
+                elif len(path.parts) == 3 and self._mapping(blocks[bname], path.parts[1]):
+                    self._entry_set(blocks[bname], path, value, key)  # fmu.parameters.NAME
+                    continue
                 elif len(path.parts) > 2:
                     self._fail(f"{self.origin} {key}: block {bname!r} is not a subsystem; "
                                f"its parameters are set as {bname}.<parameter>")
@@ -110,6 +113,28 @@ class OverridesMixin:
             if cancelling and name in replaced and name in used and name not in left:
                 self._fail(f"{self.origin} {key}: changes nothing: every value that uses ${name} is set too "
                            f"({', '.join(replaced[name])}); give one of them")
+
+    @staticmethod
+    def _mapping(spec, pname):
+        """Whether parameter ``pname`` of the block ``spec`` is a mapping (its table says so)."""
+        from hybridsim.format.kinds import MapOf
+
+        rows = tables.BLOCK_SETTINGS.get(str(spec.get("type"))) if isinstance(spec, dict) else None
+        return any(r.key == pname and isinstance(r.kind, MapOf) for r in rows or ())
+
+    def _entry_set(self, spec, path, value, key):
+        """Set the entry ``path.parts[2]`` of the block's mapping parameter ``path.parts[1]``."""
+        pname, entry = path.parts[1], path.parts[2]
+        current = spec.get(pname)
+        if current is None:
+            current = {}
+        elif not isinstance(current, dict):
+            self._fail(f"{self.origin} {key}: {path.parts[0]}.{pname} is {current!r}, not a mapping")
+        current = dict(current)
+        current[entry] = value
+        spec[pname] = current
+        spec.lines[pname] = None
+        spec.locs[pname] = OverrideLoc(f"{self.origin} {key}")
 
     def _element_set(self, path, value, key):
         """The whole value of ``path`` (no index) with its element ``path.index`` set to ``value``."""

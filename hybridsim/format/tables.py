@@ -182,8 +182,8 @@ BLOCK_SETTINGS = {
     "fmu": [
         Setting("path", Text(nonempty=True), None, "the .fmu file (relative: to the working folder)", required=True),
         Setting("mode", Choice(["cs", "me"]), "cs", "Co-Simulation (needs rate or period) or Model Exchange"),
-        Setting("parameters", Kind(), None, "start values to set: {variable name: value} (checked by the block "
-                                            "against the FMU's variables)"),
+        Setting("parameters", MapOf(what="variable name"), None, "start values to set: {variable name: value} "
+                "(checked by the block against the FMU's variables; --set BLOCK.parameters.NAME=VALUE sets one)"),
         Setting("rate", Number(0, low_open=True, unit="Hz"), None, "sample rate of a Co-Simulation FMU"),
         Setting("period", Number(0, low_open=True, unit="s"), None, "sample period of a Co-Simulation FMU"),
     ],

@@ -276,3 +276,17 @@ def test_a_file_of_another_kind_says_what_it_is_not_a_yaml_syntax_error(tmp_path
     with pytest.raises(LoaderError) as err:
         DiagramFile(path)
     assert says in str(err.value) and "YAML syntax" not in str(err.value) and name in str(err.value)
+
+
+def test_an_entry_of_an_fmu_blocks_parameters_is_set_by_its_path(tmp_path):
+    # --set plant.parameters.unilateral=true said "block 'plant' is not a subsystem", and
+    # plant.unilateral "no parameter"; only the whole mapping could be given
+    p = write(tmp_path, "blocks:\n  plant: {type: fmu, path: p.fmu, parameters: {friction: false}}\n")
+    f = DiagramFile(p, {"plant.parameters.unilateral": True})
+    assert f.data["blocks"]["plant"]["parameters"] == {"friction": False, "unilateral": True}
+    f = DiagramFile(write(tmp_path, "blocks:\n  plant: {type: fmu, path: p.fmu}\n", "e.yaml"),
+                    {"plant.parameters.b": [1.0, 2.0]})
+    assert f.data["blocks"]["plant"]["parameters"] == {"b": [1.0, 2.0]}
+    with pytest.raises(DiagramError) as exc:
+        DiagramFile(p, {"plant.unilateral": True}).build()
+    assert any("is set as plant.parameters.unilateral" in m for m in exc.value.problems)
