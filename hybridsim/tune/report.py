@@ -12,8 +12,9 @@ def summary_lines(res):
     """Human-readable lines from :func:`hybridsim.tune.run_tune`'s summary."""
     best, before = res["best"], res["before"]
     stored = max(0, res["evaluations"] + 1 - res["ran"])  # + 1: the diagram as it is, evaluated first
-    lines = [f"{res['evaluations']} evaluations ({res['ran']} simulated now with the diagram as it is"
-             + (f", {stored} read from the store" if stored else "") + f"), {res['method']}, {res['wall_time_s']:.1f} s"]
+    lines = [f"{res['evaluations']} evaluations and the diagram as it is: {res['ran']} simulated now"
+             + (f", {stored} points already in the store (evaluated earlier in this search or a previous one)"
+                if stored else "") + f"; {res['method']}, {res['wall_time_s']:.1f} s"]
     names = list((before or best or {}).get("quantities", {}))
     lines.append(f"  {'quantity':<28}{'before':>12}{'best':>12}")
     for n in names:
