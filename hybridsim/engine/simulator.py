@@ -153,7 +153,7 @@ class Simulator:
         return state_derivatives(self.system, ctx)
 
     # -- runs ------------------------------------------------------------------------------
-    def run(self, t_end, context=None, params=None):
+    def run(self, t_end, context=None, params=None, logged=True):
         """Simulate from t = 0 to ``t_end`` s; return a :class:`Result`.
 
         ``params``: ``{"block.param": value}`` for this run only, without
@@ -161,13 +161,17 @@ class Simulator:
         rebuilt with :meth:`~hybridsim.engine.block.Block.with_params`, which refuses
         a change of structure (a width, a rate). The result's context holds the
         state at ``t_end``, the held outputs of discrete blocks and every other
-        output evaluated at ``t_end``.
+        output evaluated at ``t_end``. ``logged=False``: no log rows, only that
+        state (an operating point), without evaluating the log points (the same
+        state bit for bit, but on CVODE, which returns at each log time: within
+        its tolerance).
         """
         t_end = self._check_t_end(t_end)
         if context is not None and params:
             raise InputError("give run-time params or a context, not both (the context holds its blocks)")
         ctx, numbers = (context, None) if context is not None else self._context(params)
-        return self._run(ctx, self._timeline(t_end), t_end, numbers=numbers)
+        tl = self._timeline(t_end) if logged else timeline(self.system, self.log_period, t_end, logged=False)
+        return self._run(ctx, tl, t_end, numbers=numbers)
 
     def run_batch(self, t_end, param_sets, workers=None):
         """Run once per entry of ``param_sets`` (each ``{"block.param": value}``); a list of Results.

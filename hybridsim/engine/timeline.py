@@ -26,18 +26,21 @@ def schedule(system, log_period):
                     [b.name for b in blocks] + ["log"])
 
 
-def timeline(system, log_period, t_end):
+def timeline(system, log_period, t_end, logged=True):
     """The :class:`Timeline` of a run of ``system`` to ``t_end`` s, logged every ``log_period`` s.
 
     Ticks run at ``0 <= t < t_end``; the run ends with a row at ``t_end``, logged
     when ``t_end`` lies on the log grid. The first row is always a hit (the
-    first pass of a run evaluates every block, due or not).
+    first pass of a run evaluates every block, due or not). ``logged=False``: the
+    hits and the end only, no row logged (a run for its final state).
     """
     sched = schedule(system, log_period)
     ticks, due = sched.hits(sched.last_tick_before(t_end))
     d = len(system.discrete)
     hit = due[:, :d].any(axis=1)
     hit[0] = True
+    if not logged:
+        return build(sched.time(ticks)[hit], hit[hit], due[hit, :d], np.zeros(int(hit.sum()), bool), t_end)
     log_end = on_grid(t_end, float(log_period))
     return build(sched.time(ticks), hit, due[:, :d], due[:, d], t_end, log_end)
 

@@ -208,7 +208,7 @@ class Experiment:
             why = horizon_problems(self.system.blocks, self.settings["simulation"], at, 0, "linearize at")
             if why:
                 raise InputError(f"{self.path}: " + "; ".join(why))
-            return self.simulator.run(float(at), params=params or None).context, float(at)
+            return self.simulator.run(float(at), params=params or None, logged=False).context, float(at)
         if not params:
             return None, 0.0  # Linearization starts a fresh context itself
         ctx = self.system.create_context(params)
