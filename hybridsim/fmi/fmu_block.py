@@ -29,7 +29,7 @@ import numpy as np
 
 from hybridsim.fmi import log as fmi_log
 from hybridsim.engine.block import Block
-from hybridsim.errors import FMUError, StopRequest
+from hybridsim.errors import FMUError, ParameterError, StopRequest
 from hybridsim.fmi.model_exchange import ModelExchange, _raise
 from hybridsim.fmi.start_values import start_values
 from hybridsim.fmi.build import build_fmu, find_compiler, fmi_headers  # noqa: F401 - hybridsim.fmi.fmu_block.build_fmu
@@ -77,9 +77,11 @@ class FMUBlock(ModelExchange, Block):
         import fmpy
 
         self.path = Path(path)
-        if not self.path.exists():
-            raise FMUError(f"FMU {str(self.path)!r}: file not found (the plant FMU is built with "
-                           "'hybridsim fmu build -o plant.fmu')")
+        if not self.path.is_file():  # the user's path, not the FMU: bad input
+            why = "is a folder, not an .fmu file" if self.path.is_dir() else "names no file"
+            hint = (" (the shipped plant FMU is built with 'hybridsim fmu build -o plant.fmu')"
+                    if self.path.name.startswith("plant") else "")
+            raise ParameterError("path", f"{why}: {str(self.path)!r}{hint}")
         stat = self.path.stat()
         md, binaries = _read(str(self.path), str(self.path.resolve()), stat.st_size, stat.st_mtime_ns)
         if md.fmiVersion not in ("2.0", "3.0"):

@@ -205,8 +205,13 @@ def test_foreign_fmu_in_a_diagram(vdp):
 
 
 def test_fmu_errors_are_clear(plant, tmp_path):
-    with pytest.raises(FMUError, match="file not found"):
+    from hybridsim.errors import ParameterError
+
+    # a path to nothing, or to a folder, is the user's input (exit 2), not the FMU's failing (4)
+    with pytest.raises(ParameterError, match="'path' names no file"):
         FMUBlock(path=str(tmp_path / "nope.fmu"))
+    with pytest.raises(ParameterError, match="'path' is a folder, not an .fmu file"):
+        FMUBlock(path=str(tmp_path))
     (tmp_path / "junk.fmu").write_text("not a zip")
     with pytest.raises(FMUError, match="not a zip"):
         FMUBlock(path=str(tmp_path / "junk.fmu"))
