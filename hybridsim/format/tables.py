@@ -306,9 +306,20 @@ def problems(table, data, section, path, lines=None, line0=None):
     for msg, key in check_values(table, data, section):
         line = lines.get(key, line0) if key is not None else line0
         if key is not None and isinstance(data, dict):
-            line = _entry_line(data.get(key), msg) or line
+            line = _record_line(table, key, data.get(key)) or _entry_line(data.get(key), msg) or line
         out.append(f"{path}{f':{line}' if line else ''}: {msg}")
     return out
+
+
+def _record_line(table, key, value):
+    """The line of the first key with a problem inside the setting ``key`` of ``table`` where its
+    kind is a :class:`Record` (a sweep's ``random``), or None."""
+    kind = next((s.kind for s in table if s.key == key), None)
+    if not isinstance(kind, Record) or not isinstance(value, dict):
+        return None
+    inner = [k for _, k in check_values(kind.table, value, kind.name) if k is not None]
+    lines = getattr(value, "key_lines", None) or getattr(value, "lines", None) or {}
+    return lines.get(inner[0]) if inner else None
 
 
 def _entry_line(value, msg):

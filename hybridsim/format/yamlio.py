@@ -20,6 +20,7 @@ class _Dict(dict):
 
     line = None
     lines = None
+    key_lines = None
     file = None
 
 
@@ -63,7 +64,7 @@ def _construct_mapping(loader, node):
     loader.flatten_mapping(node)
     d = _Dict()
     d.line, d.lines, d.file = node.start_mark.line + 1, {}, loader.source_path
-    d.locs = {}
+    d.locs, d.key_lines = {}, {}  # key_lines: where each key is written (a block mapping's value starts below)
     for knode, vnode in node.value:
         key = loader.construct_object(knode, deep=True)
         try:
@@ -72,6 +73,7 @@ def _construct_mapping(loader, node):
             raise LoaderError("a mapping key must be a plain value", line=knode.start_mark.line + 1) from None
         d[key] = loader.construct_object(vnode, deep=True)
         d.lines[key] = vnode.start_mark.line + 1
+        d.key_lines[key] = knode.start_mark.line + 1
         d.locs[key] = f"{loader.source_path}:{d.lines[key]}"
     return d
 
