@@ -306,7 +306,7 @@ def problems(table, data, section, path, lines=None, line0=None):
     for msg, key in check_values(table, data, section):
         line = lines.get(key, line0) if key is not None else line0
         if key is not None and isinstance(data, dict):
-            line = _record_line(table, key, data.get(key)) or _entry_line(data.get(key), msg) or line
+            line = _entry_line(data.get(key), msg) or _record_line(table, key, data.get(key)) or line
         out.append(f"{path}{f':{line}' if line else ''}: {msg}")
     return out
 
