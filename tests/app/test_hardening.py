@@ -395,7 +395,7 @@ def test_bad_fmu_parameter_value_is_exit_2(tmp_path, capsys):
     assert code == 2 and "must be a finite number" in err
     code, _, err = run(capsys, "check", DIAGRAMS / "fig9_fmu_cs.yaml", "--set", f"fmu={fmu}",
                        "--set", "plant.parameters=7")
-    assert code == 2 and "must map variable names" in err
+    assert code == 2 and "'parameters' must be a mapping {variable name" in err
 
 
 # -- exit codes ------------------------------------------------------------------------
