@@ -18,7 +18,7 @@ from hybridsim.format.tables import Record
 from hybridsim.format.overrides import ORIGIN, OverridesMixin
 from hybridsim.format.settings import SettingsMixin
 from hybridsim.format.values import _plain, _references
-from hybridsim.format.yamlio import _Dict, refuse_kind
+from hybridsim.format.yamlio import _Dict, key_line, refuse_kind
 
 TOP_KEYS = tables.keys(tables.DIAGRAM)
 _log = logging.getLogger("hybridsim")
@@ -62,7 +62,7 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
         for key in data:
             if key not in TOP_KEYS:
                 self._fail(f"unknown section {key!r}{closest(key, TOP_KEYS)}; "
-                           f"sections: {', '.join(TOP_KEYS)}", data.lines[key])
+                           f"sections: {', '.join(TOP_KEYS)}", key_line(data, key))
         if "blocks" not in data:
             self._fail("missing required section 'blocks'", 1)
         for s in tables.DIAGRAM:

@@ -72,6 +72,8 @@ def read_merged(path, chain=(), budget=None, files=None):
         else:
             merged[key] = val
         merged.lines[key] = data.lines[key]
+        if merged.key_lines is not None and data.key_lines:
+            merged.key_lines[key] = data.key_lines[key]
     return merged
 
 

@@ -16,6 +16,7 @@ from dataclasses import dataclass, replace
 from hybridsim import limits
 from hybridsim.engine.registry import closest
 from hybridsim.format.kinds import REF_SCHEMA, Bool, Choice, Either, Kind, ListOf, MapOf, Number, PathText, Port, Signal, Text
+from hybridsim.format.yamlio import key_line
 
 # documented: the tables and functions (Setting's fields would shadow other names in the API pages)
 __all__ = ["SIMULATION", "SIGNALS", "METRICS", "PLOT", "ANALYSIS", "ANALYSIS_STEP", "SWEEP", "SWEEP_RANDOM", "DIAGRAM",
@@ -303,8 +304,11 @@ def problems(table, data, section, path, lines=None, line0=None):
     lines = lines if lines is not None else (getattr(data, "lines", None) or {})
     line0 = line0 if line0 is not None else getattr(data, "line", None)
     out = []
+    known = {s.key for s in table}
     for msg, key in check_values(table, data, section):
         line = lines.get(key, line0) if key is not None else line0
+        if key is not None and key not in known:  # an unknown key: where it is written
+            line = key_line(data, key) or line
         if key is not None and isinstance(data, dict):
             line = _entry_line(data.get(key), msg) or _record_line(table, key, data.get(key)) or line
         out.append(f"{path}{f':{line}' if line else ''}: {msg}")

@@ -24,6 +24,12 @@ class _Dict(dict):
     file = None
 
 
+def key_line(mapping, key):
+    """The line where ``key`` of a parsed ``mapping`` is written (its value's line where unknown)."""
+    return ((getattr(mapping, "key_lines", None) or {}).get(key)
+            or (getattr(mapping, "lines", None) or {}).get(key))
+
+
 class _List(list):
     line = None
     lines = None

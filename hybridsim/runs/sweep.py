@@ -39,7 +39,7 @@ from hybridsim import limits
 from hybridsim.errors import HybridsimError, InputError, LoaderError
 from hybridsim.files import check_planned, locked_output_dir, unique_names
 from hybridsim.format import parse_file
-from hybridsim.format.yamlio import refuse_kind
+from hybridsim.format.yamlio import key_line, refuse_kind
 from hybridsim.format.identity import check_sweep
 from hybridsim.runs.executor import Executor
 from hybridsim.runs.experiment import Experiment
@@ -69,7 +69,7 @@ class Sweep:
         for key in data:
             if key not in SWEEP_KEYS:
                 raise LoaderError(f"unknown sweep key {key!r}; keys: {', '.join(sorted(SWEEP_KEYS))}",
-                                  self.path, lines[key])
+                                  self.path, key_line(data, key))
         if not isinstance(data["diagram"], str) or not data["diagram"]:
             raise LoaderError(f"'diagram' must be a file name, got {data['diagram']!r}", self.path,
                               lines["diagram"])

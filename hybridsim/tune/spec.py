@@ -33,7 +33,7 @@ from hybridsim import limits
 from hybridsim.errors import InputError, LoaderError, RateError
 from hybridsim.format import parse_file
 from hybridsim.format.identity import given_once
-from hybridsim.format.yamlio import refuse_kind
+from hybridsim.format.yamlio import key_line, refuse_kind
 from hybridsim.runs.sweep import INSIDE
 from hybridsim.tune.space import SCALES, Parameter
 
@@ -108,7 +108,7 @@ class TuneSpec:
         lines = data.lines
         for key in data:
             if key not in TUNE_KEYS:
-                self._fail(f"unknown tune key {key!r}; keys: {', '.join(TUNE_KEYS)}", lines[key])
+                self._fail(f"unknown tune key {key!r}; keys: {', '.join(TUNE_KEYS)}", key_line(data, key))
         for key in ("diagram", "parameters", "objectives"):
             if key not in data:
                 self._fail(f"a tune file needs {key!r}", 1)

@@ -348,7 +348,9 @@ def test_a_heat_map_over_an_axis_of_lists_and_numbers_labels_them(tmp_path):
 @pytest.mark.parametrize("body, line", [("grid:\n  a.K: [1.0]\n  b.K: 5\n", 4),
                                         ("random:\n  n: 2\n  ranges:\n    a.K: [1.0, 2.0]\n    b.K: [1.0, 2.0, 3.0]\n", 6),
                                         # a misspelled key of 'random' was named at 'random:' (line 2)
-                                        ("random:\n  n: 2\n  b.K:\n    a.K: [1.0, 2.0]\n", 4)])
+                                        ("random:\n  n: 2\n  b.K:\n    a.K: [1.0, 2.0]\n", 4),
+                                        # an unknown key whose value is a block below it: the key's line
+                                        ("b.K:\n  a.K: [1.0, 2.0]\n", 2)])
 def test_a_bad_entry_of_a_sweep_section_is_named_at_its_own_line(tmp_path, body, line):
     from hybridsim.errors import InputError
 

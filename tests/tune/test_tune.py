@@ -156,7 +156,7 @@ def test_pareto_front_by_hand():
     (PARAMS + "objectives:\n" + SETTLE + "method: {name: tpe,\n  trials: 0}\n", 10, "trials must be"),
     (PARAMS + "objectives:\n" + SETTLE + "  - {metric: overshoot_pct, of: plant.y, goal: max}\n", 8,
      "two objectives need method tpe or nsga2"),
-    (PARAMS + "objective:\n" + SETTLE, 8, "unknown tune key 'objective'"),
+    (PARAMS + "objective:\n" + SETTLE, 7, "unknown tune key 'objective'"),  # the key's line, not its list's
     (PARAMS.replace("pid.Kd", "pid.Kx") + "objectives:\n" + SETTLE, 6, "pid.Kx"),
     (PARAMS + "objectives:\n  - {name: s, metric: rise_tim, goal: min}\n", 8, "metric 'rise_tim'"),
     # a run's metric the diagram's signal roles do not give: found by a run only, before
