@@ -2,7 +2,7 @@
 import numpy as np
 
 from hybridsim.engine.registry import closest
-from hybridsim.errors import FMUError, ParameterError
+from hybridsim.errors import ParameterError
 from hybridsim.fmi.variables import _INDEXED, _settable, _size, _text_parameter
 
 
@@ -22,9 +22,8 @@ def start_values(path, byname, parameters):
     Raises
     ------
     ParameterError
-        A value that is not a finite number, or the wrong number of them (exit 2).
-    FMUError
-        A name the FMU does not have.
+        A name the FMU does not have, a value that is not a finite number, or the wrong number
+        of them (exit 2: the diagram's values, checked against the FMU).
     """
     try:
         return _start_values(path, byname, parameters)
@@ -54,11 +53,12 @@ def _start_values(path, byname, parameters):
                                      f"(or set one as {pname}[{first}]), got {value!r}")
             for k, v in enumerate(value, start=first):  # b: [1, 2] sets b[1], b[2] (or b[0], b[1])
                 if f"{pname}[{k}]" not in byname:
-                    raise FMUError(f"FMU {str(path)!r} has no variable {pname}[{k}]")
+                    raise ParameterError("parameters", f"names {pname}[{k}], a variable the FMU does not have")
                 out[f"{pname}[{k}]"] = _settable(byname[f"{pname}[{k}]"], v)
             continue
         if pname not in byname:
-            raise FMUError(f"FMU {str(path)!r} has no variable {pname!r}{closest(pname, byname)}")
+            raise ParameterError("parameters", f"names a variable the FMU does not have: {pname!r}"
+                             f"{closest(pname, byname)}")
         var = byname[pname]
         if _size(var) > 1 and (not isinstance(value, (list, tuple)) or len(value) != _size(var)):
             raise ParameterError("parameters", f"{pname} is an array of {_size(var)} elements "

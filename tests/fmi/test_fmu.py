@@ -215,7 +215,7 @@ def test_fmu_errors_are_clear(plant, tmp_path):
     (tmp_path / "junk.fmu").write_text("not a zip")
     with pytest.raises(FMUError, match="not a zip"):
         FMUBlock(path=str(tmp_path / "junk.fmu"))
-    with pytest.raises(FMUError, match="no variable 'Kww' \\(did you mean 'Kw'"):
+    with pytest.raises(ParameterError, match="a variable the FMU does not have: 'Kww' \\(did you mean 'Kw'"):  # the diagram's (exit 2)
         FMUBlock(path=str(plant), rate=60, parameters={"Kww": 1.0})
     # no binary for this platform
     nobin = tmp_path / "nobin.fmu"
