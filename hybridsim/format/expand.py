@@ -17,8 +17,31 @@ from hybridsim.format.values import _has_nan, _is_subsystem, _references, note, 
 _BAD_NAME = re.compile(r"[.\[\]\s:=]")  # a '.' separates a subsystem's name from its blocks' names
 
 _WIRING = re.compile(r"(inputs?|outputs?|in|out|u\d*|y\d*|from|to|src|source|connect\w*|ports?)$")
-_WIRES_HINT = (" (signals are connected in the 'wires:' section: '- block.output -> {b}.input'; "
-               "'hybridsim blocks -v {t}' lists its ports)")
+_SIGNAL = re.compile(r"^[\w.]+\.\w+(\[\d+\])?$")  # block.port, sub.block.port[i]
+
+
+def _wiring_hints(problems, unknown, cls, kwargs, bname):
+    """Add to each message of an ``unknown`` parameter that is one of the block's input ports, or is
+    named like a wire (``input``, ``from``), where its signal is connected (the block's real ports)."""
+    if not unknown:
+        return
+    ports = []
+    for given in (kwargs, {}):  # the block as written, else with its defaults
+        try:
+            ports = [port.name for port in cls(name=bname, **given).inputs]
+            break
+        except Exception:  # noqa: BLE001 - only for the hint
+            continue
+    for pname, i, value in unknown:
+        source = value if isinstance(value, str) and _SIGNAL.match(value) else "block.output"
+        if pname in ports:
+            problems[i] += (f" ({pname!r} is an input port: connect it in the 'wires:' section, "
+                            f"'- {source} -> {bname}.{pname}')")
+        elif _WIRING.match(str(pname)) and ports:
+            problems[i] += (f" (signals are connected in the 'wires:' section, '- {source} -> "
+                            f"{bname}.{ports[0]}'; its inputs: {', '.join(ports)})")
+        elif _WIRING.match(str(pname)):
+            problems[i] += " (signals are connected in the 'wires:' section; this block has no inputs)"
 
 
 class ExpandMixin:
@@ -251,15 +274,16 @@ class ExpandMixin:
         kwargs = {}
         bad = False
         table = tables.BLOCK_SETTINGS.get(str(tname)) if str(cls.__module__).startswith("hybridsim.") else None
+        unknown = []  # (parameter, its message's place in problems): a wiring hint is added below
         for pname, pval in spec.items():
             if pname == "type":
                 continue
             if pname not in required + optional:
                 valid = required + optional
+                unknown.append((pname, len(problems), pval))
                 problems.append(
                     f"{context}{spec.locs[pname]}: block {bname!r} ({tname}) has no parameter {pname!r}"
                     f"{closest(pname, valid)}; its parameters: {', '.join(valid) or 'none'}"
-                    + (_WIRES_HINT.format(b=bname, t=tname) if _WIRING.match(pname) else "")
                     + "".join(f" (an entry of its mapping {r.key!r} is set as {bname}.{r.key}.{pname})"
                               for r in table or () if isinstance(r.kind, MapOf)))
                 bad = True
@@ -283,6 +307,7 @@ class ExpandMixin:
                 problems.append(f"{context}{spec.locs[pname]}: block {bname!r} ({tname}): parameter "
                                 f"{pname!r} is not a number (NaN)" + self._set_origin(pval, spec.locs[pname]))
                 bad = True
+        _wiring_hints(problems, unknown, cls, kwargs, bname)
         for r in required:
             if r not in kwargs and not bad:
                 problems.append(f"{here}: block {bname!r} ({tname}) needs parameter {r!r}")

@@ -290,3 +290,15 @@ def test_an_entry_of_an_fmu_blocks_parameters_is_set_by_its_path(tmp_path):
     with pytest.raises(DiagramError) as exc:
         DiagramFile(p, {"plant.unilateral": True}).build()
     assert any("is set as plant.parameters.unilateral" in m for m in exc.value.problems)
+
+
+def test_an_input_port_given_as_a_parameter_gets_its_wire_written_out(tmp_path):
+    # 'reset' is an integrator's input port: it said only "has no parameter 'reset'"; a wire-like name
+    # (input) got '- block.output -> g.input', a port the gain does not have
+    p = write(tmp_path, "blocks:\n  c: {type: constant}\n  I: {type: integrator, reset: c.y}\n"
+                        "  g: {type: gain, input: c.y}\n")
+    with pytest.raises(DiagramError) as exc:
+        DiagramFile(p).build()
+    got = "\n".join(exc.value.problems)
+    assert "'reset' is an input port" in got and "'- c.y -> I.reset'" in got
+    assert "'- c.y -> g.u'; its inputs: u" in got
