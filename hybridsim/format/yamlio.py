@@ -194,6 +194,15 @@ _PARSED = {}
 _PARSED_MAX = 64
 
 
+def _starts_with(path, magic):
+    """Whether the file at ``path`` begins with the bytes ``magic`` (False where it cannot be read)."""
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(len(magic)) == magic
+    except OSError:
+        return False
+
+
 def parse_file(path, budget=None, what="a diagram file must be a mapping with a 'blocks' section"):
     """The YAML mapping in ``path`` with file/line tracking, and its size in bytes; or LoaderError.
 
@@ -204,12 +213,20 @@ def parse_file(path, budget=None, what="a diagram file must be a mapping with a 
     other = _OTHER_FORMATS.get(os.path.splitext(str(path))[1].lower())
     if other and os.path.isfile(path):
         raise LoaderError(other, path)
-    text = read_text(path, budget)
+    try:
+        text = read_text(path, budget)
+    except LoaderError:
+        if _starts_with(path, b"PK\x03\x04"):  # a zip archive, whatever its name
+            raise LoaderError(_OTHER_FORMATS[".fmu"].replace("is an FMU", "is a zip archive (an FMU?)"),
+                              path) from None
+        raise
     key = (str(path), text)
     parsed = _PARSED.pop(key, None)
     if parsed is None:
-        if text.lstrip("\ufeff \t\r\n").startswith("<"):
-            raise LoaderError("is XML or HTML, not a YAML diagram", path, 1)
+        head = text.lstrip("\ufeff \t\r\n")
+        if head.startswith("<"):
+            raise LoaderError(_OTHER_FORMATS[".urdf"] if "<robot" in head[:4096] else
+                              "is XML or HTML, not a YAML diagram", path, 1)
         parsed = _load_text(text, str(path)), len(text.encode("utf-8"))
     _PARSED[key] = parsed  # the most recent last
     while len(_PARSED) > _PARSED_MAX:

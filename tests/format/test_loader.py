@@ -269,6 +269,7 @@ def test_incommensurate_rates_name_the_file_and_each_blocks_line(tmp_path):
     ("arm.urdf", '<?xml version="1.0"?>\n<robot name="a"/>\n', "URDF robot description"),
     ("plant.fmu", "PK\x03\x04", "is an FMU"),
     ("page.yaml", "\n  <html><body>a: b</body></html>\n", "XML or HTML"),
+    ("arm_as.yaml", '<?xml version="1.0"?>\n<robot name="a"/>\n', "URDF robot description"),  # by content
 ])
 def test_a_file_of_another_kind_says_what_it_is_not_a_yaml_syntax_error(tmp_path, name, text, says):
     path = tmp_path / name
@@ -302,3 +303,13 @@ def test_an_input_port_given_as_a_parameter_gets_its_wire_written_out(tmp_path):
     got = "\n".join(exc.value.problems)
     assert "'reset' is an input port" in got and "'- c.y -> I.reset'" in got
     assert "'- c.y -> g.u'; its inputs: u" in got
+
+
+def test_a_zip_archive_named_yaml_is_named_as_one(tmp_path):
+    import zipfile
+
+    path = tmp_path / "plant_as.yaml"
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("modelDescription.xml", "<fmiModelDescription/>")
+    with pytest.raises(LoaderError, match="is a zip archive \\(an FMU\\?\\)"):
+        DiagramFile(path)
