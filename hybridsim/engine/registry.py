@@ -278,8 +278,9 @@ def group(cls):
 
 
 def closest(name, candidates):
-    """' (did you mean X?)' for the closest candidate, or ''."""
-    match = difflib.get_close_matches(str(name), [str(c) for c in candidates], n=1, cutoff=0.5)
+    """' (did you mean X?)' for the closest candidate (the same name in other case first), or ''."""
+    same = [str(c) for c in candidates if str(c).lower() == str(name).lower()]
+    match = same or difflib.get_close_matches(str(name), [str(c) for c in candidates], n=1, cutoff=0.5)
     return f" (did you mean {match[0]!r}?)" if match else ""
 
 

@@ -86,3 +86,11 @@ def test_a_loop_only_through_a_block_that_computes_its_outputs_together_says_so(
     with pytest.raises(DiagramError, match=r"block 'sub' computes its outputs together: 'y' does not depend "
                                            r"on 'w', but 'd' does"):
         d.build()
+
+
+def test_a_name_in_the_wrong_case_suggests_itself():
+    from hybridsim.engine.registry import closest
+
+    # 'N' for a random section's 'n' suggested nothing (one letter is too short for difflib)
+    assert closest("N", ["n", "seed", "ranges"]) == " (did you mean 'n'?)"
+    assert closest("Kp", ["kp", "Kp2"]) == " (did you mean 'kp'?)"
