@@ -177,14 +177,13 @@ def read_text(path, budget=None):
         raise LoaderError("not UTF-8 text (a binary file?)", path, line) from None
 
 
-_OTHER_FORMATS = {  # a file of another kind given where a diagram is read: what to do with it
-    ".urdf": "is a URDF robot description, not a diagram; name it in a robot block's 'urdf:' "
-             "(robot_arm, robot_kinematics ...; see 'hybridsim blocks -v robot_arm')",
-    ".xml": "is XML, not a YAML diagram (a modelDescription.xml belongs inside an .fmu; "
-            "an FMU is imported with an 'fmu' block's 'path:')",
-    ".sdf": "is an SDF world description, not a diagram; robots are read from URDF files",
-    ".fmu": "is an FMU, not a diagram; import it with an 'fmu' block (its 'path:'), "
-            "see 'hybridsim blocks -v fmu'",
+_NOT_YAML = {  # a file of another kind given where a diagram is read (known by its content): what to do
+    "urdf": "is a URDF robot description, not a diagram; name it in a robot block's 'urdf:' "
+            "(robot_arm, robot_kinematics ...; see 'hybridsim blocks -v robot_arm')",
+    "xml": "is XML or HTML, not a YAML diagram (a modelDescription.xml belongs inside an .fmu; "
+           "an FMU is imported with an 'fmu' block's 'path:')",
+    "zip": "is a zip archive (an FMU?), not a diagram; import an FMU with an 'fmu' block (its 'path:'), "
+           "see 'hybridsim blocks -v fmu'",
 }
 
 
@@ -210,23 +209,18 @@ def parse_file(path, budget=None, what="a diagram file must be a mapping with a 
     characters YAML forbids (NUL), nesting deeper than ``MAX_YAML_DEPTH``,
     aliases that expand to more than ``MAX_YAML_VALUES`` values, duplicate keys.
     """
-    other = _OTHER_FORMATS.get(os.path.splitext(str(path))[1].lower())
-    if other and os.path.isfile(path):
-        raise LoaderError(other, path)
     try:
         text = read_text(path, budget)
     except LoaderError:
         if _starts_with(path, b"PK\x03\x04"):  # a zip archive, whatever its name
-            raise LoaderError(_OTHER_FORMATS[".fmu"].replace("is an FMU", "is a zip archive (an FMU?)"),
-                              path) from None
+            raise LoaderError(_NOT_YAML["zip"], path) from None
         raise
     key = (str(path), text)
     parsed = _PARSED.pop(key, None)
     if parsed is None:
         head = text.lstrip("\ufeff \t\r\n")
         if head.startswith("<"):
-            raise LoaderError(_OTHER_FORMATS[".urdf"] if "<robot" in head[:4096] else
-                              "is XML or HTML, not a YAML diagram", path, 1)
+            raise LoaderError(_NOT_YAML["urdf"] if "<robot" in head[:4096] else _NOT_YAML["xml"], path, 1)
         parsed = _load_text(text, str(path)), len(text.encode("utf-8"))
     _PARSED[key] = parsed  # the most recent last
     while len(_PARSED) > _PARSED_MAX:

@@ -267,7 +267,7 @@ def test_incommensurate_rates_name_the_file_and_each_blocks_line(tmp_path):
 
 @pytest.mark.parametrize("name, text, says", [
     ("arm.urdf", '<?xml version="1.0"?>\n<robot name="a"/>\n', "URDF robot description"),
-    ("plant.fmu", "PK\x03\x04", "is an FMU"),
+    ("plant.fmu", "PK\x03\x04", "is a zip archive (an FMU?)"),
     ("page.yaml", "\n  <html><body>a: b</body></html>\n", "XML or HTML"),
     ("arm_as.yaml", '<?xml version="1.0"?>\n<robot name="a"/>\n', "URDF robot description"),  # by content
 ])
@@ -313,3 +313,9 @@ def test_a_zip_archive_named_yaml_is_named_as_one(tmp_path):
         z.writestr("modelDescription.xml", "<fmiModelDescription/>")
     with pytest.raises(LoaderError, match="is a zip archive \\(an FMU\\?\\)"):
         DiagramFile(path)
+
+
+def test_a_yaml_diagram_is_read_whatever_its_files_name_ends_in(tmp_path):
+    # the other kinds are known by their content: a diagram named d.xml was refused as XML
+    f = DiagramFile(write(tmp_path, GOOD, "d.xml"))
+    assert "zoh" in f.data["blocks"]
