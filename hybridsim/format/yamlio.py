@@ -215,6 +215,8 @@ def parse_file(path, budget=None, what="a diagram file must be a mapping with a 
         if _starts_with(path, b"PK\x03\x04"):  # a zip archive, whatever its name
             raise LoaderError(_NOT_YAML["zip"], path) from None
         raise
+    if text.startswith("PK\x03\x04"):
+        raise LoaderError(_NOT_YAML["zip"], path)
     key = (str(path), text)
     parsed = _PARSED.pop(key, None)
     if parsed is None:
