@@ -17,7 +17,6 @@ settings to the section and results computed from the plant
 (:mod:`hybridsim.analysis.extras`).
 """
 
-import control
 import numpy as np
 
 from hybridsim.format import tables
@@ -28,6 +27,7 @@ from hybridsim.runs.many import Linearize, run_many
 from hybridsim.analysis.linearize import LinearizationError
 from hybridsim.analysis import extras
 from hybridsim.analysis.lti import oscillatory_modes
+from hybridsim.analysis.margins import growing_modes, loop_stability, margins  # noqa: F401 - public here too
 
 DEFAULTS = {k: v for k, v in tables.defaults(tables.ANALYSIS).items() if k not in ("compare", "step")}
 KEYS = tables.keys(tables.ANALYSIS)  # the table checks the section; "compare" and "step" are read by hybridsim.report.stability
@@ -58,154 +58,6 @@ def least_damping(poles):
     d = [p["damping"] for p in poles
          if p["freq_hz"] and p["freq_hz"] > 0.5 and abs(complex(p["re"], p["im"]) - 1) > 1e-7]
     return min(d) if d else None
-
-
-def _response(L, w):
-    """L's frequency response at ``w`` (rad/s, a number or an array), discrete or continuous."""
-    s = np.exp(1j * np.asarray(w) * L.dt) if L.dt else 1j * np.asarray(w)
-    if np.ndim(w) == 0 or L.ninputs != 1 or L.noutputs != 1 or not L.nstates:
-        r = np.asarray(L(s))
-        return complex(r.ravel()[0]) if np.ndim(w) == 0 else r.ravel()
-    A, B, C = (np.asarray(m, complex) for m in (L.A, L.B, L.C))
-    eye = np.eye(A.shape[0])
-    out = np.empty(s.shape, complex)
-    for a in range(0, s.size, 4096):  # C (sI - A)^-1 B + D, solves batched (python-control loops: 5x slower)
-        part = s[a:a + 4096]
-        try:
-            x = np.linalg.solve(part[:, None, None] * eye - A, np.broadcast_to(B, (part.size,) + B.shape))
-            out[a:a + 4096] = (C @ x)[:, 0, 0] + complex(np.asarray(L.D)[0, 0])
-        except np.linalg.LinAlgError:  # a frequency on a pole
-            out[a:a + 4096] = np.asarray(L(part)).ravel()
-    return out
-
-
-def _margins_hold(L, gm, pm, wg, wp):
-    """Whether python-control's polynomial margins describe L's own frequency response (to 1 %)."""
-    if np.isfinite(pm) and np.isfinite(wp) and abs(abs(_response(L, wp)) - 1.0) > 0.01:
-        return False
-    return not (np.isfinite(gm) and np.isfinite(wg) and abs(abs(_response(L, wg)) * gm - 1.0) > 0.01)
-
-
-def _grid_margins(L, n=20000):
-    """(gm, pm deg, phase-crossover rad/s, gain-crossover rad/s) of a discrete L from its response on a
-    dense grid up to Nyquist, crossings interpolated linearly; the crossing nearest instability wins."""
-    nyq = np.pi / L.dt
-    w = np.unique(np.concatenate([np.logspace(np.log10(nyq) - 5, np.log10(nyq), n // 4), np.linspace(0, nyq, n)]))
-    w = w[(w > 0) & (w < nyq * (1 - 1e-9))]
-    r = _response(L, w)
-
-    def at(x):
-        return _response(L, x)
-
-    def root(f, a, b):  # bisection of a sign change of f on [a, b], to 1e-12 relative
-        fa = f(a)
-        while b - a > 1e-12 * b:
-            m = 0.5 * (a + b)
-            fm = f(m)
-            if np.sign(fm) == np.sign(fa):
-                a, fa = m, fm
-            else:
-                b = m
-        return 0.5 * (a + b)
-
-    gm, pm, wg, wp = np.inf, np.inf, np.nan, np.nan
-    lm = np.log(np.maximum(np.abs(r), 1e-300))
-    for i in np.nonzero(np.sign(lm[:-1]) * np.sign(lm[1:]) < 0)[0]:  # |L| = 1
-        x = root(lambda v: np.log(abs(at(v))), w[i], w[i + 1])
-        p = 180.0 + np.degrees(np.angle(at(x)))  # phase margin of this crossing
-        if abs(p) < abs(pm):
-            pm, wp = p, x
-    im = r.imag
-    for i in np.nonzero((np.sign(im[:-1]) * np.sign(im[1:]) < 0) & (r.real[:-1] < 0))[0]:  # phase -180
-        x = root(lambda v: at(v).imag, w[i], w[i + 1])
-        if abs(at(x)) > 10.0 * max(abs(r[i]), abs(r[i + 1])):  # Im changed sign through a pole, not -180 deg
-            continue
-        g = 1.0 / abs(at(x).real)
-        if abs(np.log(g)) < abs(np.log(gm)):
-            gm, wg = g, x
-    for x in (1e-9 * nyq, nyq):  # at DC and Nyquist L is real: no sign change of Im L there to find
-        r0 = at(x)
-        if r0.real < 0 and abs(r0.imag) < 1e-4 * abs(r0) and abs(np.log(abs(r0))) < abs(np.log(gm)):
-            gm, wg = 1.0 / abs(r0), (0.0 if x < nyq else x)
-    return gm, pm, wg, wp
-
-
-def margins(L):
-    """Gain margin (x and dB), phase margin (deg) and their frequencies (Hz) of L.
-
-    python-control's polynomial method first; where its crossovers do not lie
-    on L's own frequency response (it loses accuracy on high-order loops, e.g.
-    a 6-DOF arm's with its many modes), the margins of the response sampled
-    on a dense grid up to Nyquist; where it finds no crossover, the grid's
-    where it finds one (a slow integrator's gain crossover it misses). The grid
-    also reads L at DC and Nyquist, where a phase crossover makes Im L touch 0
-    without changing sign. A gain margin past 1e9 or under 1e-9 is rounding
-    (``|L|`` = 1e-16) or a pole on the circle: none. With them, what they do not
-    say alone: :func:`loop_stability`.
-    """
-    import warnings
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        gm, pm, _, wg, wp, _ = control.stability_margins(L)
-        if L.dt and not _margins_hold(L, gm, pm, wg, wp):
-            gm, pm, wg, wp = _grid_margins(L)
-        elif L.dt and not (np.isfinite(gm) and np.isfinite(pm)):  # a crossover it did not find (an
-            ggm, gpm, gwg, gwp = _grid_margins(L)  # integrator's |L| crossing 1 at 0.012 Hz): the grid's
-            if not np.isfinite(pm) and np.isfinite(gpm):
-                pm, wp = gpm, gwp
-            if not np.isfinite(gm) and np.isfinite(ggm):
-                gm, wg = ggm, gwg
-    if not 1e-9 < gm < 1e9:  # a phase crossover where |L| is rounding (1e-16 at 15 MHz) or a pole: none
-        gm, wg = np.inf, np.nan
-    dt = L.dt
-    to_hz = (lambda w: None if w is None or not np.isfinite(w) else float(w / (2 * np.pi)))
-    return {
-        "gain_margin": float(gm) if np.isfinite(gm) else None,
-        "gain_margin_db": float(20 * np.log10(gm)) if np.isfinite(gm) and gm > 0 else None,
-        "phase_margin_deg": float(pm) if np.isfinite(pm) else None,
-        "phase_crossover_hz": to_hz(wg),
-        "gain_crossover_hz": to_hz(wp),
-        "period_s": float(dt) if dt else None,
-        **loop_stability(L),
-    }
-
-
-def growing_modes(sys):
-    """How many of ``sys``'s poles grow - ``|z| > 1`` (sampled) or Re s > 0, poles at z = 1 / s = 0 left
-    out - and are modes of its input-output path (the PBH test: neither uncontrollable from its input
-    nor unobservable at its output; a state elsewhere in the diagram is no pole of this loop)."""
-    from scipy.linalg import matrix_balance
-
-    ss = control.ss(sys)
-    A, B, C = (np.atleast_2d(np.asarray(m, float)) for m in (ss.A, ss.B, ss.C))
-    if not A.size:
-        return 0
-    A, T = matrix_balance(A, permute=False)  # states of unlike units (um and N) made comparable
-    t = np.diag(T)
-    B, C = B / t[:, None], C * t[None, :]
-    n = A.shape[0]
-    scale = max(1.0, float(np.max(np.abs(A))))
-    count = 0
-    for lam in np.linalg.eigvals(A):
-        grows = (abs(lam) > 1.0 + 1e-9 and abs(lam - 1.0) >= 1e-7) if ss.dt else \
-            (lam.real > 1e-9 * scale and abs(lam) > 1e-7 * scale)
-        if not grows:
-            continue
-        shifted = A - lam * np.eye(n)
-        reach = np.linalg.svd(np.hstack([shifted, B]), compute_uv=False)
-        seen = np.linalg.svd(np.vstack([shifted, C]), compute_uv=False)
-        count += bool(reach[-1] > 1e-12 * reach[0] and seen[-1] > 1e-12 * seen[0])
-    return count
-
-
-def loop_stability(L):
-    """What the margins of L do not say alone: ``open_loop_unstable_poles`` (the loop opened, its poles
-    that grow; with any, the margins say nothing of stability without counting Nyquist's
-    encirclements) and ``closed_loop_stable`` (1/(1 + L), the loop closed again). Only the modes of
-    L's own path count."""
-    return {"open_loop_unstable_poles": growing_modes(L),
-            "closed_loop_stable": growing_modes(control.feedback(L, 1)) == 0}
 
 
 def closed_loop(path, overrides, at=None):

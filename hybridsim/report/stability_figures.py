@@ -79,7 +79,7 @@ def _bode_grid(L):
 
 def bode(loops, known=None):
     """Bode plots of loop transfers (discrete or continuous) with the margins marked; ``known``:
-    {id(L): margins} already computed (:func:`hybridsim.analysis.stability.margins`), the rest are computed."""
+    {id(L): margins} already computed (:func:`hybridsim.analysis.margins.margins`), the rest are computed."""
     known = known or {}
     fig, (am, ph) = plt.subplots(2, 1, sharex=True, figsize=(7, 5.5))
     for label, L in loops:

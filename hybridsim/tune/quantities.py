@@ -2,7 +2,7 @@
 
 :func:`measure` runs one point (every variant of the tune file, and every
 variant of the diagram) through the public API (:func:`hybridsim.runs.variants.run_experiment`,
-:func:`hybridsim.analysis.stability.linearization` and :func:`hybridsim.analysis.stability.margins`)
+:func:`hybridsim.analysis.stability.linearization` and :func:`hybridsim.analysis.margins.margins`)
 and reduces each quantity to one number over the runs. It never raises for a
 run that diverges (the point is "failed", with the message); a quantity that
 cannot be measured at all (an unknown metric or signal) is a :class:`SpecError`.
