@@ -194,8 +194,11 @@ _PARSED_MAX = 64
 
 
 def _starts_with(path, magic):
-    """Whether the file at ``path`` begins with the bytes ``magic`` (False where it cannot be read)."""
+    """Whether the regular file at ``path`` begins with the bytes ``magic`` (False for anything else:
+    opening a FIFO would wait for a writer)."""
     try:
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            return False
         with open(path, "rb") as fh:
             return fh.read(len(magic)) == magic
     except OSError:
