@@ -5,8 +5,8 @@ import control
 import numpy as np
 
 
-def _response(L, w):
-    """L's frequency response at ``w`` (rad/s, a number or an array), discrete or continuous."""
+def loop_response(L, w):
+    """L's frequency response (complex) at ``w`` (rad/s, a number or an array), discrete or continuous."""
     s = np.exp(1j * np.asarray(w) * L.dt) if L.dt else 1j * np.asarray(w)
     if np.ndim(w) == 0 or L.ninputs != 1 or L.noutputs != 1 or not L.nstates:
         r = np.asarray(L(s))
@@ -26,9 +26,9 @@ def _response(L, w):
 
 def _margins_hold(L, gm, pm, wg, wp):
     """Whether python-control's polynomial margins describe L's own frequency response (to 1 %)."""
-    if np.isfinite(pm) and np.isfinite(wp) and abs(abs(_response(L, wp)) - 1.0) > 0.01:
+    if np.isfinite(pm) and np.isfinite(wp) and abs(abs(loop_response(L, wp)) - 1.0) > 0.01:
         return False
-    return not (np.isfinite(gm) and np.isfinite(wg) and abs(abs(_response(L, wg)) * gm - 1.0) > 0.01)
+    return not (np.isfinite(gm) and np.isfinite(wg) and abs(abs(loop_response(L, wg)) * gm - 1.0) > 0.01)
 
 
 def _grid_margins(L, n=20000):
@@ -37,10 +37,10 @@ def _grid_margins(L, n=20000):
     nyq = np.pi / L.dt
     w = np.unique(np.concatenate([np.logspace(np.log10(nyq) - 5, np.log10(nyq), n // 4), np.linspace(0, nyq, n)]))
     w = w[(w > 0) & (w < nyq * (1 - 1e-9))]
-    r = _response(L, w)
+    r = loop_response(L, w)
 
     def at(x):
-        return _response(L, x)
+        return loop_response(L, x)
 
     def root(f, a, b):  # bisection of a sign change of f on [a, b], to 1e-12 relative
         fa = f(a)

@@ -9,6 +9,7 @@ import numpy as np
 
 from hybridsim.analysis import stability as an
 from hybridsim.analysis.linearize import Linearization
+from hybridsim.analysis.margins import loop_response
 from hybridsim.format.build import build
 from hybridsim.report.figures import pyplot
 from hybridsim.runs.experiment import Experiment
@@ -84,7 +85,7 @@ def bode(loops, known=None):
     fig, (am, ph) = plt.subplots(2, 1, sharex=True, figsize=(7, 5.5))
     for label, L in loops:
         w = _bode_grid(L)
-        resp = an._response(L, w)
+        resp = loop_response(L, w)
         f = w / (2 * np.pi)
         if not np.any(resp):  # nothing feeds back through this point (e.g. a position-controlled axis)
             am.plot([], [], label=f"{label} (no feedback: L = 0)")
