@@ -65,6 +65,7 @@ def _check_subsystem(path, overrides):
     from hybridsim.errors import InputError
 
     from hybridsim.format import standalone
+    from hybridsim.format.overrides import ORIGIN
 
     with tempfile.TemporaryDirectory(prefix="hybridsim-check-") as tmp:
         staged = standalone.Staged(path, Path(tmp) / "diagram")
@@ -74,7 +75,8 @@ def _check_subsystem(path, overrides):
         try:
             system, _, _ = staged.build(**sets)
         except InputError as exc:  # an override given to the wrapper's 'sub' named as the user gave it
-            text = re.sub(r"subsystem 'sub' \(([^)]*)\) has", r"\1 has", str(exc).replace("--set sub.", "--set "))
+            said = ORIGIN.get()
+            text = re.sub(r"subsystem 'sub' \(([^)]*)\) has", r"\1 has", str(exc).replace(f"{said} sub.", f"{said} "))
             raise InputError(text) from None
     rates = sorted({float(1 / b.period) for b in system.blocks if b.period})
     from hybridsim.engine.diagram import DefaultValue

@@ -21,6 +21,7 @@ import sys
 from hybridsim.app import analyze, blocks, check, draw, examples, fmu, reproduce, run, schema, sweep, tune
 from hybridsim.errors import EXIT_CODES, HybridsimError
 from hybridsim.format import tables
+from hybridsim.format.overrides import overrides_from
 
 #: the commands in the order ``hybridsim --help`` lists them
 COMMANDS = [run, check, draw, analyze, reproduce, examples, schema, fmu, sweep, tune, blocks]
@@ -198,7 +199,8 @@ def main(argv=None):
 
             load_plugin(module)
         _warn_replaced()
-        return args.func(args)
+        with overrides_from("--set"):  # the command line's overrides are its --set options
+            return args.func(args)
     except HybridsimError as exc:
         return _report(exc)
     except KeyboardInterrupt:

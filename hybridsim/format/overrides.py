@@ -20,9 +20,9 @@ from hybridsim.format.values import _is_subsystem, _references, subsystem_path
 from hybridsim.format.yamlio import _Dict
 
 
-#: what messages call an override's source: ``--set`` on the command line; a sweep or tune file's
-#: checks name theirs (:func:`overrides_from`)
-ORIGIN = contextvars.ContextVar("override_origin", default="--set")
+#: what messages call an override's source: "override" (a keyword of the Python API), ``--set`` on
+#: the command line; a sweep or tune file's checks name theirs (:func:`overrides_from`)
+ORIGIN = contextvars.ContextVar("override_origin", default="override")
 
 
 @contextlib.contextmanager

@@ -131,7 +131,7 @@ def test_a_metrics_setting_is_set_like_a_simulation_setting(tmp_path):
     f = DiagramFile(p, {"metrics.step_time": 0.15, "simulation.t_end": 0.3})
     settings = f.build()[1]
     assert settings["metrics"]["step_time"] == 0.15 and settings["simulation"]["t_end"] == 0.3
-    with pytest.raises(LoaderError, match=r"--set metrics.stepp_time: unknown metrics setting 'stepp_time' "
+    with pytest.raises(LoaderError, match=r"override metrics.stepp_time: unknown metrics setting 'stepp_time' "
                                           r"\(did you mean 'step_time'\?\)"):
         DiagramFile(p, {"metrics.stepp_time": 1.0})
     with pytest.raises(LoaderError, match="'metrics.step_time' is a metrics setting: not a run-time parameter"):
@@ -168,7 +168,7 @@ def test_a_sweep_or_tune_file_given_as_a_diagram_says_which_command_runs_it(tmp_
 def test_a_parameter_set_with_every_value_that_uses_it_is_refused(tmp_path):
     # k = 3 with g.K = 1 ran with K = 1: the k the user gave was silently lost
     p = write(tmp_path, GOOD)
-    with pytest.raises(LoaderError, match=r"--set k: changes nothing: every value that uses \$k is set too \(g\.K\)"):
+    with pytest.raises(LoaderError, match=r"override k: changes nothing: every value that uses \$k is set too \(g\.K\)"):
         DiagramFile(p, {"k": 3.0, "g.K": 1.0})
     both = write(tmp_path, GOOD.replace("  zoh:  {type: zoh, rate: 100}", "  zoh:  {type: zoh, rate: 100}\n"
                                         "  h:    {type: gain, K: $k}").replace("  - g.y -> zoh.u", "  - g.y -> zoh.u\n  - src.y -> h.u"), "two.yaml")
@@ -182,7 +182,7 @@ def test_a_value_left_empty_and_a_path_into_a_plain_block_say_so(tmp_path):
     with pytest.raises(DiagramError) as exc:
         DiagramFile(p, {"g.K": None}).build()
     assert "got None (null: a value left empty in YAML)" in "\n".join(exc.value.problems)
-    with pytest.raises(LoaderError, match=r"--set g\.x\.K: block 'g' is not a subsystem; its parameters are set as g\."):
+    with pytest.raises(LoaderError, match=r"override g\.x\.K: block 'g' is not a subsystem; its parameters are set as g\."):
         DiagramFile(p, {"g.x.K": 3.0})
 
 
@@ -319,3 +319,16 @@ def test_a_yaml_diagram_is_read_whatever_its_files_name_ends_in(tmp_path):
     # the other kinds are known by their content: a diagram named d.xml was refused as XML
     f = DiagramFile(write(tmp_path, GOOD, "d.xml"))
     assert "zoh" in f.data["blocks"]
+
+
+def test_an_override_of_the_python_api_is_not_called_a_command_line_option(tmp_path, capsys):
+    # hs.simulate(path, nosuch=3) said "--set nosuch: no parameter"; the command line still says --set
+    import hybridsim as hs
+    from hybridsim.app.cli import main
+
+    p = write(tmp_path, GOOD)
+    with pytest.raises(LoaderError, match=r"override nosuch: no parameter 'nosuch'") as exc:
+        hs.simulate(p, nosuch=3.0)
+    assert "--set" not in str(exc.value)
+    assert main(["check", str(p), "--set", "nosuch=3"]) == 2
+    assert "--set nosuch: no parameter 'nosuch'" in capsys.readouterr().err
