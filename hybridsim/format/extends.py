@@ -57,14 +57,17 @@ def read_merged(path, chain=(), budget=None, files=None):
                     cur[bname].update(spec)
                     cur[bname].lines.update(spec.lines)
                     cur[bname].locs.update(spec.locs)
+                    _merge_key_lines(cur[bname], spec)
                 else:
                     cur[bname] = spec
                     cur.lines[bname] = val.lines[bname]
                     cur.locs[bname] = val.locs[bname]
+                    _merge_key_lines(cur, val, bname)
         elif key in MERGED_BY_KEY and isinstance(cur, dict) and isinstance(val, dict):
             cur.update(val)
             cur.lines.update(val.lines)
             cur.locs.update(val.locs)
+            _merge_key_lines(cur, val)
         elif key in ("wires", "log") and isinstance(cur, list) and isinstance(val, list):
             cur.extend(val)
             cur.lines.extend(val.lines)
@@ -72,9 +75,17 @@ def read_merged(path, chain=(), budget=None, files=None):
         else:
             merged[key] = val
         merged.lines[key] = data.lines[key]
-        if merged.key_lines is not None and data.key_lines:
-            merged.key_lines[key] = data.key_lines[key]
+        _merge_key_lines(merged, data, key)
     return merged
+
+
+def _merge_key_lines(into, given, key=None):
+    """The lines where ``given``'s keys (or its ``key`` alone) are written, over those of ``into``."""
+    if into.key_lines is None:
+        into.key_lines = {}
+    for k in (given.key_lines or {}) if key is None else [key]:
+        if k in (given.key_lines or {}):
+            into.key_lines[k] = given.key_lines[k]
 
 
 def _drop_wires(data, bname):

@@ -42,9 +42,10 @@ class SettingsMixin:
         lines = getattr(raw, "lines", None) or {}
         locs = getattr(raw, "locs", None) or {}
         resolved = {k: self._resolve(v, locs.get(k, str(self.path)), params) for k, v in raw.items()}
-        shown = {**lines, **{k: loc for k, loc in locs.items() if isinstance(loc, OverrideLoc)}}
+        written = {**lines, **(getattr(raw, "key_lines", None) or {})}  # where each key is written
+        shown = {**written, **{k: loc for k, loc in locs.items() if isinstance(loc, OverrideLoc)}}
         got = tables.problems(tables.SECTIONS[name], resolved, name, self.path, shown,
-                              getattr(raw, "line", None))
+                              getattr(raw, "line", None), parsed=raw)
         return {k: v for k, v in resolved.items() if v is not None}, lines, got  # null: the default
 
     def _raise(self, problems):

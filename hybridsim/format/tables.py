@@ -299,8 +299,10 @@ def check_values(table, data, section, lines=None):
     return out
 
 
-def problems(table, data, section, path, lines=None, line0=None):
-    """:func:`check_values` as 'file:line: message' texts (the line of each key where known)."""
+def problems(table, data, section, path, lines=None, line0=None, parsed=None):
+    """:func:`check_values` as 'file:line: message' texts (the line of each key where known; ``parsed``:
+    the mapping as read, with its lines, where ``data`` is its values resolved)."""
+    parsed = data if parsed is None else parsed
     lines = lines if lines is not None else (getattr(data, "lines", None) or {})
     line0 = line0 if line0 is not None else getattr(data, "line", None)
     out = []
@@ -308,9 +310,9 @@ def problems(table, data, section, path, lines=None, line0=None):
     for msg, key in check_values(table, data, section):
         line = lines.get(key, line0) if key is not None else line0
         if key is not None and key not in known:  # an unknown key: where it is written
-            line = key_line(data, key) or line
+            line = key_line(parsed, key) or line
         if key is not None and isinstance(data, dict):
-            line = _entry_line(data.get(key), msg) or _record_line(table, key, data.get(key)) or line
+            line = _entry_line(parsed.get(key), msg) or _record_line(table, key, parsed.get(key)) or line
         out.append(f"{path}{f':{line}' if line else ''}: {msg}")
     return out
 

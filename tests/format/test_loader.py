@@ -332,3 +332,18 @@ def test_an_override_of_the_python_api_is_not_called_a_command_line_option(tmp_p
     assert "--set" not in str(exc.value)
     assert main(["check", str(p), "--set", "nosuch=3"]) == 2
     assert "--set nosuch: no parameter 'nosuch'" in capsys.readouterr().err
+
+
+def test_an_unknown_key_inside_a_section_is_named_where_it_is_written(tmp_path):
+    # 'solvr:' with a block below it was named at its first child's line (6, not 5); a misspelled
+    # key of analysis.step at the line of 'step:'
+    from hybridsim.format.build import check
+
+    p = write(tmp_path, GOOD.replace("simulation: {t_end: 0.2, log_period: 1.0e-2}",
+                                     "simulation:\n  t_end: 0.2\n  solvr:\n    name: rk4"))
+    assert "  solvr:" in p.read_text().splitlines()[12 - 1]
+    with pytest.raises(LoaderError, match=r"d\.yaml:12: unknown simulation setting 'solvr'"):
+        check(p)
+    p = write(tmp_path, GOOD + "analysis:\n  step:\n    input: src.y\n    output: zoh.y\n    sizee: 2\n", "e.yaml")
+    with pytest.raises(LoaderError, match=r"e\.yaml:16: analysis setting 'step': unknown analysis.step setting 'sizee'"):
+        check(p)
