@@ -60,6 +60,8 @@ def _start_values(path, byname, parameters):
             raise ParameterError("parameters", f"names a variable the FMU does not have: {pname!r}"
                              f"{closest(pname, byname)}")
         var = byname[pname]
+        if _size(var) == 1 and isinstance(value, (list, tuple)):
+            raise ParameterError("parameters", f"{pname} is one value: give a number, got {value!r}")
         if _size(var) > 1 and (not isinstance(value, (list, tuple)) or len(value) != _size(var)):
             raise ParameterError("parameters", f"{pname} is an array of {_size(var)} elements "
                                                f"{list(var.shape)}: give {_size(var)} values, got {value!r}")

@@ -25,7 +25,7 @@ def _wiring_hints(problems, unknown, cls, kwargs, bname):
     named like a wire (``input``, ``from``), where its signal is connected (the block's real ports)."""
     if not unknown:
         return
-    ports = []
+    ports = None  # None: the block cannot be built to show its ports
     for given in (kwargs, {}):  # the block as written, else with its defaults
         try:
             ports = [port.name for port in cls(name=bname, **given).inputs]
@@ -34,14 +34,15 @@ def _wiring_hints(problems, unknown, cls, kwargs, bname):
             continue
     for pname, i, value in unknown:
         source = value if isinstance(value, str) and _SIGNAL.match(value) else "block.output"
-        if pname in ports:
+        if ports and pname in ports:
             problems[i] += (f" ({pname!r} is an input port: connect it in the 'wires:' section, "
                             f"'- {source} -> {bname}.{pname}')")
         elif _WIRING.match(str(pname)) and ports:
             problems[i] += (f" (signals are connected in the 'wires:' section, '- {source} -> "
                             f"{bname}.{ports[0]}'; its inputs: {', '.join(ports)})")
         elif _WIRING.match(str(pname)):
-            problems[i] += " (signals are connected in the 'wires:' section; this block has no inputs)"
+            problems[i] += (" (signals are connected in the 'wires:' section; this block has no inputs)"
+                            if ports is not None else " (signals are connected in the 'wires:' section)")
 
 
 class ExpandMixin:
@@ -285,7 +286,8 @@ class ExpandMixin:
                     f"{context}{spec.locs[pname]}: block {bname!r} ({tname}) has no parameter {pname!r}"
                     f"{closest(pname, valid)}; its parameters: {', '.join(valid) or 'none'}"
                     + "".join(f" (an entry of its mapping {r.key!r} is set as {bname}.{r.key}.{pname})"
-                              for r in table or () if isinstance(r.kind, MapOf)))
+                              for r in table or ()
+                              if isinstance(r.kind, MapOf) and not _WIRING.match(str(pname))))
                 bad = True
                 continue
             try:

@@ -217,6 +217,8 @@ def test_fmu_errors_are_clear(plant, tmp_path):
         FMUBlock(path=str(tmp_path / "junk.fmu"))
     with pytest.raises(ParameterError, match="a variable the FMU does not have: 'Kww' \\(did you mean 'Kw'"):  # the diagram's (exit 2)
         FMUBlock(path=str(plant), rate=60, parameters={"Kww": 1.0})
+    with pytest.raises(ParameterError, match="Kw is one value: give a number, got \\[1.0, 2.0\\]"):  # check passed it
+        FMUBlock(path=str(plant), rate=60, parameters={"Kw": [1.0, 2.0]})
     # no binary for this platform
     nobin = tmp_path / "nobin.fmu"
     with zipfile.ZipFile(plant) as src, zipfile.ZipFile(nobin, "w") as dst:
