@@ -170,8 +170,7 @@ class Simulator:
         if context is not None and params:
             raise InputError("give run-time params or a context, not both (the context holds its blocks)")
         ctx, numbers = (context, None) if context is not None else self._context(params)
-        tl = self._timeline(t_end) if logged else timeline(self.system, self.log_period, t_end, logged=False)
-        return self._run(ctx, tl, t_end, numbers=numbers)
+        return self._run(ctx, self._timeline(t_end, logged), t_end, numbers=numbers)
 
     def run_batch(self, t_end, param_sets, workers=None):
         """Run once per entry of ``param_sets`` (each ``{"block.param": value}``); a list of Results.
@@ -220,10 +219,10 @@ class Simulator:
             raise InputError(f"end time must be positive and finite, got {t_end!r}")
         return t_end
 
-    def _timeline(self, t_end):
-        tl = self._timelines.get(t_end)
+    def _timeline(self, t_end, logged=True):
+        tl = self._timelines.get((t_end, logged))
         if tl is None:
-            tl = self._timelines[t_end] = timeline(self.system, self.log_period, t_end)
+            tl = self._timelines[(t_end, logged)] = timeline(self.system, self.log_period, t_end, logged)
         return tl
 
     # -- one run ------------------------------------------------------------------------

@@ -15,6 +15,7 @@ from hybridsim import limits
 from hybridsim.errors import LoaderError
 from hybridsim.engine.registry import closest, default, lookup
 from hybridsim.format import tables
+from hybridsim.format.kinds import MapOf
 from hybridsim.format.paths import SETTING_SECTIONS, OverrideLoc, ParamPath
 from hybridsim.format.values import _is_subsystem, _references, subsystem_path
 from hybridsim.format.yamlio import _Dict
@@ -117,8 +118,6 @@ class OverridesMixin:
     @staticmethod
     def _mapping(spec, pname):
         """Whether parameter ``pname`` of the block ``spec`` is a mapping (its table says so)."""
-        from hybridsim.format.kinds import MapOf
-
         rows = tables.BLOCK_SETTINGS.get(str(spec.get("type"))) if isinstance(spec, dict) else None
         return any(r.key == pname and isinstance(r.kind, MapOf) for r in rows or ())
 

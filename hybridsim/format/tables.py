@@ -324,8 +324,7 @@ def _record_line(table, key, value):
     if not isinstance(kind, Record) or not isinstance(value, dict):
         return None
     inner = [k for _, k in check_values(kind.table, value, kind.name) if k is not None]
-    lines = getattr(value, "key_lines", None) or getattr(value, "lines", None) or {}
-    return lines.get(inner[0]) if inner else None
+    return key_line(value, inner[0]) if inner else None
 
 
 def _entry_line(value, msg):
