@@ -224,7 +224,7 @@ class FMUBlock(ModelExchange, Block):
                     continue
                 setter = getattr(fmu, _access(var.type, self.fmi3, "set"), None)
                 if var.type not in PORT_TYPES or setter is None:
-                    raise FMUError(f"FMU block {self.name!r}: parameter {pname!r} is a {var.type}; "
+                    raise FMUError(f"FMU block {self.name!r}: parameter {pname!r} has type {var.type}; "
                                    "numeric, Boolean, String and Binary parameters can be set")
                 values = value if isinstance(value, (list, tuple)) else [value]
                 self._call(f"setting {pname}", setter, [var.valueReference],

@@ -42,6 +42,9 @@ def _start_values(path, byname, parameters):
             continue
         for v in (value if isinstance(value, (list, tuple)) else [value]):
             if not isinstance(v, (bool, int, float)) or not np.isfinite(float(v)):
+                if var is not None and var.type == "Boolean":
+                    raise ParameterError("parameters", f"{pname} is a Boolean variable of the FMU: give true "
+                                                       f"or false (or 1, 0), got {value!r}")
                 raise ParameterError("parameters", f"{pname}: must be a finite number or a list of "
                                                    f"them, got {value!r}")
         first = 0 if f"{pname}[0]" in byname else 1  # the element names the FMU declares

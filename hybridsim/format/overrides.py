@@ -268,7 +268,7 @@ class OverridesMixin:
                     self._fail(f"{name!r} is swept by 'variants': not a run-time parameter")
                 named[name] = value
             elif path.kind in SETTING_SECTIONS:
-                self._fail(f"{key!r} is a {path.kind} setting: not a run-time parameter")
+                self._fail(f"{key!r} is a setting of '{path.kind}': not a run-time parameter")
             else:
                 bname = path.block
                 if bname not in self.data["blocks"] or (

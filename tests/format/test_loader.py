@@ -134,7 +134,7 @@ def test_a_metrics_setting_is_set_like_a_simulation_setting(tmp_path):
     with pytest.raises(LoaderError, match=r"override metrics.stepp_time: unknown metrics setting 'stepp_time' "
                                           r"\(did you mean 'step_time'\?\)"):
         DiagramFile(p, {"metrics.stepp_time": 1.0})
-    with pytest.raises(LoaderError, match="'metrics.step_time' is a metrics setting: not a run-time parameter"):
+    with pytest.raises(LoaderError, match="'metrics.step_time' is a setting of 'metrics': not a run-time parameter"):
         DiagramFile(p).runtime_params({"metrics.step_time": 1.0})
 
 
