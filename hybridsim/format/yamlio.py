@@ -187,6 +187,19 @@ _NOT_YAML = {  # a file of another kind given where a diagram is read (known by 
 }
 
 
+#: what a file that is not YAML probably is, by its suffix: said only when it does not read as a YAML mapping
+_SUFFIX_KINDS = {".py": "Python source", ".md": "Markdown", ".rst": "reStructuredText", ".toml": "TOML",
+                 ".ini": "an INI file", ".cfg": "a config file", ".csv": "CSV data", ".m": "MATLAB code",
+                 ".mdl": "a Simulink model", ".ipynb": "a Jupyter notebook", ".txt": "plain text"}
+
+
+def _suffix_hint(path):
+    """' (FILE looks like Python source, not a YAML diagram)' for a known non-YAML suffix, else ''."""
+    kind = _SUFFIX_KINDS.get(os.path.splitext(str(path))[1].lower())
+    return f" ({os.path.basename(str(path))} looks like {kind}, not YAML: diagrams, sweeps and tune files are YAML)" \
+        if kind else ""
+
+
 #: files parsed, by path and text: a file read again (an analysis builds its diagram for every case and
 #: gain scale) is copied, not parsed again; its text is read every time, so an edit is never missed
 _PARSED = {}
@@ -226,12 +239,18 @@ def parse_file(path, budget=None, what="a diagram file must be a mapping with a 
         head = text.lstrip("\ufeff \t\r\n")
         if head.startswith("<"):
             raise LoaderError(_NOT_YAML["urdf"] if "<robot" in head[:4096] else _NOT_YAML["xml"], path, 1)
-        parsed = _load_text(text, str(path)), len(text.encode("utf-8"))
+        try:
+            parsed = _load_text(text, str(path)), len(text.encode("utf-8"))
+        except LoaderError as exc:
+            hint = _suffix_hint(path)
+            if not hint:
+                raise
+            raise LoaderError(str(exc).split(": ", 1)[-1] + hint, path, exc.line) from None
     _PARSED[key] = parsed  # the most recent last
     while len(_PARSED) > _PARSED_MAX:
         del _PARSED[next(iter(_PARSED))]
     if not isinstance(parsed[0], dict):
-        raise LoaderError(what, path, 1)
+        raise LoaderError(what + _suffix_hint(path), path, 1)
     return copy.deepcopy(parsed[0]), parsed[1]
 
 

@@ -279,6 +279,21 @@ def test_a_file_of_another_kind_says_what_it_is_not_a_yaml_syntax_error(tmp_path
     assert says in str(err.value) and "YAML syntax" not in str(err.value) and name in str(err.value)
 
 
+@pytest.mark.parametrize("name, text, says", [
+    ("model.py", 'import numpy as np\nx = {"a": 1}\n', "model.py looks like Python source, not YAML"),
+    ("notes.md", "# Title\n\nSome *text*: here\n- a\n", "notes.md looks like Markdown, not YAML"),
+    ("pyproject.toml", '[tool]\nname = "x"\n', "pyproject.toml looks like TOML, not YAML"),
+    ("readme.txt", "just words\n", "a diagram file must be a mapping"),  # reads as a YAML string
+])
+def test_a_text_file_of_another_kind_is_named_beside_the_yaml_error(tmp_path, name, text, says):
+    # a Python, Markdown or TOML file given as a diagram said only "YAML syntax error"
+    path = tmp_path / name
+    path.write_text(text)
+    with pytest.raises(LoaderError) as err:
+        DiagramFile(path)
+    assert says in str(err.value) and "not YAML" in str(err.value)
+
+
 def test_an_entry_of_an_fmu_blocks_parameters_is_set_by_its_path(tmp_path):
     # --set plant.parameters.unilateral=true said "block 'plant' is not a subsystem", and
     # plant.unilateral "no parameter"; only the whole mapping could be given
