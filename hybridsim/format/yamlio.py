@@ -148,6 +148,20 @@ def _expanded_size(node, memo):
     return n
 
 
+def not_a_file(path):
+    """What keeps ``path`` from being read as a file: "no such file", "a folder", "not a regular file
+    (a device, FIFO or socket)"; None for a regular file."""
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        return "no such file"
+    except OSError as exc:
+        return f"cannot read: {exc.strerror}"
+    if stat.S_ISREG(mode):
+        return None
+    return "a folder" if stat.S_ISDIR(mode) else "not a regular file (a device, FIFO or socket)"
+
+
 def read_text(path, budget=None):
     """The text of a diagram or sweep file: a regular UTF-8 file of at most ``budget`` bytes."""
     budget = limits.get("MAX_FILE_BYTES") if budget is None else budget

@@ -39,7 +39,7 @@ from hybridsim import limits
 from hybridsim.errors import HybridsimError, InputError, LoaderError
 from hybridsim.files import check_planned, locked_output_dir, unique_names
 from hybridsim.format import parse_file
-from hybridsim.format.yamlio import key_line, refuse_kind
+from hybridsim.format.yamlio import key_line, not_a_file, refuse_kind
 from hybridsim.format.identity import check_sweep
 from hybridsim.runs.executor import Executor
 from hybridsim.runs.experiment import Experiment
@@ -74,8 +74,9 @@ class Sweep:
             raise LoaderError(f"'diagram' must be a file name, got {data['diagram']!r}", self.path,
                               lines["diagram"])
         self.diagram = (self.path.parent / data["diagram"]).resolve()
-        if not self.diagram.is_file():
-            raise LoaderError(f"'diagram': no such file {data['diagram']!r}", self.path, lines["diagram"])
+        why = not_a_file(self.diagram)
+        if why:
+            raise LoaderError(f"'diagram' {data['diagram']!r}: {why}", self.path, lines["diagram"])
         for key in ("set", "grid", "scale", "random"):
             if data.get(key) is not None and not isinstance(data[key], dict):
                 raise LoaderError(f"'{key}' must be a mapping", self.path, lines[key])

@@ -33,7 +33,7 @@ from hybridsim import limits
 from hybridsim.errors import InputError, LoaderError, RateError
 from hybridsim.format import parse_file
 from hybridsim.format.identity import given_once
-from hybridsim.format.yamlio import key_line, refuse_kind
+from hybridsim.format.yamlio import key_line, not_a_file, refuse_kind
 from hybridsim.runs.sweep import INSIDE
 from hybridsim.tune.space import SCALES, Parameter
 
@@ -115,8 +115,9 @@ class TuneSpec:
         if not isinstance(data["diagram"], str) or not data["diagram"]:
             self._fail(f"'diagram' must be a file name, got {data['diagram']!r}", lines["diagram"])
         self.diagram = (self.path.parent / data["diagram"]).resolve()
-        if not self.diagram.is_file():
-            self._fail(f"'diagram': no such file {data['diagram']!r}", lines["diagram"])
+        why = not_a_file(self.diagram)
+        if why:
+            self._fail(f"'diagram' {data['diagram']!r}: {why}", lines["diagram"])
         for key in ("set", "variants", "parameters", "method"):
             if data.get(key) is not None and not isinstance(data[key], dict):
                 self._fail(f"'{key}' must be a mapping", lines[key])

@@ -1,5 +1,6 @@
 """Sweeps: the same table serially, on local processes and on Dask; resume; failures."""
 import json
+import os
 
 import numpy as np
 import pandas as pd
@@ -262,10 +263,27 @@ def test_a_missing_diagram_is_named_at_its_line_of_the_sweep_file(tmp_path):
 
     p = tmp_path / "bad.yaml"
     p.write_text("scale: {g.K: [1, 2]}\ndiagram: nowhere.yaml\n")
-    with pytest.raises(LoaderError, match="'diagram': no such file 'nowhere.yaml'") as err:
+    with pytest.raises(LoaderError, match="'diagram' 'nowhere.yaml': no such file") as err:
         sw.run_sweep(p, tmp_path / "o", jobs=1, progress=False)
     assert str(err.value).startswith(f"{p}:2:")
     assert not (tmp_path / "o").exists()
+
+
+def test_a_diagram_that_is_a_folder_or_a_fifo_is_named_as_such(tmp_path):
+    # both said "no such file"
+    from hybridsim.errors import LoaderError
+    from hybridsim.tune.spec import TuneSpec
+
+    (tmp_path / "d.yaml").mkdir()
+    os.mkfifo(tmp_path / "f.yaml")
+    for name, says in (("d.yaml", "a folder"), ("f.yaml", "not a regular file")):
+        p = tmp_path / "s.yaml"
+        p.write_text(f"diagram: {name}\nscale: {{g.K: [1, 2]}}\n")
+        with pytest.raises(LoaderError, match=f"'diagram' '{name}': {says}"):
+            sw.Sweep(p)
+        p.write_text(f"diagram: {name}\nparameters: {{g.K: {{low: 1, high: 2}}}}\nobjectives: []\n")
+        with pytest.raises(LoaderError, match=f"'diagram' '{name}': {says}"):
+            TuneSpec(p)
 
 
 @pytest.mark.slow
