@@ -18,7 +18,7 @@ from hybridsim.format.tables import Record
 from hybridsim.format.overrides import ORIGIN, OverridesMixin
 from hybridsim.format.settings import SettingsMixin
 from hybridsim.format.values import _plain, _references
-from hybridsim.format.yamlio import _Dict, key_line, refuse_kind
+from hybridsim.format.yamlio import _Dict, key_file, key_line, refuse_kind
 
 TOP_KEYS = tables.keys(tables.DIAGRAM)
 _log = logging.getLogger("hybridsim")
@@ -61,28 +61,31 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
         refuse_kind(data, "diagram", self.path)  # a sweep or tune file given where a diagram goes
         for key in data:
             if key not in TOP_KEYS:
-                self._fail(f"unknown section {key!r}{closest(key, TOP_KEYS)}; "
-                           f"sections: {', '.join(TOP_KEYS)}", key_line(data, key))
+                raise LoaderError(f"unknown section {key!r}{closest(key, TOP_KEYS)}; sections: "
+                                  f"{', '.join(TOP_KEYS)}", key_file(data, key, self.path), key_line(data, key))
         if "blocks" not in data:
             self._fail("missing required section 'blocks'", 1)
         for s in tables.DIAGRAM:
             kind, what = _shape(s.kind)
             if s.key in data and data[s.key] is not None and not isinstance(data[s.key], kind):
-                self._fail(f"section {s.key!r} must be {what}", data.lines[s.key])
+                raise LoaderError(f"section {s.key!r} must be {what}", key_file(data, s.key, self.path),
+                                  data.lines[s.key])
             if s.key in data and data[s.key] is None and s.key == "blocks":
-                self._fail("section 'blocks' must be a mapping", data.lines[s.key])
+                raise LoaderError("section 'blocks' must be a mapping", key_file(data, s.key, self.path),
+                                  data.lines[s.key])
         self.name = str(data.get("name", self.path.stem))
         self.description = str(data.get("description", ""))
         self.params = _Dict(data.get("params") or {})
         self.params.lines = getattr(data.get("params"), "lines", {}) or {}
         for k in self.params:  # '$name' and --set name reach it: a plain word
+            at = key_file(data.get("params"), k, self.path)
             if not isinstance(k, str) or not k or _BAD_PARAM.search(k):
-                self._fail(f"parameter name {k!r} may not be empty or contain '.', '[', ']', ':', '=', '$' "
-                           "or spaces ($name and --set name must reach it)", self.params.lines.get(k))
+                raise LoaderError(f"parameter name {k!r} may not be empty or contain '.', '[', ']', ':', '=', '$' "
+                                  "or spaces ($name and --set name must reach it)", at, self.params.lines.get(k))
             refs = sorted(_references(self.params[k]))
             if refs:
-                self._fail(f"parameter {k!r} refers to ${refs[0]}: a parameter's value is a number, list or "
-                           "word, not another parameter (give its value)", self.params.lines.get(k))
+                raise LoaderError(f"parameter {k!r} refers to ${refs[0]}: a parameter's value is a number, list "
+                                  "or word, not another parameter (give its value)", at, self.params.lines.get(k))
         self.overrides = {}  # every override applied, as given (a copy of the file is parsed with them)
         self.origin = ORIGIN.get()  # what messages call their source ("--set", a sweep's)
         self.apply(overrides or {})

@@ -75,6 +75,7 @@ def read_merged(path, chain=(), budget=None, files=None):
         else:
             merged[key] = val
         merged.lines[key] = data.lines[key]
+        merged.locs[key] = data.locs[key]
         _merge_key_lines(merged, data, key)
     return merged
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 from hybridsim import limits
 from hybridsim.engine.registry import closest
 from hybridsim.format.kinds import REF_SCHEMA, Bool, Choice, Either, Kind, ListOf, MapOf, Number, PathText, Port, Signal, Text
-from hybridsim.format.yamlio import key_line
+from hybridsim.format.yamlio import key_file, key_line
 
 # documented: the tables and functions (Setting's fields would shadow other names in the API pages)
 __all__ = ["SIMULATION", "SIGNALS", "METRICS", "PLOT", "ANALYSIS", "ANALYSIS_STEP", "SWEEP", "SWEEP_RANDOM", "DIAGRAM",
@@ -313,7 +313,7 @@ def problems(table, data, section, path, lines=None, line0=None, parsed=None):
             line = key_line(parsed, key) or line
         if key is not None and isinstance(data, dict):
             line = _entry_line(parsed.get(key), msg) or _record_line(table, key, parsed.get(key)) or line
-        out.append(f"{path}{f':{line}' if line else ''}: {msg}")
+        out.append(f"{key_file(parsed, key, path)}{f':{line}' if line else ''}: {msg}")
     return out
 
 

@@ -30,6 +30,14 @@ def key_line(mapping, key):
             or (getattr(mapping, "lines", None) or {}).get(key))
 
 
+def key_file(mapping, key, default):
+    """The file that gave ``key`` of a parsed ``mapping`` (one a diagram extends may have), else ``default``."""
+    loc = (getattr(mapping, "locs", None) or {}).get(key)
+    if type(loc) is not str:  # unknown, or an override's (OverrideLoc)
+        return default
+    return loc.rpartition(":")[0] or default
+
+
 class _List(list):
     line = None
     lines = None

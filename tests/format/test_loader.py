@@ -107,6 +107,22 @@ def test_removing_a_block_the_base_has_not_is_named(tmp_path):
         DiagramFile(child)
 
 
+@pytest.mark.parametrize("base_text, line, says", [
+    ("blocks:\n  c: {type: constant}\nsimulation:\n  t_end: 1\n  solvr: rk4\n", 5, "unknown simulation setting 'solvr'"),
+    ("blocks:\n  c: {type: constant}\nmetrics: {step_tme: 1}\n", 3, "unknown metrics setting 'step_tme'"),
+    ("blocks:\n  c: {type: constant}\nsimulaton:\n  t_end: 1\n", 3, "unknown section 'simulaton'"),
+    ("blocks:\n  c: {type: constant}\nsimulation: 5\n", 3, "section 'simulation' must be a mapping"),
+    ("params: {a: 1, b: $a}\nblocks:\n  c: {type: constant}\n", 1, "parameter 'b' refers to $a"),
+])
+def test_a_mistake_in_an_extended_file_is_named_in_that_file(tmp_path, base_text, line, says):
+    # named with the extending file's path and the base file's line
+    base = write(tmp_path, base_text, "base.yaml")
+    child = write(tmp_path, "extends: base.yaml\nblocks:\n  c: {value: 2}\n", "child.yaml")
+    with pytest.raises(LoaderError) as err:
+        DiagramFile(child).build()
+    assert str(err.value).startswith(f"{base.resolve()}:{line}: {says}")
+
+
 def test_overrides_and_variants(tmp_path):
     p = write(tmp_path, GOOD + "variants: {k: [1.0, 3.0]}\n")
     f = DiagramFile(p, {"g.K": 4.0, "simulation.t_end": 0.5})
