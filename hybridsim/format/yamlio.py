@@ -6,6 +6,7 @@ both: nesting depth, the number of values aliases expand to, recursive aliases,
 characters YAML forbids. Nothing is evaluated; only YAML's plain types.
 """
 import copy
+import difflib
 import os
 import re
 import stat
@@ -346,7 +347,9 @@ def file_kind(data):
         return "diagram"
     if "diagram" not in data:
         return None
-    return "tune" if "parameters" in data or "objectives" in data else "sweep"
+    tune_words = ("parameters", "objectives", "constraints")  # a tune file's, also misspelled ('Parameters:')
+    near = [k for k in data if difflib.get_close_matches(str(k).lower(), tune_words, n=1, cutoff=0.8)]
+    return "tune" if near else "sweep"
 
 
 def refuse_kind(data, expected, path):

@@ -30,6 +30,7 @@ import math
 from pathlib import Path
 
 from hybridsim import limits
+from hybridsim.engine.registry import closest
 from hybridsim.errors import InputError, LoaderError, RateError
 from hybridsim.format import parse_file
 from hybridsim.format.identity import given_once
@@ -53,6 +54,11 @@ METHODS = {"differential_evolution": ("seed", "maxiter", "popsize", "tol"),
            "nsga2": ("seed", "trials", "population")}
 GOALS = {"minimize": "min", "min": "min", "maximize": "max", "max": "max"}
 REDUCE = ("max", "min", "mean")
+
+
+def _lines_of(mapping, line):
+    """``at(key)``: the line where ``key`` of a parsed ``mapping`` is written, else ``line``."""
+    return lambda key: key_line(mapping, key) or line
 
 
 class Quantity:
@@ -108,7 +114,8 @@ class TuneSpec:
         lines = data.lines
         for key in data:
             if key not in TUNE_KEYS:
-                self._fail(f"unknown tune key {key!r}; keys: {', '.join(TUNE_KEYS)}", key_line(data, key))
+                self._fail(f"unknown tune key {key!r}{closest(key, TUNE_KEYS)}; keys: {', '.join(TUNE_KEYS)}",
+                           key_line(data, key))
         for key in ("diagram", "parameters", "objectives"):
             if key not in data:
                 self._fail(f"a tune file needs {key!r}", 1)
@@ -166,17 +173,19 @@ class TuneSpec:
             ln = spec.lines[path]
             if not isinstance(p, dict):
                 self._fail(f"parameter {path!r}: give a mapping such as {{low: 1, high: 10}}", ln)
-            bad = sorted(set(p) - set(PARAM_KEYS))
+            at = _lines_of(p, ln)
+            bad = [k for k in p if k not in PARAM_KEYS]
             if bad:
-                self._fail(f"parameter {path!r}: unknown keys {bad}; keys: {', '.join(PARAM_KEYS)}", ln)
+                self._fail(f"parameter {path!r}: unknown key {bad[0]!r}{closest(bad[0], PARAM_KEYS)}; keys: "
+                           f"{', '.join(PARAM_KEYS)}", at(bad[0]))
             rep = p.get("repeat")
             if rep is not None and (isinstance(rep, bool) or not isinstance(rep, int) or rep < 1):
-                self._fail(f"parameter {path!r}: repeat must be a whole number >= 1, got {rep!r}", ln)
+                self._fail(f"parameter {path!r}: repeat must be a whole number >= 1, got {rep!r}", at("repeat"))
             if "values" in p:
                 if set(p) & {"low", "high", "scale", "integer"}:
                     self._fail(f"parameter {path!r}: give either 'values' or bounds, not both", ln)
                 if not isinstance(p["values"], list) or not p["values"]:
-                    self._fail(f"parameter {path!r}: 'values' must be a non-empty list", ln)
+                    self._fail(f"parameter {path!r}: 'values' must be a non-empty list", at("values"))
                 out.append(Parameter(str(path), values=list(p["values"]), repeat=rep))
                 continue
             lo, hi = p.get("low"), p.get("high")
@@ -184,12 +193,13 @@ class TuneSpec:
                 self._fail(f"parameter {path!r}: give finite bounds low < high, got low={lo!r}, high={hi!r}", ln)
             scale = p.get("scale", "linear")
             if scale not in SCALES:
-                self._fail(f"parameter {path!r}: scale must be one of {', '.join(SCALES)}, got {scale!r}", ln)
+                self._fail(f"parameter {path!r}: scale must be one of {', '.join(SCALES)}, got {scale!r}"
+                           f"{closest(scale, SCALES)}", at("scale"))
             if scale == "log" and lo <= 0:
                 self._fail(f"parameter {path!r}: a log scale needs low > 0, got {lo!r}", ln)
             integer = p.get("integer", False)
             if not isinstance(integer, bool):
-                self._fail(f"parameter {path!r}: integer must be true or false, got {integer!r}", ln)
+                self._fail(f"parameter {path!r}: integer must be true or false, got {integer!r}", at("integer"))
             if integer and (lo != int(lo) or hi != int(hi)):
                 self._fail(f"parameter {path!r}: an integer parameter needs whole-number bounds", ln)
             out.append(Parameter(str(path), float(lo), float(hi), scale, integer, repeat=rep))
@@ -201,33 +211,38 @@ class TuneSpec:
             ln = items.lines[k] if getattr(items, "lines", None) else line
             if not isinstance(q, dict):
                 self._fail("each objective and constraint is a mapping such as {metric: overshoot_pct, max: 5}", ln)
-            bad = sorted(set(q) - set(QUANTITY_KEYS))
+            at = _lines_of(q, ln)
+            bad = [k for k in q if k not in QUANTITY_KEYS]
             if bad:
-                self._fail(f"unknown keys {bad}; keys: {', '.join(QUANTITY_KEYS)}", ln)
+                self._fail(f"unknown key {bad[0]!r}{closest(bad[0], QUANTITY_KEYS)}; keys: "
+                           f"{', '.join(QUANTITY_KEYS)}", at(bad[0]))
             if ("metric" in q) == ("analysis" in q):
                 self._fail("give exactly one of 'metric' (a run's) or 'analysis' (the linearized loop's)", ln)
             kw = {k2: v for k2, v in q.items()}
             if "analysis" in q:
                 if q["analysis"] not in ANALYSIS_MEASURES:
-                    self._fail(f"analysis {q['analysis']!r}: one of {', '.join(ANALYSIS_MEASURES)}", ln)
+                    self._fail(f"analysis {q['analysis']!r}{closest(q['analysis'], ANALYSIS_MEASURES)}: one of "
+                               f"{', '.join(ANALYSIS_MEASURES)}", at("analysis"))
                 if q["analysis"] != "largest_abs_z" and not q.get("loop"):
                     self._fail(f"analysis {q['analysis']!r} needs 'loop' (a name in the diagram's "
                                "analysis.points, or a signal)", ln)
                 if "of" in q:
                     self._fail("'of' (a signal) goes with 'metric', not 'analysis'", ln)
             elif "of" in q and q["metric"] not in STEP_MEASURES:
-                self._fail(f"metric {q['metric']!r} of a signal: one of {', '.join(STEP_MEASURES)}", ln)
+                self._fail(f"metric {q['metric']!r} of a signal{closest(q['metric'], STEP_MEASURES)}: one of "
+                           f"{', '.join(STEP_MEASURES)}", at("metric"))
             for key in ("max", "min", "after", "final", "settling"):
                 if key in q and not _finite(q[key]):
-                    self._fail(f"{key!r} must be a finite number, got {q[key]!r}", ln)
+                    self._fail(f"{key!r} must be a finite number, got {q[key]!r}", at(key))
             if "settling" in q and not 0 < q["settling"] < 1:
                 self._fail(f"'settling' is the band as a fraction of the step (0.02 for 2 %), above 0 and "
-                           f"below 1, got {q['settling']!r}", ln)
+                           f"below 1, got {q['settling']!r}", at("settling"))
             if "after" in q and q["after"] < 0:
-                self._fail(f"'after' is when the step is applied, s (0 or later), got {q['after']!r}", ln)
+                self._fail(f"'after' is when the step is applied, s (0 or later), got {q['after']!r}", at("after"))
             if objective:
                 if q.get("goal") not in GOALS:
-                    self._fail(f"an objective needs goal: minimize or maximize, got {q.get('goal')!r}", ln)
+                    self._fail(f"an objective needs goal: minimize or maximize, got {q.get('goal')!r}"
+                               f"{closest(q['goal'], GOALS) if 'goal' in q else ''}", at("goal"))
                 if "max" in q or "min" in q:
                     self._fail("bounds ('max', 'min') go under 'constraints'", ln)
                 kw["goal"] = GOALS[q["goal"]]
@@ -240,7 +255,8 @@ class TuneSpec:
                     self._fail(f"a constraint's min ({q['min']!r}) exceeds its max ({q['max']!r}): no point "
                                "can meet it", ln)
             if "reduce" in q and q["reduce"] not in REDUCE:
-                self._fail(f"reduce must be one of {', '.join(REDUCE)}, got {q['reduce']!r}", ln)
+                self._fail(f"reduce must be one of {', '.join(REDUCE)}, got {q['reduce']!r}"
+                           f"{closest(q['reduce'], REDUCE)}", at("reduce"))
             kw.setdefault("name", q.get("analysis") or (f"{q['metric']}:{q['of']}" if "of" in q else q["metric"]))
             kw["line"] = ln
             out.append(Quantity(**kw))
@@ -249,13 +265,14 @@ class TuneSpec:
     def _method(self, spec, line):
         name = spec.get("name", "differential_evolution")
         if name not in METHODS:
-            self._fail(f"method {name!r}: one of {', '.join(METHODS)}", spec.lines.get("name", line)
+            self._fail(f"method {name!r}{closest(name, METHODS)}: one of {', '.join(METHODS)}",
+                       spec.lines.get("name", line)
                        if hasattr(spec, "lines") else line)
         opts = {k: v for k, v in spec.items() if k != "name"}
         for k, v in opts.items():
             if k not in METHODS[name]:
-                self._fail(f"method {name}: unknown option {k!r}; options: {', '.join(METHODS[name])}",
-                           spec.lines[k])
+                self._fail(f"method {name}: unknown option {k!r}{closest(k, METHODS[name])}; options: "
+                           f"{', '.join(METHODS[name])}", key_line(spec, k))
             if k == "tol":
                 if not (_finite(v) and v > 0):
                     self._fail(f"method {name}: tol must be a number > 0, got {v!r}", spec.lines[k])

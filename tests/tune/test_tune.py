@@ -182,6 +182,18 @@ def test_pareto_front_by_hand():
      "parameters 'pid.Kp[0]' and parameters 'pid.Kp' both set pid.Kp"),
     ("parameters:\n  pid.rate: {low: 40, high: 60, integer: true}\n  rate: {low: 40, high: 60, integer: true}\n"
      "objectives:\n" + SETTLE, 5, "the parameters together: "),
+    # a nested key was named at its parent's line, and no suggestion was made for a word in another case
+    ("parameters:\n  pid.Kp:\n    low: 1\n    hihg: 10\nobjectives:\n" + SETTLE, 6,
+     "unknown key 'hihg' (did you mean 'high'?)"),
+    (PARAMS + "objectives:\n  - metric: settling_time_s\n    of: plant.y\n    goall: minimize\n", 10,
+     "unknown key 'goall' (did you mean 'goal'?)"),
+    (PARAMS + "objectives:\n  - metric: settling_time_s\n    of: plant.y\n    goal: Minimize\n", 10,
+     "got 'Minimize' (did you mean 'minimize'?)"),
+    (PARAMS.replace("scale: log}\n  pid.Ki", "scale: Log}\n  pid.Ki", 1) + "objectives:\n" + SETTLE, 4,
+     "(did you mean 'log'?)"),
+    (PARAMS + "objectives:\n" + SETTLE + "method:\n  name: tpe\n  trails: 3\n", 11,
+     "unknown option 'trails' (did you mean 'trials'?)"),
+    ("Parameters:\n  pid.Kp: {low: 1, high: 10}\n", 3, "unknown tune key 'Parameters' (did you mean 'parameters'?)"),
 ])
 def test_bad_tune_files_exit_2_with_file_and_line(tmp_path, capsys, body, line, message):
     p = tune_file(tmp_path, body)
