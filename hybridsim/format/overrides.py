@@ -64,6 +64,11 @@ class OverridesMixin:
             path = self._path(key)
             if path.kind == "param" and path.name not in self.params and path.name in tables.keys(tables.SIMULATION):
                 path = ParamPath.parse(f"simulation.{path}")  # t_end: simulation.t_end, unless a parameter
+            blocks = self.data.get("blocks") if isinstance(self.data.get("blocks"), dict) else {}
+            if path.index is not None and path.kind == "block" and len(path.parts) == 3 \
+                    and self._mapping(blocks.get(path.block), path.parts[1]):
+                self._entry_set(blocks[path.block], path, value, key)  # fmu.parameters.b[1]: the FMU's 'b[1]'
+                continue
             if path.index is not None:
                 value = self._element_set(path, value, key)
                 path = path.without_index()
@@ -123,7 +128,7 @@ class OverridesMixin:
 
     def _entry_set(self, spec, path, value, key):
         """Set the entry ``path.parts[2]`` of the block's mapping parameter ``path.parts[1]``."""
-        pname, entry = path.parts[1], path.parts[2]
+        pname, entry = path.parts[1], path.parts[2] + (f"[{path.index}]" if path.index is not None else "")
         current = spec.get(pname)
         if current is None:
             current = {}

@@ -319,6 +319,8 @@ def test_an_entry_of_an_fmu_blocks_parameters_is_set_by_its_path(tmp_path):
     f = DiagramFile(write(tmp_path, "blocks:\n  plant: {type: fmu, path: p.fmu}\n", "e.yaml"),
                     {"plant.parameters.b": [1.0, 2.0]})
     assert f.data["blocks"]["plant"]["parameters"] == {"b": [1.0, 2.0]}
+    f = DiagramFile(p, {"plant.parameters.b[1]": 5.0})  # an FMU's element variable: was "not a subsystem"
+    assert f.data["blocks"]["plant"]["parameters"] == {"friction": False, "b[1]": 5.0}
     with pytest.raises(DiagramError) as exc:
         DiagramFile(p, {"plant.unilateral": True}).build()
     assert any("is set as plant.parameters.unilateral" in m for m in exc.value.problems)
