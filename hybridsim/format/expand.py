@@ -45,6 +45,20 @@ def _wiring_hints(problems, unknown, cls, kwargs, bname):
                             if ports is not None else " (signals are connected in the 'wires:' section)")
 
 
+def _port_hint(key, value, inputs, bname):
+    """The wires hint for a subsystem block's key that is one of its file's declared ``inputs`` or is
+    named like a wire, else ''."""
+    ports = [str(k) for k in inputs] if isinstance(inputs, dict) else []
+    source = value if isinstance(value, str) and _SIGNAL.match(value) else "block.output"
+    if key in ports:
+        return f" ({key!r} is an input port: connect it in the 'wires:' section, '- {source} -> {bname}.{key}')"
+    if _WIRING.match(str(key)):
+        return (f" (signals are connected in the 'wires:' section, '- {source} -> {bname}.{ports[0]}'; its inputs: "
+                f"{', '.join(ports)})" if ports else " (signals are connected in the 'wires:' section; it declares "
+                "no inputs)")
+    return ""
+
+
 class ExpandMixin:
     """The expansion methods of :class:`~.diagram_file.DiagramFile`."""
 
@@ -201,7 +215,8 @@ class ExpandMixin:
             first = str(key).split(".")[0]
             if "." not in str(key) and key not in sub.params:
                 problems.append(f"{context}{spec.locs[key]}: subsystem {bname!r} ({rel}) has no parameter {key!r}"
-                                f"{closest(key, sub.params)}; its parameters: {', '.join(sub.params) or 'none'}")
+                                f"{closest(key, sub.params)}; its parameters: {', '.join(sub.params) or 'none'}"
+                                + _port_hint(key, overrides[key], sub.data.get("inputs"), bname))
                 return None
             if "." in str(key) and first not in sub.data["blocks"]:
                 problems.append(f"{context}{spec.locs[key]}: subsystem {bname!r} ({rel}) has no block {first!r}"

@@ -117,6 +117,11 @@ def test_an_algebraic_loop_through_a_subsystem_names_each_wire(tmp_path, capsys)
     ("{type: subsystem}", "needs 'file'"),
     ("{type: subsystem, file: nope.yaml}", "no such file"),
     ("{type: subsystem, file: self.yaml}", "contains itself"),
+    # a declared input given as a parameter got no hint
+    ("{type: subsystem, file: inner.yaml, a: c.y}",
+     "('a' is an input port: connect it in the 'wires:' section, '- c.y -> m.a')"),
+    ("{type: subsystem, file: inner.yaml, input: c.y}",
+     "(signals are connected in the 'wires:' section, '- c.y -> m.a'; its inputs: a, b)"),
 ])
 def test_bad_subsystems_are_clear_errors(tmp_path, capsys, spec, message):
     (tmp_path / "inner.yaml").write_text(INNER)
