@@ -51,7 +51,7 @@ def test_runtime_params_of_a_file_follow_dollar_references():
     assert f.runtime_params({"Kr": 1e6, "ctrl.fpi.Kp": [1, 2]}) == {
         "surface.Kr": 1e6, "ctrl.fpi.Kp": [1, 2],
         "arm.balance": {"surface_x": 0.5, "force": 0.0, "Kr": 1e6, "Kw": 8e5}}
-    with pytest.raises(InputError, match="simulation setting"):
+    with pytest.raises(InputError, match="a setting of .simulation."):
         f.runtime_params({"simulation.t_end": 1})
 
 

@@ -299,7 +299,7 @@ def test_an_unwired_input_is_never_written(stair):
 @pytest.mark.parametrize("params, message", [
     ({"limit": 0.5}, r"limit = 0.5 is outside its range: min = 1"),
     ({"time": 1.0}, r"time is the independent variable of the FMU: it cannot be set"),
-    ({"y": 1.0}, r"y is a output variable of the FMU \(initial=calculated\): it cannot be set"),
+    ({"y": 1.0}, r"y is an output variable of the FMU \(initial=calculated\): it cannot be set"),
 ])
 def test_check_refuses_what_the_fmu_cannot_take(stair, params, message):
     with pytest.raises(hs.ParameterError, match=message):
