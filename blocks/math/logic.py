@@ -163,7 +163,9 @@ class HitCrossing(Block):
         direction = choice(direction, "direction", tuple(dirs))
         n = count(width, "width")
         self.params = HitParams(vector(offset, "offset", n), n, float(dirs[direction]))
-        self.event_directions = (0,) * n  # both ways: the side u is on is followed (see hit_event)
+        # g = side * (u - offset) falls through 0 when u reaches the other side; u touching offset and
+        # turning back (a peak at it) brings g to 0 and back up: no event (see hit_crossings)
+        self.event_directions = (-1,) * n
         self.declare_input("u", n)
         self.declare_output("count", n, depends_on=())
         self.declare_output("time", n, depends_on=())
@@ -195,7 +197,14 @@ def hit_derivatives(p, t, x, u):
 
 @kernel
 def hit_crossings(p, t, x, u):
-    return np.asarray(u[0]) - p.offset
+    """side * (u - offset), falling through 0 at a crossing; -|u - offset| while u has not yet left
+    offset (it started on it): leaving is an event that only sets the side."""
+    xa, ua = np.asarray(x), np.asarray(u[0])
+    g = np.empty(p.n)
+    for i in range(p.n):
+        side, d = xa[2 * p.n + i], ua[i] - p.offset[i]
+        g[i] = side * d if side != 0.0 else -abs(d)
+    return g
 
 
 @kernel

@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import RegularGridInterpolator, interp1d
 
+import hybridsim as hs
 from paths import PATHS, block, check, run
 
 
@@ -84,6 +85,21 @@ def test_a_signal_that_sits_on_the_level_or_touches_it_and_turns_back_does_not_c
     check("hit_crossing", path, res["any.count[0]"], 0.0 * res.t, 0.0)
     check("hit_crossing", path, res["down.count[0]"], 0.0 * res.t, 0.0)
     check("memory", path, res["m.y[0]"], 0.0 * res.t - 7.0, 0.0)
+
+
+@pytest.mark.parametrize("solver", ["rk4", "radau", "lsoda", "cvode"])
+def test_a_peak_exactly_at_the_level_is_no_event_on_any_solver(solver):
+    # sin(2 pi t) reaches 1 (and -1) exactly and turns back: no crossing. The touch was an event
+    # (listed, the integration restarted) on every solver, and CVODE stopped: "stepped over a crossing"
+    solvers = {"rk4": hs.RK4(1e-3), "radau": hs.ScipySolver("Radau"), "lsoda": hs.ScipySolver("LSODA"),
+               "cvode": hs.CVode()}
+    for level in (1.0, -1.0):
+        d = hs.Diagram("t")
+        d.add(block("sine", "s"))
+        d.add(block("hit_crossing", "h", offset=level))
+        d.connect("s.y", "h.u")
+        res = hs.Simulator(d.build(), solvers[solver], log=["h.count"], log_period=0.01).run(2.0)
+        assert res["h.count[0]"][-1] == 0 and res.meta["events"] == [], (level, res.meta["events"])
 
 
 def test_relational_and_logical_refuse_unknown_operators():
