@@ -24,6 +24,7 @@ from numbers import Real
 
 import numpy as np
 
+from hybridsim import limits as _budget
 from hybridsim.engine import events as _events
 from hybridsim.engine import stepping
 from hybridsim.engine.context import Context
@@ -222,8 +223,22 @@ class Simulator:
     def _timeline(self, t_end, logged=True):
         tl = self._timelines.get((t_end, logged))
         if tl is None:
+            self._check_size(t_end)
             tl = self._timelines[(t_end, logged)] = timeline(self.system, self.log_period, t_end, logged)
         return tl
+
+    def _check_size(self, t_end):
+        """InputError when a run to ``t_end`` exceeds the budgets of :mod:`hybridsim.limits` (sample
+        hits, log rows, steps): checked before any array is made."""
+        solver = self.solver
+        step = solver.step if isinstance(solver, ExplicitRK) else getattr(solver, "max_step", None)
+        periods = [float(p) for p, _ in self.system.schedule.timings if p]
+        why = _budget.run_size_problems(t_end, periods, float(self.log_period),
+                                        step if step is not None and np.isfinite(step) else None,
+                                        int(self._log_columns.size), type(solver).__name__,
+                                        getattr(solver, "scan", None) if self.located else None)
+        if why:
+            raise InputError(f"a run to t_end = {t_end:g} s: " + "; ".join(why))
 
     # -- one run ------------------------------------------------------------------------
     def session(self, ctx, rows=0, numbers=None):

@@ -157,3 +157,20 @@ def test_a_discrete_block_not_due_at_the_start_holds_its_output_through_the_star
                         ("hit_crossing", "h", dict(offset=0.25, direction="rising"))],
                  [("s.y", "h.u")], ["c.y"], t_end=0.06, log_period=0.01)
     assert list(res["c.y[0]"][:5]) == [0.0, 0.0, 0.0, 1.0, 1.0]
+
+
+def test_a_run_past_the_budgets_is_refused_before_any_array_is_made():
+    # Simulator.run(1e12) allocated until numpy's MemoryError (728 TiB); a file's t_end was checked,
+    # the Python API's not
+    from hybridsim.errors import InputError
+
+    d = Diagram("budget")
+    d.add(Constant("c", 1.0))
+    d.add(ZeroOrderHold("z", rate=100))
+    d.connect("c.y", "z.u")
+    sim = Simulator(d.build(), RK4(1e-3), log=["z.y"])
+    with pytest.raises(InputError, match=r"a run to t_end = 1e\+12 s: .*at most .* fit one run"):
+        sim.run(1e12)
+    with pytest.raises(InputError, match="at most"):
+        sim.run_batch(1e12, [{}])
+    assert sim.run(0.05).t[-1] == 0.05
