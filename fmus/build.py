@@ -1,7 +1,7 @@
 """Build the plant FMU: the model of :mod:`.plant_model` behind FMI 2.0 or 3.0."""
 from pathlib import Path
 
-from hybridsim.errors import FMUError
+from hybridsim.errors import InputError
 from hybridsim.fmi.fmu_block import build_fmu
 
 from . import plant_model as pm
@@ -22,8 +22,8 @@ def build_plant_fmu(out="plant.fmu", fmi=2):
     pathlib.Path
         ``out``.
     """
-    if fmi not in (2, 3):
-        raise FMUError(f"FMI version {fmi!r}: the plant FMU is built as FMI 2 or 3")
+    if isinstance(fmi, bool) or fmi not in (2, 3):  # a bad argument: the caller's input, not an FMU's failure
+        raise InputError(f"FMI version {fmi!r}: the plant FMU is built as FMI 2 or 3")
     here = Path(__file__).parent
     headers = {"plant_vars.h": pm.vars_header(), "plant_core.h": (here / "plant_core.h").read_text()}
     extra = {"sources/buildDescription.xml": pm.build_description()} if fmi == 3 else {}

@@ -24,7 +24,7 @@ import tempfile
 import uuid
 from pathlib import Path
 
-from hybridsim.errors import FMUError
+from hybridsim.errors import FMUError, InputError
 from hybridsim.fmi.runtime import fed_by
 from hybridsim.fmi.slave import INTERFACE
 from hybridsim.format import standalone
@@ -183,8 +183,8 @@ def export_fmu(diagram, out, fmi=2, name=None):
     from hybridsim.files import check_output_file
 
     check_output_file(out, ["fmu"])  # a path that cannot be written is refused before anything is built
-    if fmi not in (2, 3):
-        raise FMUError(f"FMI version must be 2 or 3, got {fmi!r}")
+    if isinstance(fmi, bool) or fmi not in (2, 3):
+        raise InputError(f"FMI version must be 2 or 3, got {fmi!r}")
     try:
         if fmi == 2:
             from pythonfmu import FmuBuilder

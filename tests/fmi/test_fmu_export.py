@@ -377,3 +377,19 @@ def test_parameters_that_make_an_output_feed_through_an_undeclared_input_are_ref
     fmu.exitInitializationMode()
     fmu.terminate()
     fmu.freeInstance()
+
+
+@pytest.mark.parametrize("fmi", [4, "2", True, None])
+def test_a_bad_fmi_version_is_bad_input_not_an_fmu_failure(tmp_path, fmi):
+    # export_fmu(..., fmi=4) raised FMUError (exit 4: "an FMU failed"); it is the caller's argument
+    from fmus.build import build_plant_fmu
+    from hybridsim.errors import InputError
+    from hybridsim.fmi.export import export_fmu
+
+    sub = tmp_path / "sub.yaml"
+    sub.write_text("inputs: {u: g.u}\noutputs: {y: g.y}\nblocks:\n  g: {type: gain, K: 2}\n")
+    with pytest.raises(InputError, match="FMI version"):
+        export_fmu(sub, tmp_path / "x.fmu", fmi=fmi)
+    with pytest.raises(InputError, match="FMI version"):
+        build_plant_fmu(tmp_path / "p.fmu", fmi=fmi)
+    assert not (tmp_path / "x.fmu").exists() and not (tmp_path / "p.fmu").exists()
