@@ -203,9 +203,9 @@ def _refuse(dst, folder):
     elif dst.exists() and not dst.is_file():
         raise OutputError(f"{str(dst)!r} exists and is not a file{' (it is a folder)' if dst.is_dir() else ''}; "
                           "hybridsim does not replace it (nothing was written)")
-    elif dst.is_symlink() and not dst.exists():
-        raise OutputError(f"{str(dst)!r} is a symbolic link to a missing target; hybridsim does not "
-                          "replace it (nothing was written)")
+    elif dst.is_symlink():  # a file arrives by a rename, which would replace the user's link itself
+        raise OutputError(f"{str(dst)!r} is a symbolic link{'' if dst.exists() else ' to a missing target'}; "
+                          "hybridsim does not replace it: name its target or another file (nothing was written)")
     elif dst.exists() and not written_by_hybridsim(dst):
         raise OutputError(f"{str(dst)!r} exists and hybridsim did not write it; move it away or write "
                           "into another folder (nothing was written)")

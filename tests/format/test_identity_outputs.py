@@ -411,3 +411,15 @@ def test_the_identity_holds_hybridsims_code(tmp_path, monkeypatch):
     before = identity.identity([], {"a": 1})
     monkeypatch.setattr(identity, "code_identity", lambda: "edited")
     assert identity.identity([], {"a": 1}) != before
+
+
+def test_a_symbolic_link_to_a_file_hybridsim_wrote_is_not_replaced(tmp_path, capsys, monkeypatch):
+    # the link's target was judged (hybridsim's), and the rename replaced the user's link with a file
+    monkeypatch.chdir(tmp_path)
+    d = write(tmp_path, GOOD)
+    code, _, err = run(capsys, "draw", d, "-o", "pic.svg")
+    assert code == 0, err
+    (tmp_path / "link.svg").symlink_to(tmp_path / "pic.svg")
+    code, _, err = run(capsys, "draw", d, "-o", "link.svg")
+    assert code == 2 and "is a symbolic link; hybridsim does not replace it" in err, err
+    assert (tmp_path / "link.svg").is_symlink()
