@@ -30,7 +30,7 @@ from hybridsim.engine import stepping
 from hybridsim.engine.context import Context
 from hybridsim.engine.glue import GenericGlue, state_derivatives
 from hybridsim.engine.result import Result, parse_signal
-from hybridsim.engine.solvers import RK4, ExplicitRK, limits, outputs, work
+from hybridsim.engine.solvers import RK4, ExplicitRK, Solver, limits, outputs, work
 from hybridsim.engine.timeline import rows, schedule, timeline
 from hybridsim.errors import DiagramError, InputError, SimulationError, StopRequest
 
@@ -39,6 +39,24 @@ MAX_EVENT_LOG = 200_000
 
 
 _log = logging.getLogger(__name__)
+
+
+def _check_arguments(system, solver, log):
+    """``log`` as a list; InputError for a system, solver or log of the wrong kind, naming what goes there."""
+    from hybridsim.engine.system import System
+
+    if not isinstance(system, System):
+        hint = " (call its .build() first)" if hasattr(system, "build") else ""
+        raise InputError(f"Simulator takes a built System{hint}, got {type(system).__name__}")
+    if solver is not None and not isinstance(solver, Solver):
+        raise InputError(f"solver is a Solver object such as RK4(1e-4), Heun(1e-4), ScipySolver('Radau') or "
+                         f"CVode(), got {solver!r}")
+    if isinstance(log, str) or not hasattr(log, "__iter__"):
+        raise InputError(f"log is a list of signals such as ['plant.y', 'pid.u[0]'], got {log!r}")
+    log = list(log)
+    if not all(isinstance(r, str) for r in log):
+        raise InputError(f"log is a list of signals such as ['plant.y', 'pid.u[0]'], got {log!r}")
+    return log
 
 
 class Simulator:
@@ -84,6 +102,7 @@ class Simulator:
                  max_state=1e6, progress=False, fused=True, compiled=False, locate_switches=False, aliases=None):
         from hybridsim.engine.block import to_period
 
+        log = _check_arguments(system, solver, log)
         self._made = dict(log=log, log_period=log_period, max_state=max_state, locate_switches=locate_switches,
                           aliases=aliases)
         self.aliases = dict(aliases or {})

@@ -16,6 +16,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from hybridsim.errors import InputError
+from hybridsim.format import tables
+
 
 def point_key(changes):
     """A short stable hash of ``changes`` (a point's key in a resume store); a whole number the same
@@ -33,6 +36,26 @@ def _plain(v):
     if isinstance(v, float) and v.is_integer() and abs(v) < 2.0 ** 53:
         return int(v)
     return v
+
+
+def range_problem(name, lo_hi):
+    """What is wrong with ``lo_hi`` as the ``[low, high]`` range of ``name`` (a sweep's ``random``,
+    :meth:`Grid.random`), or None."""
+    v = list(lo_hi) if isinstance(lo_hi, (list, tuple)) else lo_hi
+    ok = isinstance(v, list) and len(v) == 2 and all(
+        isinstance(x, (int, float)) and not isinstance(x, bool) and np.isfinite(x) for x in v) and v[0] <= v[1]
+    return None if ok else f"range of {name!r} must be [low, high] with finite low <= high, got {lo_hi!r}"
+
+
+def _checked(name, table, values):
+    """InputError for the first value of ``values`` (``{key: value}``) that its row of the sweep file's
+    ``table`` refuses, the file's check; ``name`` the function called."""
+    for row in table:
+        if row.key in values:
+            why = row.kind.problem(values[row.key])
+            if why:
+                raise InputError(f"{name}: {'axes' if row.key in ('grid', 'scale') else row.key} "
+                                 f"{why if why.startswith('must') else '- ' + why}")
 
 
 class Point(NamedTuple):
@@ -56,6 +79,11 @@ def point(changes=None, label=None, key=None, experiment=None):
     return Point(changes, dict(changes if label is None else label), key or point_key(changes), experiment)
 
 
+def _lists(axes):
+    """``axes`` with tuples as lists (what the tables' kinds take), as given when not a mapping."""
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in axes.items()} if isinstance(axes, dict) else axes
+
+
 class Grid:
     """An ordered list of :class:`Point`.
 
@@ -71,6 +99,7 @@ class Grid:
     @classmethod
     def values(cls, axes):
         """The full factorial of ``axes`` (``{name: [value, ...]}``), the first axis slowest."""
+        _checked("Grid.values", tables.SWEEP, {"grid": _lists(axes)})
         names = list(axes)
         return cls(point(dict(zip(names, combo))) for combo in itertools.product(*(axes[n] for n in names)))
 
@@ -79,6 +108,7 @@ class Grid:
         """The full factorial of scale factors ``axes`` (``{name: [factor, ...]}``) of each
         parameter's own value ``base[name]`` (a number or a list); the table shows the factor
         (column ``name*``), the run gets ``factor x base``."""
+        _checked("Grid.scaled", tables.SWEEP, {"scale": _lists(axes)})
         names = list(axes)
         pts = []
         for combo in itertools.product(*(axes[n] for n in names)):
@@ -90,6 +120,12 @@ class Grid:
     def random(cls, ranges, n, seed=0):
         """``n`` points drawn uniformly from ``ranges`` (``{name: (low, high)}``) with numpy's
         generator seeded by ``seed``: the same points every time."""
+        ranges = {k: list(v) if isinstance(v, tuple) else v for k, v in ranges.items()} \
+            if isinstance(ranges, dict) else ranges
+        _checked("Grid.random", tables.SWEEP_RANDOM, {"n": n, "seed": seed, "ranges": ranges})
+        for k, v in ranges.items():
+            if range_problem(k, v):
+                raise InputError(f"Grid.random: {range_problem(k, v)}")
         rng = np.random.default_rng(int(seed))
         return cls(point({k: float(rng.uniform(lo, hi)) for k, (lo, hi) in ranges.items()}) for _ in range(int(n)))
 

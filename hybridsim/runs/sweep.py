@@ -43,7 +43,7 @@ from hybridsim.format.yamlio import key_line, not_a_file, refuse_kind
 from hybridsim.format.identity import check_sweep
 from hybridsim.runs.executor import Executor
 from hybridsim.runs.experiment import Experiment
-from hybridsim.runs.grid import Grid
+from hybridsim.runs.grid import Grid, range_problem
 from hybridsim.runs.many import Simulate, run_many
 from hybridsim.runs.store import Store
 from hybridsim.runs.table import files as table_files, heatmaps, write_table
@@ -110,21 +110,14 @@ class Sweep:
         self._base = {}  # parameter -> its value in the diagram with set (what a scale multiplies)
 
     def _check_random(self, spec, line):
-        bad = set(spec) - {"n", "seed", "ranges"}
-        if bad:
-            raise LoaderError(f"random: unknown keys {sorted(bad)}; keys: n, seed, ranges", self.path, line)
-        n, seed, ranges = spec.get("n", 10), spec.get("seed", 0), spec.get("ranges")
-        if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= limits.MAX_RUNS:
-            raise LoaderError(f"random: n must be a whole number from 1 to {limits.MAX_RUNS}, got {n!r}",
-                              self.path, line)
-        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-            raise LoaderError(f"random: seed must be a whole number >= 0, got {seed!r}", self.path, line)
+        """What the table (check_sweep) does not say of ``random``: a range's low above its high, no range."""
+        ranges = spec.get("ranges")
         if not isinstance(ranges, dict) or not ranges:
             raise LoaderError("random: give 'ranges' as {parameter: [low, high]}", self.path, line)
         for k, v in ranges.items():
-            if not (isinstance(v, list) and len(v) == 2 and all(_number(x) for x in v) and v[0] <= v[1]):
-                raise LoaderError(f"random: range of {k!r} must be [low, high] with finite low <= high, "
-                                  f"got {v!r}", self.path, ranges.lines[k])
+            why = range_problem(k, v)
+            if why:
+                raise LoaderError(f"random: {why}", self.path, ranges.lines[k])
 
     @property
     def experiment(self):

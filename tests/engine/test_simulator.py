@@ -174,3 +174,20 @@ def test_a_run_past_the_budgets_is_refused_before_any_array_is_made():
     with pytest.raises(InputError, match="at most"):
         sim.run_batch(1e12, [{}])
     assert sim.run(0.05).t[-1] == 0.05
+
+
+def test_a_simulator_of_the_wrong_arguments_says_what_goes_there():
+    # Simulator(system, "rk4") said "'str' object has no attribute 'stepper'"; log=5 "'int' object is
+    # not iterable"; a Diagram not built failed deeper
+    from hybridsim.errors import InputError
+
+    d = Diagram("args")
+    d.add(Constant("c", 1.0))
+    system = d.build()
+    for kw, says in ((dict(solver="rk4"), "solver is a Solver object such as RK4"),
+                     (dict(log=5), "log is a list of signals"), (dict(log="c.y"), "log is a list of signals")):
+        with pytest.raises(InputError, match=says):
+            Simulator(system, **kw)
+    with pytest.raises(InputError, match=r"a built System \(call its .build\(\) first\), got Diagram"):
+        Simulator(d)
+    assert Simulator(system, log=(r for r in ["c.y"])).run(0.01)["c.y"][-1] == 1.0

@@ -134,3 +134,20 @@ def test_jobs_must_be_a_whole_number():
             Executor(bad)
     with Executor(2) as ex:
         assert ex.map(abs, [-3, 2, -1]) == [3, 2, 1] and ex.width == 2
+
+
+@pytest.mark.parametrize("make, says", [
+    (lambda: Grid.values([1, 2]), "Grid.values: axes must be a mapping"),  # said IndexError
+    (lambda: Grid.values({"k": 3}), "Grid.values: axes - 'k': must be a list"),
+    (lambda: Grid.scaled({"k": ["x"]}, {"k": 1.0}), "must be a number, got 'x'"),
+    (lambda: Grid.random({"k": (1, 2)}, n=-1), "Grid.random: n must be a whole number from 1"),  # was 0 points
+    (lambda: Grid.random({"k": (2, 1)}, n=3), "range of 'k' must be [low, high] with finite low <= high"),
+    (lambda: Grid.random({"k": (1, 2)}, n=3, seed=-2), "Grid.random: seed must be"),
+])
+def test_a_grid_from_python_is_checked_as_a_sweep_file_is(make, says):
+    from hybridsim.errors import InputError
+
+    with pytest.raises(InputError) as err:
+        make()
+    assert says in str(err.value)
+    assert len(Grid.random({"k": (1, 2)}, n=3)) == 3 and len(Grid.values({"k": (1, 2)})) == 2
