@@ -17,8 +17,11 @@ settings to the section and results computed from the plant
 (:mod:`hybridsim.analysis.extras`).
 """
 
+from numbers import Real
+
 import numpy as np
 
+from hybridsim.errors import InputError
 from hybridsim.format import tables
 from hybridsim.format.build import check_analysis_branches, load
 from hybridsim.runs.experiment import Experiment
@@ -190,6 +193,10 @@ def analyze(path, at=None, sweeps=True, **overrides):
     cases, gain points and the boundary search are run-time parameter changes of that build
     where they name block parameters; a servo rate or a ``params`` name rebuilds.
     """
+    if not isinstance(sweeps, bool):
+        raise InputError(f"sweeps is True or False, got {sweeps!r}")
+    if at is not None and (isinstance(at, bool) or not isinstance(at, Real) or not 0 <= at < np.inf):
+        raise InputError(f"at is a time in s (0 or later), got {at!r}")
     if isinstance(path, Experiment):
         f = path.file
         check_analysis_branches(f)  # a bad value in set, cases, compare or step: named at its line

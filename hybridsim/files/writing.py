@@ -294,6 +294,8 @@ def output_dir(outdir, default, whole=True):
     (pathlib.Path, bool)
         The folder, and whether it is the default (write only hybridsim's files there).
     """
+    if outdir is not None and not isinstance(outdir, (str, os.PathLike)):
+        raise TypeError(f"an output folder is a path (str or pathlib.Path), got {outdir!r}")
     if outdir:
         return check_output_dir(Path(outdir)), False
     path = check_output_dir(Path(default))

@@ -10,6 +10,7 @@ import difflib
 import os
 import re
 import stat
+from pathlib import Path
 
 import yaml
 
@@ -171,8 +172,16 @@ def not_a_file(path):
     return "a folder" if stat.S_ISDIR(mode) else "not a regular file (a device, FIFO or socket)"
 
 
+def as_path(path, what="a file"):
+    """``path`` as a Path; TypeError naming ``what`` when it is not a str or path-like."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"{what} is a path (str or pathlib.Path), got {path!r}")
+    return Path(path)
+
+
 def read_text(path, budget=None):
     """The text of a diagram or sweep file: a regular UTF-8 file of at most ``budget`` bytes."""
+    as_path(path)
     budget = limits.get("MAX_FILE_BYTES") if budget is None else budget
     try:
         st = os.stat(path)

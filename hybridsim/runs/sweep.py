@@ -39,7 +39,7 @@ from hybridsim import limits
 from hybridsim.errors import HybridsimError, InputError, LoaderError
 from hybridsim.files import check_planned, locked_output_dir, unique_names
 from hybridsim.format import parse_file
-from hybridsim.format.yamlio import key_line, not_a_file, refuse_kind
+from hybridsim.format.yamlio import as_path, key_line, not_a_file, refuse_kind
 from hybridsim.format.identity import check_sweep
 from hybridsim.runs.executor import Executor
 from hybridsim.runs.experiment import Experiment
@@ -59,7 +59,7 @@ class Sweep:
     """A parsed sweep file: the diagram, fixed overrides (``fixed``) and the axes of its points."""
 
     def __init__(self, path):
-        self.path = Path(path)
+        self.path = as_path(path, "a sweep file")
         data, _ = parse_file(self.path, what="a sweep file is a mapping with at least 'diagram'")
         refuse_kind(data, "sweep", self.path)
         check_sweep(data, self.path)  # the sweep table; one parameter under two spellings refused

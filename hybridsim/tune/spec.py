@@ -34,7 +34,7 @@ from hybridsim.engine.registry import closest
 from hybridsim.errors import InputError, LoaderError, RateError
 from hybridsim.format import parse_file
 from hybridsim.format.identity import given_once
-from hybridsim.format.yamlio import key_line, not_a_file, refuse_kind
+from hybridsim.format.yamlio import as_path, key_line, not_a_file, refuse_kind
 from hybridsim.runs.sweep import INSIDE
 from hybridsim.tune.space import SCALES, Parameter
 
@@ -106,7 +106,7 @@ class TuneSpec:
     """A parsed tune file (see the module doc); raises LoaderError with file and line."""
 
     def __init__(self, path):
-        self.path = Path(path)
+        self.path = as_path(path, "a tune file")
         data, _ = parse_file(self.path, what="a tune file is a mapping with 'diagram', 'parameters' and "
                                              "'objectives'")
         refuse_kind(data, "tune", self.path)

@@ -111,3 +111,23 @@ def test_check_file_takes_every_file_the_check_command_takes(capsys):
         assert main(["check", str(path)]) == 0
         assert got["kind"] in capsys.readouterr().out
     assert hs.check_file(DIAGRAMS / "fig7_force_steps.yaml")["kind"] == "diagram"
+
+
+def test_the_api_says_what_a_wrong_argument_should_be(tmp_path):
+    # each raised a bare Python error naming nothing ("expected str, bytes or os.PathLike object, not
+    # NoneType"), or took a string for True
+    from hybridsim.errors import InputError
+    from hybridsim.runs.sweep import run_sweep
+    from hybridsim.tune import load_tune
+
+    msd = str(DIAGRAMS / "examples" / "msd_pid.yaml")
+    for call, says in ((lambda: hs.check_file(None), "a file is a path"),
+                       (lambda: load_tune(None), "a tune file is a path"),
+                       (lambda: run_sweep(3, tmp_path / "o"), "a sweep file is a path"),
+                       (lambda: hs.run(msd, 5), "an output folder is a path")):
+        with pytest.raises(TypeError, match=says):
+            call()
+    for kw, says in ((dict(sweeps="no"), "sweeps is True or False"), (dict(at=-1.0), "at is a time in s")):
+        with pytest.raises(InputError, match=says):
+            hs.analyze(msd, **kw)
+    assert not (tmp_path / "o").exists()
