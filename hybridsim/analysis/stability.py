@@ -17,8 +17,6 @@ settings to the section and results computed from the plant
 (:mod:`hybridsim.analysis.extras`).
 """
 
-from numbers import Real
-
 import numpy as np
 
 from hybridsim.errors import InputError
@@ -195,8 +193,6 @@ def analyze(path, at=None, sweeps=True, **overrides):
     """
     if not isinstance(sweeps, bool):
         raise InputError(f"sweeps is True or False, got {sweeps!r}")
-    if at is not None and (isinstance(at, bool) or not isinstance(at, Real) or not 0 <= at < np.inf):
-        raise InputError(f"at is a time in s (0 or later), got {at!r}")
     if isinstance(path, Experiment):
         f = path.file
         check_analysis_branches(f)  # a bad value in set, cases, compare or step: named at its line

@@ -127,7 +127,6 @@ def test_the_api_says_what_a_wrong_argument_should_be(tmp_path):
                        (lambda: hs.run(msd, 5), "an output folder is a path")):
         with pytest.raises(TypeError, match=says):
             call()
-    for kw, says in ((dict(sweeps="no"), "sweeps is True or False"), (dict(at=-1.0), "at is a time in s")):
-        with pytest.raises(InputError, match=says):
-            hs.analyze(msd, **kw)
+    with pytest.raises(InputError, match="sweeps is True or False"):
+        hs.analyze(msd, sweeps="no")
     assert not (tmp_path / "o").exists()
