@@ -14,7 +14,7 @@ from pathlib import Path
 from hybridsim.files import atomic_dir, check_planned, safe_name, unique_names
 from hybridsim.format import DiagramFile
 from hybridsim.format.build import (SIMULATION_KEYS, build, check, check_plugin_blocks, load,  # noqa: F401
-                                     make_solver, simulate)
+                                     make_solver, simulate, warn_unused)
 
 
 def write_outputs(f, runs, settings, outdir):
@@ -96,6 +96,7 @@ def run(source, outdir=None, progress=False, jobs=None, announce=None, **overrid
     f = _file(source, overrides)
     outdir, _ = output_dir(outdir, Path("out") / safe_name(f.name), whole=False)
     check(f)
+    warn_unused(f)
     check_planned(outdir, output_names(f))  # refused now, not after the runs
     if announce is not None:
         announce(f)

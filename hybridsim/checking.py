@@ -3,7 +3,7 @@
 Not in :mod:`hybridsim.api` (which ``import hybridsim`` loads): the sweep and tune layers sit
 above the format layer that the API is made of.
 """
-from hybridsim.format.build import check, check_analysis_branches, load
+from hybridsim.format.build import check, check_analysis_branches, load, warn_unused
 
 
 def check_file(path, **overrides):
@@ -37,7 +37,8 @@ def check_file(path, **overrides):
         f = load(path, **overrides)
         summary = check(f)
         check_analysis_branches(f)
-        return {"kind": "diagram", **summary}
+        warn_unused(f)
+        return {"kind": "diagram", **summary, "unused_params": [name for name, _ in f.unused_params()]}
     if overrides:
         raise InputError(f"{path}: --set applies to a diagram; a {kind} file gives its diagram's values "
                          "in its own 'set' section")

@@ -257,6 +257,18 @@ def check(path_or_file, **overrides):
             "runs": len(variants)}
 
 
+def warn_unused(f, names=None):
+    """Log a warning for each name in ``params`` of DiagramFile ``f`` (of ``names`` only, when given)
+    that no value uses: setting it (``--set``, a sweep, tune) changes nothing."""
+    from hybridsim.engine.registry import closest
+
+    for name, where in f.unused_params():
+        if names is None or name in names:
+            logging.getLogger("hybridsim").warning("%s: parameter %r is used by no value of the file (no $%s): "
+                                                   "setting it changes nothing%s", where, name, name,
+                                                   closest(name, [k for k in f.params if k != name]))
+
+
 def simulate(path_or_file, variant=None, progress=False, **overrides):
     """Run one variant of a diagram file (writes nothing; :func:`hybridsim.api.run` writes files).
 

@@ -108,6 +108,16 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
             return [self._resolve(v, ln, params) for v, ln in zip(value, locs)]
         return value
 
+    def unused_params(self):
+        """``[(name, "file:line")]``: the names in ``params`` that no value of the file uses (no
+        ``$name``, not the analysis's ``rate_param``): setting one (``--set``, a sweep) changes nothing."""
+        used = _references({k: v for k, v in self.data.items() if k != "params"})
+        analysis = self.data.get("analysis")
+        if isinstance(analysis, dict) and isinstance(analysis.get("rate_param"), str):
+            used.add(analysis["rate_param"])
+        locs = getattr(self.data.get("params"), "locs", None) or {}
+        return [(k, str(locs.get(k, self.path))) for k in self.params if k not in used]
+
     def subsystem_files(self):
         """Every subsystem file this diagram reads (with the files they extend), resolved."""
         return sorted(count_blocks(self)[1])

@@ -186,8 +186,12 @@ class ExpandMixin:
         problems = diagram.problems
         here = spec.locs.get("type", str(self.path))
         rel = spec.get("file")
-        if not isinstance(rel, str) or not rel:
+        if rel is None or rel == "":
             problems.append(f"{context}{here}: subsystem {bname!r} needs 'file', the diagram file it uses")
+            return None
+        if not isinstance(rel, str):
+            problems.append(f"{context}{spec.locs.get('file', here)}: subsystem {bname!r}: 'file' is one file name "
+                            f"(the diagram file it uses), got {rel!r}")
             return None
         shown = subsystem_path(spec, ".")  # relative to the file that names it, for messages too
         path = shown.resolve()
@@ -281,7 +285,11 @@ class ExpandMixin:
             problems.append(f"{here}: block {bname!r} has no 'type' (required)")
             return
         tname = spec["type"]
-        cls = lookup(str(tname))
+        if not isinstance(tname, str) or not tname:
+            problems.append(f"{context}{spec.locs['type']}: block {bname!r}: 'type' is a block type name such as "
+                            f"gain or integrator (hybridsim blocks lists them), got {tname!r}")
+            return
+        cls = lookup(tname)
         if cls is None:
             problems.append(f"{context}{spec.locs['type']}: block {bname!r}: unknown block type "
                             f"{tname!r}{closest(tname, types() + ['subsystem'])}")

@@ -4,7 +4,7 @@ from pathlib import Path
 from hybridsim import limits
 from hybridsim.engine.registry import closest
 from hybridsim.errors import LoaderError
-from hybridsim.format.yamlio import _List, parse_file
+from hybridsim.format.yamlio import _List, not_a_file, parse_file
 
 #: sections merged key by key when a file extends another
 MERGED_BY_KEY = ("params", "simulation", "signals", "metrics", "plot", "variants", "analysis")
@@ -34,8 +34,11 @@ def read_merged(path, chain=(), budget=None, files=None):
     base_path = (path.parent / base_name).resolve()
     if base_path in chain or base_path == path.resolve():
         raise LoaderError(f"'extends' forms a cycle through {base_name!r}", path, line)
-    if not base_path.exists():
+    why = not_a_file(base_path)
+    if why == "no such file":
         raise LoaderError(f"'extends': no such file {base_name!r}", path, line)
+    if why:
+        raise LoaderError(f"'extends' {base_name!r}: {why}", path, line)
     if len(chain) >= limits.get("MAX_EXTENDS"):
         raise LoaderError(f"'extends' chains more than {limits.get('MAX_EXTENDS')} files" + limits.raise_hint('MAX_EXTENDS'), path, line)
     base = read_merged(base_path, chain + (path.resolve(),), budget - used, files)

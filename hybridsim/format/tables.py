@@ -285,7 +285,7 @@ def check_values(table, data, section, lines=None):
                         f"{', '.join(by_key)}", key))
             continue
         why = s.kind.problem(value)
-        if why and isinstance(s.kind, Choice):
+        if why and isinstance(s.kind, Choice) and isinstance(value, (str, int, float)):  # a word misspelled
             hint = s.kind.hints.get(str(value).lower())
             out.append((f"unknown {s.key} {value!r}"
                         + (f" (here: {hint})" if hint else closest(str(value).lower(), s.kind.options))

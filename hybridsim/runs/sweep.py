@@ -209,12 +209,13 @@ class Sweep:
         :func:`hybridsim.format.build.check` of the diagram with it. A sweep naming an unknown
         parameter or a bad value stops here with exit 2.
         """
-        from hybridsim.format.build import check, load
+        from hybridsim.format.build import check, load, warn_unused
         from hybridsim.format.overrides import overrides_from
 
         exp = self.experiment
         with self._blaming_set():
             check(exp.file)
+        warn_unused(exp.file, set(self.grid) | set(self.scale) | set((self.random or {}).get("ranges") or {}))
         tries = [(k, v) for k, vals in self.grid.items() for v in vals]
         tries += [(k, (self._base_value(k) * float(v)).tolist()) for k, vals in self.scale.items() for v in vals]
         if self.random:

@@ -2,6 +2,7 @@ import re
 
 import pytest
 
+import hybridsim as hs
 from hybridsim.errors import DiagramError, InputError, LoaderError
 from hybridsim.format import DiagramFile
 
@@ -380,3 +381,30 @@ def test_an_unknown_key_inside_a_section_is_named_where_it_is_written(tmp_path):
     p = write(tmp_path, GOOD + "analysis:\n  step:\n    input: src.y\n    output: zoh.y\n    sizee: 2\n", "e.yaml")
     with pytest.raises(LoaderError, match=r"e\.yaml:16: analysis setting 'step': unknown analysis.step setting 'sizee'"):
         check(p)
+
+
+@pytest.mark.parametrize("text, says", [
+    ("blocks:\n  c: {type: constant}\nsimulation: {solver: [rk4]}\n",
+     "e.yaml:3: simulation setting 'solver' must be one of rk4"),  # said "unknown solver ['rk4'] (did you mean 'rk4'?)"
+    ("blocks:\n  c: {type: null}\n", "e.yaml:2: block 'c': 'type' is a block type name"),  # "unknown block type None"
+    ("blocks:\n  s: {type: subsystem, file: [sub.yaml]}\n", "e.yaml:2: subsystem 's': 'file' is one file name"),
+    ("extends: dir.yaml\n", "e.yaml:1: 'extends' 'dir.yaml': a folder"),  # was named at the folder, no line
+])
+def test_a_value_of_the_wrong_shape_is_named_as_such(tmp_path, text, says):
+    (tmp_path / "dir.yaml").mkdir()
+    p = write(tmp_path, text, "e.yaml")
+    with pytest.raises(InputError) as err:
+        hs.check(p)
+    assert says in str(err.value), str(err.value)
+
+
+def test_a_parameter_no_value_uses_is_named_at_check(tmp_path, caplog):
+    # 'params: {ratee: 5}' passed check and a run; setting it changed nothing
+    write(tmp_path, GOOD, "base.yaml")
+    p = write(tmp_path, "extends: base.yaml\nparams: {kk: 5}\n", "child.yaml")
+    with caplog.at_level("WARNING", logger="hybridsim"):
+        summary = hs.check_file(p)
+    assert summary["unused_params"] == ["kk"]
+    assert "parameter 'kk' is used by no value of the file (no $kk): setting it changes nothing (did you mean 'k'?)" \
+        in caplog.text
+    assert hs.check_file(tmp_path / "base.yaml")["unused_params"] == []
