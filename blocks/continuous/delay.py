@@ -42,9 +42,11 @@ class TransportDelay(Block):
     Why 64 samples: the error bound is then (tau/64)^2/8 max abs(u''), a tenth
     of that of 20 samples (3e-5 of the amplitude for a sine at omega tau = 1),
     while the block stays small: 64 located events per delay time and 66
-    states per element. The cost of a larger buffer grows with N (one event
-    per sample; on the compiled path the compile time grows with the states),
-    so raise ``buffer`` only for inputs with much content above 1/tau.
+    states per element. A run's time grows with N squared (N / tau events per
+    simulated second, each over N + 2 states: N = 1000 for tau = 0.1 s takes
+    minutes per simulated second; on the compiled path the compile time grows
+    with the states too), so raise ``buffer`` only for inputs with much content
+    above 1/tau.
     Simulink's Transport Delay stores the input at its solver's steps, so its
     initial buffer of 1024 points is a memory allocation, not a resolution.
 
