@@ -127,7 +127,8 @@ def _settable(var, value):
         raise ParameterError("parameters", f"{var.name} is {'the independent variable' if var.causality == 'independent' else 'a constant'}"
                                            " of the FMU: it cannot be set")
     if var.causality not in ("parameter", "input") and var.initial not in ("exact", "approx") and var.start is None:
-        raise ParameterError("parameters", f"{var.name} is {'an' if var.causality[:1] in 'aeiou' else 'a'} {var.causality} variable of the FMU "
+        article = "an" if var.causality[:1] in "aeiou" else "a"
+        raise ParameterError("parameters", f"{var.name} is {article} {var.causality} variable of the FMU "
                                            f"(initial={var.initial}): it cannot be set")
     whole = var.type in _INT_RANGE or var.type in _UINT_RANGE
     for v in (value if isinstance(value, (list, tuple)) else [value]):
