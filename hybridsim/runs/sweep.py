@@ -187,6 +187,7 @@ class Sweep:
         if self.random:
             pts = pts + Grid.random(self.random["ranges"], self.random.get("n", 10), self.random.get("seed", 0))
         if not len(pts):
+            self.validate()  # a mistake in 'set' or the diagram first: it is not hidden behind this
             raise InputError(f"{self.path}: the sweep has no points (give grid, scale or random)")
         seen = {}
         for i, p in enumerate(pts, 1):  # one point twice: two rows under one key, a resume that mixes them

@@ -474,3 +474,16 @@ def test_a_users_file_where_a_trace_goes_is_refused_before_any_point_runs(tmp_pa
     with pytest.raises(OutputError, match="hybridsim did not write it"):
         sw.run_sweep(p, tmp_path / "o", jobs=1, progress=False)
     assert [x.name for x in (tmp_path / "o").rglob("*")] == ["traces", mine.name] and mine.read_text() == "mine"
+
+
+def test_a_mistake_in_set_is_named_before_a_sweep_without_points(tmp_path):
+    # "the sweep has no points" hid 'simulation.t_edn' in 'set'
+    from hybridsim.errors import InputError
+
+    p = tmp_path / "s.yaml"
+    p.write_text(f"diagram: {DIAGRAMS / 'examples' / 'msd_pid.yaml'}\nset: {{simulation.t_edn: 1}}\n")
+    with pytest.raises(InputError, match="unknown simulation setting 't_edn'"):
+        sw.Sweep(p).points()
+    p.write_text(f"diagram: {DIAGRAMS / 'examples' / 'msd_pid.yaml'}\nset: {{simulation.t_end: 1}}\n")
+    with pytest.raises(InputError, match="the sweep has no points"):
+        sw.Sweep(p).points()
