@@ -12,6 +12,7 @@ from hybridsim.errors import ParameterError
 from hybridsim.engine.kernels import Kernels, kernel
 from hybridsim.engine.registry import register
 
+from hybridsim.blocks._sides import side_function
 from hybridsim.blocks._util import count, scalar, vector
 
 GROUP = "control"  # where `hybridsim blocks` lists this module's blocks
@@ -209,7 +210,7 @@ class Memory(Block):
         n = count(width, "width")
         self.params = (n,)
         self.x0 = vector(initial, "initial", n)
-        self.event_directions = (0,)  # both ways: the side of 0.5 the trigger is on is followed
+        self.event_directions = (-1,)  # side * (trigger - 0.5) falls at an edge either way (blocks/_sides.py)
         self.declare_input("u", n)
         self.declare_input("trigger", 1)
         self.declare_output("y", n, depends_on=())
@@ -233,7 +234,7 @@ def memory_derivatives(p, t, x, u):
 
 @kernel
 def memory_crossings(p, t, x, u):
-    return (u[1][0] - 0.5,)
+    return (side_function(np.asarray(x)[p[0]], u[1][0] - 0.5),)
 
 
 @kernel

@@ -13,6 +13,7 @@ from hybridsim.errors import ParameterError
 from hybridsim.engine.kernels import Kernels, kernel, unroll
 from hybridsim.engine.registry import register
 
+from hybridsim.blocks._sides import side_function
 from hybridsim.blocks._util import choice, count, vector
 
 GROUP = "math"  # where `hybridsim blocks` lists this module's blocks
@@ -163,9 +164,7 @@ class HitCrossing(Block):
         direction = choice(direction, "direction", tuple(dirs))
         n = count(width, "width")
         self.params = HitParams(vector(offset, "offset", n), n, float(dirs[direction]))
-        # g = side * (u - offset) falls through 0 when u reaches the other side; u touching offset and
-        # turning back (a peak at it) brings g to 0 and back up: no event (see hit_crossings)
-        self.event_directions = (-1,) * n
+        self.event_directions = (-1,) * n  # side * (u - offset) falls at a crossing (blocks/_sides.py)
         self.declare_input("u", n)
         self.declare_output("count", n, depends_on=())
         self.declare_output("time", n, depends_on=())
@@ -197,13 +196,11 @@ def hit_derivatives(p, t, x, u):
 
 @kernel
 def hit_crossings(p, t, x, u):
-    """side * (u - offset), falling through 0 at a crossing; -|u - offset| while u has not yet left
-    offset (it started on it): leaving is an event that only sets the side."""
+    """side * (u - offset), falling through 0 at a crossing (:mod:`hybridsim.blocks._sides`)."""
     xa, ua = np.asarray(x), np.asarray(u[0])
     g = np.empty(p.n)
     for i in range(p.n):
-        side, d = xa[2 * p.n + i], ua[i] - p.offset[i]
-        g[i] = side * d if side != 0.0 else -abs(d)
+        g[i] = side_function(xa[2 * p.n + i], ua[i] - p.offset[i])
     return g
 
 

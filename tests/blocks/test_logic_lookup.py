@@ -100,6 +100,14 @@ def test_a_peak_exactly_at_the_level_is_no_event_on_any_solver(solver):
         d.connect("s.y", "h.u")
         res = hs.Simulator(d.build(), solvers[solver], log=["h.count"], log_period=0.01).run(2.0)
         assert res["h.count[0]"][-1] == 0 and res.meta["events"] == [], (level, res.meta["events"])
+    # a memory's trigger peaking exactly at 0.5 (the same side-following function)
+    d = hs.Diagram("m")
+    for b in (block("clock", "c"), block("sine", "s", amplitude=0.5, frequency=0.25), block("memory", "m")):
+        d.add(b)
+    d.connect("c.y", "m.u")
+    d.connect("s.y", "m.trigger")
+    res = hs.Simulator(d.build(), solvers[solver], log=["m.y"], log_period=0.01).run(3.5)
+    assert res["m.y[0]"][-1] == 0 and res.meta["events"] == [], res.meta["events"]
 
 
 def test_relational_and_logical_refuse_unknown_operators():
