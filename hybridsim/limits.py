@@ -90,7 +90,7 @@ def run_size_problems(t_end, periods, log_period, step=None, log_width=0, solver
     t_end : float
         End time, s.
     periods : list of float
-        Sample periods of the discrete blocks, s.
+        Sample periods of the discrete blocks, s (each distinct period counts once).
     log_period : float
         Log interval, s.
     step : float, optional
@@ -103,6 +103,7 @@ def run_size_problems(t_end, periods, log_period, step=None, log_width=0, solver
         Longest stretch between two checks of the event functions, s (where there are any).
     """
     out = []
+    periods = set(periods)  # blocks of one rate share their hits
     stops = sum(t_end / p for p in periods) + t_end / log_period
     if stops > get("MAX_STOPS"):
         rates = ", ".join(f"{1 / p:.4g} Hz" for p in sorted(set(periods)))

@@ -191,3 +191,19 @@ def test_a_simulator_of_the_wrong_arguments_says_what_goes_there():
     with pytest.raises(InputError, match=r"a built System \(call its .build\(\) first\), got Diagram"):
         Simulator(d)
     assert Simulator(system, log=(r for r in ["c.y"])).run(0.01)["c.y"][-1] == 1.0
+
+
+def test_blocks_of_one_rate_count_once_in_the_budget(monkeypatch):
+    # 30 holds at 1 kHz were counted as 30 x the hits (refused at a thirtieth of the limit)
+    monkeypatch.setenv("HYBRIDSIM_MAX_STOPS", "2000")
+    from hybridsim.errors import InputError
+
+    d = Diagram("rates")
+    d.add(Constant("c", 1.0))
+    for k in range(30):
+        d.add(ZeroOrderHold(f"z{k}", rate=1000))
+        d.connect("c.y", f"z{k}.u")
+    sim = Simulator(d.build(), RK4(1e-3), log_period=1.0)
+    assert sim.run(1.5).meta["hits"]["z0"] == 1500  # and 2 log points: 1502 stops, not 30 x 1500
+    with pytest.raises(InputError, match="sample hits and log points"):
+        sim.run(2.5)
