@@ -44,6 +44,10 @@ class Store:
         folder = Path(folder)
         self.path, self.what = folder / name, what
         manifest = folder / manifest
+        for f in (self.path, manifest, self.path.with_name(name + ".old")):  # before anything is renamed
+            if f.is_symlink() or (f.exists() and not f.is_file()):
+                raise OutputError(f"{str(f)!r} is {'a symbolic link' if f.is_symlink() else 'not a file'}; "
+                                  "hybridsim does not write through it: move it away (nothing was written)")
         old = None
         if manifest.exists():
             try:

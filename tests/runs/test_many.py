@@ -100,6 +100,28 @@ def test_finished_points_are_read_back_not_run(ramp, tmp_path):
     assert (tmp_path / "o" / "points.jsonl.old").exists() and not (tmp_path / "o" / "points.jsonl").exists()
 
 
+@pytest.mark.parametrize("linked", ["points.jsonl", "m.json", "points.jsonl.old"])
+def test_a_store_never_writes_through_a_link_nor_renames_before_it_knows(tmp_path, linked):
+    # a points.jsonl linked to a user's file was appended to; a linked manifest was refused only after
+    # --force had renamed the points ("nothing was written")
+    from hybridsim.errors import OutputError
+
+    out = tmp_path / "o"
+    out.mkdir()
+    store = Store(out, "id1", "points.jsonl", "m.json", "sweep", "it changed")
+    store.add({"a": 1.0})
+    (out / "points.jsonl.old").write_text("")  # hybridsim's, as far as this test goes: replaced below
+    mine = tmp_path / "mine.txt"
+    mine.write_text("user data\n")
+    (out / linked).unlink()
+    (out / linked).symlink_to(mine)
+    before = sorted(p.name for p in out.iterdir())
+    for restart in (False, True):
+        with pytest.raises(OutputError, match="is a symbolic link; hybridsim does not write through it"):
+            Store(out, "id2" if restart else "id1", "points.jsonl", "m.json", "sweep", "it changed", restart=restart)
+    assert mine.read_text() == "user data\n" and sorted(p.name for p in out.iterdir()) == before
+
+
 def test_a_run_that_diverges_is_a_failure_in_its_place(tmp_path):
     text = RAMP.replace("simulation: {", "simulation: {max_state: 1.0, ")
     exp = Experiment(write(tmp_path, text))
