@@ -132,6 +132,9 @@ def _settable(var, value):
                                            f"(initial={var.initial}): it cannot be set")
     whole = var.type in _INT_RANGE or var.type in _UINT_RANGE
     for v in (value if isinstance(value, (list, tuple)) else [value]):
+        if var.type != "Boolean" and isinstance(v, bool):  # 'yes' reads as true in YAML: set as 1.0, silently
+            raise ParameterError("parameters", f"{var.name} is a {var.type} variable of the FMU: give a number, "
+                                               f"got {v!r} (YAML reads yes/no/on/off/true/false as true or false)")
         if var.type == "Boolean" and v not in (0, 1):  # 2 was set as true, silently
             raise ParameterError("parameters", f"{var.name} is a Boolean variable of the FMU: give true or false "
                                                f"(or 1, 0), got {v!r}")

@@ -527,6 +527,8 @@ def test_plant_positive_parameters_have_a_min(any_plant, capsys):
         FMUBlock("p", path=str(any_plant), rate=60, parameters={"friction": 2})  # was set as true
     with pytest.raises(hs.ParameterError, match=r"friction is a Boolean variable of the FMU: give true or false"):
         FMUBlock("p", path=str(any_plant), rate=60, parameters={"friction": "yes"})  # said "a finite number"
+    with pytest.raises(hs.ParameterError, match=r"balance is a (Real|Float64) variable of the FMU: give a number, got True"):
+        FMUBlock("p", path=str(any_plant), rate=60, parameters={"balance": True})  # 'yes': set as 1.0, silently
     assert FMUBlock("p", path=str(any_plant), rate=60, parameters={"friction": 0}).parameters == {"friction": 0}
 
 
