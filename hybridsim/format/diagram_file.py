@@ -110,8 +110,9 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
 
     def unused_params(self):
         """``[(name, "file:line")]``: the names in ``params`` that no value of the file uses (no
-        ``$name``, not the analysis's ``rate_param``): setting one (``--set``, a sweep) changes nothing."""
-        used = _references({k: v for k, v in self.data.items() if k != "params"})
+        ``$name``, not the analysis's ``rate_param``; a use an override replaced counts): setting one
+        (``--set``, a sweep) changes nothing."""
+        used = _references({k: v for k, v in self.data.items() if k != "params"}) | getattr(self, "replaced_uses", set())
         analysis = self.data.get("analysis")
         if isinstance(analysis, dict) and isinstance(analysis.get("rate_param"), str):
             used.add(analysis["rate_param"])

@@ -59,6 +59,7 @@ class OverridesMixin:
         """
         used = _references({k: v for k, v in self.data.items() if k != "params"})
         replaced = {}  # parameter -> the overrides that replaced a value using it
+        self.replaced_uses = getattr(self, "replaced_uses", set())  # (the file as written uses these)
         for key, value in overrides.items():
             self.overrides[key] = value
             path = self._path(key)
@@ -113,6 +114,7 @@ class OverridesMixin:
                 blocks[bname][pname] = value
                 blocks[bname].lines[pname] = None
                 blocks[bname].locs[pname] = OverrideLoc(f"{self.origin} {key}")
+        self.replaced_uses |= set(replaced)
         left = _references({k: v for k, v in self.data.items() if k != "params"})
         for key in overrides:
             name = str(key)

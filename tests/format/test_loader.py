@@ -408,3 +408,5 @@ def test_a_parameter_no_value_uses_is_named_at_check(tmp_path, caplog):
     assert "parameter 'kk' is used by no value of the file (no $kk): setting it changes nothing (did you mean 'k'?)" \
         in caplog.text
     assert hs.check_file(tmp_path / "base.yaml")["unused_params"] == []
+    # the file uses $k; an override that replaces that use does not make k unused (it was warned of)
+    assert hs.check_file(tmp_path / "base.yaml", **{"g.K": 3.0})["unused_params"] == []
