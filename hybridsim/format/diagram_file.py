@@ -93,6 +93,10 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
     def _fail(self, message, line=None):
         raise LoaderError(message, self.path, line)
 
+    def _fail_at(self, mapping, key, message):
+        """LoaderError at ``key`` of a parsed ``mapping``: its line, in the file that gave it."""
+        raise LoaderError(message, key_file(mapping, key, self.path), (getattr(mapping, "lines", None) or {}).get(key))
+
     def _resolve(self, value, loc, params):
         """Substitute '$name' references; ``loc`` is 'file:line' for errors."""
         if isinstance(value, str) and value.startswith("$"):

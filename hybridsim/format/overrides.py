@@ -230,15 +230,14 @@ class OverridesMixin:
                     head, _, tail = str(n).rpartition(".")
                     how = (f"; to vary {n}, give it a parameter: 'params: {{{tail}: ...}}', "
                            f"'{tail}: ${tail}' in {head!r}, 'variants: {{{tail}: [...]}}'")
-                self._fail(f"variant {n!r} is not a parameter in 'params'{closest(n, self.params)}{how}",
-                           spec.lines[n])
+                self._fail_at(spec, n, f"variant {n!r} is not a parameter in 'params'{closest(n, self.params)}{how}")
             if not isinstance(spec[n], list) or not spec[n]:
-                self._fail(f"variant {n!r} must be a non-empty list of values", spec.lines[n])
+                self._fail_at(spec, n, f"variant {n!r} must be a non-empty list of values")
             seen = set()
             for v in spec[n]:  # the same run twice: one CSV written over by the other
                 tag = json.dumps(v, sort_keys=True, default=str)
                 if tag in seen:
-                    self._fail(f"variant {n!r} lists {v!r} twice", spec.lines[n])
+                    self._fail_at(spec, n, f"variant {n!r} lists {v!r} twice")
                 seen.add(tag)
         count = math.prod(len(spec[n]) for n in names)
         if count > limits.get("MAX_VARIANTS"):

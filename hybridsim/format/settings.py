@@ -14,7 +14,7 @@ from hybridsim.format import tables
 from hybridsim.format.kinds import SIGNAL
 from hybridsim.format.paths import SETTING_SECTIONS, OverrideLoc, ParamPath
 from hybridsim.format.values import _plain, note
-from hybridsim.format.yamlio import _Dict, _List
+from hybridsim.format.yamlio import _Dict, _List, key_file
 
 
 
@@ -220,12 +220,12 @@ class SettingsMixin:
         signals = self.data.get("signals") or _Dict()
         roles = tables.keys(tables.SIGNALS)
         for role, ref in signals.items():
+            where = f"{key_file(signals, role, self.path)}:{signals.lines[role]}"
             if role not in roles:
-                problems.append(f"{self.path}:{signals.lines[role]}: unknown signal role {role!r}"
+                problems.append(f"{where}: unknown signal role {role!r}"
                                 f"{closest(role, roles)}; roles: {', '.join(roles) or 'none are registered'}")
             elif not isinstance(ref, str):
-                problems.append(f"{self.path}:{signals.lines[role]}: signal {role!r} must be a signal "
-                                f"'block.port[i]', got {ref!r}")
+                problems.append(f"{where}: signal {role!r} must be a signal 'block.port[i]', got {ref!r}")
         log = self.data.get("log") or _List()
         for k, ref in enumerate(log):
             if not isinstance(ref, str):

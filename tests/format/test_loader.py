@@ -114,13 +114,17 @@ def test_removing_a_block_the_base_has_not_is_named(tmp_path):
     ("blocks:\n  c: {type: constant}\nsimulaton:\n  t_end: 1\n", 3, "unknown section 'simulaton'"),
     ("blocks:\n  c: {type: constant}\nsimulation: 5\n", 3, "section 'simulation' must be a mapping"),
     ("params: {a: 1, b: $a}\nblocks:\n  c: {type: constant}\n", 1, "parameter 'b' refers to $a"),
+    ("params: {r: 1}\nblocks:\n  c: {type: constant}\nvariants: {r: 5}\n", 4, "variant 'r' must be a non-empty list"),
+    ("blocks:\n  c: {type: constant}\nsignals: {forse: c.y}\n", 3, "unknown signal role 'forse'"),
 ])
 def test_a_mistake_in_an_extended_file_is_named_in_that_file(tmp_path, base_text, line, says):
     # named with the extending file's path and the base file's line
     base = write(tmp_path, base_text, "base.yaml")
     child = write(tmp_path, "extends: base.yaml\nblocks:\n  c: {value: 2}\n", "child.yaml")
     with pytest.raises(LoaderError) as err:
-        DiagramFile(child).build()
+        f = DiagramFile(child)
+        f.build()
+        f.variants()
     assert str(err.value).startswith(f"{base.resolve()}:{line}: {says}")
 
 
