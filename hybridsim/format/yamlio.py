@@ -352,13 +352,16 @@ COMMANDS = {"diagram": "run", "sweep": "sweep", "tune": "tune"}
 def file_kind(data):
     """What a parsed file is: "diagram" (it has 'blocks' or 'extends'), else "tune" (a 'diagram'
     with 'parameters' or 'objectives'), else "sweep" (a 'diagram'); None when it shows none of these."""
-    if "blocks" in data or "extends" in data:
+    def near(words, cutoff=0.8):  # a key of ``words``, also misspelled ('Parameters:', 'Diagram:', 'diagarm:')
+        return any(difflib.get_close_matches(str(k).lower(), words, n=1, cutoff=cutoff) for k in data)
+
+    if "blocks" in data or "extends" in data or near(("blocks", "wires")):
         return "diagram"
-    if "diagram" not in data:
+    if "diagram" not in data and not near(("diagram",)):
         return None
-    tune_words = ("parameters", "objectives", "constraints")  # a tune file's, also misspelled ('Parameters:')
-    near = [k for k in data if difflib.get_close_matches(str(k).lower(), tune_words, n=1, cutoff=0.8)]
-    return "tune" if near else "sweep"
+    if near(("parameters", "objectives", "constraints")):
+        return "tune"
+    return "sweep" if "diagram" in data or near(("grid", "scale", "random", "set"), 0.7) else None
 
 
 def refuse_kind(data, expected, path):

@@ -414,3 +414,19 @@ def test_a_parameter_no_value_uses_is_named_at_check(tmp_path, caplog):
     assert hs.check_file(tmp_path / "base.yaml")["unused_params"] == []
     # the file uses $k; an override that replaces that use does not make k unused (it was warned of)
     assert hs.check_file(tmp_path / "base.yaml", **{"g.K": 3.0})["unused_params"] == []
+
+
+@pytest.mark.parametrize("text, kind", [
+    ("Diagram: m.yaml\ngrid: {pid.Kp: [1, 2]}\n", "sweep"),  # was read as a diagram: "unknown section 'Diagram'"
+    ("diagarm: m.yaml\nsett: {a: 1}\ngird: {k: [1, 2]}\n", "sweep"),
+    ("Diagram: m.yaml\nparamters: {k: {low: 1, high: 2}}\nobjectivs: []\n", "tune"),
+    ("diagram: m.yaml\nParameters: {k: {low: 1, high: 2}}\n", "tune"),
+    ("blokcs: {}\n", "diagram"),
+    ("name: x\n", None),
+])
+def test_a_file_is_known_by_its_keys_also_misspelled(text, kind):
+    import yaml
+
+    from hybridsim.format.yamlio import file_kind, plain
+
+    assert file_kind(plain(yaml.safe_load(text))) == kind
