@@ -98,7 +98,8 @@ class OverridesMixin:
                 if _is_subsystem(blocks.get(bname)) and len(path.parts) >= 2:
                     pname = path.inner  # ctrl.pid.Kp: the subsystem passes pid.Kp on
                 elif bname not in blocks:
-                    self._fail(f"{self.origin} {key}: no block {bname!r}{closest(bname, blocks)}")
+                    near = closest(bname, list(blocks) + list(SETTING_SECTIONS))  # simulaton.step: the section
+                    self._fail(f"{self.origin} {key}: no block {bname!r}{near}")
                 elif len(path.parts) == 3 and self._mapping(blocks[bname], path.parts[1]):
                     self._entry_set(blocks[bname], path, value, key)  # fmu.parameters.NAME
                     continue

@@ -271,8 +271,8 @@ class TuneSpec:
         opts = {k: v for k, v in spec.items() if k != "name"}
         for k, v in opts.items():
             if k not in METHODS[name]:
-                self._fail(f"method {name}: unknown option {k!r}{closest(k, METHODS[name])}; options: "
-                           f"{', '.join(METHODS[name])}", key_line(spec, k))
+                self._fail(f"method {name}: unknown option {k!r}{closest(k, ('name',) + METHODS[name])}; options: "
+                           f"name, {', '.join(METHODS[name])}", key_line(spec, k))
             if k == "tol":
                 if not (_finite(v) and v > 0):
                     self._fail(f"method {name}: tol must be a number > 0, got {v!r}", spec.lines[k])
@@ -299,6 +299,9 @@ class TuneSpec:
         except InputError as exc:  # at the line of 'set' where there is one
             data, _ = parse_file(self.path)
             line = data.lines.get("set") if hasattr(data, "lines") and "set" in data else None
+            named = next((k for k in self.fixed if f"the tune file's {k}:" in str(exc)), None)  # its own line
+            if named is not None and isinstance(data.get("set"), dict):
+                line = key_line(data["set"], named) or line
             raise LoaderError(f"the diagram{' with set' if line else ''}: {exc}", self.path, line) from None
         self._check_signals(*f.build(), alias=f._alias)
         for v in self.variants:

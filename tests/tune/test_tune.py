@@ -194,6 +194,7 @@ def test_pareto_front_by_hand():
     (PARAMS + "objectives:\n" + SETTLE + "method:\n  name: tpe\n  trails: 3\n", 11,
      "unknown option 'trails' (did you mean 'trials'?)"),
     ("Parameters:\n  pid.Kp: {low: 1, high: 10}\n", 3, "unknown tune key 'Parameters' (did you mean 'parameters'?)"),
+    (PARAMS + "objectives:\n" + SETTLE + "method: {nmae: tpe}\n", 9, "unknown option 'nmae' (did you mean 'name'?)"),
 ])
 def test_bad_tune_files_exit_2_with_file_and_line(tmp_path, capsys, body, line, message):
     p = tune_file(tmp_path, body)
@@ -201,6 +202,16 @@ def test_bad_tune_files_exit_2_with_file_and_line(tmp_path, capsys, body, line, 
     out, err = capsys.readouterr()
     assert code == 2 and "Traceback" not in out + err
     assert f"t.yaml:{line}" in err and message in err, err
+
+
+def test_a_misspelled_section_in_set_is_named_at_its_own_line_with_the_section(tmp_path, capsys):
+    # the tune file's set was named at its first key, and 'simulaton.step' got no suggestion
+    p = tmp_path / "t.yaml"
+    p.write_text(f"diagram: {MSD}\nset:\n  simulation.t_end: 5.0\n  simulaton.step: 1.0e-3\n" + PARAMS
+                 + "objectives:\n" + SETTLE)
+    assert main(["check", str(p)]) == 2
+    err = capsys.readouterr().err
+    assert "t.yaml:4: the diagram with set:" in err and "no block 'simulaton' (did you mean 'simulation'?)" in err
 
 
 def test_a_set_the_diagram_refuses_and_a_subsystems_port_as_a_signal(tmp_path, capsys):
