@@ -24,7 +24,7 @@ def check_file(path, **overrides):
     """
     from hybridsim.errors import InputError
     from hybridsim.format import parse_file
-    from hybridsim.format.yamlio import file_kind
+    from hybridsim.format.filekinds import file_kind
 
     data, _ = parse_file(path)
     kind = file_kind(data) or "diagram"  # (one showing no kind is read as a diagram, which says what is missing)

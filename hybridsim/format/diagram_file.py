@@ -18,7 +18,8 @@ from hybridsim.format.tables import Record
 from hybridsim.format.overrides import ORIGIN, OverridesMixin
 from hybridsim.format.settings import SettingsMixin
 from hybridsim.format.values import _plain, _references
-from hybridsim.format.yamlio import _Dict, key_file, key_line, refuse_kind
+from hybridsim.format.filekinds import refuse_kind
+from hybridsim.format.yamlio import _Dict, key_file, key_line
 
 TOP_KEYS = tables.keys(tables.DIAGRAM)
 _log = logging.getLogger("hybridsim")

@@ -6,7 +6,6 @@ both: nesting depth, the number of values aliases expand to, recursive aliases,
 characters YAML forbids. Nothing is evaluated; only YAML's plain types.
 """
 import copy
-import difflib
 import os
 import re
 import stat
@@ -16,6 +15,8 @@ import yaml
 
 from hybridsim import limits
 from hybridsim.errors import InputError, LoaderError
+from hybridsim.format import filekinds
+
 
 class _Dict(dict):
     """A mapping that remembers its file and the line of each key (1-based)."""
@@ -209,45 +210,10 @@ def read_text(path, budget=None):
         raise LoaderError("not UTF-8 text (a binary file?)", path, line) from None
 
 
-_NOT_YAML = {  # a file of another kind given where a diagram is read (known by its content): what to do
-    "urdf": "is a URDF robot description, not a diagram; name it in a robot block's 'urdf:' "
-            "(robot_arm, robot_kinematics ...; see 'hybridsim blocks -v robot_arm')",
-    "xml": "is XML or HTML, not a YAML diagram (a modelDescription.xml belongs inside an .fmu; "
-           "an FMU is imported with an 'fmu' block's 'path:')",
-    "zip": "is a zip archive (an FMU?), not a diagram; import an FMU with an 'fmu' block (its 'path:'), "
-           "see 'hybridsim blocks -v fmu'",
-}
-
-
-#: what a file that is not YAML probably is, by its suffix: said only when it does not read as a YAML mapping
-_SUFFIX_KINDS = {".py": "Python source", ".md": "Markdown", ".rst": "reStructuredText", ".toml": "TOML",
-                 ".ini": "an INI file", ".cfg": "a config file", ".csv": "CSV data", ".m": "MATLAB code",
-                 ".mdl": "a Simulink model", ".ipynb": "a Jupyter notebook", ".txt": "plain text"}
-
-
-def _suffix_hint(path):
-    """' (FILE looks like Python source, not a YAML diagram)' for a known non-YAML suffix, else ''."""
-    kind = _SUFFIX_KINDS.get(os.path.splitext(str(path))[1].lower())
-    return f" ({os.path.basename(str(path))} looks like {kind}, not YAML: diagrams, sweeps and tune files are YAML)" \
-        if kind else ""
-
-
 #: files parsed, by path and text: a file read again (an analysis builds its diagram for every case and
 #: gain scale) is copied, not parsed again; its text is read every time, so an edit is never missed
 _PARSED = {}
 _PARSED_MAX = 64
-
-
-def _starts_with(path, magic):
-    """Whether the regular file at ``path`` begins with the bytes ``magic`` (False for anything else:
-    opening a FIFO would wait for a writer)."""
-    try:
-        if not stat.S_ISREG(os.stat(path).st_mode):
-            return False
-        with open(path, "rb") as fh:
-            return fh.read(len(magic)) == magic
-    except OSError:
-        return False
 
 
 def parse_file(path, budget=None, what="a diagram file must be a mapping with a 'blocks' section"):
@@ -260,21 +226,22 @@ def parse_file(path, budget=None, what="a diagram file must be a mapping with a 
     try:
         text = read_text(path, budget)
     except LoaderError:
-        if _starts_with(path, b"PK\x03\x04"):  # a zip archive, whatever its name
-            raise LoaderError(_NOT_YAML["zip"], path) from None
+        kind = filekinds.binary_kind(path)  # a zip archive (an FMU, a Simulink model), whatever its name
+        if kind:
+            raise LoaderError(filekinds.NOT_YAML[kind], path) from None
         raise
     if text.startswith("PK\x03\x04"):
-        raise LoaderError(_NOT_YAML["zip"], path)
+        raise LoaderError(filekinds.NOT_YAML[filekinds.binary_kind(path) or "zip"], path)
     key = (str(path), text)
     parsed = _PARSED.pop(key, None)
     if parsed is None:
         head = text.lstrip("\ufeff \t\r\n")
         if head.startswith("<"):
-            raise LoaderError(_NOT_YAML["urdf"] if "<robot" in head[:4096] else _NOT_YAML["xml"], path, 1)
+            raise LoaderError(filekinds.NOT_YAML["urdf" if "<robot" in head[:4096] else "xml"], path, 1)
         try:
             parsed = _load_text(text, str(path)), len(text.encode("utf-8"))
         except LoaderError as exc:
-            hint = _suffix_hint(path)
+            hint = filekinds.text_hint(path, text)
             if not hint:
                 raise
             raise LoaderError(str(exc).split(": ", 1)[-1] + hint, path, exc.line) from None
@@ -282,7 +249,8 @@ def parse_file(path, budget=None, what="a diagram file must be a mapping with a 
     while len(_PARSED) > _PARSED_MAX:
         del _PARSED[next(iter(_PARSED))]
     if not isinstance(parsed[0], dict):
-        raise LoaderError(what + _suffix_hint(path), path, 1)
+        raise LoaderError(what + filekinds.text_hint(path, text), path, 1)
+    filekinds.refuse_other(parsed[0], path)
     return copy.deepcopy(parsed[0]), parsed[1]
 
 
@@ -343,31 +311,3 @@ def plain(v):
     if isinstance(v, list):
         return [plain(x) for x in v]
     return v
-
-
-#: the command that runs each kind of file
-COMMANDS = {"diagram": "run", "sweep": "sweep", "tune": "tune"}
-
-
-def file_kind(data):
-    """What a parsed file is: "diagram" (it has 'blocks' or 'extends'), else "tune" (a 'diagram'
-    with 'parameters' or 'objectives'), else "sweep" (a 'diagram'); None when it shows none of these."""
-    def near(words, cutoff=0.8):  # a key of ``words``, also misspelled ('Parameters:', 'Diagram:', 'diagarm:')
-        return any(difflib.get_close_matches(str(k).lower(), words, n=1, cutoff=cutoff) for k in data)
-
-    if "blocks" in data or "extends" in data or near(("blocks", "wires")):
-        return "diagram"
-    if "diagram" not in data and not near(("diagram",)):
-        return None
-    if near(("parameters", "objectives", "constraints")):
-        return "tune"
-    return "sweep" if "diagram" in data or near(("grid", "scale", "random", "set"), 0.7) else None
-
-
-def refuse_kind(data, expected, path):
-    """LoaderError when ``data`` is another kind of file than ``expected``, naming the command for it."""
-    kind = file_kind(data)
-    if kind is not None and kind != expected:
-        line = (getattr(data, "lines", None) or {}).get("diagram", 1) if "diagram" in data else 1
-        raise LoaderError(f"this is a {kind} file, not a {expected} file; run it with "
-                          f"'hybridsim {COMMANDS[kind]}'", path, line)

@@ -39,7 +39,8 @@ from hybridsim import limits
 from hybridsim.errors import HybridsimError, InputError, LoaderError
 from hybridsim.files import check_planned, locked_output_dir, unique_names
 from hybridsim.format import parse_file
-from hybridsim.format.yamlio import as_path, key_line, not_a_file, refuse_kind
+from hybridsim.format.filekinds import refuse_kind
+from hybridsim.format.yamlio import as_path, key_line, not_a_file
 from hybridsim.format.identity import check_sweep
 from hybridsim.runs.executor import Executor
 from hybridsim.runs.experiment import Experiment

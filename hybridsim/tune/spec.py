@@ -34,7 +34,8 @@ from hybridsim.engine.registry import closest
 from hybridsim.errors import InputError, LoaderError, RateError
 from hybridsim.format import parse_file
 from hybridsim.format.identity import given_once
-from hybridsim.format.yamlio import as_path, key_line, not_a_file, refuse_kind
+from hybridsim.format.filekinds import refuse_kind
+from hybridsim.format.yamlio import as_path, key_line, not_a_file
 from hybridsim.runs.sweep import INSIDE
 from hybridsim.tune.space import SCALES, Parameter
 

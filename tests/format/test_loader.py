@@ -300,11 +300,29 @@ def test_a_file_of_another_kind_says_what_it_is_not_a_yaml_syntax_error(tmp_path
     assert says in str(err.value) and "YAML syntax" not in str(err.value) and name in str(err.value)
 
 
+def test_a_notebook_and_a_simulink_model_are_named_as_such(tmp_path):
+    # a notebook said "unknown section 'cells'", an .slx "is a zip archive (an FMU?)"
+    import zipfile
+
+    nb = tmp_path / "nb.ipynb"
+    nb.write_text('{"cells": [], "metadata": {}, "nbformat": 4, "nbformat_minor": 5}\n')
+    with pytest.raises(LoaderError, match="is a Jupyter notebook"):
+        DiagramFile(nb)
+    with zipfile.ZipFile(tmp_path / "m.slx", "w") as z:
+        z.writestr("simulink/blockdiagram.xml", "<x/>")
+    with pytest.raises(LoaderError, match=r"is a Simulink model \(.slx\)"):
+        DiagramFile(tmp_path / "m.slx")
+
+
 @pytest.mark.parametrize("name, text, says", [
     ("model.py", 'import numpy as np\nx = {"a": 1}\n', "model.py looks like Python source, not YAML"),
     ("notes.md", "# Title\n\nSome *text*: here\n- a\n", "notes.md looks like Markdown, not YAML"),
     ("pyproject.toml", '[tool]\nname = "x"\n', "pyproject.toml looks like TOML, not YAML"),
     ("readme.txt", "just words\n", "a diagram file must be a mapping"),  # reads as a YAML string
+    # by content, whatever the name
+    ("py.yaml", 'import numpy as np\nx = {"a": 1}\n', "py.yaml looks like Python source, not YAML"),
+    ("conf.yaml", '[tool]\nname = "x"\n', "conf.yaml looks like TOML, not YAML"),
+    ("model", 'Model {\n  Name "x"\n}\n', "model looks like a Simulink model, not YAML"),
 ])
 def test_a_text_file_of_another_kind_is_named_beside_the_yaml_error(tmp_path, name, text, says):
     # a Python, Markdown or TOML file given as a diagram said only "YAML syntax error"
@@ -427,6 +445,7 @@ def test_a_parameter_no_value_uses_is_named_at_check(tmp_path, caplog):
 def test_a_file_is_known_by_its_keys_also_misspelled(text, kind):
     import yaml
 
-    from hybridsim.format.yamlio import file_kind, plain
+    from hybridsim.format.filekinds import file_kind
+    from hybridsim.format.yamlio import plain
 
     assert file_kind(plain(yaml.safe_load(text))) == kind
