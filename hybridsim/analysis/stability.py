@@ -191,7 +191,7 @@ def analyze(path, at=None, sweeps=True, **overrides):
     cases, gain points and the boundary search are run-time parameter changes of that build
     where they name block parameters; a servo rate or a ``params`` name rebuilds.
     """
-    if not isinstance(sweeps, bool):
+    if not isinstance(sweeps, (bool, np.bool_)):
         raise InputError(f"sweeps is True or False, got {sweeps!r}")
     if isinstance(path, Experiment):
         f = path.file

@@ -21,7 +21,7 @@ the solver to use for Model Exchange FMUs.
 """
 import numpy as np
 
-from hybridsim.engine.solvers import Solver
+from hybridsim.engine.solvers import Solver, positive, tolerance
 
 
 class CVode(Solver):
@@ -53,10 +53,9 @@ class CVode(Solver):
             raise ImportError("solver cvode needs scikit-sundae: pip install scikit-sundae") from None
         if method not in ("BDF", "Adams"):
             raise ValueError(f"CVODE method must be 'BDF' or 'Adams', got {method!r}")
-        if not scan > 0:
-            raise ValueError(f"scan must be positive, got {scan!r}")
-        self.rtol, self.atol, self.max_step, self.method = float(rtol), atol, float(max_step), method
-        self.scan = float(scan)
+        self.rtol, self.atol = positive("rtol", rtol), tolerance("atol", atol)
+        self.max_step, self.method = positive("max_step", max_step, inf=True), method
+        self.scan = positive("scan", scan)
         self.name = "cvode"
 
     #: the core takes the points CVODE returns (log times, crossings, the stop) as its steps

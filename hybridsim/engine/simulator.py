@@ -110,13 +110,24 @@ class Simulator:
         self.solver = solver or RK4()
         self.log_period = to_period(log_period, "log period")
         schedule(system, self.log_period)  # rates the log cannot share are refused here (a check sees it)
-        self.max_state = float(max_state)
+        try:
+            self.max_state = float(max_state)
+        except (TypeError, ValueError):
+            self.max_state = None
+        if not (self.max_state is not None and self.max_state > 0):  # nan, 0, negative: every run "diverged"
+            raise InputError(f"max_state is the largest |state| before a run counts as diverging (> 0, or inf), "
+                             f"got {max_state!r}")
         self.progress = progress
-        refs = []
+        refs, indexed = [], []
         for ref in log:
-            base, _ = parse_signal(ref)
+            try:
+                base, index = parse_signal(ref)
+            except ValueError:
+                raise InputError(f"log: {ref!r} is not a signal 'block.port' or 'block.port[i]'") from None
             if base not in refs:
                 refs.append(base)
+            if index is not None:
+                indexed.append((ref, base, index))
         for i, b in enumerate(system.blocks):
             if b.log_inputs:
                 for a, o in system.sources[i]:
@@ -128,6 +139,11 @@ class Simulator:
                 system.port_ref(r)
             except (KeyError, AttributeError, ValueError):
                 raise DiagramError([f"cannot log {r!r}: no such output"], system.source) from None
+        for ref, base, index in indexed:  # an element past the port: it was dropped, and reading it failed
+            i, o = system.port_ref(base)
+            width = system.blocks[i].outputs[o].width
+            if not 0 <= index < width:
+                raise DiagramError([f"cannot log {ref!r}: {base} has {width} element(s)"], system.source)
         self.log_refs = refs
         self._log_ports = [system.port_ref(r) for r in refs]
         ys, blocks = system.yslices, system.blocks

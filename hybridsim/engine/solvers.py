@@ -34,6 +34,7 @@ from scipy.sparse import issparse
 
 from hybridsim.engine import rk, stepping
 from hybridsim.engine.finite import all_finite
+from hybridsim.errors import ParameterError
 
 
 def steps(t0, t1, step):
@@ -105,6 +106,29 @@ class Solver:
         return w.x.copy(), seen
 
 
+def positive(name, value, inf=False):
+    """``value`` as a float > 0 (and finite unless ``inf``); ParameterError naming the setting ``name``."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = math.nan
+    if isinstance(value, (bool, np.bool_)) or not (v > 0 and (inf or math.isfinite(v))):
+        raise ParameterError(name, f"must be a positive{'' if inf else ', finite'} number of the solver, "
+                                   f"got {value!r}")
+    return v
+
+
+def tolerance(name, value):
+    """An absolute tolerance: one positive number, or one per state (an array of them)."""
+    try:
+        a = np.asarray(value, float)
+    except (TypeError, ValueError):
+        a = np.array([math.nan])
+    if a.ndim > 1 or not a.size or isinstance(value, (bool, str)) or not np.all((a > 0) & np.isfinite(a)):
+        raise ParameterError(name, f"must be a positive number or a list of them (one per state), got {value!r}")
+    return value
+
+
 class ExplicitRK(Solver):
     """A fixed-step explicit Runge-Kutta method given by its Butcher tableau.
 
@@ -123,11 +147,7 @@ class ExplicitRK(Solver):
     fixed_step = True
 
     def __init__(self, step=1e-4, scan=1e-3):
-        if not step > 0:
-            raise ValueError(f"{self.name} step must be positive, got {step!r}")
-        if not scan > 0:
-            raise ValueError(f"scan must be positive, got {scan!r}")
-        self.step, self.scan = float(step), float(scan)
+        self.step, self.scan = positive("step", step), positive("scan", scan)
 
     def dense_weights(self, theta):
         """Dense-output weights ``(b_1(theta), ..., b_s(theta))``; ``theta`` a number or an array
@@ -198,10 +218,8 @@ class ScipySolver(Solver):
     def __init__(self, method="Radau", rtol=1e-8, atol=1e-10, max_step=np.inf, scan=1e-3):
         if method not in METHODS:
             raise ValueError(f"unknown scipy method {method!r}; one of {', '.join(METHODS)}")
-        if not scan > 0:
-            raise ValueError(f"scan must be positive, got {scan!r}")
-        self.method, self.rtol, self.max_step = method, float(rtol), float(max_step)
-        self.atol, self.scan = atol, float(scan)
+        self.method, self.rtol, self.max_step = method, positive("rtol", rtol), positive("max_step", max_step, inf=True)
+        self.atol, self.scan = tolerance("atol", atol), positive("scan", scan)
         self.name = method.lower()
 
     def stepper(self):

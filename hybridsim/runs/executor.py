@@ -10,6 +10,8 @@ search that asks for points a few at a time, or a worker that keeps what it buil
 import contextlib
 import os
 
+import numpy as np
+
 from hybridsim.errors import InputError
 
 #: seconds to wait for a Dask scheduler to answer
@@ -18,8 +20,10 @@ DASK_TIMEOUT_S = 10
 
 def check_jobs(jobs):
     """Refuse a number of processes that is not None or a whole number >= 1."""
-    if jobs is not None and (isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1):
+    if jobs is not None and (isinstance(jobs, (bool, np.bool_)) or not isinstance(jobs, (int, np.integer))
+                             or jobs < 1):
         raise InputError(f"jobs must be a whole number >= 1, got {jobs!r}")
+    return None if jobs is None else int(jobs)
 
 
 class Executor:
@@ -39,8 +43,9 @@ class Executor:
     """
 
     def __init__(self, jobs=None, dask=None):
-        check_jobs(jobs)
-        self.jobs = jobs or os.cpu_count() or 1
+        self.jobs = check_jobs(jobs) or os.cpu_count() or 1
+        if dask is not None and not isinstance(dask, str) and not hasattr(dask, "submit"):
+            raise InputError(f"dask is a scheduler address ('tcp://host:8786') or a distributed.Client, got {dask!r}")
         self.dask = dask
         self._pool = self._client = None
         self._size = 0

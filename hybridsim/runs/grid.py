@@ -80,8 +80,14 @@ def point(changes=None, label=None, key=None, experiment=None):
 
 
 def _lists(axes):
-    """``axes`` with tuples as lists (what the tables' kinds take), as given when not a mapping."""
-    return {k: list(v) if isinstance(v, tuple) else v for k, v in axes.items()} if isinstance(axes, dict) else axes
+    """``axes`` with each sequence (a tuple, range, numpy array) as a list of plain numbers, what the
+    tables' kinds take; as given when not a mapping."""
+    def plain(v):
+        if isinstance(v, np.ndarray):
+            return v.tolist()
+        return list(v) if isinstance(v, (tuple, range)) else v
+
+    return {k: plain(v) for k, v in axes.items()} if isinstance(axes, dict) else axes
 
 
 class Grid:
@@ -110,6 +116,14 @@ class Grid:
         (column ``name*``), the run gets ``factor x base``."""
         _checked("Grid.scaled", tables.SWEEP, {"scale": _lists(axes)})
         names = list(axes)
+        for n in names:
+            try:
+                value = np.asarray(base[n], float)
+            except (KeyError, IndexError, TypeError, ValueError):
+                raise InputError(f"Grid.scaled: base gives {n!r} no value to scale (a number or a list of "
+                                 f"numbers), got {base!r}") from None
+            if not value.size or not np.all(np.isfinite(value)):
+                raise InputError(f"Grid.scaled: base[{n!r}] is not a finite number or list of them, got {base[n]!r}")
         pts = []
         for combo in itertools.product(*(axes[n] for n in names)):
             changes = {n: (np.asarray(base[n], float) * float(s)).tolist() for n, s in zip(names, combo)}
@@ -120,8 +134,7 @@ class Grid:
     def random(cls, ranges, n, seed=0):
         """``n`` points drawn uniformly from ``ranges`` (``{name: (low, high)}``) with numpy's
         generator seeded by ``seed``: the same points every time."""
-        ranges = {k: list(v) if isinstance(v, tuple) else v for k, v in ranges.items()} \
-            if isinstance(ranges, dict) else ranges
+        ranges = _lists(ranges)
         _checked("Grid.random", tables.SWEEP_RANDOM, {"n": n, "seed": seed, "ranges": ranges})
         for k, v in ranges.items():
             if range_problem(k, v):

@@ -329,6 +329,10 @@ def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False,
         per worker, in chunks; False builds every point anew from the file (the same table).
     """
     sw = Sweep(path)
+    outdir = as_path(outdir, "an output folder")
+    for name, flag in (("progress", progress), ("compiled", compiled), ("restart", restart), ("batch", batch)):
+        if not isinstance(flag, (bool, np.bool_)):
+            raise InputError(f"{name} is True or False, got {flag!r}")
     ex = Executor(jobs, dask)
     pts = sw.points()
     sw.compiled = bool(compiled)

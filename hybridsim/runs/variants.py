@@ -20,8 +20,7 @@ def run_experiment(path_or_file, progress=False, jobs=None, executor=None, **ove
     points = [point(label={"variant": label}, key=point_key([k, label]), experiment=v)
               for k, (label, v) in enumerate(variants)]
     if executor is None:
-        check_jobs(jobs)
-        executor = Executor(min(len(variants), jobs or Executor().jobs))
+        executor = Executor(min(len(variants), check_jobs(jobs) or Executor().jobs))
     with using(executor) as ex:
         got = run_many(exp, points, ex, measure=Simulate(progress=progress and len(variants) == 1),
                        progress=progress and len(variants) > 1, desc=exp.file.name)

@@ -129,4 +129,15 @@ def test_the_api_says_what_a_wrong_argument_should_be(tmp_path):
             call()
     with pytest.raises(InputError, match="sweeps is True or False"):
         hs.analyze(msd, sweeps="no")
+    sweep = tmp_path / "s.yaml"
+    sweep.write_text(f"diagram: {msd}\nset: {{simulation.t_end: 0.1}}\ngrid: {{pid.Kp: [1.0, 2.0]}}\n")
+    with pytest.raises(TypeError, match="an output folder is a path"):
+        run_sweep(sweep, None)
+    for kw, says in ((dict(dask=5), "dask is a scheduler address"), (dict(compiled="no"), "compiled is True or False")):
+        with pytest.raises(InputError, match=says):  # dask=5: 'int' object has no attribute 'nthreads'
+            run_sweep(sweep, tmp_path / "o", **kw)
     assert not (tmp_path / "o").exists()
+    import numpy as np
+
+    assert hs.analyze(msd, sweeps=np.False_)["stable"]  # numpy's booleans and whole numbers are taken
+    assert len(run_sweep(sweep, tmp_path / "o", jobs=np.int64(1), progress=False)) == 2

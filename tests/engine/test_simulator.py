@@ -207,3 +207,19 @@ def test_blocks_of_one_rate_count_once_in_the_budget(monkeypatch):
     assert sim.run(1.5).meta["hits"]["z0"] == 1500  # and 2 log points: 1502 stops, not 30 x 1500
     with pytest.raises(InputError, match="sample hits and log points"):
         sim.run(2.5)
+
+
+def test_a_logged_element_past_its_port_and_a_bad_max_state_are_refused():
+    # log=['c.y[5]'] on a 1-wide port logged the port and failed when read; max_state=0 made every
+    # run diverge at its first step; max_state='x' raised a bare ValueError
+    from hybridsim.errors import DiagramError, InputError
+
+    d = Diagram("args")
+    d.add(Constant("c", 1.0))
+    system = d.build()
+    with pytest.raises(DiagramError, match=r"cannot log 'c.y\[5\]': c.y has 1 element\(s\)"):
+        Simulator(system, log=["c.y[5]"])
+    for bad in (0, -1.0, "x", None, float("nan")):
+        with pytest.raises(InputError, match="max_state is the largest"):
+            Simulator(system, max_state=bad)
+    assert Simulator(system, log=["c.y[0]"], max_state=float("inf")).run(0.01)["c.y[0]"][-1] == 1.0

@@ -5,6 +5,7 @@ import pytest
 from scipy.integrate import BDF, Radau
 from scipy.linalg import lu_factor, lu_solve
 
+import hybridsim as hs
 from hybridsim.engine.solvers import direct_lu
 
 
@@ -51,3 +52,23 @@ def test_a_stiff_integration_takes_the_same_steps(method):
 
     (ref, nlu_ref), (got, nlu) = run(False), run(True)
     assert np.array_equal(got, ref) and nlu == nlu_ref and len(ref) > 50
+
+
+@pytest.mark.parametrize("make, name", [
+    (lambda: hs.ScipySolver(rtol=-1), "rtol"),      # failed at run time: complex '<' float
+    (lambda: hs.ScipySolver(max_step=0), "max_step"),  # 'NoneType' object has no attribute 't'
+    (lambda: hs.ScipySolver(atol="x"), "atol"),
+    (lambda: hs.ScipySolver(atol=[1e-6, -1.0]), "atol"),
+    (lambda: hs.CVode(rtol=-1), "rtol"),            # SUNDIALS: "One of the function inputs is invalid"
+    (lambda: hs.CVode(max_step=0), "max_step"),
+    (lambda: hs.RK4("x"), "step"),                  # '>' not supported between 'str' and 'int'
+    (lambda: hs.Heun(None), "step"),
+])
+def test_a_solver_refuses_a_bad_setting_when_made(make, name):
+    with pytest.raises(hs.ParameterError, match=f"parameter '{name}' must be a positive"):
+        make()
+
+
+def test_a_solver_takes_numpy_numbers_and_no_limit():
+    assert hs.RK4(np.float64(1e-3)).step == 1e-3 and hs.CVode(max_step=np.inf).max_step == np.inf
+    assert list(hs.ScipySolver(atol=np.array([1e-6, 1e-8])).atol) == [1e-6, 1e-8]

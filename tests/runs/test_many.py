@@ -173,3 +173,16 @@ def test_a_grid_from_python_is_checked_as_a_sweep_file_is(make, says):
         make()
     assert says in str(err.value)
     assert len(Grid.random({"k": (1, 2)}, n=3)) == 3 and len(Grid.values({"k": (1, 2)})) == 2
+
+
+def test_a_grid_takes_numpy_arrays_ranges_and_checks_its_base():
+    # Grid.values({'a': np.arange(3)}) was refused ("must be a list"); Grid.scaled with no base value for
+    # a name raised KeyError
+    from hybridsim.errors import InputError
+
+    assert len(Grid.values({"a": np.arange(3)})) == 3 and len(Grid.values({"a": range(2)})) == 2
+    assert len(Grid.random({"a": np.array([0.0, 1.0])}, np.int64(3))) == 3
+    assert Grid.scaled({"a": np.array([1.0, 2.0])}, {"a": np.array([1.0, 3.0])})[1].changes == {"a": [2.0, 6.0]}
+    for base in ({}, None, {"a": "x"}, {"a": []}):
+        with pytest.raises(InputError, match="Grid.scaled: base"):
+            Grid.scaled({"a": [1.0]}, base)
