@@ -342,8 +342,10 @@ class ExpandMixin:
         try:
             diagram.add(cls(name=prefix + bname, **kwargs))
         except RateError as exc:
-            where = next((spec.locs[k] for k in ("rate", "period") if k in spec), blocks.locs[bname])
-            problems.append(f"{context}{where}: block {bname!r} ({tname}): bad rate: {exc}")
+            key = next((k for k in ("rate", "period") if k in spec), None)
+            where = spec.locs[key] if key else blocks.locs[bname]
+            problems.append(f"{context}{where}: block {bname!r} ({tname}): bad rate: {exc}"
+                            + (self._set_origin(spec[key], where) if key else ""))
         except ParameterError as exc:
             problems.append(f"{context}{spec.locs.get(exc.param, blocks.locs[bname])}: block {bname!r} ({tname}): {exc}"
                             + self._set_origin(spec.get(exc.param), spec.locs.get(exc.param)))

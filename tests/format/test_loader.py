@@ -449,3 +449,13 @@ def test_a_file_is_known_by_its_keys_also_misspelled(text, kind):
     from hybridsim.format.yamlio import plain
 
     assert file_kind(plain(yaml.safe_load(text))) == kind
+
+
+def test_a_bad_rate_names_where_its_parameter_got_the_value(tmp_path):
+    # the base's use of $rate was named, not the extending file's value of it
+    write(tmp_path, "params: {rate: 10}\nblocks:\n  c: {type: constant}\n  z: {type: zoh, rate: $rate}\n"
+                    "wires: [c.y -> z.u]\n", "base.yaml")
+    child = write(tmp_path, "extends: base.yaml\nparams: {rate: fast}\n", "child.yaml")
+    with pytest.raises(DiagramError) as err:
+        DiagramFile(child).build()
+    assert any("bad rate" in m and "(the value of $rate, from " in m and "child.yaml:2)" in m for m in err.value.problems)
