@@ -3,7 +3,7 @@ import numpy as np
 
 from hybridsim.engine.registry import closest
 from hybridsim.errors import ParameterError
-from hybridsim.fmi.variables import _INDEXED, _settable, _size, _text_parameter
+from hybridsim.fmi.variables import _INDEXED, _settable, _size, _text_parameter, cannot_set
 
 
 def start_values(path, byname, parameters):
@@ -49,6 +49,9 @@ def _start_values(path, byname, parameters):
                                                    f"them, got {value!r}")
         first = 0 if f"{pname}[0]" in byname else 1  # the element names the FMU declares
         if pname not in byname and f"{pname}[{first}]" in byname:
+            why = cannot_set(byname[f"{pname}[{first}]"])  # an output array: said first, not its length
+            if why:
+                raise ParameterError("parameters", why.replace(f"{pname}[{first}] is", f"{pname} is", 1))
             last = max(int(m.group(2)) for m in map(_INDEXED.match, byname) if m and m.group(1) == pname)
             if not isinstance(value, (list, tuple)) or len(value) != last - first + 1:
                 raise ParameterError("parameters", f"{pname}: the FMU has {last - first + 1} elements "
@@ -60,8 +63,13 @@ def _start_values(path, byname, parameters):
                 out[f"{pname}[{k}]"] = _settable(byname[f"{pname}[{k}]"], v)
             continue
         if pname not in byname:
+            m = _INDEXED.match(pname)
+            if m and m.group(1) in byname:  # Kw[1] of a scalar Kw
+                raise ParameterError("parameters", f"{pname}: {m.group(1)} is one value of the FMU, not an "
+                                                   f"array: set it as {m.group(1)}")
+            settable = [n for n, v in byname.items() if not cannot_set(v)]  # no output suggested
             raise ParameterError("parameters", f"names a variable the FMU does not have: {pname!r}"
-                             f"{closest(pname, byname)}")
+                             f"{closest(pname, settable)}")
         var = byname[pname]
         if _size(var) == 1 and isinstance(value, (list, tuple)):
             raise ParameterError("parameters", f"{pname} is one value: give a number, got {value!r}")

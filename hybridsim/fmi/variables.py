@@ -121,15 +121,22 @@ def _text_parameter(var, value):
                                            f"'0a ff 10', got {value!r}") from None
 
 
-def _settable(var, value):
-    """``value`` for variable ``var``, or ParameterError when it cannot be set or is out of its range."""
+def cannot_set(var):
+    """Why variable ``var`` of an FMU cannot be given a start value, or None."""
     if var.causality == "independent" or var.variability == "constant":
-        raise ParameterError("parameters", f"{var.name} is {'the independent variable' if var.causality == 'independent' else 'a constant'}"
-                                           " of the FMU: it cannot be set")
+        what = "the independent variable" if var.causality == "independent" else "a constant"
+        return f"{var.name} is {what} of the FMU: it cannot be set"
     if var.causality not in ("parameter", "input") and var.initial not in ("exact", "approx") and var.start is None:
         article = "an" if var.causality[:1] in "aeiou" else "a"
-        raise ParameterError("parameters", f"{var.name} is {article} {var.causality} variable of the FMU "
-                                           f"(initial={var.initial}): it cannot be set")
+        return f"{var.name} is {article} {var.causality} variable of the FMU (initial={var.initial}): it cannot be set"
+    return None
+
+
+def _settable(var, value):
+    """``value`` for variable ``var``, or ParameterError when it cannot be set or is out of its range."""
+    why = cannot_set(var)
+    if why:
+        raise ParameterError("parameters", why)
     whole = var.type in _INT_RANGE or var.type in _UINT_RANGE
     for v in (value if isinstance(value, (list, tuple)) else [value]):
         if var.type != "Boolean" and isinstance(v, bool):  # 'yes' reads as true in YAML: set as 1.0, silently

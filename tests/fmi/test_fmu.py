@@ -529,6 +529,11 @@ def test_plant_positive_parameters_have_a_min(any_plant, capsys):
         FMUBlock("p", path=str(any_plant), rate=60, parameters={"friction": "yes"})  # said "a finite number"
     with pytest.raises(hs.ParameterError, match=r"balance is a (Real|Float64) variable of the FMU: give a number, got True"):
         FMUBlock("p", path=str(any_plant), rate=60, parameters={"balance": True})  # 'yes': set as 1.0, silently
+    # an output array given one value was asked for its length; an index on a scalar suggested an output
+    with pytest.raises(hs.ParameterError, match=r"q is an output variable of the FMU .*: it cannot be set"):
+        FMUBlock("p", path=str(any_plant), rate=60, parameters={"q": 1.0})
+    with pytest.raises(hs.ParameterError, match=r"Kw\[1\]: Kw is one value of the FMU, not an array: set it as Kw"):
+        FMUBlock("p", path=str(any_plant), rate=60, parameters={"Kw[1]": 4.0})
     assert FMUBlock("p", path=str(any_plant), rate=60, parameters={"friction": 0}).parameters == {"friction": 0}
 
 
