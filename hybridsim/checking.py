@@ -81,9 +81,13 @@ def _check_subsystem(path, overrides):
             raise InputError(text) from None
     rates = sorted({float(1 / b.period) for b in system.blocks if b.period})
     from hybridsim.engine.diagram import DefaultValue
+    from hybridsim.format.diagram_file import DiagramFile
+
+    own = DiagramFile(path)  # its parameters as a parent's block sets them: one no value uses changes nothing
+    warn_unused(own)
 
     shown = [b for b in system.blocks if not isinstance(b, DefaultValue)]  # not an input's default
     return {"kind": "subsystem", "blocks": len(shown) - len(staged.inputs), "states": system.n_x,
             "held_states": int(system.x_held.sum()),
             "rates": rates, "runs": 1, "inputs": [(n, w) for n, w, _ in staged.inputs],
-            "outputs": [(n, w) for n, _, w in staged.outputs]}
+            "outputs": [(n, w) for n, _, w in staged.outputs], "unused_params": [n for n, _ in own.unused_params()]}

@@ -259,3 +259,12 @@ def test_check_of_a_subsystem_file_builds_it_as_a_diagram_using_it_would(nested,
     assert main(["check", str(mid)]) == 2
     err = capsys.readouterr().err
     assert "inner.yaml:3: block 'g' (gain) has no parameter 'nope'" in err and "hybridsim-check" not in err
+
+
+def test_a_subsystem_files_parameter_no_value_uses_is_named_at_check(tmp_path, caplog):
+    # its parent's block may set it: that changes nothing, silently
+    p = tmp_path / "sub.yaml"
+    p.write_text("params: {k: 2, spare: 3}\ninputs: {u: g.u}\noutputs: {y: g.y}\nblocks:\n  g: {type: gain, K: $k}\n")
+    with caplog.at_level("WARNING", logger="hybridsim"):
+        assert hs.check_file(p)["unused_params"] == ["spare"]
+    assert "parameter 'spare' is used by no value of the file" in caplog.text
