@@ -25,10 +25,12 @@ def loop_response(L, w):
 
 
 def _margins_hold(L, gm, pm, wg, wp):
-    """Whether python-control's polynomial margins describe L's own frequency response (to 1 %)."""
-    if np.isfinite(pm) and np.isfinite(wp) and abs(abs(loop_response(L, wp)) - 1.0) > 0.01:
+    """Whether python-control's polynomial margins describe L's own frequency response (to 1 %); not
+    where L has no finite response there (a crossover on a pole: a PID's unused integrator at z = 1
+    over an integrating plant put one at 0 Hz)."""
+    if np.isfinite(pm) and np.isfinite(wp) and not abs(abs(loop_response(L, wp)) - 1.0) <= 0.01:
         return False
-    return not (np.isfinite(gm) and np.isfinite(wg) and abs(abs(loop_response(L, wg)) * gm - 1.0) > 0.01)
+    return not (np.isfinite(gm) and np.isfinite(wg) and not abs(abs(loop_response(L, wg)) * gm - 1.0) <= 0.01)
 
 
 def _grid_margins(L, n=20000):
@@ -116,10 +118,14 @@ def margins(L):
     }
 
 
-def growing_modes(sys):
+def growing_modes(sys, marginal=False, hidden=False):
     """How many of ``sys``'s poles grow - ``|z| > 1`` (sampled) or Re s > 0, poles at z = 1 / s = 0 left
     out - and are modes of its input-output path (the PBH test: neither uncontrollable from its input
-    nor unobservable at its output; a state elsewhere in the diagram is no pole of this loop)."""
+    nor unobservable at its output; a state elsewhere in the diagram is no pole of this loop).
+    ``marginal``: poles on the unit circle (the imaginary axis) count too, z = 1 (s = 0) included: a
+    closed loop with one does not settle. ``hidden``: count instead the modes the input reaches or the
+    output sees, but not both (a pole-zero cancellation hides them from the transfer function; so is a
+    branch the loop feeds that does not feed back)."""
     from scipy.linalg import matrix_balance
 
     ss = control.ss(sys)
@@ -133,21 +139,29 @@ def growing_modes(sys):
     scale = max(1.0, float(np.max(np.abs(A))))
     count = 0
     for lam in np.linalg.eigvals(A):
-        grows = (abs(lam) > 1.0 + 1e-9 and abs(lam - 1.0) >= 1e-7) if ss.dt else \
-            (lam.real > 1e-9 * scale and abs(lam) > 1e-7 * scale)
+        if marginal:
+            grows = abs(lam) >= 1.0 - 1e-9 if ss.dt else lam.real >= -1e-9 * scale
+        else:
+            grows = (abs(lam) > 1.0 + 1e-9 and abs(lam - 1.0) >= 1e-7) if ss.dt else \
+                (lam.real > 1e-9 * scale and abs(lam) > 1e-7 * scale)
         if not grows:
             continue
         shifted = A - lam * np.eye(n)
         reach = np.linalg.svd(np.hstack([shifted, B]), compute_uv=False)
         seen = np.linalg.svd(np.vstack([shifted, C]), compute_uv=False)
-        count += bool(reach[-1] > 1e-12 * reach[0] and seen[-1] > 1e-12 * seen[0])
+        reached, shown = reach[-1] > 1e-12 * reach[0], seen[-1] > 1e-12 * seen[0]
+        count += bool(reached != shown if hidden else reached and shown)
     return count
 
 
 def loop_stability(L):
     """What the margins of L do not say alone: ``open_loop_unstable_poles`` (the loop opened, its poles
     that grow; with any, the margins say nothing of stability without counting Nyquist's
-    encirclements) and ``closed_loop_stable`` (1/(1 + L), the loop closed again). Only the modes of
-    L's own path count."""
+    encirclements), ``closed_loop_stable`` (1/(1 + L), the loop closed again: no pole of its path on or
+    outside the unit circle, or on or right of the imaginary axis) and ``hidden_unstable_modes`` (such
+    poles of modes the loop drives or sees but not both: a pole-zero cancellation in the loop, or a
+    branch it feeds; the margins do not cover them). Modes elsewhere in the diagram do not count."""
+    closed = control.feedback(L, 1)
     return {"open_loop_unstable_poles": growing_modes(L),
-            "closed_loop_stable": growing_modes(control.feedback(L, 1)) == 0}
+            "closed_loop_stable": growing_modes(closed, marginal=True) == 0,
+            "hidden_unstable_modes": growing_modes(closed, marginal=True, hidden=True)}

@@ -55,9 +55,14 @@ def param_value(f, ref):
 
 
 def least_damping(poles):
-    """Smallest damping ratio among oscillatory poles (above 0.5 Hz, not at z = 1)."""
-    d = [p["damping"] for p in poles
-         if p["freq_hz"] and p["freq_hz"] > 0.5 and abs(complex(p["re"], p["im"]) - 1) > 1e-7]
+    """Smallest damping ratio among oscillatory poles: a complex pair (or, sampled, a pole on the
+    negative real axis, an oscillation at Nyquist); real poles are not oscillations (a pole at
+    z = 1e-11 read as 76 Hz with damping 0.99 hid a 0.45 Hz pair of 0.71)."""
+    def oscillates(p):
+        z = complex(p["re"], p["im"])
+        return p["damping"] is not None and abs(z - 1) > 1e-7 and (abs(z.imag) > 1e-9 * abs(z) or z.real < 0)
+
+    d = [p["damping"] for p in poles if oscillates(p)]
     return min(d) if d else None
 
 
@@ -297,6 +302,10 @@ def summary_lines(res):
         elif m.get("open_loop_unstable_poles"):
             lines.append(f"    opened here the loop has {m['open_loop_unstable_poles']} unstable pole(s): "
                          "margins alone do not show stability (count Nyquist's encirclements)")
+        if m.get("hidden_unstable_modes"):
+            lines.append(f"    {m['hidden_unstable_modes']} unstable mode(s) the loop drives or sees but its transfer "
+                         "function does not show (a pole-zero cancellation, or a branch it feeds): the margins "
+                         "do not cover them")
     for cname, c in res.get("cases", {}).items():
         lines.append(f"  case {cname} {c['set']}: {g} {_num(c['spectral_radius'])}"
                      f" ({'stable' if c['stable'] else 'not stable'})")

@@ -213,22 +213,29 @@ def test_reported_margins_lie_on_the_loops_own_frequency_response(fig9_analysis)
             assert abs(r) * m["gain_margin"] == pytest.approx(1.0, rel=0.01) and r.real < 0, name
 
 
-@pytest.mark.parametrize("L, open_unstable, closed_stable", [
-    (control.tf([2.0], [1.0, 1.0]), 0, True),            # 1 + L: s + 3
-    (control.tf([2.0], [1.0, -1.0]), 1, True),           # unstable opened, 1 + L: s + 1
-    (control.tf([0.5], [1.0, -1.0]), 1, False),          # 1 + L: s - 0.5
-    (control.tf([0.3], [1.0, -0.5], 0.1), 0, True),      # 1 + L: z - 0.2
-    (control.tf([3.0], [1.0, -0.5], 0.1), 0, False),     # 1 + L: z + 2.5
-    (control.tf([1.0], [1.0, -1.0], 0.1), 0, True),      # a sampled integrator, 1 + L: z
+@pytest.mark.parametrize("L, open_unstable, closed_stable, hidden", [
+    (control.tf([2.0], [1.0, 1.0]), 0, True, 0),            # 1 + L: s + 3
+    (control.tf([2.0], [1.0, -1.0]), 1, True, 0),           # unstable opened, 1 + L: s + 1
+    (control.tf([0.5], [1.0, -1.0]), 1, False, 0),          # 1 + L: s - 0.5
+    (control.tf([0.3], [1.0, -0.5], 0.1), 0, True, 0),      # 1 + L: z - 0.2
+    (control.tf([3.0], [1.0, -0.5], 0.1), 0, False, 0),     # 1 + L: z + 2.5
+    (control.tf([1.0], [1.0, -1.0], 0.1), 0, True, 0),      # a sampled integrator, 1 + L: z
     # 2/(s + 1) beside a growing mode the loop neither drives nor sees (a helper's unwired 1/(s - 0.5))
-    (control.ss([[-1.0, 0.0], [0.0, 0.5]], [[1.0], [0.0]], [[2.0, 0.0]], 0.0), 0, True),
-    (control.ss([[-1.0, 0.0], [0.0, 0.5]], [[1.0], [1.0]], [[2.0, 0.0]], 0.0), 0, True),
-    (control.ss([[-1.0, 0.0], [0.0, 0.5]], [[1.0], [1.0]], [[2.0, 1.0]], 0.0), 1, False),  # 2/(s+1) + 1/(s-0.5), closed: s = 0.137
+    (control.ss([[-1.0, 0.0], [0.0, 0.5]], [[1.0], [0.0]], [[2.0, 0.0]], 0.0), 0, True, 0),
+    # ... that the loop drives (a branch it feeds, or a cancellation: the margins do not cover it)
+    (control.ss([[-1.0, 0.0], [0.0, 0.5]], [[1.0], [1.0]], [[2.0, 0.0]], 0.0), 0, True, 1),
+    (control.ss([[-1.0, 0.0], [0.0, 0.5]], [[1.0], [1.0]], [[2.0, 1.0]], 0.0), 1, False, 0),  # 2/(s+1) + 1/(s-0.5), closed: s = 0.137
+    # closing on the unit circle or the imaginary axis is not stable (both said True): L = 2/(z - 1), 4/s^2
+    (control.tf([2.0], [1.0, -1.0], 0.1), 0, False, 0),     # 1 + L: z + 1
+    (control.tf([4.0], [1.0, 0.0, 0.0]), 0, False, 0),      # 1 + L: s^2 + 4
+    # an unstable pole the controller's zero cancels: 2/(s - 1) then (4s - 4)/(s^2 + 3s) (a helper's)
+    (control.ss(control.tf([2.0], [1.0, -1.0])) * control.ss(control.tf([4.0, -4.0], [1.0, 3.0, 0.0])), 0, True, 1),
 ])
-def test_loop_stability_says_what_margins_do_not(L, open_unstable, closed_stable):
+def test_loop_stability_says_what_margins_do_not(L, open_unstable, closed_stable, hidden):
     from hybridsim.analysis.stability import loop_stability
 
-    assert loop_stability(L) == {"open_loop_unstable_poles": open_unstable, "closed_loop_stable": closed_stable}
+    assert loop_stability(L) == {"open_loop_unstable_poles": open_unstable, "closed_loop_stable": closed_stable,
+                                 "hidden_unstable_modes": hidden}
 
 
 @pytest.mark.slow
@@ -618,3 +625,16 @@ def test_a_relays_position_is_no_pole(tmp_path):
                  "wires: [r.y -> e.u1, plant.y -> e.u2, e.y -> rel.u, rel.y -> plant.u]\n")
     res = an.analyze(p, sweeps=False)
     assert res["integrator_modes"] == 0 and [complex(q["re"], q["im"]) for q in res["poles"]] == pytest.approx([-1.0])
+
+
+def test_margins_of_a_loop_with_a_pole_and_zero_at_z_1():
+    # a discrete PID with Ki = 0 (its integrator unused) over a sampled integrator: L = 1/(z - 1) realized
+    # with a pole and a zero more at z = 1; python-control's crossover at 0 Hz, where L is 0/0, gave a
+    # gain margin of -111.7 dB. |L(-1)| = 1/2: 6.02 dB at Nyquist (5 Hz); |L| = 1 at pi/3: PM 60 deg
+    from hybridsim.analysis.margins import margins
+
+    L = control.ss(control.tf([1.0, -1.0], [1.0, -2.0, 1.0], 0.1))
+    m = margins(L)
+    assert m["gain_margin_db"] == pytest.approx(20 * np.log10(2.0), abs=1e-6)
+    assert m["phase_crossover_hz"] == pytest.approx(5.0) and m["phase_margin_deg"] == pytest.approx(60.0, abs=1e-6)
+    assert m["gain_crossover_hz"] == pytest.approx(10.0 / 6.0, rel=1e-6)
