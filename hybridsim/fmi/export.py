@@ -16,7 +16,10 @@ solver, rates and events (:class:`~hybridsim.fmi.runtime.DiagramStepper`).
   ``name[1]`` .. ``name[n]``.
 
 An output read at a communication point ``t`` is the diagram's output at ``t``
-for the inputs set at ``t`` (direct feedthrough, as within a diagram).
+for the inputs set at ``t`` (direct feedthrough, as within a diagram), before
+the events those inputs cause: a relay that an input set at ``t`` switches
+shows its switch from the next communication point (within a diagram it
+switches at ``t``); the step from ``t`` acts on them first.
 """
 import json
 import re
@@ -226,6 +229,9 @@ def export_fmu(diagram, out, fmi=2, name=None):
                 outputs.append((port.replace(".", "_"), port, system.blocks[i].outputs[o].width))
         else:
             outputs = [(n, r, w) for (n, _, w), r in zip(outputs, settings["log"])]
+        if not outputs:  # an FMU of no output: FMI 2.0's has no variable at all, which importers refuse
+            raise InputError(f"{path}: nothing to export: the diagram has no outputs (a subsystem's "
+                             "'outputs:', or a closed diagram's 'log' or 'signals' are the FMU's outputs)")
         _unique_names(f, inputs, outputs, params, fmi, path)
         fed = {f"in_{n}": n for n, _, _ in inputs}
         depends = {n: fed_by(system, ref, fed) for n, ref, _ in outputs}

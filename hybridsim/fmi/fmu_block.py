@@ -163,6 +163,10 @@ class FMUBlock(ModelExchange, Block):
             self.declare_rate(period=period, rate=rate)
             self.T = float(self.period)
         else:
+            for key, given in (("rate", rate), ("period", period)):
+                if given is not None:  # it was dropped, silently
+                    raise ParameterError(key, "is a Co-Simulation FMU's (mode: cs): a Model Exchange FMU is "
+                                              "integrated by the diagram's solver, remove it")
             self.nx = md.numberOfContinuousStates
             # fmpy reads FMI 2.0's completedIntegratorStepNotNeeded into this flag too
             self.needs_completed_step = bool(md.modelExchange.needsCompletedIntegratorStep)

@@ -590,7 +590,7 @@ def test_an_indicator_an_event_leaves_at_zero_is_in_fmis_nonpositive_domain(plan
 blocks:
   tau: {{type: constant, value: [2.0, -1.0]}}
   xs: {{type: constant, value: 0.5}}
-  plant: {{type: fmu, path: {plant}, mode: me, rate: 1000,
+  plant: {{type: fmu, path: {plant}, mode: me,
           parameters: {{friction: false, unilateral: false, b: [1.0, 10.0], bw: 5.0}}}}
 wires: [tau.y -> plant.tau, xs.y -> plant.x_surface, xs.dy -> plant.v_surface]
 simulation: {{t_end: 0.05, solver: cvode, rtol: 1.0e-9}}
@@ -601,3 +601,13 @@ log: [plant.q]
         res = hs.simulate(path, **{"simulation.rtol": rtol})
         assert np.abs(res["plant.q"][-1] - ref["plant.q"][-1]).max() < 1e-5
         assert len(res.meta["events"]) == len(ref.meta["events"])
+
+
+def test_a_rate_on_a_model_exchange_fmu_is_refused(plant, tmp_path):
+    # it was dropped silently: check said "rates none"
+    p = tmp_path / "me.yaml"
+    p.write_text(f"blocks:\n  plant: {{type: fmu, path: {plant}, mode: me,\n          rate: 100}}\n")
+    with pytest.raises(hs.DiagramError) as err:
+        hs.check(p)
+    assert any("me.yaml:3" in m and "parameter 'rate' is a Co-Simulation FMU's (mode: cs)" in m
+               for m in err.value.problems), err.value.problems

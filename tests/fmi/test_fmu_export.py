@@ -393,3 +393,15 @@ def test_a_bad_fmi_version_is_bad_input_not_an_fmu_failure(tmp_path, fmi):
     with pytest.raises(InputError, match="FMI version"):
         build_plant_fmu(tmp_path / "p.fmu", fmi=fmi)
     assert not (tmp_path / "x.fmu").exists() and not (tmp_path / "p.fmu").exists()
+
+
+def test_a_closed_diagram_with_nothing_logged_is_not_exported(tmp_path):
+    # FMI 2.0: an FMU of no variable, which fmpy refuses ("Missing child element(s)"); exit 0 before
+    from hybridsim.errors import InputError
+    from hybridsim.fmi.export import export_fmu
+
+    d = tmp_path / "closed.yaml"
+    d.write_text("blocks:\n  s: {type: sine}\n  g: {type: gain, K: 2.0}\nwires: [s.y -> g.u]\n")
+    with pytest.raises(InputError, match="nothing to export: the diagram has no outputs"):
+        export_fmu(d, tmp_path / "x.fmu")
+    assert not (tmp_path / "x.fmu").exists()
