@@ -28,7 +28,7 @@ from hybridsim.runs.many import Linearize, run_many
 from hybridsim.analysis.linearize import LinearizationError
 from hybridsim.analysis import extras
 from hybridsim.analysis.lti import oscillatory_modes
-from hybridsim.analysis.margins import growing_modes, loop_stability, margins  # noqa: F401 - public here too
+from hybridsim.analysis.margins import growing_modes, loop_response, loop_stability, margins  # noqa: F401 - public here too
 
 DEFAULTS = {k: v for k, v in tables.defaults(tables.ANALYSIS).items() if k not in ("compare", "step")}
 KEYS = tables.keys(tables.ANALYSIS)  # the table checks the section; "compare" and "step" are read by hybridsim.report.stability
@@ -52,6 +52,14 @@ def param_value(f, ref):
     """Current value of 'block.param' (from the file or the block's default); see
     :meth:`DiagramFile.param_value <hybridsim.format.diagram_file.DiagramFile.param_value>`."""
     return f.param_value(ref)
+
+
+def _no_return(L):
+    """Whether loop L is zero: nothing of the opened signal comes back (at five frequencies to Nyquist,
+    or to 1e4 rad/s unsampled)."""
+    top = np.pi / L.dt if L.dt else 1e4
+    w = top * np.array([1e-4, 1e-3, 1e-2, 0.1, 0.5])
+    return not np.any(np.abs(loop_response(L, w)) > 1e-12)
 
 
 def least_damping(poles):
@@ -240,6 +248,11 @@ def analyze(path, at=None, sweeps=True, **overrides):
             L = lin.loop(sig)
         except LinearizationError as exc:
             out["loops"][name] = {"signal": sig, "error": str(exc)}
+            continue
+        if _no_return(L):  # margins inf: read as "very robust" where there is no loop to judge
+            out["loops"][name] = {"signal": sig, "error": "opened here nothing comes back (L = 0): the signal is "
+                                  "in no feedback loop, or a block on the loop has slope 0 here (a relay, a "
+                                  "quantizer, a saturation at its limit)"}
             continue
         out["loops"][name] = {"signal": sig, **margins(L)}
         out["_objects"]["loops"][name] = L

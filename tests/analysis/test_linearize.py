@@ -638,3 +638,16 @@ def test_margins_of_a_loop_with_a_pole_and_zero_at_z_1():
     assert m["gain_margin_db"] == pytest.approx(20 * np.log10(2.0), abs=1e-6)
     assert m["phase_crossover_hz"] == pytest.approx(5.0) and m["phase_margin_deg"] == pytest.approx(60.0, abs=1e-6)
     assert m["gain_crossover_hz"] == pytest.approx(10.0 / 6.0, rel=1e-6)
+
+
+def test_a_loop_point_nothing_comes_back_to_is_said_so(tmp_path):
+    # a source's output as a loop point, or a loop through a relay (slope 0): gain and phase margin
+    # 'inf', read as very robust
+    p = tmp_path / "d.yaml"
+    p.write_text("blocks:\n  r: {type: step, final: 1.0}\n  e: {type: sum, signs: '+-'}\n"
+                 "  C: {type: gain, K: 2.0}\n  P: {type: transfer_function, num: [1.0], den: [1.0, 1.0]}\n"
+                 "wires: [r.y -> e.u1, P.y -> e.u2, e.y -> C.u, C.y -> P.u]\n"
+                 "analysis: {points: {src: 'r.y[0]', u: 'C.y[0]'}}\n")
+    res = hs.analyze(p, sweeps=False)
+    assert "opened here nothing comes back (L = 0)" in res["loops"]["src"]["error"]
+    assert res["loops"]["u"]["gain_margin"] is None and res["loops"]["u"]["phase_margin_deg"] is not None
