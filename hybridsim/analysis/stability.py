@@ -249,12 +249,7 @@ def analyze(path, at=None, sweeps=True, **overrides):
         except LinearizationError as exc:
             out["loops"][name] = {"signal": sig, "error": str(exc)}
             continue
-        if _no_return(L):  # margins inf: read as "very robust" where there is no loop to judge
-            out["loops"][name] = {"signal": sig, "error": "opened here nothing comes back (L = 0): the signal is "
-                                  "in no feedback loop, or a block on the loop has slope 0 here (a relay, a "
-                                  "quantizer, a saturation at its limit)"}
-            continue
-        out["loops"][name] = {"signal": sig, **margins(L)}
+        out["loops"][name] = {"signal": sig, **margins(L), "no_return": _no_return(L)}
         out["_objects"]["loops"][name] = L
     loops = Linearize(at)  # each point's closed loop, a run-time change of this build where it can be
     cases = run_many(exp, Grid(cfg["cases"].values()), measure=loops)
@@ -305,6 +300,11 @@ def summary_lines(res):
     for name, m in res["loops"].items():
         if "error" in m:
             lines.append(f"  loop {name} ({m['signal']}): {m['error']}")
+            continue
+        if m.get("no_return"):  # margins 'inf' read as "very robust" where there is no loop to judge
+            lines.append(f"  loop {name} ({m['signal']}): opened here nothing comes back (L = 0): no feedback "
+                         "through this signal here, or a block on the loop has slope 0 (a relay, a quantizer, a "
+                         "saturation at its limit, a contact not touching)")
             continue
         gm = "inf" if m["gain_margin_db"] is None else f"{m['gain_margin_db']:.2f} dB"
         pm = "inf" if m["phase_margin_deg"] is None else f"{m['phase_margin_deg']:.1f} deg"

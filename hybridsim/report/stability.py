@@ -238,7 +238,7 @@ def _page(data, figures, first_gain):
                        ["case", "set", "spectral_radius", "stable"])
     loops = html.table([{"loop": k, **v} for k, v in a.get("loops", {}).items()],
                        ["loop", "signal", "gain_margin_db", "phase_margin_deg", "gain_crossover_hz", "phase_crossover_hz",
-                        "closed_loop_stable", "open_loop_unstable_poles", "hidden_unstable_modes"])
+                        "no_return", "closed_loop_stable", "open_loop_unstable_poles", "hidden_unstable_modes"])
     poles = html.table(a["poles"][:12], ["re", "im", "abs", "freq_hz", "damping"])
     if a.get("domain") == "continuous":
         method = ("nothing is sampled, so the closed loop is the continuous system x' = A x (poles in the "

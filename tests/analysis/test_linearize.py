@@ -649,5 +649,9 @@ def test_a_loop_point_nothing_comes_back_to_is_said_so(tmp_path):
                  "wires: [r.y -> e.u1, P.y -> e.u2, e.y -> C.u, C.y -> P.u]\n"
                  "analysis: {points: {src: 'r.y[0]', u: 'C.y[0]'}}\n")
     res = hs.analyze(p, sweeps=False)
-    assert "opened here nothing comes back (L = 0)" in res["loops"]["src"]["error"]
+    assert res["loops"]["src"]["no_return"] and not res["loops"]["u"]["no_return"]
     assert res["loops"]["u"]["gain_margin"] is None and res["loops"]["u"]["phase_margin_deg"] is not None
+    from hybridsim.analysis.stability import summary_lines
+
+    said = "\n".join(summary_lines(res))
+    assert "loop src (r.y[0]): opened here nothing comes back (L = 0)" in said and "loop u (C.y[0]): gain margin" in said
