@@ -304,7 +304,7 @@ def summary_lines(res):
         if m.get("no_return"):  # margins 'inf' read as "very robust" where there is no loop to judge
             lines.append(f"  loop {name} ({m['signal']}): opened here nothing comes back (L = 0): no feedback "
                          "through this signal here, or a block on the loop has slope 0 (a relay, a quantizer, a "
-                         "saturation at its limit, a contact not touching)")
+                         "saturation at its limit)")
             continue
         gm = "inf" if m["gain_margin_db"] is None else f"{m['gain_margin_db']:.2f} dB"
         pm = "inf" if m["phase_margin_deg"] is None else f"{m['phase_margin_deg']:.1f} deg"
