@@ -24,39 +24,21 @@ from numbers import Real
 
 import numpy as np
 
-from hybridsim import limits as _budget
+from hybridsim.engine import arguments
 from hybridsim.engine import events as _events
 from hybridsim.engine import stepping
 from hybridsim.engine.context import Context
 from hybridsim.engine.glue import GenericGlue, state_derivatives
-from hybridsim.engine.result import Result, parse_signal
-from hybridsim.engine.solvers import RK4, ExplicitRK, Solver, limits, outputs, work
+from hybridsim.engine.result import Result
+from hybridsim.engine.solvers import RK4, ExplicitRK, limits, outputs, work
 from hybridsim.engine.timeline import rows, schedule, timeline
-from hybridsim.errors import DiagramError, InputError, SimulationError, StopRequest
+from hybridsim.errors import InputError, SimulationError, StopRequest
 
 #: events whose times and blocks a run keeps for ``meta["events"]``
 MAX_EVENT_LOG = 200_000
 
 
 _log = logging.getLogger(__name__)
-
-
-def _check_arguments(system, solver, log):
-    """``log`` as a list; InputError for a system, solver or log of the wrong kind, naming what goes there."""
-    from hybridsim.engine.system import System
-
-    if not isinstance(system, System):
-        hint = " (call its .build() first)" if hasattr(system, "build") else ""
-        raise InputError(f"Simulator takes a built System{hint}, got {type(system).__name__}")
-    if solver is not None and not isinstance(solver, Solver):
-        raise InputError(f"solver is a Solver object such as RK4(1e-4), Heun(1e-4), ScipySolver('Radau') or "
-                         f"CVode(), got {solver!r}")
-    if isinstance(log, str) or not hasattr(log, "__iter__"):
-        raise InputError(f"log is a list of signals such as ['plant.y', 'pid.u[0]'], got {log!r}")
-    log = list(log)
-    if not all(isinstance(r, str) for r in log):
-        raise InputError(f"log is a list of signals such as ['plant.y', 'pid.u[0]'], got {log!r}")
-    return log
 
 
 class Simulator:
@@ -102,7 +84,7 @@ class Simulator:
                  max_state=1e6, progress=False, fused=True, compiled=False, locate_switches=False, aliases=None):
         from hybridsim.engine.block import to_period
 
-        log = _check_arguments(system, solver, log)
+        log = arguments.checked(system, solver, log)
         self._made = dict(log=log, log_period=log_period, max_state=max_state, locate_switches=locate_switches,
                           aliases=aliases)
         self.aliases = dict(aliases or {})
@@ -110,40 +92,9 @@ class Simulator:
         self.solver = solver or RK4()
         self.log_period = to_period(log_period, "log period")
         schedule(system, self.log_period)  # rates the log cannot share are refused here (a check sees it)
-        try:
-            self.max_state = float(max_state)
-        except (TypeError, ValueError):
-            self.max_state = None
-        if not (self.max_state is not None and self.max_state > 0):  # nan, 0, negative: every run "diverged"
-            raise InputError(f"max_state is the largest |state| before a run counts as diverging (> 0, or inf), "
-                             f"got {max_state!r}")
+        self.max_state = arguments.max_state(max_state)
         self.progress = progress
-        refs, indexed = [], []
-        for ref in log:
-            try:
-                base, index = parse_signal(ref)
-            except ValueError:
-                raise InputError(f"log: {ref!r} is not a signal 'block.port' or 'block.port[i]'") from None
-            if base not in refs:
-                refs.append(base)
-            if index is not None:
-                indexed.append((ref, base, index))
-        for i, b in enumerate(system.blocks):
-            if b.log_inputs:
-                for a, o in system.sources[i]:
-                    r = f"{system.blocks[a].name}.{system.blocks[a].outputs[o].name}"
-                    if r not in refs:
-                        refs.append(r)
-        for r in refs:
-            try:
-                system.port_ref(r)
-            except (KeyError, AttributeError, ValueError):
-                raise DiagramError([f"cannot log {r!r}: no such output"], system.source) from None
-        for ref, base, index in indexed:  # an element past the port: it was dropped, and reading it failed
-            i, o = system.port_ref(base)
-            width = system.blocks[i].outputs[o].width
-            if not 0 <= index < width:
-                raise DiagramError([f"cannot log {ref!r}: {base} has {width} element(s)"], system.source)
+        refs = arguments.log_refs(system, log)
         self.log_refs = refs
         self._log_ports = [system.port_ref(r) for r in refs]
         ys, blocks = system.yslices, system.blocks
@@ -258,22 +209,9 @@ class Simulator:
     def _timeline(self, t_end, logged=True):
         tl = self._timelines.get((t_end, logged))
         if tl is None:
-            self._check_size(t_end)
+            arguments.check_size(self, t_end)
             tl = self._timelines[(t_end, logged)] = timeline(self.system, self.log_period, t_end, logged)
         return tl
-
-    def _check_size(self, t_end):
-        """InputError when a run to ``t_end`` exceeds the budgets of :mod:`hybridsim.limits` (sample
-        hits, log rows, steps): checked before any array is made."""
-        solver = self.solver
-        step = solver.step if isinstance(solver, ExplicitRK) else getattr(solver, "max_step", None)
-        periods = [float(p) for p, _ in self.system.schedule.timings if p]
-        why = _budget.run_size_problems(t_end, periods, float(self.log_period),
-                                        step if step is not None and np.isfinite(step) else None,
-                                        int(self._log_columns.size), type(solver).__name__,
-                                        getattr(solver, "scan", None) if self.located else None)
-        if why:
-            raise InputError(f"a run to t_end = {t_end:g} s: " + "; ".join(why))
 
     # -- one run ------------------------------------------------------------------------
     def session(self, ctx, rows=0, numbers=None):
