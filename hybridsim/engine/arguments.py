@@ -28,7 +28,7 @@ def checked(system, solver, log):
 
 
 def max_state(value):
-    """``value`` as the largest |state| before a run counts as diverging: > 0, inf allowed (nan, 0 or a
+    """``value`` as the largest ``|state|`` before a run counts as diverging: > 0, inf allowed (nan, 0 or a
     negative one made every run diverge at its first step)."""
     try:
         v = float(value)
