@@ -37,8 +37,7 @@ def check_file(path, **overrides):
         f = load(path, **overrides)
         summary = check(f)
         check_analysis_branches(f)
-        warn_unused(f)
-        return {"kind": "diagram", **summary, "unused_params": [name for name, _ in f.unused_params()]}
+        return {"kind": "diagram", **summary, "unused_params": warn_unused(f)}
     if overrides:
         raise InputError(f"{path}: --set applies to a diagram; a {kind} file gives its diagram's values "
                          "in its own 'set' section")
@@ -83,11 +82,10 @@ def _check_subsystem(path, overrides):
     from hybridsim.engine.diagram import DefaultValue
     from hybridsim.format.diagram_file import DiagramFile
 
-    own = DiagramFile(path)  # its parameters as a parent's block sets them: one no value uses changes nothing
-    warn_unused(own)
+    unused = warn_unused(DiagramFile(path))  # as a parent's block sets them: one no value uses changes nothing
 
     shown = [b for b in system.blocks if not isinstance(b, DefaultValue)]  # not an input's default
     return {"kind": "subsystem", "blocks": len(shown) - len(staged.inputs), "states": system.n_x,
             "held_states": int(system.x_held.sum()),
             "rates": rates, "runs": 1, "inputs": [(n, w) for n, w, _ in staged.inputs],
-            "outputs": [(n, w) for n, _, w in staged.outputs], "unused_params": [n for n, _ in own.unused_params()]}
+            "outputs": [(n, w) for n, _, w in staged.outputs], "unused_params": unused}

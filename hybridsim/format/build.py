@@ -259,14 +259,17 @@ def check(path_or_file, **overrides):
 
 def warn_unused(f, names=None):
     """Log a warning for each name in ``params`` of DiagramFile ``f`` (of ``names`` only, when given)
-    that no value uses: setting it (``--set``, a sweep, tune) changes nothing."""
+    that no value uses: setting it (``--set``, a sweep, tune) changes nothing. Returns the names warned of."""
     from hybridsim.engine.registry import closest
 
+    warned = []
     for name, where in f.unused_params():
         if names is None or name in names:
             logging.getLogger("hybridsim").warning("%s: parameter %r is used by no value of the file (no $%s): "
                                                    "setting it changes nothing%s", where, name, name,
                                                    closest(name, [k for k in f.params if k != name]))
+            warned.append(name)
+    return warned
 
 
 def simulate(path_or_file, variant=None, progress=False, **overrides):

@@ -88,6 +88,7 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
                 raise LoaderError(f"parameter {k!r} refers to ${refs[0]}: a parameter's value is a number, list "
                                   "or word, not another parameter (give its value)", at, self.params.lines.get(k))
         self.overrides = {}  # every override applied, as given (a copy of the file is parsed with them)
+        self.replaced_uses = set()  # parameters whose uses an override replaced (the file as written uses them)
         self.origin = ORIGIN.get()  # what messages call their source ("--set", a sweep's)
         self.apply(overrides or {})
 
@@ -117,7 +118,7 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
         """``[(name, "file:line")]``: the names in ``params`` that no value of the file uses (no
         ``$name``, not the analysis's ``rate_param``; a use an override replaced counts): setting one
         (``--set``, a sweep) changes nothing."""
-        used = _references({k: v for k, v in self.data.items() if k != "params"}) | getattr(self, "replaced_uses", set())
+        used = _references({k: v for k, v in self.data.items() if k != "params"}) | self.replaced_uses
         analysis = self.data.get("analysis")
         if isinstance(analysis, dict) and isinstance(analysis.get("rate_param"), str):
             used.add(analysis["rate_param"])

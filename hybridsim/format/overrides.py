@@ -59,7 +59,6 @@ class OverridesMixin:
         """
         used = _references({k: v for k, v in self.data.items() if k != "params"})
         replaced = {}  # parameter -> the overrides that replaced a value using it
-        self.replaced_uses = getattr(self, "replaced_uses", set())  # (the file as written uses these)
         for key, value in overrides.items():
             self.overrides[key] = value
             path = self._path(key)

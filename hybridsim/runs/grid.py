@@ -136,9 +136,9 @@ class Grid:
         generator seeded by ``seed``: the same points every time."""
         ranges = _lists(ranges)
         _checked("Grid.random", tables.SWEEP_RANDOM, {"n": n, "seed": seed, "ranges": ranges})
-        for k, v in ranges.items():
-            if range_problem(k, v):
-                raise InputError(f"Grid.random: {range_problem(k, v)}")
+        why = next(filter(None, (range_problem(k, v) for k, v in ranges.items())), None)
+        if why:
+            raise InputError(f"Grid.random: {why}")
         rng = np.random.default_rng(int(seed))
         return cls(point({k: float(rng.uniform(lo, hi)) for k, (lo, hi) in ranges.items()}) for _ in range(int(n)))
 
