@@ -27,6 +27,25 @@ def checked(system, solver, log):
     return log
 
 
+def flag(name, value):
+    """``value`` as a bool: True, False, numpy's bools or the integers 0 and 1 (a string such as
+    ``'no'`` is true to Python, and read so it silently turned a path or a bar on)."""
+    if isinstance(value, (bool, np.bool_)) or (isinstance(value, (int, np.integer)) and value in (0, 1)):
+        return bool(value)
+    raise InputError(f"{name} is True or False, got {value!r}")
+
+
+def aliases(value):
+    """``value`` (None or a mapping of alias to signal name) as a dict of strings."""
+    if value is None:
+        return {}
+    if not hasattr(value, "items") or not all(isinstance(k, str) and isinstance(v, str)
+                                               for k, v in value.items()):
+        raise InputError(f"aliases is a mapping of names to signals such as {{'F': 'sensor.y[0]'}}, "
+                         f"got {value!r}")
+    return dict(value)
+
+
 def max_state(value):
     """``value`` as the largest ``|state|`` before a run counts as diverging: > 0, inf allowed (nan, 0 or a
     negative one made every run diverge at its first step)."""

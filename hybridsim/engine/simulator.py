@@ -87,7 +87,10 @@ class Simulator:
         log = arguments.checked(system, solver, log)
         self._made = dict(log=log, log_period=log_period, max_state=max_state, locate_switches=locate_switches,
                           aliases=aliases)
-        self.aliases = dict(aliases or {})
+        self.aliases = arguments.aliases(aliases)
+        progress, fused, compiled, locate_switches = (
+            arguments.flag(k, v) for k, v in (("progress", progress), ("fused", fused), ("compiled", compiled),
+                                              ("locate_switches", locate_switches)))
         self.system = system
         self.solver = solver or RK4()
         self.log_period = to_period(log_period, "log period")

@@ -223,3 +223,21 @@ def test_a_logged_element_past_its_port_and_a_bad_max_state_are_refused():
         with pytest.raises(InputError, match="max_state is the largest"):
             Simulator(system, max_state=bad)
     assert Simulator(system, log=["c.y[0]"], max_state=float("inf")).run(0.01)["c.y[0]"][-1] == 1.0
+
+
+def test_flags_and_aliases_of_the_wrong_kind_are_refused():
+    # fused='no' and progress='yes' are true to Python: they ran the fused path and drew a bar silently;
+    # aliases=5 raised "'int' object is not iterable"
+    from hybridsim.errors import InputError
+
+    d = Diagram("flags")
+    d.add(Constant("c", 1.0))
+    system = d.build()
+    for name in ("progress", "fused", "compiled", "locate_switches"):
+        with pytest.raises(InputError, match=f"{name} is True or False, got 'no'"):
+            Simulator(system, **{name: "no"})
+    for bad in (5, {"a": 1}, ["c.y"]):
+        with pytest.raises(InputError, match="aliases is a mapping of names to signals"):
+            Simulator(system, aliases=bad)
+    sim = Simulator(system, log=["c.y"], fused=0, aliases={"k": "c.y"})
+    assert sim.path == "generic" and sim.run(0.01)["k"][-1] == 1.0
