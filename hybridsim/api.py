@@ -91,8 +91,11 @@ def run(source, outdir=None, progress=False, jobs=None, announce=None, **overrid
     dict
         ``file`` (the DiagramFile), ``runs`` (as :func:`run_experiment`), ``settings`` and ``outdir``.
     """
+    from hybridsim.engine.arguments import flag
     from hybridsim.files import output_dir
+    from hybridsim.runs.executor import check_jobs
 
+    progress, jobs = flag("progress", progress), check_jobs(jobs)
     f = _file(source, overrides)
     outdir, _ = output_dir(outdir, Path("out") / safe_name(f.name), whole=False)
     check(f)

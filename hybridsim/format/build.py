@@ -299,6 +299,9 @@ def simulate(path_or_file, variant=None, progress=False, **overrides):
     hybridsim.errors.SimulationError
         The model diverged or its solver failed (the time and the block); exit status 3.
     """
+    from hybridsim.engine.arguments import flag
+
+    progress = flag("progress", progress)
     system, simulator, settings = build(path_or_file, variant, **overrides)
     simulator.progress = progress
     return simulator.run(settings["simulation"]["t_end"])

@@ -136,6 +136,11 @@ def test_the_api_says_what_a_wrong_argument_should_be(tmp_path):
     for kw, says in ((dict(dask=5), "dask is a scheduler address"), (dict(compiled="no"), "compiled is True or False")):
         with pytest.raises(InputError, match=says):  # dask=5: 'int' object has no attribute 'nthreads'
             run_sweep(sweep, tmp_path / "o", **kw)
+    for call, says in ((lambda: hs.simulate(msd, progress="no"), "progress is True or False"),
+                       (lambda: hs.run(msd, tmp_path / "o", progress="no"), "progress is True or False"),
+                       (lambda: hs.run(msd, tmp_path / "o", jobs="2"), "jobs must be a whole number")):
+        with pytest.raises(InputError, match=says):
+            call()
     assert not (tmp_path / "o").exists()
     import numpy as np
 
