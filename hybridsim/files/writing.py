@@ -95,7 +95,7 @@ def check_output_dir(path):
                 with contextlib.suppress(OSError):
                     folder.rmdir()
     except OSError as exc:  # the probe's own names are not worth showing
-        raise from_os_error(OSError(exc.errno, exc.strerror), f"cannot write output folder {str(path)!r}") from None
+        raise from_os_error(OSError(exc.errno, exc.strerror), f"cannot create a file in output folder {str(path)!r}") from None
     return path
 
 

@@ -192,6 +192,19 @@ def test_an_output_the_os_refuses_is_exit_5(tmp_path, capsys, target):
     assert code == 5 and "error:" in err, err
 
 
+def test_a_folder_that_takes_no_file_says_so(tmp_path, capsys, monkeypatch):
+    # /proc passes os.access for root but creates no file: it said "cannot write output folder
+    # '/proc': No such file or directory", as though the folder were missing
+    import tempfile
+
+    def refuse(*a, **k):
+        raise OSError(errno.ENOENT, os.strerror(errno.ENOENT), "probe")
+
+    monkeypatch.setattr(tempfile, "TemporaryFile", refuse)
+    code, _, err = run(capsys, "fmu", "build", "-o", tmp_path / "x.fmu")
+    assert code == 5 and f"cannot create a file in output folder '{tmp_path}'" in err, err
+
+
 def test_a_missing_package_is_named_with_its_extra(tmp_path, capsys, monkeypatch):
     real = builtins.__import__
 
