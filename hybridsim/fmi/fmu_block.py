@@ -81,6 +81,9 @@ class FMUBlock(ModelExchange, Block):
             why = "is a folder, not an .fmu file" if self.path.is_dir() else "names no file"
             hint = (" (the shipped plant FMU is built with 'hybridsim fmu build -o plant.fmu')"
                     if self.path.name.startswith("plant") else "")
+            if (self.path / "modelDescription.xml").is_file():  # an extracted FMU: its zip is what is read
+                hint = (" (an extracted FMU: zip its contents back into one, e.g. "
+                        f"'cd {self.path} && zip -r ../model.fmu .')")
             raise ParameterError("path", f"{why}: {str(self.path)!r}{hint}")
         stat = self.path.stat()
         md, binaries = _read(str(self.path), str(self.path.resolve()), stat.st_size, stat.st_mtime_ns)

@@ -212,6 +212,10 @@ def test_fmu_errors_are_clear(plant, tmp_path):
         FMUBlock(path=str(tmp_path / "nope.fmu"))
     with pytest.raises(ParameterError, match="'path' is a folder, not an .fmu file"):
         FMUBlock(path=str(tmp_path))
+    (tmp_path / "x").mkdir()
+    (tmp_path / "x" / "modelDescription.xml").write_text("<fmiModelDescription/>")
+    with pytest.raises(ParameterError, match="an extracted FMU: zip its contents back into one"):
+        FMUBlock(path=str(tmp_path / "x"))
     (tmp_path / "junk.fmu").write_text("not a zip")
     with pytest.raises(FMUError, match="not a zip"):
         FMUBlock(path=str(tmp_path / "junk.fmu"))
