@@ -119,6 +119,14 @@ def rate_to_period(rate_hz):
     return 1 / r
 
 
+@functools.lru_cache(maxsize=None)
+def _init_parameters(cls):
+    """The parameters of ``cls.__init__`` (read once per class)."""
+    import inspect
+
+    return inspect.signature(cls.__init__).parameters
+
+
 class Block:
     """Base class of every block. See the module docstring for the contract."""
 
@@ -248,9 +256,7 @@ class Block:
         run. Raises :class:`~hybridsim.errors.ParameterError` otherwise.
         """
         args, kwargs = self.__dict__.get("_init_args", ((), {"name": self.name}))
-        import inspect
-
-        sig = inspect.signature(type(self).__init__).parameters
+        sig = _init_parameters(type(self))
         known = [p for p in sig if p not in ("self", "name")]
         open_ended = any(p.kind is p.VAR_KEYWORD for p in sig.values())  # it takes any keyword
         for key in changes:

@@ -14,6 +14,8 @@ From this the system precomputes, once, the short list of blocks to evaluate
 inside the right-hand side (``rhs_path``) and for logging, so the integrator's
 inner loop never walks the graph.
 """
+import pickle
+
 import numpy as np
 
 from hybridsim.engine.context import Context
@@ -163,6 +165,9 @@ class System:
         held = lambda j: self.kind[j] in ("discrete", "constant")  # noqa: E731
         return sorted(needed_blocks(wanted, self.blocks, self.sources, held))
 
+    def __getstate__(self):  # the last blocks_with's blocks stay here
+        return {k: v for k, v in self.__dict__.items() if k != "_last_with"}
+
     def create_context(self, params=None):
         """A fresh :class:`Context` with every block's initial state.
 
@@ -184,10 +189,19 @@ class System:
                 raise InputError(f"run-time parameter {key!r}: give it as 'block.param' with a block of "
                                  f"this diagram{closest(bname, self.index)}")
             changes.setdefault(bname, {})[pname] = value
+        try:  # the last call's blocks again for the same values (a sweep checks a point's, then runs it)
+            tag = pickle.dumps(changes, protocol=5)
+        except Exception:  # noqa: BLE001 - a value pickle cannot take: built afresh
+            tag = None
+        last = self.__dict__.get("_last_with")
+        if tag is not None and last is not None and last[0] == tag:
+            return list(last[1])
         blocks = list(self.blocks)
         for bname, kw in changes.items():
             i = self.index[bname]
             blocks[i] = self.blocks[i].with_params(**kw)
+        if tag is not None:
+            self._last_with = (tag, tuple(blocks))
         return blocks
 
 
