@@ -8,6 +8,8 @@ from hybridsim.format.yamlio import _List, not_a_file, parse_file
 
 #: sections merged key by key when a file extends another
 MERGED_BY_KEY = ("params", "simulation", "signals", "metrics", "plot", "variants", "analysis")
+#: the sections of settings, where a key given as null undoes the base's value
+UNDONE_BY_NULL = ("simulation", "signals", "metrics", "plot", "analysis")
 
 def read_merged(path, chain=(), budget=None, files=None):
     """Parse ``path`` and merge it over the file it ``extends`` (if any).
@@ -67,7 +69,10 @@ def read_merged(path, chain=(), budget=None, files=None):
                     cur.locs[bname] = val.locs[bname]
                     _merge_key_lines(cur, val, bname)
         elif key in MERGED_BY_KEY and isinstance(cur, dict) and isinstance(val, dict):
+            undone = [k for k, v in val.items() if v is None and k in cur and key in UNDONE_BY_NULL]
             cur.update(val)
+            for k in undone:  # 'key: null' undoes the base's setting: its default again
+                del cur[k]
             cur.lines.update(val.lines)
             cur.locs.update(val.locs)
             _merge_key_lines(cur, val)

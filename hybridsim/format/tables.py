@@ -268,6 +268,12 @@ def defaults(table):
     return {s.key: copy.deepcopy(s.default) for s in table}
 
 
+def _shown(value):
+    """A default as a file writes it."""
+    return "[]" if value == [] else "{}" if value == {} else ".inf" if value == float("inf") else \
+        str(value).lower() if isinstance(value, bool) else f"{value:g}" if isinstance(value, float) else repr(value)
+
+
 def check_values(table, data, section, lines=None):
     """Problems of mapping ``data`` against ``table``: a list of (message, key).
 
@@ -279,7 +285,10 @@ def check_values(table, data, section, lines=None):
     for key, value in data.items():
         s = by_key.get(key)
         if s is not None and value is None and not s.required:
-            continue  # 'key: null' of an optional setting: its default (a file can undo what it extends)
+            if s.default is not None:  # read as the default it was not (a file undoes its base's with null)
+                out.append((f"{section} setting {key!r} is empty (null): give {s.kind.text}, or leave the key "
+                            f"out (default: {_shown(s.default)})", key))
+            continue
         if s is None:
             out.append((f"unknown {section} setting {key!r}{closest(key, by_key)}; settings: "
                         f"{', '.join(by_key)}", key))

@@ -370,3 +370,23 @@ def test_setting_one_element_keeps_the_others_references(tmp_path):
     f = api.load(p, **{"kg.K[1]": 7.0})
     assert f.data["blocks"]["kg"]["K"] == ["$Kv", 7.0]
     assert [api.simulate(f, variant=v)["kg.y"][0].tolist() for _, v in f.variants()] == [[10.0, 7.0], [30.0, 7.0]]
+
+
+def test_an_empty_setting_is_refused_unless_it_undoes_a_base_value(tmp_path, capsys):
+    # 't_end:' and --set t_end=null ran to the table's 1 s where the diagram said 3 s, exit 0
+    from hybridsim.app.cli import main
+    import hybridsim as hs
+
+    base = tmp_path / "base.yaml"
+    base.write_text("blocks:\n  c: {type: constant, value: 1.0}\nlog: [c.y]\nsimulation: {t_end: 0.02, step: 0.001}\n")
+    assert main(["check", str(base), "--set", "simulation.t_end=null"]) == 2
+    assert "simulation setting 't_end' is empty (null): give a positive" in capsys.readouterr().err
+    with pytest.raises(hs.InputError, match="'solver' is empty"):
+        hs.simulate(base, solver=None)
+    own = tmp_path / "own.yaml"
+    own.write_text("blocks:\n  c: {type: constant, value: 1.0}\nmetrics: {}\nsimulation:\n  step:\n")
+    assert main(["check", str(own)]) == 2
+    assert f"{own}:5: simulation setting 'step' is empty (null)" in capsys.readouterr().err
+    child = tmp_path / "child.yaml"
+    child.write_text("extends: base.yaml\nsimulation: {step: null}\n")  # the base's 1 ms undone: 0.1 ms
+    assert hs.simulate(child).meta["solver"] == "RK4(step=0.0001)"
