@@ -108,8 +108,17 @@ def load(path, **overrides):
     ``--set``; the setting is then ``**{"simulation.step": 1e-3}``.
     """
     if isinstance(path, DiagramFile):  # a parsed file: ``overrides`` over its own
-        return DiagramFile(path.path, {**path.overrides, **overrides}) if overrides else path
+        return again(path, overrides) if overrides else path
     return DiagramFile(path, overrides)
+
+
+def again(f, overrides=None):
+    """DiagramFile ``f`` parsed afresh with its overrides, each mapping as it was applied, then ``overrides``."""
+    layers = list(f.layers) + ([overrides] if overrides else [])
+    g = DiagramFile(f.path, layers[0] if layers else None)
+    for layer in layers[1:]:
+        g.apply(layer)
+    return g
 
 
 def build(path_or_file, variant=None, check_only=False, log=None, **overrides):
@@ -191,12 +200,16 @@ def _items(value):
         return [value]
 
 
+_SAID = set()  # the warnings check_analysis_branches gave
+
+
 def check_analysis_branches(f):
     """Build the ``analysis`` section's ``set`` and each of its ``cases`` of the parsed file ``f`` as
     ``analyze`` builds them (``hybridsim check``; not part of :func:`check`, which sweeps and tune
     searches call once per value)."""
     from hybridsim.errors import InputError, LoaderError
     from hybridsim.format.overrides import overrides_from
+    from hybridsim.format.values import _references as references
 
     if not f.data.get("analysis") or f.path is None:
         return
@@ -225,7 +238,16 @@ def check_analysis_branches(f):
             continue
         try:
             with overrides_from("the analysis section's"):
-                build(load(f.path, **{**f.overrides, **ov}), check_only=True)
+                g = again(f)  # the user's overrides, then the branch's over them
+                left = references({k: v for k, v in g.data.items() if k != "params"})
+                for k in ov:
+                    said = (f"{f.path}: analysis {key} {name}".rstrip() + f": {k!r} changes nothing here: the "
+                            f"overrides given set every value that uses ${k}")
+                    if k in g.replaced_uses and k not in left and said not in _SAID:
+                        _SAID.add(said)  # once: analyze and report check the branches for each case they run
+                        logging.getLogger("hybridsim").warning("%s", said)
+                g.apply(ov)
+                build(g, check_only=True)
         except InputError as exc:
             where = cfg.get("_locs", {}).get(key, f.path)
             if key in ("cases", "compare"):

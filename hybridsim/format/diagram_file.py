@@ -88,6 +88,8 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
                 raise LoaderError(f"parameter {k!r} refers to ${refs[0]}: a parameter's value is a number, list "
                                   "or word, not another parameter (give its value)", at, self.params.lines.get(k))
         self.overrides = {}  # every override applied, as given (a copy of the file is parsed with them)
+        self.layers = []  # the same, one mapping per apply: replayed in turn (a later one may set what
+        # an earlier one replaced, as an analysis case over the user's --set)
         self.replaced_uses = set()  # parameters whose uses an override replaced (the file as written uses them)
         self.origin = ORIGIN.get()  # what messages call their source ("--set", a sweep's)
         self.apply(overrides or {})

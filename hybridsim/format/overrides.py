@@ -57,6 +57,8 @@ class OverridesMixin:
         passes its file's parameters on whether or not a user set the values
         that use them).
         """
+        if overrides:
+            self.layers.append(dict(overrides))
         used = _references({k: v for k, v in self.data.items() if k != "params"})
         replaced = {}  # parameter -> the overrides that replaced a value using it
         for key, value in overrides.items():

@@ -60,8 +60,6 @@ def write_analysis(source, outdir=None, at=None, **overrides):
         :func:`hybridsim.analysis.stability.analyze`'s results (``_objects`` holds the
         python-control closed loop and loop transfers; the file has the rest).
     """
-    if isinstance(source, DiagramFile):
-        source, overrides = source.path, {**source.overrides, **overrides}
     if outdir:
         check_output_dir(outdir)
     res = an.analyze(source, at=at, **overrides)
@@ -72,20 +70,21 @@ def write_analysis(source, outdir=None, at=None, **overrides):
     return res
 
 
-def _analyse(path, at, overrides, cfg, f):
-    """The report's data and the models and loops its figures draw."""
+def _analyse(at, cfg, f):
+    """The report's data and the models and loops its figures draw (``f``: the diagram with the
+    user's overrides; each variant and comparison over them)."""
     variants = f.variants()
     compare = {"as printed": {}}
     compare.update(cfg.get("compare") or {})
     data = {"diagram": f.name, "description": f.description, "configurations": []}
     models, loops, known, full = [], [], {}, None
-    main_ov = {**overrides, **variants[0][1]}
+    main_ov = dict(variants[0][1])
     for cname, cov in compare.items():
         for vlabel, vov in variants:
             label = " ".join(x for x in (cname, vlabel) if x)
-            ov = {**overrides, **vov, **cov}
+            ov = {**vov, **cov}
             main = full is None and ov == main_ov  # the main configuration: with its sweeps, once
-            res = an.analyze(path, at=at, sweeps=main, **ov)
+            res = an.analyze(f, at=at, sweeps=main, **ov)
             objs = res.pop("_objects")
             if main:
                 full = dict(res)
@@ -102,7 +101,7 @@ def _analyse(path, at, overrides, cfg, f):
                    for m in ("gain_margin_db", "phase_margin_deg")},
                 "poles": res["poles"][:8]})
     if full is None:
-        full = an.analyze(path, at=at, **main_ov)
+        full = an.analyze(f, at=at, **main_ov)
         full.pop("_objects")
     data["analysis"] = full
     return data, models, loops, known, main_ov
@@ -136,9 +135,7 @@ def write_report(path, outdir=None, at=None, **overrides):
     """
     from hybridsim.report.stability_figures import bode, pole_map, root_locus, step_figure, sweep_chart
 
-    if isinstance(path, DiagramFile):
-        path, overrides = path.path, {**path.overrides, **overrides}
-    f = load(path, **overrides)
+    f = load(path, **overrides)  # a DiagramFile's own overrides first, these over them
     outdir, _ = output_dir(outdir, Path("out") / f"{safe_name(f.name)}_report")
     cfg = an.settings_of(f)
     figs = ["diagram", "poles"] + [f"bode_{p}" for p in cfg["points"]] + \
@@ -146,12 +143,12 @@ def write_report(path, outdir=None, at=None, **overrides):
     check_planned(outdir, ["analysis.json", "report.html"] + [f"{n}.{e}" for n in figs for e in ("png", "svg")])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        data, models, loops, known, main_ov = _analyse(path, at, overrides, cfg, f)
+        data, models, loops, known, main_ov = _analyse(at, cfg, f)
     full = data["analysis"]
     base = {**cfg["set"], **main_ov}
     figures = {}
     with atomic_dir(outdir) as tmp:
-        system = build(path, **main_ov)[0]
+        system = build(f, **main_ov)[0]
         _save(draw_diagram(system, f.description or f.name), "diagram", tmp, figures)
         for point in cfg["points"]:
             mine = [(lab.rsplit(": ", 1)[0], L) for lab, L in loops if lab.endswith(f": {point}")]
@@ -164,7 +161,7 @@ def write_report(path, outdir=None, at=None, **overrides):
         if first_gain:
             _, ref = first_gain
             value = an.param_value(f, ref)
-            _save(root_locus(path, base, ref, value, np.logspace(-2, 1.5, 36)), "root_locus", tmp, figures)
+            _save(root_locus(f, base, ref, value, np.logspace(-2, 1.5, 36)), "root_locus", tmp, figures)
         if full.get("rates"):
             _save(sweep_chart([("as printed", full["rates"])], "rate_hz", "servo rate (Hz)"),
                   "stability_vs_rate", tmp, figures)
@@ -172,7 +169,7 @@ def write_report(path, outdir=None, at=None, **overrides):
             _save(sweep_chart([(g, d["sweep"]) for g, d in full["gains"].items()], "scale",
                               "gain scale (1 = as given)"), "stability_vs_gain", tmp, figures)
         try:
-            fig, step = step_figure(path, base, cfg)
+            fig, step = step_figure(f, base, cfg)
         except LinearizationError:
             fig, step = None, None
         if fig is not None:

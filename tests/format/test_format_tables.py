@@ -390,3 +390,17 @@ def test_an_empty_setting_is_refused_unless_it_undoes_a_base_value(tmp_path, cap
     child = tmp_path / "child.yaml"
     child.write_text("extends: base.yaml\nsimulation: {step: null}\n")  # the base's 1 ms undone: 0.1 ms
     assert hs.simulate(child).meta["solver"] == "RK4(step=0.0001)"
+
+
+def test_a_users_override_that_makes_an_analysis_case_idle_is_a_warning(tmp_path, capsys, caplog):
+    # check and analyze refused '--set g.K=3' (which run takes) because the compare case sets $k, whose
+    # only use that override replaces: "changes nothing ... give one of them", as though the user gave both
+    from hybridsim.app.cli import main
+
+    p = tmp_path / "a.yaml"
+    p.write_text("params: {k: 2.0}\nblocks:\n  c: {type: constant, value: 1.0}\n  g: {type: gain, K: $k}\n"
+                 "wires: [c.y -> g.u]\nsimulation: {t_end: 0.01}\nanalysis:\n  compare:\n    soft: {k: 1.0}\n")
+    assert main(["check", str(p), "--set", "g.K=3"]) == 0
+    assert "analysis compare soft: 'k' changes nothing here" in caplog.text
+    assert main(["check", str(p), "--set", "k=3", "--set", "g.K=3"]) == 2  # both given by the user
+    assert "changes nothing: every value that uses $k is set too" in capsys.readouterr().err
