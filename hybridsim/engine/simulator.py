@@ -381,7 +381,7 @@ class Session:
         # steps in batches: a fixed-step method between checks; a solver that returns its own points
         batch = (not variable and not located and not timed) or getattr(sim.solver, "returns_points", False)
         self.lim = limits(sim.max_state, scan=getattr(sim.solver, "scan", 1e-3), stepped=stepped, timed=timed,
-                          batch=batch and not stepped, max_repeats=_events.MAX_REPEATS if variable else 0,
+                          batch=batch and not stepped, max_repeats=_events.MAX_REPEATS if variable or located else 0,
                           crawl=variable and not getattr(sim.solver, "returns_points", False))
         self._run = sim._compiled.run if sim._compiled is not None else stepping.run
 

@@ -407,3 +407,37 @@ def test_a_crossing_a_hair_after_a_switch_is_acted_on_once(tmp_path, solver, pat
     r = hs.simulate(f, solver=solver, **path)
     assert r["hit.count"][-1, 0] == 1.0
     assert [names for _, names in r.meta["events"]] == [("pul",), ("hit", "pul")]
+
+
+PID_AT_LIMIT = """blocks:
+  r: {type: table, times: [0.0, 1.0, 1.0, 2.0], values: [1.0, 1.0, -1.0, -1.0]}
+  y: {type: constant, value: 0.0}
+  p: {type: pid, Kp: 0.5, Ki: 2.0, upper: 1.5, lower: -10.0}
+wires: [r.y -> p.r, y.y -> p.y]
+simulation: {t_end: 2.0, solver: SOLVER, step: 1.0e-3, log_period: 0.05, locate_switches: true}
+log: [p.u]
+"""
+
+
+@pytest.mark.parametrize("solver,fused", [("heun", False), ("heun", True), ("rk4", True)])
+def test_a_switch_sitting_on_its_surface_at_a_jump_does_not_hang_a_located_fixed_step_run(tmp_path, solver, fused):
+    # a PID held at its limit (its function at +4e-16) when the setpoint jumps inside a step: the bent
+    # dense output put a crossing 8e-10 s after each restart, a million events to cross one step (heun
+    # ran for minutes); a switch located more than 20 times between two hits is stepped over, as on
+    # the variable-step solvers
+    import signal
+
+    def hang(signum, frame):
+        raise TimeoutError("the run hangs")
+
+    path = tmp_path / "d.yaml"
+    path.write_text(PID_AT_LIMIT.replace("SOLVER", solver))
+    old = signal.signal(signal.SIGALRM, hang)
+    signal.alarm(60)
+    try:
+        res = hs.simulate(path, fused=fused)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    assert len(res.meta["events"]) < 50
+    assert res["p.u"][-1, 0] == pytest.approx(-1.5, abs=2e-3)  # u = Kp e + I, I from 1 (held) down at Ki e
