@@ -14,7 +14,7 @@ import os
 from pathlib import Path
 
 from hybridsim.errors import InputError, OutputError
-from hybridsim.files import atomic_file, note_written, written_by_hybridsim
+from hybridsim.files import atomic_file, note_written
 
 
 class Store:
@@ -44,7 +44,7 @@ class Store:
         folder = Path(folder)
         self.path, self.what = folder / name, what
         manifest = folder / manifest
-        for f in (self.path, manifest, self.path.with_name(name + ".old")):  # before anything is renamed
+        for f in (self.path, manifest):  # before anything is renamed
             if f.is_symlink() or (f.exists() and not f.is_file()):
                 raise OutputError(f"{str(f)!r} is {'a symbolic link' if f.is_symlink() else 'not a file'}; "
                                   "hybridsim does not write through it: move it away (nothing was written)")
@@ -59,7 +59,7 @@ class Store:
             if not restart:
                 raise InputError(f"{folder} holds points of a different {what} ({why}); they would not match "
                                  f"this one. Use another output folder (-o), or --force to start afresh (the old "
-                                 f"points are kept as {name}.old)")
+                                 f"points are kept as {_aside(self.path).name})")
             self._set_aside(name)
         if old != identity:  # a manifest it read as one is hybridsim's, wherever it was written (a copied folder)
             with atomic_file(manifest, known=isinstance(old, str) and old != "unreadable") as fh:
@@ -72,7 +72,7 @@ class Store:
                 if not restart:
                     raise InputError(f"{self.path} is not a file of points hybridsim wrote (not UTF-8 text); use "
                                      f"another output folder (-o), or --force to start afresh (it is kept as "
-                                     f"{name}.old)") from None
+                                     f"{_aside(self.path).name})") from None
                 self._set_aside(name)
                 text = ""
             for line in text.splitlines():
@@ -83,11 +83,9 @@ class Store:
                     continue  # a line cut by a crash (or of an older layout): that point runs again
 
     def _set_aside(self, name):
-        """Rename the points file to ``NAME.old`` (--force), unless a file hybridsim did not write is there."""
-        old = self.path.with_name(name + ".old")
-        if old.exists() and not written_by_hybridsim(old):
-            raise OutputError(f"{str(old)!r} exists and hybridsim did not write it; move it away to start "
-                              "afresh (nothing was changed)")
+        """Rename the points file to the first free ``NAME.old``, ``NAME.old.1``, ... (--force): every
+        earlier generation is kept."""
+        old = _aside(self.path)
         os.replace(self.path, old)
         note_written(old)
 
@@ -126,3 +124,13 @@ def _jsonable(v):
     if isinstance(v, np.ndarray):
         return v.tolist()
     return str(v)
+
+
+def _aside(path):
+    """The first of ``NAME.old``, ``NAME.old.1``, ... beside ``path`` that names nothing."""
+    k = 0
+    while True:
+        old = path.with_name(path.name + (".old" if k == 0 else f".old.{k}"))
+        if not (old.exists() or old.is_symlink()):
+            return old
+        k += 1

@@ -116,6 +116,11 @@ def test_a_store_never_writes_through_a_link_nor_renames_before_it_knows(tmp_pat
     (out / linked).unlink()
     (out / linked).symlink_to(mine)
     before = sorted(p.name for p in out.iterdir())
+    if linked == "points.jsonl.old":  # never written: the points set aside go to the next free name
+        Store(out, "id2", "points.jsonl", "m.json", "sweep", "it changed", restart=True)
+        assert (out / linked).is_symlink() and (out / "points.jsonl.old.1").read_text().count("\n") == 1
+        assert mine.read_text() == "user data\n"
+        return
     for restart in (False, True):
         with pytest.raises(OutputError, match="is a symbolic link; hybridsim does not write through it"):
             Store(out, "id2" if restart else "id1", "points.jsonl", "m.json", "sweep", "it changed", restart=restart)

@@ -245,17 +245,18 @@ def test_a_points_file_that_is_not_text_is_refused_then_set_aside_with_force(tmp
         Store(tmp_path, "id", "points.jsonl", "m.json", "sweep", "?")
     assert len(Store(tmp_path, "id", "points.jsonl", "m.json", "sweep", "?", restart=True).done) == 0
     assert (tmp_path / "points.jsonl.old").read_bytes() == b"\xff\xfe\x00"
-    # --force replaced a points.jsonl.old of the user's: refused now; its own .old it replaces
+    # a second --force replaced the first's .old (the points of two runs ago were lost); a user's .old
+    # was refused: each generation goes to the first free name now, and nothing is replaced
     (tmp_path / "points.jsonl").write_bytes(b"\xff")
     (tmp_path / "points.jsonl.old").write_text("my notes")
-    with pytest.raises(InputError, match="points.jsonl.old' exists and hybridsim did not write it"):
-        Store(tmp_path, "id", "points.jsonl", "m.json", "sweep", "?", restart=True)
-    assert (tmp_path / "points.jsonl.old").read_text() == "my notes"
-    (tmp_path / "points.jsonl.old").unlink()
+    with pytest.raises(InputError, match=r"kept as points.jsonl.old.1\)"):
+        Store(tmp_path, "id", "points.jsonl", "m.json", "sweep", "?")
     Store(tmp_path, "id", "points.jsonl", "m.json", "sweep", "?", restart=True)
     (tmp_path / "points.jsonl").write_bytes(b"\xfe")
     Store(tmp_path, "id", "points.jsonl", "m.json", "sweep", "?", restart=True)
-    assert (tmp_path / "points.jsonl.old").read_bytes() == b"\xfe"
+    assert (tmp_path / "points.jsonl.old").read_text() == "my notes"
+    assert (tmp_path / "points.jsonl.old.1").read_bytes() == b"\xff"
+    assert (tmp_path / "points.jsonl.old.2").read_bytes() == b"\xfe"
 
 
 def test_a_missing_diagram_is_named_at_its_line_of_the_sweep_file(tmp_path):
