@@ -48,12 +48,13 @@ class Store:
             if f.is_symlink() or (f.exists() and not f.is_file()):
                 raise OutputError(f"{str(f)!r} is {'a symbolic link' if f.is_symlink() else 'not a file'}; "
                                   "hybridsim does not write through it: move it away (nothing was written)")
-        old = None
+        old, said = None, {}
         if manifest.exists():
             try:
-                old = json.loads(manifest.read_text()).get("fingerprint")
+                said = json.loads(manifest.read_text())
+                old = said.get("fingerprint")
             except (OSError, ValueError, AttributeError):
-                old = "unreadable"
+                old, said = "unreadable", {}
         if self.path.exists() and self.path.stat().st_size and old != identity:
             why = f"no {manifest.name} says which {what} they belong to" if old is None else changed
             if not restart:
@@ -61,7 +62,8 @@ class Store:
                                  f"this one. Use another output folder (-o), or --force to start afresh (the old "
                                  f"points are kept as {_aside(self.path).name})")
             self._set_aside(name)
-        if old != identity:  # a manifest it read as one is hybridsim's, wherever it was written (a copied folder)
+        now = json.loads(json.dumps({"fingerprint": identity, **(about or {})}, default=str))
+        if old != identity or said != now:  # (the job's file named anew); a manifest it read is hybridsim's
             with atomic_file(manifest, known=isinstance(old, str) and old != "unreadable") as fh:
                 json.dump({"fingerprint": identity, **(about or {})}, fh, indent=1, default=str)
         self.done = {}

@@ -37,7 +37,7 @@ import numpy as np
 
 from hybridsim import limits
 from hybridsim.errors import HybridsimError, InputError, LoaderError
-from hybridsim.files import check_planned, locked_output_dir, unique_names
+from hybridsim.files import check_planned, locked_output_dir, unique_names, written_by_hybridsim
 from hybridsim.format import parse_file
 from hybridsim.format.filekinds import refuse_kind
 from hybridsim.format.yamlio import as_path, key_line, not_a_file
@@ -361,4 +361,7 @@ def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False,
         table = [r for rows in done for r in rows]
         write_table(table, outdir)
         heatmaps(table, sw.axes(), outdir)
+        stale = outdir / "heatmap.png"  # an earlier sweep's of two axes, in a folder this one of one reuses
+        if "heatmap.png" not in table_files(sw.axes()) and stale.is_file() and written_by_hybridsim(stale):
+            stale.unlink()
     return table

@@ -488,3 +488,20 @@ def test_a_mistake_in_set_is_named_before_a_sweep_without_points(tmp_path):
     p.write_text(f"diagram: {DIAGRAMS / 'examples' / 'msd_pid.yaml'}\nset: {{simulation.t_end: 1}}\n")
     with pytest.raises(InputError, match="the sweep has no points"):
         sw.Sweep(p).points()
+
+
+@pytest.mark.slow
+def test_a_one_axis_sweep_into_a_two_axis_sweeps_folder_leaves_no_stale_heat_map(tmp_path, capsys):
+    # the 2-D sweep's heatmap.png stayed, listed as written by the 1-D one; the manifest named the first
+    fig7 = DIAGRAMS / "fig7_force_steps.yaml"
+    two, one = tmp_path / "two.yaml", tmp_path / "one.yaml"
+    head = f"diagram: {fig7}\nset: {{force: 5.0, rate: 60, simulation.t_end: 0.6}}\n"
+    two.write_text(head + "scale: {ctrl.fpi.Kp: [1.0, 2.0], ctrl.fpi.Ki: [1.0, 2.0]}\n")
+    one.write_text(head + "scale: {ctrl.fpi.Kp: [1.0, 3.0]}\n")
+    out = tmp_path / "o"
+    assert main(["sweep", str(two), "-o", str(out), "-j", "1", "-q"]) == 0
+    assert (out / "heatmap.png").exists()
+    capsys.readouterr()
+    assert main(["sweep", str(one), "-o", str(out), "-j", "1", "-q"]) == 0
+    assert not (out / "heatmap.png").exists() and "heatmap" not in capsys.readouterr().out
+    assert json.loads((out / "sweep-manifest.json").read_text())["sweep"] == str(one)
