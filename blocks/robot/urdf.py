@@ -111,8 +111,49 @@ def _load(path, mtime):
     return model
 
 
+#: the numeric attributes urdfdom reads, by element: how many numbers each holds
+NUMBERS = {
+    "mass": {"value": 1}, "inertia": dict.fromkeys(("ixx", "ixy", "ixz", "iyy", "iyz", "izz"), 1),
+    "origin": {"xyz": 3, "rpy": 3}, "axis": {"xyz": 3},
+    "limit": dict.fromkeys(("lower", "upper", "effort", "velocity"), 1), "dynamics": {"damping": 1, "friction": 1},
+    "mimic": {"multiplier": 1, "offset": 1}, "box": {"size": 3}, "cylinder": {"radius": 1, "length": 1},
+    "sphere": {"radius": 1}, "mesh": {"scale": 3},
+    "safety_controller": dict.fromkeys(("soft_lower_limit", "soft_upper_limit", "k_position", "k_velocity"), 1),
+}
+
+
+def _check_numbers(path):
+    """ParameterError at the line of the first numeric attribute that is not its count of numbers
+    (urdfdom reads ``2.O`` as a mass of 0 and goes on, saying so only on stderr)."""
+    from xml.parsers import expat
+
+    bad = []
+    parser = expat.ParserCreate()
+
+    def start(tag, attrs):
+        for key, n in NUMBERS.get(tag, {}).items():
+            if key in attrs and not bad:
+                words = attrs[key].split()
+                try:
+                    ok = len(words) == n and all(np.isfinite(float(w)) for w in words)
+                except ValueError:
+                    ok = False
+                if not ok:
+                    bad.append((parser.CurrentLineNumber, tag, key, attrs[key], n))
+
+    parser.StartElementHandler = start
+    with open(path, "rb") as fh:
+        parser.ParseFile(fh)
+    if bad:
+        line, tag, key, value, n = bad[0]
+        what = "a number" if n == 1 else f"{n} numbers"
+        raise ParameterError("urdf", f"{str(path)}:{line}: <{tag}> {key}={value!r} is not {what}")
+
+
 def _check_urdf(tree, path):
-    """Refuse what Pinocchio takes but cannot simulate: a moving joint's zero axis, a negative mass."""
+    """Refuse what Pinocchio takes but cannot simulate: a number it cannot read, a moving joint's zero
+    axis, a negative mass."""
+    _check_numbers(path)
     for j in tree.iter("joint"):
         axis = j.find("axis")
         if j.get("type") in ("revolute", "continuous", "prismatic") and axis is not None:

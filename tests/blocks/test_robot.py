@@ -1,4 +1,6 @@
 """URDF arms by Pinocchio: dynamics against a hand derivation, kinematics against finite differences."""
+import re
+
 import numpy as np
 import pytest
 
@@ -133,6 +135,14 @@ def test_a_file_that_is_not_a_robot_is_a_parameter_error(tmp_path):
                       (SLIDER.replace('mass value="1.0"', 'mass value="-2.0"'), "link 'puck' has a negative mass")):
         bad.write_text(text)
         with pytest.raises(ParameterError, match=why):
+            RobotKinematics(urdf=str(bad), frame="puck")
+    # urdfdom read a mass of '2.O' as 0 kg and went on (its complaint on stderr only): a gravity torque
+    # of a lighter arm, exit 0
+    for old, new, says in (('mass value="1.0"', 'mass value="1.O"', "<mass> value='1.O' is not a number"),
+                           ('axis xyz="0 0 1"', 'axis xyz="0 1"', "<axis> xyz='0 1' is not 3 numbers")):
+        bad.write_text(SLIDER.replace(old, new))
+        at = SLIDER[:SLIDER.index(old)].count("\n") + 1
+        with pytest.raises(ParameterError, match=f"bad.urdf:{at}: {re.escape(says)}"):
             RobotKinematics(urdf=str(bad), frame="puck")
     assert urdf_path(robot="ur5").name == "ur5_robot.urdf"
 
