@@ -103,6 +103,7 @@ class HybridControl6D(Block):
         n, g = self.n, self.gains
         p, R, tw, J, F, Xd, Xdd, Fd, _, C, tff = (np.asarray(v, float) for v in u)
         RC, o = C[3:].reshape(3, 3), C[:3]
+        tk.check_rotation(RC, t)
         R = R.reshape(3, 3)
         dX = np.concatenate([Xd[:3] - RC.T @ (p - o), rotation_vector(rotation(Xd[3:]) @ (RC.T @ R).T)])  # eq 12
         dXd = Xdd - _rot6(RC.T, tw)

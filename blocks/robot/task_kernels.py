@@ -23,7 +23,30 @@ class SingularJacobian(SimulationError):
                          f"t = {t:.6g} s (condition number above 1e8): give dls_damping > 0 or avoid that pose")
 
 
+class NotARotation(SimulationError):
+    """A task frame's rotation (``hybrid_control_6d``'s input ``C``) that is not one, at time ``t`` (s)."""
+
+    def __init__(self, t):
+        super().__init__(f"hybrid_control_6d's input C at t = {t:.6g} s: its rotation (elements 3..11, row by "
+                         "row) is not a rotation matrix (R^T R differs from I by more than 1e-6, or det R < 0)")
+
+
 # -- rotations and the task inverse ---------------------------------------------------------
+@kernel
+def check_rotation(R, t):
+    """Raise :class:`NotARotation` unless the 3x3 ``R`` is a rotation to 1e-6 (orthonormal, det +1)."""
+    worst = 0.0
+    for i in range(3):
+        for j in range(3):
+            d = R[0, i] * R[0, j] + R[1, i] * R[1, j] + R[2, i] * R[2, j] - (1.0 if i == j else 0.0)
+            worst = max(worst, abs(d))
+    det = (R[0, 0] * (R[1, 1] * R[2, 2] - R[1, 2] * R[2, 1]) - R[0, 1] * (R[1, 0] * R[2, 2] - R[1, 2] * R[2, 0])
+           + R[0, 2] * (R[1, 0] * R[2, 1] - R[1, 1] * R[2, 0]))
+    if not (worst <= 1e-6 and det > 0.0):
+        raise NotARotation(t)
+
+
+
 @kernel
 def exp3(w):
     """The rotation matrix of the rotation vector ``w`` (rad): Rodrigues' formula."""
@@ -122,6 +145,7 @@ def hybrid_law(p, t, z, u, S):
     n, rows = p.n, p.rows
     pos, C = u[0], u[9]
     RCt = matrix3(C, 3).T.copy()
+    check_rotation(RCt, t)
     d = np.array([pos[0] - C[0], pos[1] - C[1], pos[2] - C[2]])
     Xd, Xdd, Fd = np.asarray(u[5]), np.asarray(u[6]), np.asarray(u[7])
     dX = np.empty(6)  # eq 12

@@ -213,3 +213,21 @@ def test_a_moving_task_frame_given_as_an_input_equals_the_same_frame_fixed():
     assert np.abs(turned - b[0]).max() > 1.0  # the frame matters
     np.testing.assert_allclose(a[0], b[0], rtol=0, atol=1e-12)
     np.testing.assert_allclose(b[1][:2], [1.0, -3.0], atol=1e-12)  # F in {C}: base (3, 1) turned by -90 deg
+
+
+def test_a_task_frame_input_that_is_not_a_rotation_is_a_runtime_error_on_every_path():
+    # C with twice a rotation (or a mirror) ran, exit 0: forces of +-6000 N where 10 N were asked
+    from hybridsim.blocks.robot import task_kernels as tk
+
+    hyb = HybridControl6D(rate=100, joints=2, axes=[1, 1, 0, 0, 0, 0], Kpp=1.0)
+    u = _tick_inputs(np.array([0.3, 0.4]), [0, 0], [0.1, 0.1], [0, 0], [0, 0], [0, 0])
+    R = rotation([0, 0, 0.3])
+    for bad in (2.0 * R, R @ np.diag([1.0, 1.0, -1.0])):
+        v = u[:9] + [np.concatenate([np.zeros(3), bad.ravel()])] + u[10:]
+        with pytest.raises(SimulationError, match=r"input C at t = 0.25 s: its rotation .* is not a rotation matrix"):
+            hyb.output(0.25, hyb.initial_state(), v)
+        with pytest.raises(SimulationError, match="is not a rotation matrix"):
+            tk.hybrid_output(hyb.params, 0.25, hyb.initial_state(), tuple(v))
+    good = u[:9] + [np.concatenate([np.zeros(3), R.ravel()])] + u[10:]
+    np.testing.assert_allclose(hyb.output(0.25, hyb.initial_state(), good)[0],
+                               tk.hybrid_output(hyb.params, 0.25, hyb.initial_state(), tuple(good))[0], atol=1e-12)
