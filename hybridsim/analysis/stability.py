@@ -17,6 +17,8 @@ settings to the section and results computed from the plant
 (:mod:`hybridsim.analysis.extras`).
 """
 
+import logging
+
 import numpy as np
 
 from hybridsim.errors import InputError
@@ -219,6 +221,11 @@ def analyze(path, at=None, sweeps=True, **overrides):
         cfg = settings_of(f)
         exp = Experiment(path, **{**cfg["set"], **overrides})
     at = cfg["at"] if at is None else at
+    if at:  # each rate and gain point runs the diagram to it first
+        t_end = float(exp.settings["simulation"]["t_end"])
+        logging.getLogger("hybridsim").info("linearizing about the state at t = %g s%s: every rate and gain point "
+                                            "runs the diagram that far first", at,
+                                            f" (past the diagram's t_end, {t_end:g} s)" if at > t_end else "")
     cl = exp.closed_loop(at=at)
     lin = exp.linearization(at=at)  # the one closed_loop used (this experiment unchanged)
     if cl is None:
@@ -227,6 +234,7 @@ def analyze(path, at=None, sweeps=True, **overrides):
     out = {
         "diagram": f.name,
         "branch": cfg["set"],
+        "at": float(at) if at else None,
         "domain": cl.domain,
         "growth_label": cl.growth_label,
         "period_s": cl.period,
@@ -279,7 +287,8 @@ def summary_lines(res):
     at_one = "z = 1" if sampled else "s = 0"
     head = (f"closed loop at period {res['period_s'] * 1000:.3f} ms" if sampled
             else "continuous closed loop (nothing is sampled)")
-    lines = [f"{res['diagram']}: {head} (branch {res['branch'] or 'as built'})",
+    about = f"; about the state at t = {res['at']:g} s" if res.get("at") else ""
+    lines = [f"{res['diagram']}: {head} (branch {res['branch'] or 'as built'}{about})",
              f"  {g} {res['growth']:{'.4f' if sampled else '.4g'}}"
              + (f" (besides {res['integrator_modes']} undriven integrator pole(s) at {at_one})"
                 if res["integrator_modes"] else "")

@@ -655,3 +655,17 @@ def test_a_loop_point_nothing_comes_back_to_is_said_so(tmp_path):
 
     said = "\n".join(summary_lines(res))
     assert "loop src (r.y[0]): opened here nothing comes back (L = 0)" in said and "loop u (C.y[0]): gain margin" in said
+
+
+def test_an_analysis_about_a_later_state_says_which_in_its_header(caplog):
+    # --at 10 printed the header of the initial state's analysis, and nothing for the minutes it ran
+    import logging
+
+    from hybridsim.analysis.stability import summary_lines
+    from conftest import DIAGRAMS
+
+    with caplog.at_level(logging.INFO, logger="hybridsim"):
+        res = hs.analyze(DIAGRAMS / "examples" / "msd_pid.yaml", at=3.5, sweeps=False)
+    assert res["at"] == 3.5 and "about the state at t = 3.5 s)" in summary_lines(res)[0]
+    assert "at t = 3.5 s (past the diagram's t_end, 3 s): every rate and gain point" in caplog.text
+    assert hs.analyze(DIAGRAMS / "examples" / "msd_pid.yaml", sweeps=False)["at"] is None
