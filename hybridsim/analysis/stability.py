@@ -221,12 +221,12 @@ def analyze(path, at=None, sweeps=True, **overrides):
         cfg = settings_of(f)
         exp = Experiment(path, **{**cfg["set"], **overrides})
     at = cfg["at"] if at is None else at
+    cl = exp.closed_loop(at=at)  # (checks at)
     if at:  # each rate and gain point runs the diagram to it first
         t_end = float(exp.settings["simulation"]["t_end"])
         logging.getLogger("hybridsim").info("linearizing about the state at t = %g s%s: every rate and gain point "
                                             "runs the diagram that far first", at,
                                             f" (past the diagram's t_end, {t_end:g} s)" if at > t_end else "")
-    cl = exp.closed_loop(at=at)
     lin = exp.linearization(at=at)  # the one closed_loop used (this experiment unchanged)
     if cl is None:
         cl = lin.closed_loop()  # raises the reason it cannot be linearized
