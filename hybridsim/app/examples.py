@@ -20,6 +20,8 @@ def run(args):
     written, kept = copy_examples(args.output)
     for f in kept:
         print(f"kept {f} (it exists; hybridsim does not replace it)")
-    print(f"wrote {len(written)} diagram file(s) into {args.output}/: try "
+    yaml = sum(Path(f).suffix.lower() in (".yaml", ".yml") for f in written)
+    other = f" and {len(written) - yaml} file(s) they read (robot models)" if len(written) > yaml else ""
+    print(f"wrote {yaml} diagram file(s){other} into {args.output}/: try "
           f"'hybridsim run {Path(args.output) / 'fig9_force_and_position.yaml'}'")
     return 0

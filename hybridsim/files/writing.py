@@ -60,6 +60,9 @@ def check_output_dir(path):
     """
     from hybridsim.errors import from_os_error
 
+    if not str(path):  # -o "": not the working folder
+        raise OutputError("the output folder is empty (-o ''): give a folder, or leave -o out for the default")
+
     path = Path(path)
     try:
         if path.exists() and not path.is_dir():
@@ -102,10 +105,14 @@ def check_output_dir(path):
 def check_output_file(path, formats=None):
     """Raise :class:`OutputError` unless file ``path`` can be written (and has a known suffix): a
     folder there, or a file hybridsim did not write, is never replaced."""
+    if not str(path):
+        raise OutputError("the output file is empty (-o ''): give a file name, or leave -o out for the default")
     path = Path(path)
     _refuse(path, folder=False)
     if formats is not None:
         fmt = path.suffix.lstrip(".").lower()
+        if not fmt and path.name[1:].lower() in formats:  # '-o .png': a name that is all suffix
+            raise OutputError(f"{str(path)!r} has no name before its suffix: give one, e.g. 'diagram{path.name}'")
         if fmt not in formats:
             raise OutputError(f"{str(path)!r}: unsupported file type {path.suffix or '(none)'!r}; "
                               f"use one of {', '.join('.' + f for f in formats)}")
@@ -296,6 +303,8 @@ def output_dir(outdir, default, whole=True):
     """
     if outdir is not None and not isinstance(outdir, (str, os.PathLike)):
         raise TypeError(f"an output folder is a path (str or pathlib.Path), got {outdir!r}")
+    if outdir is not None and not str(outdir):  # -o "" (an unset shell variable): not the default folder
+        raise OutputError("the output folder is empty (-o ''): give a folder, or leave -o out for the default")
     if outdir:
         return check_output_dir(Path(outdir)), False
     path = check_output_dir(Path(default))

@@ -155,7 +155,8 @@ def reproduce(outdir, jobs=None, progress=None, experiments=None, grid=GRID, bis
         dampings = [e["damped"]["damping"] for e in entries if "damped" in e]
         damping = dampings[0] if dampings else FAMILIES["joint"](16.0)
         report["stability"] = {"damping": damping, "rows": _stability(damping, ex)}
-        say("sensitivity runs")
+        if sensitivities:
+            say("sensitivity runs")
         report["sensitivities"] = _sensitivities(sensitivities, ex, extra)
         if hinges:
             report["hinges"] = hinge_analysis(ex, extra, experiments=[e[0] for e in chosen],

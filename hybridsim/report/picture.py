@@ -233,7 +233,7 @@ def write_picture(path_or_file, output=None, expand=False, **overrides):
         overrides = {**(getattr(f, "overrides", None) or {}), **overrides}
     elif not sub:
         f = load(path_or_file, **overrides)
-    if output:
+    if output is not None:
         out, note = check_output_file(output, image_formats()), None
     else:  # the default name: a file hybridsim did not write is kept, the next free name taken
         out, note = default_output_file(f"{safe_name(f.name)}.png")

@@ -60,10 +60,10 @@ def write_analysis(source, outdir=None, at=None, **overrides):
         :func:`hybridsim.analysis.stability.analyze`'s results (``_objects`` holds the
         python-control closed loop and loop transfers; the file has the rest).
     """
-    if outdir:
+    if outdir is not None:
         check_output_dir(outdir)
     res = an.analyze(source, at=at, **overrides)
-    if outdir:
+    if outdir is not None:
         with atomic_file(Path(outdir) / "analysis.json") as fh:
             fh.write(json.dumps({k: v for k, v in res.items() if k != "_objects"}, indent=2,
                                 default=json_default) + "\n")

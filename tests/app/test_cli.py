@@ -184,6 +184,7 @@ def test_examples_copies_the_shipped_diagrams_and_keeps_a_users_files(tmp_path, 
     text = capsys.readouterr().out
     assert (out / "fig7_force_steps.yaml").read_text() == "my own\n"  # never replaced
     assert "kept" in text and (out / "subsystems" / "fig6_controller.yaml").is_file()
+    assert "diagram file(s) and 1 file(s) they read (robot models)" in text  # the .urdf was a diagram
     assert main(["check", str(out / "fig9_force_and_position.yaml")]) == 0  # the copy finds its subsystem
     # a link pointing nowhere was replaced by a copy; a file where a subfolder goes: exit 5, half written
     other = tmp_path / "other"
@@ -236,3 +237,18 @@ def test_an_output_file_the_user_wrote_is_never_replaced(tmp_path, capsys, argv,
     if name != "plant.fmu":  # what hybridsim wrote there it replaces
         mine.unlink()
         assert main(argv + [str(mine)]) == 0 and main(argv + [str(mine)]) == 0
+
+
+def test_an_empty_or_nameless_output_is_refused(tmp_path, capsys, monkeypatch):
+    # -o "" (an unset shell variable) wrote to the default folder or file, exit 0; -o .png said the
+    # file type was '(none)'
+    from conftest import DIAGRAMS
+
+    monkeypatch.chdir(tmp_path)
+    msd = str(DIAGRAMS / "examples" / "msd_pid.yaml")
+    for cmd in (["run", msd, "-q"], ["draw", msd], ["analyze", msd], ["sweep", str(tmp_path / "s.yaml")]):
+        assert main(cmd + ["-o", ""]) == 2, cmd
+        assert "is empty (-o '')" in capsys.readouterr().err
+    assert main(["draw", msd, "-o", ".png"]) == 2
+    assert "'.png' has no name before its suffix" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []

@@ -66,6 +66,7 @@ def test_the_wheel_runs_the_shipped_diagrams_from_any_folder(installed):
     r = run(installed, "reproduce", "--quick", "-o", "rq")
     assert r.returncode == 0, r.stderr
     assert (installed[1] / "rq" / "reproduce.html").is_file() and "272.5 Hz" in r.stdout
+    assert "sensitivity runs" not in r.stderr  # --quick runs none; it said it did
     r = run(installed, "examples", "-o", "mine")
     assert r.returncode == 0, r.stderr
     assert (installed[1] / "mine" / "subsystems" / "fig6_controller.yaml").is_file()
