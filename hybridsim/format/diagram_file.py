@@ -74,6 +74,9 @@ class DiagramFile(OverridesMixin, ExpandMixin, SettingsMixin):
             if s.key in data and data[s.key] is None and s.key == "blocks":
                 raise LoaderError("section 'blocks' must be a mapping", key_file(data, s.key, self.path),
                                   data.lines[s.key])
+            if getattr(s.kind, "nonempty", False) and s.key in data and not data[s.key]:  # blocks: {}
+                raise LoaderError(f"section {s.key!r} is empty; it holds {s.doc}, at least one", key_file(data, s.key, self.path),
+                                  data.lines[s.key])
         self.name = str(data.get("name", self.path.stem))
         self.description = str(data.get("description", ""))
         self.params = _Dict(data.get("params") or {})

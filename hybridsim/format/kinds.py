@@ -204,13 +204,15 @@ class Either(Kind):
 class MapOf(Kind):
     """A mapping from names (or parameter paths, ``keys``) to ``value`` values."""
 
-    def __init__(self, value=None, keys=None, what="name"):
-        self.value, self.keys = value or Kind(), keys
-        self.text = f"a mapping {{{what}: {self.value.text}}}"
+    def __init__(self, value=None, keys=None, what="name", nonempty=False):
+        self.value, self.keys, self.nonempty = value or Kind(), keys, nonempty
+        self.text = f"a{' non-empty' if nonempty else ''} mapping {{{what}: {self.value.text}}}"
 
     def problem(self, v):
         if not isinstance(v, dict):
             return self._got(v)
+        if self.nonempty and not v:
+            return f"must be {self.text}, got an empty one"
         for k, x in v.items():
             if self.keys is not None:
                 why = self.keys.problem(k)
@@ -225,4 +227,5 @@ class MapOf(Kind):
 
     def schema(self):
         value = self.value.schema()
-        return {"type": "object", "additionalProperties": {"anyOf": [value, REF_SCHEMA]} if value else {}}
+        return {"type": "object", "additionalProperties": {"anyOf": [value, REF_SCHEMA]} if value else {},
+                **({"minProperties": 1} if self.nonempty else {})}

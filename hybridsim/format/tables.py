@@ -153,7 +153,7 @@ DIAGRAM = [
     Setting("name", Text(), None, "the diagram's name (default: the file's stem)"),
     Setting("description", Text(), "", "one line shown in figures and reports"),
     Setting("params", MapOf(), {}, "named values; '$name' anywhere below refers to one"),
-    Setting("blocks", MapOf(), None, "{name: {type: ..., parameter: value}}", required=True),
+    Setting("blocks", MapOf(nonempty=True), None, "{name: {type: ..., parameter: value}}", required=True),
     Setting("wires", ListOf(Kind(), min_len=0), [], "'a.out -> b.in' or [a.out, b.in]"),
     Setting("simulation", Record(SIMULATION, "simulation"), {}, "how a run is integrated and logged"),
     Setting("log", ListOf(Signal(), min_len=0), [], "signals logged"),

@@ -77,6 +77,9 @@ def test_missing_blocks_and_unknown_section(tmp_path):
         DiagramFile(write(tmp_path, "params: {}\n"))
     with pytest.raises(LoaderError, match=r"d\.yaml:1: unknown section 'paramz' \(did you mean 'params'"):
         DiagramFile(write(tmp_path, "paramz: {}\nblocks: {}\n"))
+    # blocks: {} passed check and run wrote an empty figure, exit 0
+    with pytest.raises(LoaderError, match=r"d\.yaml:2: section 'blocks' is empty; it holds \{name: "):
+        DiagramFile(write(tmp_path, "name: j\nblocks: {}\n"))
 
 
 def test_bad_solver_and_t_end(tmp_path):
