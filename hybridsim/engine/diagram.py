@@ -9,7 +9,7 @@
 ready-to-run form.
 """
 from hybridsim.engine.block import Block
-from hybridsim.errors import DiagramError
+from hybridsim.errors import DiagramError, InputError
 from hybridsim.engine.kernels import Kernels, kernel
 from hybridsim.engine.registry import closest
 
@@ -51,6 +51,11 @@ class Diagram:
 
     def add(self, block):
         """Add a block (its ``name`` must be unique); returns it."""
+        if not isinstance(block, Block):
+            raise InputError(f"Diagram.add takes a block (such as lookup('gain')('g', K=2.0)), got {block!r}")
+        if not isinstance(block.name, str) or not block.name.strip():
+            raise InputError(f"a block's name is a non-empty text, got {block.name!r} "
+                             f"({type(block).__name__})")
         if block.name in self.blocks:
             self.problems.append(f"two blocks are named {block.name!r}")
         else:

@@ -94,3 +94,16 @@ def test_a_name_in_the_wrong_case_suggests_itself():
     # 'N' for a random section's 'n' suggested nothing (one letter is too short for difflib)
     assert closest("N", ["n", "seed", "ranges"]) == " (did you mean 'n'?)"
     assert closest("Kp", ["kp", "Kp2"]) == " (did you mean 'kp'?)"
+
+
+def test_adding_what_is_not_a_named_block_is_refused():
+    # d.add("r") raised "'str' object has no attribute 'name'"; a block named None was built
+    from hybridsim.errors import InputError
+
+    d = Diagram("x")
+    with pytest.raises(InputError, match="Diagram.add takes a block"):
+        d.add("r")
+    for name in (None, "", "  "):
+        with pytest.raises(InputError, match="a block's name is a non-empty text"):
+            d.add(Constant(name, 1.0))
+    assert d.add(Constant("c", 1.0)).name == "c"
