@@ -7,6 +7,7 @@ when asked), :func:`check` builds every variant as a run would, without running,
 and :func:`simulate` runs one. The public API (:mod:`hybridsim.api`) re-exports them.
 """
 import logging
+import os
 import re
 from hybridsim.engine.simulator import Simulator
 from hybridsim.errors import RateError
@@ -109,6 +110,12 @@ def load(path, **overrides):
     """
     if isinstance(path, DiagramFile):  # a parsed file: ``overrides`` over its own
         return again(path, overrides) if overrides else path
+    if isinstance(path, (str, os.PathLike)) and str(path) and not os.path.lexists(path):
+        from hybridsim.shipped import find_diagram
+
+        path, note = find_diagram(path)  # 'diagrams/fig9_force_and_position.yaml' from any folder, as the CLI
+        if note:
+            logging.getLogger("hybridsim").info("%s", note.removeprefix("note: "))
     return DiagramFile(path, overrides)
 
 

@@ -146,3 +146,16 @@ def test_the_api_says_what_a_wrong_argument_should_be(tmp_path):
 
     assert hs.analyze(msd, sweeps=np.False_)["stable"]  # numpy's booleans and whole numbers are taken
     assert len(run_sweep(sweep, tmp_path / "o", jobs=np.int64(1), progress=False)) == 2
+
+
+def test_the_python_api_finds_a_shipped_diagram_from_any_folder_as_the_cli_does(tmp_path, monkeypatch, caplog):
+    # hs.simulate("diagrams/fig7_force_steps.yaml") outside a checkout: "no such file", while the CLI
+    # used the shipped one
+    import logging
+
+    monkeypatch.chdir(tmp_path)
+    with caplog.at_level(logging.INFO, logger="hybridsim"):
+        res = hs.simulate("diagrams/fig7_force_steps.yaml", t_end=0.01)
+    assert res.t[-1] == pytest.approx(0.01) and "using the shipped" in caplog.text
+    with pytest.raises(hs.LoaderError, match="no such file"):
+        hs.simulate("diagrams/no_such_diagram.yaml")
