@@ -20,6 +20,7 @@ contexts made with the chunk's parameters) and sends back only the reduced value
 The values stream back chunk by chunk, into the resume store when there is one.
 """
 import json
+import logging
 from typing import NamedTuple
 
 from hybridsim.errors import HybridsimError, InputError
@@ -233,6 +234,9 @@ def run_many(experiment, points, executor=None, *, measure=None, store=None, pro
         unique.setdefault(p.key, p)
     values = {k: store.get(k) for k in unique if store is not None and k in store}
     todo = [p for k, p in unique.items() if k not in values]
+    if values and progress:
+        logging.getLogger("hybridsim").info("%d of %d points found in %s from an earlier run; %d to run",
+                                            len(values), len(unique), store.path.name, len(todo))
     shown = bar(len(unique), len(values), desc, show=progress)
     try:
         with using(executor, jobs=1) as ex:

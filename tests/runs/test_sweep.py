@@ -505,3 +505,17 @@ def test_a_one_axis_sweep_into_a_two_axis_sweeps_folder_leaves_no_stale_heat_map
     assert main(["sweep", str(one), "-o", str(out), "-j", "1", "-q"]) == 0
     assert not (out / "heatmap.png").exists() and "heatmap" not in capsys.readouterr().out
     assert json.loads((out / "sweep-manifest.json").read_text())["sweep"] == str(one)
+
+
+def test_a_rerun_says_how_many_points_it_found_done(tmp_path, caplog):
+    # a finished sweep run again printed the summary of a fresh one, nothing about the store
+    import logging
+
+    msd = DIAGRAMS / "examples" / "msd_pid.yaml"
+    p = tmp_path / "s.yaml"
+    p.write_text(f"diagram: {msd}\nset: {{simulation.t_end: 0.05}}\ngrid: {{pid.Kp: [1.0, 2.0, 3.0]}}\n")
+    sw.run_sweep(p, tmp_path / "o", jobs=1, progress=False)
+    p.write_text(f"diagram: {msd}\nset: {{simulation.t_end: 0.05}}\ngrid: {{pid.Kp: [1.0, 2.0, 3.0, 4.0]}}\n")
+    with caplog.at_level(logging.INFO, logger="hybridsim"):
+        assert len(sw.run_sweep(p, tmp_path / "o", jobs=1, progress=True)) == 4
+    assert "3 of 4 points found in points.jsonl from an earlier run; 1 to run" in caplog.text
