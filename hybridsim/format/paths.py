@@ -39,6 +39,9 @@ class ParamPath:
         m = _INDEX.match(raw)
         if m:
             raw, index = m.group(1), int(m.group(2))
+        if re.search(r"\[\s*-\s*\d+\s*\]$", raw):
+            raise ValueError(f"{text!r}: an element index counts from 0 at the first element (no negative "
+                             "indexes; give the last one's number)")
         parts = raw.split(".")
         if not raw or not all(_PART.match(p) for p in parts):
             raise ValueError(f"{text!r} is not a parameter path ('name', 'block.param', 'sub.block.param', "

@@ -199,7 +199,11 @@ class SettingsMixin:
         why = horizon_problems(diagram.blocks.values(), sim, sim["t_end"], log_width)
         lines = getattr(self.data.get("simulation"), "lines", None) or {}
         if why:
-            raise LoaderError("; ".join(why), self.path, lines.get("t_end"))
+            locs = getattr(self.data.get("simulation"), "locs", None) or {}
+            given = [locs[k] for k in ("t_end", "step", "max_step", "log_period", "scan", "solver")
+                     if isinstance(locs.get(k), OverrideLoc)]  # the values an override gave: named
+            raise LoaderError("; ".join(why) + (f" (from {', '.join(given)})" if given else ""), self.path,
+                              lines.get("t_end"))
         at = (settings.get("analysis") or {}).get("at")
         if at:
             why = horizon_problems(diagram.blocks.values(), sim, at, 0, "analysis at")

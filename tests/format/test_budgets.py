@@ -65,6 +65,14 @@ def test_the_issue_example_step_1e_9_to_t_end_1_is_refused(capsys):
     code, err = run(capsys, "check", DIAGRAMS / "fig7_force_steps.yaml", "--set", "simulation.step=1e-9",
                     "--set", "simulation.t_end=1")
     assert code == 2 and "steps" in err
+    # the message named the diagram's simulation line only, not the --set that gave the values
+    assert "(from --set simulation.step, --set simulation.t_end)" in err or \
+        "(from --set simulation.t_end, --set simulation.step)" in err, err
+
+
+def test_a_negative_element_index_says_indexes_count_from_0(capsys):
+    code, err = run(capsys, "check", DIAGRAMS / "fig7_force_steps.yaml", "--set", "ctrl.fpi.Kp[-1]=1")
+    assert code == 2 and "an element index counts from 0 at the first element (no negative" in err, err
 
 
 @pytest.mark.slow
