@@ -263,7 +263,7 @@ class Block:
             if key not in known and not open_ended:
                 hint = (f"a run-time value is the whole parameter: give {key.split('[')[0]!r} whole" if "[" in key
                         else f"its parameters: {', '.join(known)}")
-                raise ParameterError(key, f"is not a parameter of block {self.name!r} ({type(self).__name__}); {hint}")
+                raise ParameterError(key, f"is not a parameter of block {self.name!r} ({self.type_label}); {hint}")
         try:
             new = type(self)(*args, **{**kwargs, **changes})
         except TypeError as exc:
@@ -284,6 +284,11 @@ class Block:
                 self.period, self.time_offset, self.time_varying, self.kernels)
 
     # -- queries ------------------------------------------------------------
+    @property
+    def type_label(self):
+        """The block's type as a file writes it (``transfer_function``), else its class name."""
+        return getattr(type(self), "type_name", type(self).__name__)
+
     @property
     def is_discrete(self):
         return self.period is not None

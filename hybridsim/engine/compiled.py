@@ -60,7 +60,7 @@ def problems(system, solver, located=None):
     if missing:
         types = sorted({getattr(type(b), "type_name", None) for b in missing} - {None})
         out.append("these blocks have no kernels (hybridsim.engine.kernels) to compile, in this configuration: "
-                   + ", ".join(f"{b.name} ({type(b).__name__})" for b in missing)
+                   + ", ".join(f"{b.name} ({b.type_label})" for b in missing)
                    + (f" (`hybridsim blocks {' '.join(types)}` says which configurations have them)" if types else ""))
     timed = [system.blocks[i].name for i in system.time_events]
     if timed:
@@ -75,7 +75,7 @@ def problems(system, solver, located=None):
     big = [(b, what) for b in system.blocks for items, what in [_widest(b)] if items >= MAX_TUPLE]
     if big:
         out.append(f"numba takes tuples of fewer than {MAX_TUPLE} items, and the glue hands a block its state "
-                   "and each port as one: " + ", ".join(f"{b.name} ({type(b).__name__}: {what})" for b, what in big))
+                   "and each port as one: " + ", ".join(f"{b.name} ({b.type_label}: {what})" for b, what in big))
     try:
         ParamLayout(system.blocks)
     except ParamStructureError as exc:
@@ -341,7 +341,7 @@ def _compile_failure(exc, name, system):
     """What to tell a user whose kernels numba cannot compile: the blocks the message names."""
     text = re.sub(r"\x1b\[[0-9;]*m", "", str(exc))  # numba colours its messages
     blocks = system.blocks if system is not None else []
-    culprits = sorted({f"{b.name} ({type(b).__name__})" for b in blocks if b.kernels is not None
+    culprits = sorted({f"{b.name} ({b.type_label})" for b in blocks if b.kernels is not None
                        for f in b.kernels if callable(f) and f.__name__ in text})
     lines = [line.strip() for line in text.splitlines() if line.strip()]
     why = ("Untyped global", "Unknown attribute", "Cannot", "not supported", "unsupported", "Invalid use")

@@ -55,7 +55,7 @@ class Diagram:
             raise InputError(f"Diagram.add takes a block (such as lookup('gain')('g', K=2.0)), got {block!r}")
         if not isinstance(block.name, str) or not block.name.strip():
             raise InputError(f"a block's name is a non-empty text, got {block.name!r} "
-                             f"({type(block).__name__})")
+                             f"({block.type_label})")
         if block.name in self.blocks:
             self.problems.append(f"two blocks are named {block.name!r}")
         else:
@@ -85,7 +85,7 @@ class Diagram:
         names = [p.name for p in ports]
         listing = ", ".join(names) if names else "none"
         return None, (
-            f"wire{at}: block {bname!r} ({type(block).__name__}) has no {kind} "
+            f"wire{at}: block {bname!r} ({block.type_label}) has no {kind} "
             f"{pname!r}{closest(pname, names)}; its {kind}s: {listing}"
         )
 

@@ -31,7 +31,7 @@ class ParamLayout:
             try:
                 self.specs.append(self._spec(v))
             except ParamStructureError as exc:
-                raise ParamStructureError(f"block {b.name!r} ({type(b).__name__}): its params hold {exc}, "
+                raise ParamStructureError(f"block {b.name!r} ({b.type_label}): its params hold {exc}, "
                                           "which compiled kernels cannot take") from None
 
     def _spec(self, v):

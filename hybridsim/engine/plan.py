@@ -117,7 +117,7 @@ class Plan:
                 if not np.isfinite(v).all():
                     b = self.system.blocks[i]
                     raise SimulationError(
-                        f"block {b.name!r} ({type(b).__name__}) gave a non-finite output at t={t:.9g} s: "
+                        f"block {b.name!r} ({b.type_label}) gave a non-finite output at t={t:.9g} s: "
                         f"{b.outputs[o].name} = {np.array2string(v, precision=4)} (a division by zero, the "
                         "log of a negative number, an overflow?)")
 

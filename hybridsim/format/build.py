@@ -113,7 +113,7 @@ def load(path, **overrides):
     if isinstance(path, (str, os.PathLike)) and str(path) and not os.path.lexists(path):
         from hybridsim.shipped import find_diagram
 
-        path, note = find_diagram(path)  # 'diagrams/fig9_force_and_position.yaml' from any folder, as the CLI
+        path, note = find_diagram(path)  # 'diagrams/NAME.yaml' from any folder, as the CLI
         if note:
             logging.getLogger("hybridsim").info("%s", note.removeprefix("note: "))
     return DiagramFile(path, overrides)

@@ -154,7 +154,7 @@ class ExpandMixin:
         names = [p.name for p in (block.outputs if kind == "output" else block.inputs)]
         if pname in names:
             return None
-        return (f"block {bname!r} ({type(block).__name__}) has no {kind} {pname!r}{closest(pname, names)}; "
+        return (f"block {bname!r} ({block.type_label}) has no {kind} {pname!r}{closest(pname, names)}; "
                 f"its {kind}s: {', '.join(names) or 'none'}")
 
     def _dead(self, ref):

@@ -70,7 +70,7 @@ def test_discrete_divergence_is_reported_on_the_compiled_path():
     assert hs.simulate(path, compiled=True)["d.y"][-1, 0] == 94.0
     # an infinite gain is refused up front (InputError); a huge one overflows at the counter's
     # first count (0.01 s): the gain's output is named there, before the delay (0.02 s) stores it
-    with pytest.raises(SimulationError, match=r"block 'g' \(Gain\) gave a non-finite output at t=0.01 s"):
+    with pytest.raises(SimulationError, match=r"block 'g' \(gain\) gave a non-finite output at t=0.01 s"):
         hs.simulate(path, compiled=True, max_state=1.7e308, **{"g.K": 1e308})
     # within max_state's default (1e6) the delay's state 1e308 stops the run at once
     with pytest.raises(SimulationError, match=r"t=0 s: discrete state 0 of block 'd' is 1e\+308"):

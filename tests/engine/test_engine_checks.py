@@ -51,7 +51,7 @@ def test_divergence_is_caught_at_the_step_where_it_happens(tmp_path, solver, kw)
 @pytest.mark.parametrize("solver, kw", SOLVER_PATHS)
 def test_a_non_finite_block_output_names_the_block_and_time(tmp_path, solver, kw):
     p = write(tmp_path, NAN)  # sqrt of 0.5 - t: NaN from t = 0.5 s
-    with pytest.raises(SimulationError, match=r"block 'f' \(MathFunction\) gave a non-finite output "
+    with pytest.raises(SimulationError, match=r"block 'f' \(math_function\) gave a non-finite output "
                                               r"at t=(\S+) s: y = \[nan\]") as err:
         hs.simulate(p, solver=solver, **kw)
     t = float(str(err.value).split("t=")[1].split(" ")[0])
@@ -77,7 +77,7 @@ log: [x.y]
 def test_a_function_of_nan_is_nan_so_the_run_stops_at_its_source(tmp_path, fn, solver, kw):
     # sign(NaN) read 0 and round(NaN) raised ValueError (exit 70): now NaN, caught at sq
     p = write(tmp_path, ABSORBED.replace("FN", fn))
-    with pytest.raises(SimulationError, match=r"block 'sq' \(MathFunction\) gave a non-finite output at t=(\S+) s") as err:
+    with pytest.raises(SimulationError, match=r"block 'sq' \(math_function\) gave a non-finite output at t=(\S+) s") as err:
         hs.simulate(p, solver=solver, **kw)
     t = float(str(err.value).split("t=")[1].split(" ")[0])
     assert 0.25 <= t <= (0.251 if solver == "rk4" else 0.75)  # a variable-step solver: in the step it took
@@ -137,7 +137,7 @@ wires: [x.y -> sq.u, sq.y -> g.u, g.y -> x.u]
 simulation: {t_end: 3.0, step: 1.0e-2}
 log: [x.y]
 """)
-    with pytest.raises(SimulationError, match=r"block 'sq' \(MathFunction\) gave a non-finite output at t=(\S+) s") as err:
+    with pytest.raises(SimulationError, match=r"block 'sq' \(math_function\) gave a non-finite output at t=(\S+) s") as err:
         hs.simulate(p, solver=solver, **kw)
     assert 1.99 <= float(str(err.value).split("t=")[1].split(" ")[0]) <= 2.0
 

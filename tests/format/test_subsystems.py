@@ -133,8 +133,8 @@ def test_bad_subsystems_are_clear_errors(tmp_path, capsys, spec, message):
 
 @pytest.mark.parametrize("ports, message", [
     ("outputs: {y: nope.y}", "output 'y': no block 'nope'"),
-    ("outputs: {y: g.u}", "output 'y': block 'g' (Gain) has no output 'u'; its outputs: y"),
-    ("inputs: {a: [s.u1, g.x], b: s.u2}", "input 'a': block 'g' (Gain) has no input 'x'; its inputs: u"),
+    ("outputs: {y: g.u}", "output 'y': block 'g' (gain) has no output 'u'; its outputs: y"),
+    ("inputs: {a: [s.u1, g.x], b: s.u2}", "input 'a': block 'g' (gain) has no input 'x'; its inputs: u"),
     ('outputs: {y: "g.y[0]"}', "output 'y': 'g.y[0]' is one element; a subsystem's port is a whole port"),
 ])
 def test_a_subsystem_files_declared_ports_are_checked_where_they_are_declared(tmp_path, capsys, ports, message):
@@ -223,7 +223,7 @@ def test_a_wire_to_a_broken_block_still_has_its_other_end_checked(tmp_path, caps
     assert main(["check", str(tmp_path / "d.yaml")]) == 2
     err = capsys.readouterr().err
     assert "diagram has 4 problem(s)" in err, err
-    assert "inner.yaml:4): no block named 'm.nosuch'" in err and "d.yaml:5): block 'src' (Step) has no output 'yy'" in err
+    assert "inner.yaml:4): no block named 'm.nosuch'" in err and "d.yaml:5): block 'src' (step) has no output 'yy'" in err
 
 
 def test_a_bad_inner_value_is_one_problem_that_names_the_users_set(tmp_path, capsys):
