@@ -56,13 +56,16 @@ def as_floats(value, name, what):
         raise _not_a(what, value, name) from None
 
 
-def _check_values(arr, name, inf_ok, sign):
+def _check_values(arr, name, inf_ok, sign, given=None):
+    """ParameterError for a NaN, an infinity (unless ``inf_ok``) or a value of the wrong ``sign`` in
+    ``arr``; the message shows the value as ``given`` (a number where one was given, not broadcast)."""
+    shown = arr.tolist() if given is None else given
     if np.isnan(arr).any() or (not inf_ok and np.isinf(arr).any()):
-        raise ParameterError(name, f"must be finite, got {arr.tolist()!r}")
+        raise ParameterError(name, f"must be finite, got {shown!r}")
     if sign == "positive" and not (arr > 0).all():
-        raise ParameterError(name, f"must be positive (it divides), got {arr.tolist()!r}")
+        raise ParameterError(name, f"must be positive (it divides), got {shown!r}")
     if sign == "nonnegative" and not (arr >= 0).all():
-        raise ParameterError(name, f"must not be negative, got {arr.tolist()!r}")
+        raise ParameterError(name, f"must not be negative, got {shown!r}")
 
 
 def scalar(value, name, sign=None, inf_ok=False):
@@ -70,7 +73,7 @@ def scalar(value, name, sign=None, inf_ok=False):
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
         raise _not_a("a number", value, name)
     v = float(value)
-    _check_values(np.array([v]), name, inf_ok, sign)
+    _check_values(np.array([v]), name, inf_ok, sign, v)
     return v
 
 
@@ -111,13 +114,14 @@ def vector(value, name, width=None, sign=None, inf_ok=False):
     arr = as_floats(value, name, "a number or a list of numbers")
     if arr.ndim > 1:
         raise ParameterError(name, f"must be a flat list, got shape {arr.shape}")
+    given = float(arr) if arr.ndim == 0 else None
     if arr.ndim == 0:
         arr = np.full(width if width is not None else 1, float(arr))
     elif width is not None and arr.size != width:
-        raise ParameterError(name, f"must have {width} elements, got {arr.size}")
+        raise ParameterError(name, f"must have {width} element{'' if width == 1 else 's'}, got {arr.size}")
     if arr.size == 0:
         raise ParameterError(name, "must not be empty")
-    _check_values(arr, name, inf_ok, sign)
+    _check_values(arr, name, inf_ok, sign, given)
     return arr
 
 

@@ -47,3 +47,19 @@ def test_lowpass_is_butterworth_at_cutoff():
     assert f.derivatives(0, x, [np.array([u])]) == pytest.approx(A @ x + B * u)
     H = np.array([1, 0]) @ np.linalg.solve(1j * wc * np.eye(2) - A, B)
     assert abs(H) == pytest.approx(1 / np.sqrt(2))
+
+
+def test_a_bad_number_is_shown_as_it_was_given():
+    # tau_max: -10 said "got [-10.0, -10.0, ...]" (the broadcast), a scalar inf "got [inf]", a width of
+    # one "must have 1 elements"
+    from hybridsim.blocks._util import scalar, vector
+    from hybridsim.errors import ParameterError
+
+    with pytest.raises(ParameterError, match=r"must not be negative, got -10.0$"):
+        vector(-10, "tau_max", 6, "nonnegative")
+    with pytest.raises(ParameterError, match=r"must be finite, got inf$"):
+        scalar(float("inf"), "K")
+    with pytest.raises(ParameterError, match=r"must have 1 element, got 2$"):
+        vector([1.0, 2.0], "K", 1)
+    with pytest.raises(ParameterError, match=r"must not be negative, got \[1.0, -2.0\]$"):
+        vector([1.0, -2.0], "b", 2, "nonnegative")
