@@ -12,12 +12,6 @@ from hybridsim.engine.schedule import Schedule
 from hybridsim.engine.stepping import END, END_LOG, HIT, LOG, Timeline
 
 
-def on_grid(t, period):
-    """True when ``t`` is a whole number of ``period`` (to 1e-9 of a period)."""
-    k = round(t / period)
-    return abs(k * period - t) <= 1e-9 * period
-
-
 def schedule(system, log_period):
     """The :class:`Schedule` of the discrete blocks' sample times and the log grid (its columns in
     that order); raises :class:`~hybridsim.errors.RateError` where they share no small base tick."""
@@ -30,7 +24,7 @@ def timeline(system, log_period, t_end, logged=True):
     """The :class:`Timeline` of a run of ``system`` to ``t_end`` s, logged every ``log_period`` s.
 
     Ticks run at ``0 <= t < t_end``; the run ends with a row at ``t_end``, logged
-    when ``t_end`` lies on the log grid. The first row is always a hit (the
+    whether or not ``t_end`` lies on the log grid. The first row is always a hit (the
     first pass of a run evaluates every block, due or not). ``logged=False``: the
     hits and the end only, no row logged (a run for its final state).
     """
@@ -41,7 +35,7 @@ def timeline(system, log_period, t_end, logged=True):
     hit[0] = True
     if not logged:
         return build(sched.time(ticks)[hit], hit[hit], due[hit, :d], np.zeros(int(hit.sum()), bool), t_end)
-    log_end = on_grid(t_end, float(log_period))
+    log_end = True  # the last row is at t_end, on the log grid or not (as Simulink logs its stop time)
     return build(sched.time(ticks), hit, due[:, :d], due[:, d], t_end, log_end)
 
 

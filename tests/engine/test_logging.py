@@ -86,3 +86,14 @@ def test_a_run_without_log_rows_ends_in_the_same_state(settings):
             assert np.allclose(a, b, rtol=1e-4, atol=1e-7)
         else:
             assert np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("solver", ["rk4", "radau"])
+def test_the_last_row_is_at_t_end_off_the_log_grid_too(tmp_path, solver):
+    # t_end 0.2537 logged every 0.1 s ended at 0.2: the run's final value was not in its log
+    p = tmp_path / "d.yaml"
+    p.write_text("blocks:\n  c: {type: constant, value: 2.0}\n  i: {type: integrator}\nwires: [c.y -> i.u]\n"
+                 f"log: [i.y]\nsimulation: {{t_end: 0.2537, log_period: 0.1, solver: {solver}}}\n")
+    res = hs.simulate(p)
+    np.testing.assert_allclose(res.t, [0.0, 0.1, 0.2, 0.2537], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(res["i.y"][:, 0], 2.0 * res.t, rtol=0, atol=1e-9)
