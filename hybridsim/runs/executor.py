@@ -9,6 +9,7 @@ search that asks for points a few at a time, or a worker that keeps what it buil
 """
 import contextlib
 import os
+import signal
 
 import numpy as np
 
@@ -55,13 +56,24 @@ class Executor:
             self._client = connect(self.dask) if isinstance(self.dask, str) else self.dask
         return self
 
-    def __exit__(self, *exc):
-        self.close()
+    def __exit__(self, kind, *exc):
+        # an interrupt (Ctrl-C, SIGTERM): the workers are stopped, not waited for (a pool whose
+        # workers an interrupt reached could wait for ever)
+        self.close(abort=kind is not None and not issubclass(kind, Exception))
 
-    def close(self):
-        """Shut the local pool down and close a client this executor opened."""
+    def close(self, abort=False):
+        """Shut the local pool down (``abort``: stop its workers at once) and close a client this
+        executor opened."""
         if self._pool is not None:
-            self._pool.shutdown(cancel_futures=True)
+            if abort:
+                workers = list((getattr(self._pool, "_processes", None) or {}).values())
+                self._pool.shutdown(wait=False, cancel_futures=True)
+                for w in workers:
+                    w.terminate()
+                for w in workers:
+                    w.join(5)
+            else:
+                self._pool.shutdown(cancel_futures=True)
             self._pool = None
         if self._client is not None and isinstance(self.dask, str):
             self._client.close()
@@ -98,7 +110,7 @@ class Executor:
 
             if self._pool is not None:
                 self._pool.shutdown()
-            self._pool, self._size = ProcessPoolExecutor(want), want
+            self._pool, self._size = ProcessPoolExecutor(want, initializer=_quiet_worker), want
         futures = {self._pool.submit(fn, item): k for k, item in enumerate(items)}
         try:
             for fut in as_completed(futures):
@@ -114,6 +126,13 @@ class Executor:
         for k, value in self.as_completed(fn, items):
             out[k] = value
         return out
+
+
+def _quiet_worker():
+    """A pool worker leaves Ctrl-C to the main process (which stops it) and dies on SIGTERM at once
+    (it inherits the command's handler, which would raise inside the pool's queue)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 def connect(address):

@@ -93,7 +93,7 @@ def test_compiled_path_says_what_it_cannot_compile():
     d.add(lookup("demux")("dm", widths=[1] * 9))
     d.connect("c.y", "dm.u")
     why = problems(d.build(), hs.RK4(1e-3))
-    assert len(why) == 1 and "in this configuration: dm (Demux) (`hybridsim blocks demux` says which" in why[0]
+    assert len(why) == 1 and "in this configuration: dm (demux) (`hybridsim blocks demux` says which" in why[0]
 
 
 @pytest.mark.slow

@@ -96,8 +96,10 @@ def test_fmu_plant_matches_python_plant_fig9(any_plant, extra):
         # measured: 7.5e-15 N (CS), 0 (ME); friction off, the FMU still reports its stick-band
         # indicators, whose (empty) events restart the step grid: 5.2e-8 N (ME)
         tol = 1e-6 if mode == "me" and extra else 1e-9
-        assert np.max(np.abs(res["ctrl.ft.CF[0]"] - ref["ctrl.ft.CF[0]"])) < tol, mode
-        assert np.max(np.abs(res["ctrl.fk.X[1]"] - ref["ctrl.fk.X[1]"])) < tol * 1e-3, mode
+        # the row at t_end (off the log grid): a CS FMU's outputs there are the last hit's, held
+        rows = res.t < 0.18 - 1e-9 if mode == "cs" else slice(None)
+        assert np.max(np.abs(res["ctrl.ft.CF[0]"][rows] - ref["ctrl.ft.CF[0]"][rows])) < tol, mode
+        assert np.max(np.abs(res["ctrl.fk.X[1]"][rows] - ref["ctrl.fk.X[1]"][rows])) < tol * 1e-3, mode
 
 
 @pytest.mark.slow

@@ -191,3 +191,25 @@ def test_a_grid_takes_numpy_arrays_ranges_and_checks_its_base():
     for base in ({}, None, {"a": "x"}, {"a": []}):
         with pytest.raises(InputError, match="Grid.scaled: base"):
             Grid.scaled({"a": [1.0]}, base)
+
+
+def _nap(seconds):
+    import time
+
+    time.sleep(seconds)
+    return seconds
+
+
+@pytest.mark.slow
+def test_an_interrupt_stops_the_pools_workers_instead_of_waiting_for_them():
+    # Ctrl-C during a sweep on 2 processes: the pool's shutdown waited for its workers, once for ever
+    # (workers the interrupt reached, blocked on the pool's queue); they are stopped now
+    import time
+
+    ex = Executor(jobs=2)
+    done = ex.as_completed(_nap, [0.0, 60.0, 60.0])
+    assert next(done) == (0, 0.0)  # both workers are now in a 60 s call
+    workers = list(ex._pool._processes.values())
+    t0 = time.perf_counter()
+    ex.__exit__(KeyboardInterrupt, KeyboardInterrupt(), None)
+    assert time.perf_counter() - t0 < 10 and not any(w.is_alive() for w in workers)
