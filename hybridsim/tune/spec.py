@@ -117,6 +117,11 @@ class TuneSpec:
             if key not in TUNE_KEYS:
                 self._fail(f"unknown tune key {key!r}{closest(key, TUNE_KEYS)}; keys: {', '.join(TUNE_KEYS)}",
                            key_line(data, key))
+        for key in data:  # read as absent it was a default the file did not give (objectives: a crash)
+            if data[key] is None:
+                self._fail(f"tune key {key!r} is empty (null): give its value"
+                           + ("" if key in ("diagram", "parameters", "objectives") else ", or leave the key out"),
+                           key_line(data, key))
         for key in ("diagram", "parameters", "objectives"):
             if key not in data:
                 self._fail(f"a tune file needs {key!r}", 1)

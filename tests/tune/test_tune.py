@@ -368,3 +368,15 @@ def test_a_users_file_among_the_search_outputs_is_refused_before_any_evaluation(
     with pytest.raises(OutputError, match="best.yaml' exists and hybridsim did not write it"):
         run_tune(p, out, jobs=1, progress=False)
     assert sorted(x.name for x in out.iterdir()) == ["best.yaml"]
+
+
+def test_a_tune_key_left_empty_is_refused_at_its_line(tmp_path):
+    # 'objectives:' left empty crashed (TypeError, exit 70); 'set:' and 'method:' were read as absent
+    head = f"diagram: {MSD}\nparameters:\n  pid.Kp: {{low: 1, high: 10}}\n"
+    for text, says in ((head + "objectives:\n", r"t.yaml:4: tune key 'objectives' is empty \(null\): give its value$"),
+                       (head + "objectives:\n" + SETTLE + "method:\n",
+                        r"t.yaml:6: tune key 'method' is empty \(null\): give its value, or leave the key out")):
+        p = tmp_path / "t.yaml"
+        p.write_text(text)
+        with pytest.raises(LoaderError, match=says):
+            load_tune(p)
