@@ -122,6 +122,12 @@ NUMBERS = {
 }
 
 
+#: attributes without which urdfdom reads the element as zero
+REQUIRED = {"mass": ("value",), "inertia": ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+#: a number as urdfdom reads one: ASCII digits, nothing around it
+_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)
+
+
 def _check_numbers(path):
     """ParameterError at the line of the first numeric attribute that is not its count of numbers
     (urdfdom reads ``2.O`` as a mass of 0 and goes on, saying so only on stderr)."""
@@ -132,21 +138,27 @@ def _check_numbers(path):
 
     def start(tag, attrs):
         for key, n in NUMBERS.get(tag, {}).items():
-            if key in attrs and not bad:
-                words = attrs[key].split()
-                try:
-                    ok = len(words) == n and all(np.isfinite(float(w)) for w in words)
-                except ValueError:
-                    ok = False
-                if not ok:
-                    bad.append((parser.CurrentLineNumber, tag, key, attrs[key], n))
+            if bad:
+                return
+            if key not in attrs:
+                if key in REQUIRED.get(tag, ()):  # urdfdom reads it as 0
+                    bad.append((parser.CurrentLineNumber, tag, key, None, n))
+                continue
+            words = attrs[key].split() if n > 1 else [attrs[key]]  # one number: no spaces around it either
+            ok = len(words) == n and all(_NUMBER.fullmatch(w) and np.isfinite(float(w)) for w in words)
+            if ok and tag == "inertia" and key in ("ixx", "iyy", "izz") and float(words[0]) < -1e-9:
+                bad.append((parser.CurrentLineNumber, tag, key, attrs[key], "a moment of inertia >= 0"))
+            elif not ok:
+                bad.append((parser.CurrentLineNumber, tag, key, attrs[key], n))
 
     parser.StartElementHandler = start
     with open(path, "rb") as fh:
         parser.ParseFile(fh)
     if bad:
         line, tag, key, value, n = bad[0]
-        what = "a number" if n == 1 else f"{n} numbers"
+        what = n if isinstance(n, str) else "a number" if n == 1 else f"{n} numbers"
+        if value is None:
+            raise ParameterError("urdf", f"{str(path)}:{line}: <{tag}> has no {key} (Pinocchio would read 0)")
         raise ParameterError("urdf", f"{str(path)}:{line}: <{tag}> {key}={value!r} is not {what}")
 
 

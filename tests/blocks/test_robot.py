@@ -139,7 +139,13 @@ def test_a_file_that_is_not_a_robot_is_a_parameter_error(tmp_path):
     # urdfdom read a mass of '2.O' as 0 kg and went on (its complaint on stderr only): a gravity torque
     # of a lighter arm, exit 0
     for old, new, says in (('mass value="1.0"', 'mass value="1.O"', "<mass> value='1.O' is not a number"),
-                           ('axis xyz="0 0 1"', 'axis xyz="0 1"', "<axis> xyz='0 1' is not 3 numbers")):
+                           ('axis xyz="0 0 1"', 'axis xyz="0 1"', "<axis> xyz='0 1' is not 3 numbers"),
+                           # Python's float takes these, urdfdom reads 0 (or prints its complaint only)
+                           ('mass value="1.0"', 'mass value="1_0"', "<mass> value='1_0' is not a number"),
+                           ('mass value="1.0"', 'mass value=" 1.0 "', "<mass> value=' 1.0 ' is not a number"),
+                           ('mass value="1.0"', 'mass value="１.0"', "<mass> value='１.0' is not a number"),
+                           ('mass value="1.0"', "mass", "<mass> has no value (Pinocchio would read 0)"),
+                           ('ixx="0.01"', 'ixx="-1.0"', "<inertia> ixx='-1.0' is not a moment of inertia >= 0")):
         bad.write_text(SLIDER.replace(old, new))
         at = SLIDER[:SLIDER.index(old)].count("\n") + 1
         with pytest.raises(ParameterError, match=f"bad.urdf:{at}: {re.escape(says)}"):
