@@ -49,6 +49,10 @@ def read_merged(path, chain=(), budget=None, files=None):
         if key == "extends":
             continue
         cur = merged.get(key)
+        if val is None and cur is not None and (key in MERGED_BY_KEY or key in ("wires", "log")):
+            raise LoaderError(f"section {key!r} is empty (null), which would drop that section of {base_name}: "
+                              f"leave it out to keep it, or write {key}: {'[]' if key in ('wires', 'log') else '{}'} "
+                              "to add nothing", path, data.lines[key])
         if key == "blocks" and isinstance(cur, dict) and isinstance(val, dict):
             for bname, spec in val.items():
                 if spec is None and bname in cur:  # 'name: null' removes a base block and its wires

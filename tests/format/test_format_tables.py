@@ -404,3 +404,20 @@ def test_a_users_override_that_makes_an_analysis_case_idle_is_a_warning(tmp_path
     assert "analysis compare soft: 'k' changes nothing here" in caplog.text
     assert main(["check", str(p), "--set", "k=3", "--set", "g.K=3"]) == 2  # both given by the user
     assert "changes nothing: every value that uses $k is set too" in capsys.readouterr().err
+
+
+def test_an_empty_section_of_a_file_that_extends_another_is_refused(tmp_path):
+    # 'simulation:' with its keys commented out ran 1 s where the base said 3 s; 'wires:' dropped every wire
+    import hybridsim as hs
+
+    (tmp_path / "base.yaml").write_text("params: {k: 1.0}\nblocks:\n  c: {type: constant, value: $k}\n  i: {type: integrator}\n"
+                                        "wires: [c.y -> i.u]\nlog: [i.y]\nsimulation: {t_end: 0.03}\n")
+    child = tmp_path / "child.yaml"
+    for section, empty in (("simulation", "{}"), ("wires", "[]"), ("log", "[]"), ("params", "{}")):
+        child.write_text(f"extends: base.yaml\n{section}:\n  # commented out\n")
+        with pytest.raises(hs.LoaderError, match=f"child.yaml:2: section '{section}' is empty \\(null\\), which "
+                                                 f"would drop that section of base.yaml: .* {section}: "
+                                                 f"{re.escape(empty)} to add nothing"):
+            hs.simulate(child)
+    child.write_text("extends: base.yaml\nsimulation: {}\n")
+    assert hs.simulate(child).t[-1] == pytest.approx(0.03)
