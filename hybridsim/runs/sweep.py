@@ -360,8 +360,7 @@ def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False,
                         desc=sw.path.stem)
         table = [r for rows in done for r in rows]
         write_table(table, outdir)
-        heatmaps(table, sw.axes(), outdir)
-        stale = outdir / "heatmap.png"  # an earlier sweep's of two axes, in a folder this one of one reuses
-        if "heatmap.png" not in table_files(sw.axes()) and stale.is_file() and written_by_hybridsim(stale):
+        stale = outdir / "heatmap.png"  # an earlier sweep's, in a folder this one (with none to draw) reuses
+        if not heatmaps(table, sw.axes(), outdir) and stale.is_file() and written_by_hybridsim(stale):
             stale.unlink()
     return table

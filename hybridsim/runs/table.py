@@ -35,7 +35,8 @@ def _parquet_ready(df):
 
 
 def heatmaps(rows, axes, outdir):
-    """A heat map of the main metrics over the first two swept parameters ``axes`` (table columns)."""
+    """A heat map of the main metrics over the first two swept parameters ``axes`` (table columns);
+    True when one was written (two axes or more, and metrics to show)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -43,7 +44,7 @@ def heatmaps(rows, axes, outdir):
     import pandas as pd
 
     if len(axes) < 2 or not rows:
-        return
+        return False
     df = pd.DataFrame(rows)
     xa, ya = axes[0], axes[1]
     for a in (xa, ya):  # an axis of lists (or lists and numbers): its values as labels, in their order
@@ -54,7 +55,7 @@ def heatmaps(rows, axes, outdir):
 
     metrics = [m for m in headline() if m in df][:3]
     if not metrics:
-        return
+        return False
     fig, axs = plt.subplots(1, len(metrics), figsize=(4.6 * len(metrics), 3.8), squeeze=False)
     for ax, m in zip(axs[0], metrics):
         piv = df[df["status"] == "ok"].groupby([ya, xa], observed=True)[m].mean().unstack(xa).astype(float)
@@ -75,6 +76,7 @@ def heatmaps(rows, axes, outdir):
     with atomic_file(Path(outdir) / "heatmap.png", "wb") as fh:
         fig.savefig(fh, format="png", dpi=110)
     plt.close(fig)
+    return True
 
 
 def _label(v):

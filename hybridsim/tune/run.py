@@ -241,6 +241,12 @@ def _write(spec, outdir, ev, before, wall):
            "before": _brief(before), "best": _brief(best), "front": [_brief(r) for r in front],
            "evaluations": len(hist), "ran": ev.ran, "wall_time_s": wall}
     outputs.write_json(outdir / "best.json", doc)
+    from hybridsim.files import written_by_hybridsim
+
+    for name in ("pareto.png", "pareto.csv", "best.yaml"):  # an earlier search's, which this one has none of
+        stale = outdir / name
+        if name not in files and stale.is_file() and written_by_hybridsim(stale):
+            stale.unlink()
     return {**doc, "before": before, "best": best, "front": front, "files": files, "outdir": str(outdir)}
 
 

@@ -380,3 +380,21 @@ def test_a_tune_key_left_empty_is_refused_at_its_line(tmp_path):
         p.write_text(text)
         with pytest.raises(LoaderError, match=says):
             load_tune(p)
+
+
+@pytest.mark.slow
+def test_a_search_into_an_earlier_ones_folder_leaves_none_of_its_results(tmp_path):
+    # after a two-objective search, a --force one-objective search that met no constraint left the old
+    # pareto.png, pareto.csv and best.yaml (which 'hybridsim run best.yaml' would run)
+    two = tune_file(tmp_path, PARAMS + "objectives:\n" + SETTLE
+                    + "  - {name: effort, metric: peak, of: 'pid.u', goal: minimize}\n"
+                    + "method: {name: nsga2, seed: 3, trials: 4, population: 4}\n", "two.yaml")
+    run_tune(two, tmp_path / "out", jobs=1, progress=False)
+    assert all((tmp_path / "out" / n).is_file() for n in ("pareto.png", "pareto.csv", "best.yaml"))
+    # every point of this one fails (a state past max_state at once: diverged): no best, no front
+    one = tune_file(tmp_path, PARAMS + "objectives:\n" + SETTLE + "method: {name: tpe, seed: 1, trials: 2}\n",
+                    "one.yaml")
+    one.write_text(one.read_text().replace("simulation.t_end: 5.0", "simulation.t_end: 5.0, simulation.max_state: 1.0e-6"))
+    res = run_tune(one, tmp_path / "out", jobs=1, progress=False, restart=True)
+    assert res["best"] is None or not res["best"]["values"]
+    assert not any((tmp_path / "out" / n).exists() for n in ("pareto.png", "pareto.csv", "best.yaml"))
