@@ -43,6 +43,7 @@ class Store:
     def __init__(self, folder, identity, name, manifest, what, changed, restart=False, about=None):
         folder = Path(folder)
         self.path, self.what = folder / name, what
+        self.set_aside = None  # where --force put another job's points (their traces go beside them)
         manifest = folder / manifest
         for f in (self.path, manifest):  # before anything is renamed
             if f.is_symlink() or (f.exists() and not f.is_file()):
@@ -60,7 +61,7 @@ class Store:
             if not restart:
                 raise InputError(f"{folder} holds points of a different {what} ({why}); they would not match "
                                  f"this one. Use another output folder (-o), or --force to start afresh (the old "
-                                 f"points are kept as {_aside(self.path).name})")
+                                 f"points are kept as {aside(self.path).name})")
             self._set_aside(name)
         now = json.loads(json.dumps({"fingerprint": identity, **(about or {})}, default=str))
         if old != identity or said != now:  # (the job's file named anew); a manifest it read is hybridsim's
@@ -74,7 +75,7 @@ class Store:
                 if not restart:
                     raise InputError(f"{self.path} is not a file of points hybridsim wrote (not UTF-8 text); use "
                                      f"another output folder (-o), or --force to start afresh (it is kept as "
-                                     f"{_aside(self.path).name})") from None
+                                     f"{aside(self.path).name})") from None
                 self._set_aside(name)
                 text = ""
             for line in text.splitlines():
@@ -87,9 +88,10 @@ class Store:
     def _set_aside(self, name):
         """Rename the points file to the first free ``NAME.old``, ``NAME.old.1``, ... (--force): every
         earlier generation is kept."""
-        old = _aside(self.path)
+        old = aside(self.path)
         os.replace(self.path, old)
         note_written(old)
+        self.set_aside = old
 
     def __contains__(self, key):
         return key in self.done
@@ -128,7 +130,7 @@ def _jsonable(v):
     return str(v)
 
 
-def _aside(path):
+def aside(path):
     """The first of ``NAME.old``, ``NAME.old.1``, ... beside ``path`` that names nothing."""
     k = 0
     while True:

@@ -28,9 +28,10 @@ same sweep runs only the points not there. ``sweep-manifest.json`` holds the ide
 everything else a point's numbers depend on (every file its runs read, ``set``,
 ``stability``, hybridsim's version and code: :mod:`hybridsim.format.identity`): a different sweep
 into the same folder is refused, or with ``restart`` started afresh (the old points kept as
-``points.jsonl.old``). Every swept value is checked before any point runs.
+``points.jsonl.old``, its traces as ``traces.old``). Every swept value is checked before any point runs.
 """
 import contextlib
+import os
 from pathlib import Path
 
 import numpy as np
@@ -46,7 +47,7 @@ from hybridsim.runs.executor import Executor
 from hybridsim.runs.experiment import Experiment
 from hybridsim.runs.grid import Grid, range_problem
 from hybridsim.runs.many import Simulate, run_many
-from hybridsim.runs.store import Store
+from hybridsim.runs.store import Store, aside
 from hybridsim.runs.table import files as table_files, heatmaps, write_table
 
 SWEEP_KEYS = {"diagram", "set", "grid", "scale", "random", "traces", "stability"}
@@ -352,6 +353,10 @@ def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False,
                       "a file the sweep names), 'set', 'stability', 'traces' or hybridsim's version or code changed",
                       restart, {"sweep": str(sw.path), "diagram": str(sw.diagram)})
         traces = None
+        old = outdir / "traces"
+        if store.set_aside is not None and old.is_dir() and not old.is_symlink() and \
+                all(written_by_hybridsim(f) for f in old.iterdir()):  # the other job's traces, beside its points
+            os.replace(old, aside(old))
         if sw.traces:
             traces = outdir / "traces"
             traces.mkdir(exist_ok=True)

@@ -519,3 +519,18 @@ def test_a_rerun_says_how_many_points_it_found_done(tmp_path, caplog):
     with caplog.at_level(logging.INFO, logger="hybridsim"):
         assert len(sw.run_sweep(p, tmp_path / "o", jobs=1, progress=True)) == 4
     assert "3 of 4 points found in points.jsonl from an earlier run; 1 to run" in caplog.text
+
+
+def test_force_sets_the_earlier_sweeps_traces_aside_with_its_points(tmp_path):
+    # --force kept the points as .old but replaced the traces of the same keys with the new run's
+    msd = DIAGRAMS / "examples" / "msd_pid.yaml"
+    p = tmp_path / "s.yaml"
+    p.write_text(f"diagram: {msd}\nset: {{simulation.t_end: 0.06}}\ngrid: {{pid.Kp: [1.0, 2.0]}}\ntraces: true\n")
+    out = tmp_path / "o"
+    sw.run_sweep(p, out, jobs=1, progress=False)
+    first = {f.name: f.read_text() for f in (out / "traces").iterdir()}
+    p.write_text(p.read_text().replace("t_end: 0.06", "t_end: 0.04"))
+    sw.run_sweep(p, out, jobs=1, progress=False, restart=True)
+    assert {f.name: f.read_text() for f in (out / "traces.old").iterdir()} == first
+    assert sorted(f.name for f in (out / "traces").iterdir()) == sorted(first)  # the same keys, new runs
+    assert all(pd.read_csv(f)["time"].iloc[-1] == pytest.approx(0.04) for f in (out / "traces").iterdir())
