@@ -26,6 +26,10 @@ MAX_STEPS = 1_000_000
 #: the same where a located switch has no action: a state sliding along it (a sliding mode) makes
 #: CVODE crawl at steps of nanoseconds, and the run fails in a second rather than a minute
 SWITCH_STEPS = 20_000
+#: restarts at a switch's surface reached but not crossed, each within REACHED_GAP s (relative past
+#: t = 1 s) of the one before, after which the switch is muted for the rest of the interval
+REACHED_RESTARTS = 20
+REACHED_GAP = 1e-9
 
 
 class CVodeStepper:
@@ -256,6 +260,7 @@ def cvode_ops():
         s.event_at, s.event_x, s.event_fired = None, None, None
         s.cv, s.queue, s.ta, s.started, s.looked = None, [], t0, False, False
         s.said = ""
+        s.reached, s.reached_t = 0, -np.inf  # restarts at surfaces reached, not crossed, one on another
         s.stale = s.watch = False  # w.g (the core's) holds the functions at the last point; one sat on 0
 
     def solve(s, w, gl, y, z, pf, pi):
@@ -317,6 +322,7 @@ def cvode_ops():
             s.watch = bool((w.g == 0.0).any())  # (leaving 0 unreported): the core looks till then
             s.moved = (w.g != 0.0) | (False if s.fresh else s.moved)  # off 0 since the start (see _own)
         reached = False
+        reported = root
         if root is not None:  # the core's rule: a function fires once on its firing side, not on reaching 0
             past = np.zeros(root.size, np.bool_)
             here = _zc(t, xn, np.empty(root.size), w, gl, y, z, pf, pi)
@@ -351,6 +357,13 @@ def cvode_ops():
                 w.g[:] = here
                 s.stale = False
             restart(s, t, xn, before=None)
+            # a switch that reaches its surface again and again, never crossing (a PID held exactly at
+            # its limit), slides along it: muted for the rest of the interval, as one located too often
+            s.reached = s.reached + 1 if t - s.reached_t <= REACHED_GAP * max(1.0, abs(t)) else 1
+            s.reached_t = t
+            if s.reached > REACHED_RESTARTS:
+                w.muted[reported & w.switch] = True
+                s.reached = 0
         return t
 
     def refresh(s, x, w, gl, y, z, pf, pi, t_last=None):

@@ -382,3 +382,38 @@ def test_a_flat_function_leaving_zero_at_another_ones_crossing_fires_with_it(oth
     for r in runs.values():
         assert r["he.count"][-1, 0] == r["hr.count"][-1, 0] == 2
         assert abs(r["he.time"][-1, 0] - 4 / 3) < 1e-9 and abs(r["hr.time"][-1, 0] - 11 / 6) < 1e-9
+
+
+PID_ON_ITS_LIMIT = """blocks:
+  sp: {type: SETPOINT}
+  y0: {type: constant, value: 0.0}
+  z: {type: zoh, rate: 100}
+  pid: {type: pid, Kp: 0.5, Ki: 2.0, upper: 1.5}
+  it: {type: integrator}
+wires: [sp.y -> pid.r, y0.y -> z.u, z.y -> pid.y, pid.u -> it.u]
+simulation: {t_end: T_END, solver: cvode, log_period: 0.01}
+log: [it.y]
+"""
+
+
+@pytest.mark.parametrize("setpoint, t_end", [("constant, value: 3.0", 0.3),
+                                              ("step, initial: 0.0, final: 3.0, time: 0.2", 0.4)])
+def test_a_pid_held_exactly_at_its_limit_does_not_hang_cvode(tmp_path, setpoint, t_end):
+    # Kp r = 1.5 = upper: the PID's switch reached its surface and CVODE restarted every 3e-14 s, no event
+    # counted, for ever (from t = 0, or from a setpoint jump at a sample hit); now muted after 20 restarts
+    import signal
+
+    def hang(signum, frame):
+        raise TimeoutError("the run hangs")
+
+    p = tmp_path / "d.yaml"
+    p.write_text(PID_ON_ITS_LIMIT.replace("SETPOINT", setpoint).replace("T_END", str(t_end)))
+    old = signal.signal(signal.SIGALRM, hang)
+    signal.alarm(60)
+    try:
+        res = hs.simulate(p)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    held = t_end - (0.2 if "step" in setpoint else 0.0)
+    assert res["it.y"][-1, 0] == pytest.approx(1.5 * held, abs=1e-6)  # u = 1.5 while r = 3
