@@ -77,7 +77,7 @@ class Experiment:
             return _of_file, (self.file, self.variant, self.records)
         # with the contents of the files it reads: a worker that outlives a sweep (Dask) must not
         # answer an edited diagram or subsystem with what it built from the old one
-        return _kept, (str(self.path), self.variant, self.overrides, self.records, file_identity(self.file))
+        return _kept, (str(self.path), self.variant, self.file.layers, self.records, file_identity(self.file))
 
     # -- what it is built into ----------------------------------------------------------------
     @property
@@ -180,11 +180,9 @@ class Experiment:
 
     def rebuilt(self, structural):
         """A new experiment with ``structural`` overrides added (parsed and built anew)."""
-        if self._given:
-            exp = Experiment(self.file, self.variant, **structural)
-            exp.overrides = {**self.overrides, **structural}
-        else:
-            exp = Experiment(self.path, self.variant, **{**self.overrides, **structural})
+        # a layer over the file's own overrides (an analysis set over a sweep's: each checked as given)
+        exp = Experiment(self.file, self.variant, **structural)
+        exp.overrides, exp._given = {**self.overrides, **structural}, self._given
         return exp.recording(self.records)
 
     def changed(self, changes):
@@ -269,14 +267,17 @@ class Experiment:
         return cl
 
 
-def _kept(path, variant, overrides, records, files):
-    """The experiment of (path, variant, overrides, records) this process built before from the same
-    file contents (``files``: :func:`~hybridsim.format.identity.file_identity`), or a new one (kept:
-    the last :data:`KEPT`)."""
-    tag = json.dumps([path, variant, overrides, records, files], sort_keys=True, default=str)
+def _kept(path, variant, layers, records, files):
+    """The experiment of (path, variant, the overrides ``layers`` in turn, records) this process built
+    before from the same file contents (``files``: :func:`~hybridsim.format.identity.file_identity`),
+    or a new one (kept: the last :data:`KEPT`)."""
+    tag = json.dumps([path, variant, layers, records, files], sort_keys=True, default=str)
     exp = _KEPT.pop(tag, None)
     if exp is None:
-        exp = Experiment(path, variant, **overrides).recording(records)
+        exp = Experiment(path, variant, **(layers[0] if layers else {}))
+        for layer in layers[1:]:
+            exp = exp.rebuilt(layer)
+        exp = exp.recording(records)
     _KEPT[tag] = exp
     while len(_KEPT) > KEPT:
         _KEPT.popitem(last=False)

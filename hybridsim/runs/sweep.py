@@ -343,7 +343,9 @@ def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False,
     if sw.stability:
         from hybridsim.analysis.stability import settings_of
 
-        analysis = Experiment(sw.diagram, **{**settings_of(sw.experiment.file)["set"], **sw.fixed})
+        branch = settings_of(sw.experiment.file)["set"]  # the analysis section's, then the sweep's set over it
+        analysis = Experiment(sw.diagram, **branch).rebuilt(sw.fixed) if branch and sw.fixed else \
+            Experiment(sw.diagram, **{**branch, **sw.fixed})
     with ex, locked_output_dir(outdir) as outdir:  # one sweep per folder at a time
         labels = [label for label, _ in sw.experiment.variants()]
         traced = [f"traces/{trace_name(p.key, label, labels)}" for p in pts for label in labels]

@@ -95,7 +95,8 @@ def _run_values(spec, f_runs, quantities):
 
 
 def _analysis_values(spec, ov, quantities):
-    from hybridsim.analysis.stability import linearization, margins, settings_of
+    from hybridsim.analysis.stability import margins, settings_of
+    from hybridsim.runs.experiment import Experiment
     from hybridsim.format.build import load
     from hybridsim.analysis.linearize import LinearizationError
 
@@ -104,7 +105,10 @@ def _analysis_values(spec, ov, quantities):
     out = {q.name: [] for q in quantities}
     for _, variant in f.variants():
         try:
-            lin = linearization(spec.diagram, at=cfg["at"], **{**cfg["set"], **ov, **variant})
+            given = {**ov, **variant}  # over the analysis section's set, as a layer of their own
+            exp = Experiment(spec.diagram, **cfg["set"]).rebuilt(given) if given and cfg["set"] else \
+                Experiment(spec.diagram, **{**cfg["set"], **given})
+            lin = exp.linearization(at=cfg["at"])
             growth = lin.closed_loop().growth
         except LinearizationError:
             lin, growth = None, math.nan

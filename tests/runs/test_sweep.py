@@ -534,3 +534,14 @@ def test_force_sets_the_earlier_sweeps_traces_aside_with_its_points(tmp_path):
     assert {f.name: f.read_text() for f in (out / "traces.old").iterdir()} == first
     assert sorted(f.name for f in (out / "traces").iterdir()) == sorted(first)  # the same keys, new runs
     assert all(pd.read_csv(f)["time"].iloc[-1] == pytest.approx(0.04) for f in (out / "traces").iterdir())
+
+
+def test_a_sweeps_set_that_makes_the_analysis_set_idle_still_gives_its_stability(tmp_path):
+    # set: {arm.friction: true} with stability: true exited 2 ("--set friction: changes nothing"), a
+    # --set nobody gave: the analysis section's set and the sweep's were applied as one
+    p = tmp_path / "s.yaml"
+    p.write_text(f"diagram: {DIAGRAMS / 'fig10_force_ramp.yaml'}\n"
+                 "set: {simulation.t_end: 0.05, arm.friction: true}\nstability: true\ngrid: {rate: [60, 120]}\n")
+    rows = sw.run_sweep(p, tmp_path / "o", jobs=1, progress=False)
+    assert [r["status"] for r in rows] == ["ok", "ok"]
+    assert all(0.0 < r["linear_largest_abs_z"] < 10.0 for r in rows)
