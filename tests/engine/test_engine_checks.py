@@ -334,7 +334,7 @@ log: [td.y]
 """)
     code = main(["check", str(p), "--set", "simulation.compiled=true"])
     _, err = capsys.readouterr()
-    assert code == 2 and "fewer than 1000 items" in err and "td (TransportDelay: 1003 continuous states)" in err
+    assert code == 2 and "fewer than 1000 items" in err and "td (transport_delay: 1003 continuous states)" in err
     assert main(["check", str(p)]) == 0  # the other paths take it
 
 
