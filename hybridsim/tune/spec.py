@@ -26,6 +26,7 @@ max, min or mean says otherwise). Every mistake is an InputError naming the
 file and line.
 """
 import itertools
+import logging
 import math
 from pathlib import Path
 
@@ -158,6 +159,10 @@ class TuneSpec:
         if len(self.objectives) == 2 and self.method not in ("tpe", "nsga2"):
             self._fail(f"two objectives need method tpe or nsga2 (Optuna), not {self.method!r}",
                        lines.get("method", lines["objectives"]))
+        if len(self.objectives) == 1 and self.method == "nsga2":
+            logging.getLogger("hybridsim").warning(
+                "%s:%s: nsga2 with one objective is a plain genetic search (no front to find); tpe or "
+                "differential_evolution usually need fewer runs", self.path, lines.get("method", 1))
 
     def _fail(self, message, line=None):
         raise LoaderError(message, self.path, line)

@@ -398,3 +398,13 @@ def test_a_search_into_an_earlier_ones_folder_leaves_none_of_its_results(tmp_pat
     res = run_tune(one, tmp_path / "out", jobs=1, progress=False, restart=True)
     assert res["best"] is None or not res["best"]["values"]
     assert not any((tmp_path / "out" / n).exists() for n in ("pareto.png", "pareto.csv", "best.yaml"))
+
+
+def test_nsga2_with_one_objective_says_it_finds_no_front(tmp_path, caplog):
+    # it ran without a word; the docs give it for two objectives
+    import logging
+
+    p = tune_file(tmp_path, PARAMS + "objectives:\n" + SETTLE + "method: {name: nsga2, trials: 4}\n")
+    with caplog.at_level(logging.WARNING, logger="hybridsim"):
+        assert load_tune(p).method == "nsga2"
+    assert "t.yaml:9: nsga2 with one objective is a plain genetic search" in caplog.text
