@@ -175,3 +175,12 @@ def pid_gains(Kp, Ki, Kd, lower, upper, Kb, n):
     else:
         Kb_ = vector(Kb, "Kb", n, "nonnegative")
     return Kp_, Ki_, Kd_, lo, hi, Kb_
+
+
+def one_rate(rate, period):
+    """ParameterError unless exactly one of ``rate`` (Hz) and ``period`` (s) is given."""
+    if rate is None and period is None:
+        raise ParameterError("rate", "or period: give one of rate (Hz) or period (s); neither has a value "
+                                     "(null, a value left empty, is none)")
+    if rate is not None and period is not None:
+        raise ParameterError("rate", "or period: give exactly one of rate (Hz) or period (s), not both")

@@ -16,7 +16,7 @@ from hybridsim.errors import ParameterError
 from hybridsim.engine.kernels import Kernels, kernel
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks._util import count, finite_matrix, pid_gains, vector
+from hybridsim.blocks._util import count, finite_matrix, one_rate, pid_gains, vector
 from hybridsim.blocks.continuous.basic import tf_to_ss
 from hybridsim.blocks.continuous.linear import abcd_output, abcd_step
 
@@ -26,8 +26,7 @@ GROUP = "control"  # where `hybridsim blocks` lists this module's blocks
 class _Sampled(Block):
     def __init__(self, name, rate, period):
         super().__init__(name)
-        if (rate is None) == (period is None):
-            raise ParameterError("rate", "or period: give exactly one of rate (Hz) or period (s)")
+        one_rate(rate, period)
         self.declare_rate(period=period, rate=rate)
         self.T = float(self.period)
 

@@ -7,11 +7,10 @@ current sample (z <- z + e T, and the new z is applied at once).
 import numpy as np
 
 from hybridsim.engine.block import Block
-from hybridsim.errors import ParameterError
 from hybridsim.engine.kernels import Kernels, kernel
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks._util import count, matrix, vector
+from hybridsim.blocks._util import count, matrix, one_rate, vector
 
 
 GROUP = "paper"  # where `hybridsim blocks` lists this module's blocks
@@ -19,8 +18,7 @@ GROUP = "paper"  # where `hybridsim blocks` lists this module's blocks
 class _Sampled(Block):
     def __init__(self, name, rate, period, n):
         super().__init__(name)
-        if (rate is None) == (period is None):
-            raise ParameterError("rate", "or period: give exactly one of rate (Hz) or period (s)")
+        one_rate(rate, period)
         n = count(n, "width")
         self.declare_rate(period=period, rate=rate)
         self.T = float(self.period)

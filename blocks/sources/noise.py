@@ -16,7 +16,7 @@ from hybridsim.errors import ParameterError
 from hybridsim.engine.kernels import Kernels, kernel
 from hybridsim.engine.registry import register
 
-from hybridsim.blocks._util import count, vector
+from hybridsim.blocks._util import count, one_rate, vector
 
 GROUP = "sources"  # where `hybridsim blocks` lists this module's blocks
 
@@ -93,8 +93,7 @@ class Noise(Block):
 
     def __init__(self, name="noise", sigma=None, mean=0.0, seed=0, rate=None, period=None, width=1, psd=None):
         super().__init__(name)
-        if (rate is None) == (period is None):
-            raise ParameterError("rate", "or period: give exactly one of rate (Hz) or period (s)")
+        one_rate(rate, period)
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed <= _SEED_MAX:
             raise ParameterError("seed", f"must be a whole number from 0 to 2^64 - 1, got {seed!r}")
         if sigma is not None and psd is not None:

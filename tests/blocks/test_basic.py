@@ -63,3 +63,16 @@ def test_a_bad_number_is_shown_as_it_was_given():
         vector([1.0, 2.0], "K", 1)
     with pytest.raises(ParameterError, match=r"must not be negative, got \[1.0, -2.0\]$"):
         vector([1.0, -2.0], "b", 2, "nonnegative")
+
+
+def test_a_sampled_block_says_whether_its_rate_is_missing_or_given_twice():
+    # --set rate=null said "give exactly one of rate or period", as though both were given
+    from hybridsim.errors import ParameterError
+    from hybridsim.engine.registry import lookup
+
+    for kind in ("discrete_pid", "discrete_integrator", "noise"):
+        extra = {"sigma": 1.0} if kind == "noise" else {}
+        with pytest.raises(ParameterError, match=r"neither has a value \(null, a value left empty, is none\)"):
+            lookup(kind)("b", rate=None, **extra)
+        with pytest.raises(ParameterError, match="not both"):
+            lookup(kind)("b", rate=10, period=0.1, **extra)
