@@ -178,6 +178,16 @@ class Experiment:
         named, structural = self._sort(changes, names)
         return (self.params_of(named) if named else {}), structural
 
+    @classmethod
+    def layered(cls, path, layers, variant=None):
+        """The experiment of diagram ``path`` with each mapping of ``layers`` applied in turn, each
+        checked as given (a later one may set what an earlier one replaced); empty ones skipped."""
+        layers = [layer for layer in layers if layer]
+        exp = cls(path, variant, **(layers[0] if layers else {}))
+        for layer in layers[1:]:
+            exp = exp.rebuilt(layer)
+        return exp
+
     def rebuilt(self, structural):
         """A new experiment with ``structural`` overrides added (parsed and built anew)."""
         # a layer over the file's own overrides (an analysis set over a sweep's: each checked as given)
@@ -274,10 +284,7 @@ def _kept(path, variant, layers, records, files):
     tag = json.dumps([path, variant, layers, records, files], sort_keys=True, default=str)
     exp = _KEPT.pop(tag, None)
     if exp is None:
-        exp = Experiment(path, variant, **(layers[0] if layers else {}))
-        for layer in layers[1:]:
-            exp = exp.rebuilt(layer)
-        exp = exp.recording(records)
+        exp = Experiment.layered(path, layers, variant).recording(records)
     _KEPT[tag] = exp
     while len(_KEPT) > KEPT:
         _KEPT.popitem(last=False)

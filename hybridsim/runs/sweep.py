@@ -344,8 +344,7 @@ def run_sweep(path, outdir, jobs=None, dask=None, progress=True, compiled=False,
         from hybridsim.analysis.stability import settings_of
 
         branch = settings_of(sw.experiment.file)["set"]  # the analysis section's, then the sweep's set over it
-        analysis = Experiment(sw.diagram, **branch).rebuilt(sw.fixed) if branch and sw.fixed else \
-            Experiment(sw.diagram, **{**branch, **sw.fixed})
+        analysis = Experiment.layered(sw.diagram, [branch, sw.fixed])
     with ex, locked_output_dir(outdir) as outdir:  # one sweep per folder at a time
         labels = [label for label, _ in sw.experiment.variants()]
         traced = [f"traces/{trace_name(p.key, label, labels)}" for p in pts for label in labels]

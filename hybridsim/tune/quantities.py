@@ -105,10 +105,8 @@ def _analysis_values(spec, ov, quantities):
     out = {q.name: [] for q in quantities}
     for _, variant in f.variants():
         try:
-            given = {**ov, **variant}  # over the analysis section's set, as a layer of their own
-            exp = Experiment(spec.diagram, **cfg["set"]).rebuilt(given) if given and cfg["set"] else \
-                Experiment(spec.diagram, **{**cfg["set"], **given})
-            lin = exp.linearization(at=cfg["at"])
+            # the point's values over the analysis section's set, as a layer of their own
+            lin = Experiment.layered(spec.diagram, [cfg["set"], {**ov, **variant}]).linearization(at=cfg["at"])
             growth = lin.closed_loop().growth
         except LinearizationError:
             lin, growth = None, math.nan
